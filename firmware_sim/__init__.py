@@ -1,0 +1,1 @@
+"""The emulated OpenShoe module (µC runtime, firmware, sensors, transports)."""

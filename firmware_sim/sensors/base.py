@@ -1,0 +1,73 @@
+"""What the firmware's READ_INERTIAL reads: a source of raw MPU9150 registers.
+
+A sensor source is indexed by sample number (0, 1, 2, … at the module's loop
+rate); it hands back the raw int16 registers of every chip sampled at the same
+instant. Sources: scripted values (tests), the simulated 4-IMU array on a
+walking foot, and replays of recordings (see the sibling modules).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple, Protocol, runtime_checkable
+
+import numpy as np
+
+from protocol.ids import NR_IMUS
+
+
+class RawSample(NamedTuple):
+    """One simultaneous read of all chips (raw register values, chip axes)."""
+
+    imu: np.ndarray  #: int16 (NR_IMUS, 6): acc xyz, gyro xyz
+    temp: np.ndarray  #: int16 (NR_IMUS,): temperature register
+    mag: np.ndarray  #: int16 (NR_IMUS, 3): AK8975 registers
+
+
+@runtime_checkable
+class SensorSource(Protocol):
+    """The interface READ_INERTIAL uses."""
+
+    #: Sample rate [Hz] the source was made for (the module's loop rate should match).
+    rate_hz: float
+
+    def read(self, index: int) -> RawSample | None:
+        """Sample *index*; None when a finite source (a replay) is exhausted."""
+        ...
+
+    def set_dlpf(self, cfg: int) -> None:
+        """Apply MPU9150 DLPF_CFG 0..6 (SET_IMU_BANDWIDTH); sources may ignore it."""
+        ...
+
+
+class ScriptedSource:
+    """Fixed raw register values, optionally a per-sample script (for tests).
+
+    ``script`` is an int16 array (n, NR_IMUS, 6); after its end the last sample
+    repeats, or ``read`` returns None when ``finite`` is set.
+    """
+
+    def __init__(self, script: np.ndarray | None = None, rate_hz: float = 1000.0,
+                 finite: bool = False, temp: int = 0, mag: tuple[int, int, int] = (0, 0, 0)):
+        if script is None:
+            script = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
+        script = np.asarray(script)
+        if script.ndim == 2:
+            script = script[None]
+        if script.shape[1:] != (NR_IMUS, 6) or script.dtype != np.int16:
+            raise ValueError(f"script must be int16 (n, {NR_IMUS}, 6), got {script.dtype} {script.shape}")
+        self.script = script
+        self.rate_hz = rate_hz
+        self.finite = finite
+        self.dlpf_cfg = 0
+        self._temp = np.full(NR_IMUS, temp, dtype=np.int16)
+        self._mag = np.tile(np.asarray(mag, dtype=np.int16), (NR_IMUS, 1))
+
+    def read(self, index: int) -> RawSample | None:
+        if index >= len(self.script):
+            if self.finite:
+                return None
+            index = len(self.script) - 1
+        return RawSample(self.script[index], self._temp, self._mag)
+
+    def set_dlpf(self, cfg: int) -> None:
+        self.dlpf_cfg = cfg

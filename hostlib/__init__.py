@@ -1,0 +1,1 @@
+"""Host SDK for OpenShoe modules, real or emulated."""

@@ -1,0 +1,1 @@
+"""Tools beyond the packages: conformance suite, benchmarks, converters."""
