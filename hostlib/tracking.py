@@ -1,0 +1,367 @@
+"""Step-wise dead reckoning on the host: summing the module's steps into a track.
+
+The module resets its INS at the end of every stance and sends the displacement
+since the previous reset, a *step*: ``dx = [dx, dy, dz, dψ]`` in the navigation
+frame of the previous reset (x north, y east, z down; dψ the heading change),
+the 4×4 covariance ``dP`` of ``dx`` and the 16-bit step counter (firmware.md §4,
+protocol.md §3 "Mode commands"). The host chains the steps
+(firmware.md §5; Nilsson, Gupta and Händel, "Foot-mounted inertial navigation
+made easy", IPIN 2014, §IV). With the pose ``s = [x, y, z, χ]``::
+
+    [x, y, z]_ℓ = [x, y, z]_{ℓ−1} + R(χ_{ℓ−1}) · dp_ℓ
+    χ_ℓ         = χ_{ℓ−1} + dψ_ℓ
+
+where ``R(χ)`` is the rotation about the (down-pointing) z axis. The 4×4 pose
+covariance is propagated with the Jacobians of that map::
+
+    P_ℓ = F P_{ℓ−1} Fᵀ + G dP_ℓ Gᵀ
+    F = ∂s_ℓ/∂s_{ℓ−1} = [[I₃, R'(χ) dp], [0, 1]],  G = ∂s_ℓ/∂dx_ℓ = diag(R(χ), 1)
+
+Everything on the host is float64. Step packets are resent until acknowledged,
+so the same step can arrive more than once: a step whose counter was already
+summed is ignored (and counted). A jump in the counter (it is a uint16 and wraps)
+means steps were lost; the gap is recorded as a :class:`GapEvent` and the pose
+continues from the last summed step (the lost displacement is unknown).
+
+This module is pure computation: no I/O, no protocol decoding. It accepts any
+object with ``dx`` (4,), ``dp`` (4×4) and ``counter`` attributes, such as
+:class:`protocol.codec.Step`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+from enum import Enum
+from typing import Protocol
+
+import numpy as np
+
+__all__ = [
+    "COUNTER_MODULUS",
+    "GapEvent",
+    "StepLike",
+    "StepOutcome",
+    "StepTracker",
+    "Track",
+    "counter_delta",
+    "propagate",
+    "rotation_z",
+]
+
+#: The step counter is a uint16 on the module (state 0x32).
+COUNTER_MODULUS = 1 << 16
+_HALF = COUNTER_MODULUS // 2
+
+
+class StepLike(Protocol):
+    """What the tracker needs from a step (e.g. :class:`protocol.codec.Step`)."""
+
+    @property
+    def dx(self) -> np.ndarray: ...  # (4,): dx, dy, dz [m], dψ [rad]
+
+    @property
+    def dp(self) -> np.ndarray: ...  # (4, 4) covariance of dx
+
+    @property
+    def counter(self) -> int: ...  # uint16 step counter
+
+
+def rotation_z(chi: float) -> np.ndarray:
+    """The 3×3 rotation about the z axis by heading *chi* [rad] (x north, y east, z down)."""
+    c, s = math.cos(chi), math.sin(chi)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def propagate(
+    pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, dp: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """One step of the summation map: the new pose [x, y, z, χ] and its 4×4 covariance.
+
+    *pose* (4,) and *cov* (4×4) describe the pose after the previous step; *dx*
+    (4,) is the step's displacement and heading change in the previous step's
+    frame and *dp* (4×4) its covariance. The pose and the step are independent.
+    """
+    pose = np.asarray(pose, dtype=np.float64)
+    cov = np.asarray(cov, dtype=np.float64)
+    dx = np.asarray(dx, dtype=np.float64)
+    dp = np.asarray(dp, dtype=np.float64)
+    chi = float(pose[3])
+    c, s = math.cos(chi), math.sin(chi)
+    r = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    new = np.empty(4)
+    new[:3] = pose[:3] + r @ dx[:3]
+    new[3] = chi + dx[3]
+    # F = ∂new/∂pose: identity plus the derivative of R(χ)·dp with respect to χ.
+    f = np.eye(4)
+    f[0, 3] = -s * dx[0] - c * dx[1]
+    f[1, 3] = c * dx[0] - s * dx[1]
+    # G = ∂new/∂dx = diag(R(χ), 1).
+    g = np.eye(4)
+    g[:3, :3] = r
+    new_cov = f @ cov @ f.T + g @ dp @ g.T
+    new_cov = 0.5 * (new_cov + new_cov.T)  # keep it exactly symmetric
+    return new, new_cov
+
+
+def counter_delta(previous: int, counter: int) -> int:
+    """Signed distance from *previous* to *counter* on the uint16 circle, in −32768..32767.
+
+    1 is the next step, 0 a resend of the same step, > 1 a gap, < 0 an older step.
+    """
+    return ((int(counter) - int(previous) + _HALF) % COUNTER_MODULUS) - _HALF
+
+
+@dataclass(frozen=True)
+class GapEvent:
+    """Steps lost between two summed steps: counters ``after+1 .. counter−1`` never arrived."""
+
+    after: int | None  #: counter of the last summed step (None: none summed yet)
+    counter: int  #: counter of the step that arrived after the gap
+    missing: int  #: number of step counters skipped
+    index: int  #: index in the track of the step that arrived after the gap
+
+    def __str__(self) -> str:
+        after = "start" if self.after is None else str(self.after)
+        return f"step gap: {self.missing} step(s) missing between {after} and {self.counter}"
+
+
+class StepOutcome(Enum):
+    """What the tracker did with one step."""
+
+    SUMMED = "summed"  #: the next step, summed
+    SUMMED_AFTER_GAP = "summed after gap"  #: summed, but steps before it were lost
+    DUPLICATE = "duplicate"  #: a resend of a step already summed (or older): ignored
+
+
+class Track:
+    """A walked track: the pose after every summed step, with covariances.
+
+    Row 0 of :attr:`poses` / :attr:`covariances` is the initial pose; row *k* is
+    the pose after the *k*-th summed step. Poses are ``[x, y, z, χ]`` in metres
+    and radians, navigation frame x north, y east, z down.
+    """
+
+    def __init__(self, pose0: np.ndarray, cov0: np.ndarray):
+        self._poses: list[np.ndarray] = [np.array(pose0, dtype=np.float64)]
+        self._covs: list[np.ndarray] = [np.array(cov0, dtype=np.float64)]
+        self._steps: list[np.ndarray] = []
+        self._counters: list[int] = []
+        self.distance: float = 0.0  #: sum of the horizontal step lengths [m]
+        self.gaps: list[GapEvent] = []  #: every gap in the step counter, in order
+
+    def _append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int) -> None:
+        self._poses.append(pose)
+        self._covs.append(cov)
+        self._steps.append(dx)
+        self._counters.append(counter)
+        self.distance += math.hypot(float(dx[0]), float(dx[1]))
+
+    def __len__(self) -> int:
+        """Number of summed steps."""
+        return len(self._steps)
+
+    @property
+    def poses(self) -> np.ndarray:
+        """(n+1, 4) float64: initial pose, then the pose after each step."""
+        return np.array(self._poses)
+
+    @property
+    def covariances(self) -> np.ndarray:
+        """(n+1, 4, 4) float64: covariance of each row of :attr:`poses`."""
+        return np.array(self._covs)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(n+1, 3) float64 positions [m]."""
+        return self.poses[:, :3]
+
+    @property
+    def headings(self) -> np.ndarray:
+        """(n+1,) float64 headings χ [rad] (not wrapped)."""
+        return self.poses[:, 3]
+
+    @property
+    def steps(self) -> np.ndarray:
+        """(n, 4) float64: the summed steps' dx as received."""
+        return np.array(self._steps).reshape(-1, 4)
+
+    @property
+    def counters(self) -> np.ndarray:
+        """(n,) uint16: the summed steps' counters."""
+        return np.array(self._counters, dtype=np.uint16)
+
+    @property
+    def sigmas(self) -> np.ndarray:
+        """(n+1, 4) float64: 1σ of x, y, z [m] and χ [rad] for every pose."""
+        return np.sqrt(np.clip(np.diagonal(self.covariances, axis1=1, axis2=2), 0.0, None))
+
+    @property
+    def missing(self) -> int:
+        """Total number of steps lost in gaps."""
+        return sum(g.missing for g in self.gaps)
+
+    @property
+    def final_pose(self) -> np.ndarray:
+        return self._poses[-1].copy()
+
+    @property
+    def final_covariance(self) -> np.ndarray:
+        return self._covs[-1].copy()
+
+    def closure_error(self, horizontal: bool = True) -> float:
+        """Distance [m] between the final and the initial position (a closed loop's error).
+
+        Horizontal (x, y) by default; ``horizontal=False`` includes z.
+        """
+        return self.error_to(self._poses[0][:3], horizontal=horizontal)
+
+    def relative_closure_error(self, horizontal: bool = True) -> float:
+        """Closure error as a fraction of the distance walked (NaN before any distance)."""
+        if self.distance == 0.0:
+            return math.nan
+        return self.closure_error(horizontal) / self.distance
+
+    def error_to(self, point: Iterable[float], horizontal: bool = True) -> float:
+        """Distance [m] from the final position to a known *point* (x, y[, z])."""
+        p = np.asarray(list(point), dtype=np.float64)
+        d = self._poses[-1][: len(p)] - p
+        if horizontal:
+            d = d[:2]
+        return float(np.linalg.norm(d))
+
+    def closure_sigma(self) -> float:
+        """1σ [m] of the final horizontal position along its worst direction.
+
+        The square root of the largest eigenvalue of the final x–y covariance
+        minus the initial one (the uncertainty the walk added).
+        """
+        c = self._covs[-1][:2, :2] - self._covs[0][:2, :2]
+        return float(math.sqrt(max(0.0, float(np.linalg.eigvalsh(c).max()))))
+
+    def __repr__(self) -> str:
+        x, y, z, chi = self._poses[-1]
+        return (
+            f"Track({len(self)} steps, {self.distance:.2f} m, end=({x:.2f}, {y:.2f}, {z:.2f}) m "
+            f"χ={math.degrees(chi):.1f}°, gaps={len(self.gaps)}, missing={self.missing})"
+        )
+
+
+class StepTracker:
+    """Sums steps into a :class:`Track`, ignoring resends and recording gaps.
+
+    *position* (3,) [m], *heading* χ [rad] and *covariance* (4×4 over
+    [x, y, z, χ], default zero) set the initial pose. *last_counter* is the
+    counter of the step before the first expected one: 0 after STEPWISE_DEAD_RECKONING
+    (0x34) resets the module's counter, so the first step is 1 and a first step
+    numbered 3 reports two missing; ``None`` when attaching to a module that is
+    already counting (the first step is taken as it comes, no gap).
+    """
+
+    def __init__(
+        self,
+        position: Iterable[float] = (0.0, 0.0, 0.0),
+        heading: float = 0.0,
+        covariance: np.ndarray | None = None,
+        *,
+        last_counter: int | None = 0,
+    ):
+        pose0 = np.zeros(4)
+        pos = np.asarray(list(position), dtype=np.float64)
+        if pos.shape != (3,):
+            raise ValueError(f"position must have 3 elements, got shape {pos.shape}")
+        pose0[:3] = pos
+        pose0[3] = float(heading)
+        cov0 = np.zeros((4, 4)) if covariance is None else np.array(covariance, dtype=np.float64)
+        if cov0.shape != (4, 4):
+            raise ValueError(f"covariance must be 4×4, got shape {cov0.shape}")
+        if not np.allclose(cov0, cov0.T):
+            raise ValueError("covariance must be symmetric")
+        if last_counter is not None and not 0 <= int(last_counter) < COUNTER_MODULUS:
+            raise ValueError(f"last_counter {last_counter} is not a uint16")
+        self.track = Track(pose0, cov0)
+        self._last: int | None = None if last_counter is None else int(last_counter)
+        self.duplicates = 0  #: steps ignored because their counter was already summed
+
+    # -- state ---------------------------------------------------------------
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Current pose [x, y, z, χ] (a copy)."""
+        return self.track.final_pose
+
+    @property
+    def position(self) -> np.ndarray:
+        return self.track.final_pose[:3]
+
+    @property
+    def heading(self) -> float:
+        return float(self.track.final_pose[3])
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """Current 4×4 pose covariance (a copy)."""
+        return self.track.final_covariance
+
+    @property
+    def distance(self) -> float:
+        return self.track.distance
+
+    @property
+    def gaps(self) -> list[GapEvent]:
+        return self.track.gaps
+
+    @property
+    def missing(self) -> int:
+        return self.track.missing
+
+    @property
+    def last_counter(self) -> int | None:
+        """Counter of the last summed step (or the configured start)."""
+        return self._last
+
+    def __len__(self) -> int:
+        return len(self.track)
+
+    # -- summation -----------------------------------------------------------
+
+    def add(self, step: StepLike) -> StepOutcome:
+        """Sum one step unless it is a resend; returns what was done with it."""
+        return self.add_step(step.dx, step.dp, step.counter)
+
+    def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int) -> StepOutcome:
+        """Sum one step given as arrays: *dx* (4,), *dp* (4×4), *counter* (uint16)."""
+        counter = int(counter)
+        if not 0 <= counter < COUNTER_MODULUS:
+            raise ValueError(f"step counter {counter} is not a uint16")
+        dxa = np.asarray(dx, dtype=np.float64).reshape(-1)
+        dpa = np.asarray(dp, dtype=np.float64)
+        if dxa.shape != (4,) or dpa.shape != (4, 4):
+            raise ValueError(f"a step needs dx (4,) and dp (4, 4); got {dxa.shape} and {dpa.shape}")
+        outcome = StepOutcome.SUMMED
+        if self._last is not None:
+            delta = counter_delta(self._last, counter)
+            if delta <= 0:
+                self.duplicates += 1
+                return StepOutcome.DUPLICATE
+            if delta > 1:
+                self.track.gaps.append(GapEvent(self._last, counter, delta - 1, len(self.track) + 1))
+                outcome = StepOutcome.SUMMED_AFTER_GAP
+        pose, cov = propagate(self.track._poses[-1], self.track._covs[-1], dxa, dpa)
+        self.track._append(pose, cov, dxa.copy(), counter)
+        self._last = counter
+        return outcome
+
+    def extend(self, steps: Iterable[StepLike]) -> Track:
+        """Sum many steps in order; returns the track."""
+        for s in steps:
+            self.add(s)
+        return self.track
+
+    def restart_counter(self, last_counter: int | None = 0) -> None:
+        """Forget the step counter (e.g. after sending 0x34 again): the pose keeps going."""
+        self._last = None if last_counter is None else int(last_counter) % COUNTER_MODULUS
+
+    def __repr__(self) -> str:
+        return f"StepTracker({self.track!r}, duplicates={self.duplicates})"
