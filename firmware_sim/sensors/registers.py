@@ -1,0 +1,64 @@
+"""MPU9150 / AK8975 register encodings: physical units ↔ raw int16 registers.
+
+A register holds round-to-nearest(value / LSB), saturated to its range: int16
+(−32768..32767) for the accelerometer and the gyro, ±4095 for the AK8975. The
+scale factors come from :mod:`firmware_sim.sensors.config`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .config import DEFAULT_CONFIG, DEG, SensorConfig
+
+INT16_MIN = -32768
+INT16_MAX = 32767
+
+
+def saturate_int16(lsb: np.ndarray) -> np.ndarray:
+    """Round to nearest (ties to even, as numpy) and clip to int16, like the registers."""
+    return np.clip(np.rint(lsb), INT16_MIN, INT16_MAX).astype(np.int16)
+
+
+def accel_to_lsb(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Specific force [g] → accelerometer registers (int16)."""
+    return saturate_int16(np.asarray(acc_g, dtype=np.float64) * config.accel.lsb_per_g)
+
+
+def gyro_to_lsb(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Angular rate [rad/s] → gyro registers (int16)."""
+    return saturate_int16(np.asarray(rate_rad_s, dtype=np.float64) * (config.gyro.lsb_per_dps / DEG))
+
+
+def lsb_to_accel(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Accelerometer registers → specific force [g]."""
+    return np.asarray(lsb, dtype=np.float64) / config.accel.lsb_per_g
+
+
+def lsb_to_gyro(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Gyro registers → angular rate [rad/s]."""
+    return np.asarray(lsb, dtype=np.float64) * (DEG / config.gyro.lsb_per_dps)
+
+
+def temp_to_lsb(temp_c: np.ndarray | float, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Die temperature [°C] → temperature register (T = raw/340 + 35)."""
+    t = config.temperature
+    return saturate_int16((np.asarray(temp_c, dtype=np.float64) - t.offset_c) * t.lsb_per_c)
+
+
+def lsb_to_temp(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Temperature register → die temperature [°C]."""
+    t = config.temperature
+    return np.asarray(lsb, dtype=np.float64) / t.lsb_per_c + t.offset_c
+
+
+def mag_to_lsb(field_ut: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Magnetic field [µT] → AK8975 registers (int16 holding ±4095)."""
+    m = config.mag
+    lsb = np.rint(np.asarray(field_ut, dtype=np.float64) / m.ut_per_lsb)
+    return np.clip(lsb, -m.full_scale_lsb, m.full_scale_lsb).astype(np.int16)
+
+
+def lsb_to_mag(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """AK8975 registers → magnetic field [µT]."""
+    return np.asarray(lsb, dtype=np.float64) * config.mag.ut_per_lsb

@@ -1,0 +1,422 @@
+"""Replay of recorded foot-mounted IMU data through the firmware pipeline.
+
+Two file formats are read, both strictly: a malformed row is refused with a
+:class:`RecordingFormatError` (a ``ValueError``) that names the file and the
+1-based line number; nothing is silently skipped.
+
+**OpenShoe walk format** (``shared/data/openshoe-walks``, MicroStrain 3DM-GX2,
+250 Hz): text with CRLF line ends (bare LF is accepted too, and so is the CR CR LF the
+recorder writes now and then; a CR anywhere else is refused), optional blank
+lines, a title line, one or more blank lines, a ``Header:`` line naming the 16
+columns, then one row per sample of 17 whitespace-separated columns::
+
+    id(hex) a_x a_y a_z [g]  w_x w_y w_z [rad/s]  counter  checksum(hex)  nr
+    filtered_ts unfiltered_ts predicted_ts [s]  freq [Hz]  m_x m_y m_z [G]
+
+Acceleration and rate must be finite numbers; the magnetometer columns may be
+``nan`` (the recorder writes ``+nan`` when it had no magnetometer reading).
+The body frame is the sensor's own, z axis **up** (at rest a_z ≈ +1 g). A last
+line without a line end is a row cut off when the recording stopped: it is not
+a sample; it is kept, unparsed, in :attr:`Recording.partial_tail` (several of
+the shared walks end that way). Time ``t`` is the filtered timestamp relative
+to the first sample.
+
+**Plain CSV format** (ours): optional ``#`` comment lines (``# rate_hz=<Hz>``
+sets the nominal rate; without it the rate is 1/median(Δt)), then the header
+``t,ax,ay,az,gx,gy,gz`` or ``t,ax,ay,az,gx,gy,gz,mx,my,mz``, then one row per
+sample: ``t`` in s (strictly increasing), specific force in **g**, angular rate
+in **rad/s**, magnetic field in **gauss** (``nan`` allowed) — the units of the
+OpenShoe recordings, so converting one to CSV loses nothing — all in the
+**board frame** of :mod:`firmware_sim.board` (x forward, y right, z down: at
+rest and level a = (0, 0, −1) g). :func:`save_csv` writes it with shortest
+round-trip float text, so ``load_csv(save_csv(r))`` returns the same numbers.
+
+**Replay** (:class:`ReplaySource`): the recording is fed at its own rate
+(``rate_hz``, 250 Hz for the walks), quantised to MPU9150 registers (2048
+LSB/g, 16.4 LSB/(°/s), round to nearest, saturate to int16; magnetometer 0.3
+µT/LSB, ±4095) as a *replicated board*: the recording is first turned from
+its body frame into the board frame (z-up → z-down is 180° about x), and the
+same sample is then given to all four chips, each turned into its own raw axes
+with ``board.MIMU22BT.mounting`` (v_chip = mounting[i] @ v_board). Why: the
+recording comes from one IMU, while the firmware's front end calibrates,
+rotates and averages four chips (sum, shift right by 2). Four equal samples
+make that average exactly the recorded sample, with no invented inter-chip
+differences (the recording's real noise stays the only noise, no lever-arm
+terms are made up), and the firmware path runs unchanged — including the
+bottom pair's upside-down mounting, which the calibration matrices undo.
+The DLPF setting is ignored (the recording is already filtered); the
+temperature register holds the reference temperature of the configuration.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..board import MIMU22BT, BoardGeometry
+from .base import RawSample
+from .config import DEFAULT_CONFIG, SensorConfig
+from .registers import accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
+
+__all__ = [
+    "OPENSHOE_HEADER",
+    "OPENSHOE_RATE_HZ",
+    "Z_UP_TO_BOARD",
+    "CSV_HEADER",
+    "CSV_HEADER_MAG",
+    "RecordingFormatError",
+    "Recording",
+    "load_recording",
+    "load_openshoe",
+    "load_csv",
+    "save_csv",
+    "ReplaySource",
+]
+
+#: Nominal sample rate of the OpenShoe walk recordings [Hz].
+OPENSHOE_RATE_HZ = 250.0
+#: Body frame z up (sensor's own) → board frame z down: 180° about x.
+Z_UP_TO_BOARD = np.diag([1.0, -1.0, -1.0])
+#: The OpenShoe header line, whitespace-normalised.
+OPENSHOE_HEADER = (
+    "Header: a_x [g]: a_y [g]: a_z [g]: ar_x [rad/s]: ar_y [rad/s]: ar_z [rad/s]: Counter: "
+    "Checksum: Nr: Filtered ts[s]: Unfiltered ts[s]: Pred. ts[s]: Freq. [Hz]: m_x [G]: m_y [G]: m_z [G]:"
+)
+CSV_HEADER = "t,ax,ay,az,gx,gy,gz"
+CSV_HEADER_MAG = CSV_HEADER + ",mx,my,mz"
+GAUSS_TO_UT = 100.0
+
+_NUM = r"[+-]?(?:\d+(?:\.\d*)?|\.\d+)(?:[eE][+-]?\d+)?"
+_NUM_OR_NAN = rf"(?:{_NUM}|[+-]?nan)"
+_HEX = r"0[xX][0-9a-fA-F]+"
+_SEP = r"[ \t]+"
+_OPENSHOE_ROW = re.compile(
+    r"[ \t]*" + _HEX
+    + (_SEP + f"({_NUM})") * 6  # acc [g], gyro [rad/s]
+    + _SEP + r"(\d+)" + _SEP + _HEX + _SEP + r"(\d+)"  # counter, checksum, nr
+    + _SEP + f"({_NUM})" + _SEP + _NUM + _SEP + _NUM + _SEP + _NUM_OR_NAN  # ts filtered/unfiltered/pred, freq
+    + (_SEP + f"({_NUM_OR_NAN})") * 3  # magnetometer [G]
+    + r"[ \t]*"
+)
+_COLUMN_NAMES = (
+    "id", "a_x", "a_y", "a_z", "ar_x", "ar_y", "ar_z", "counter", "checksum", "nr",
+    "filtered ts", "unfiltered ts", "predicted ts", "freq", "m_x", "m_y", "m_z",
+)  # fmt: skip
+_COLUMN_PATTERNS = (
+    [_HEX] + [_NUM] * 6 + [r"\d+", _HEX, r"\d+"] + [_NUM] * 3 + [_NUM_OR_NAN] * 4
+)
+
+
+class RecordingFormatError(ValueError):
+    """A recording file that is not in the format it claims: names the file and the line."""
+
+    def __init__(self, path: str | Path | None, line: int | None, reason: str, text: str | None = None):
+        self.path = str(path) if path is not None else "<recording>"
+        self.line = line
+        self.reason = reason
+        self.text = text
+        where = self.path if line is None else f"{self.path}, line {line}"
+        message = f"{where}: {reason}"
+        if text is not None:
+            shown = text if len(text) <= 120 else text[:117] + "..."
+            message += f": {shown!r}"
+        super().__init__(message)
+
+
+@dataclass(frozen=True, eq=False)
+class Recording:
+    """One recorded IMU stream, in the recording's own body frame and units.
+
+    ``t`` [s] from the first sample, ``acc_g`` specific force [g], ``gyro``
+    angular rate [rad/s], ``mag`` magnetic field [gauss] (NaN where the
+    recorder had none), each (n, 3) float64. ``body_to_board`` turns body
+    vectors into the board frame (z-up recordings: 180° about x).
+    """
+
+    t: np.ndarray
+    acc_g: np.ndarray
+    gyro: np.ndarray
+    mag: np.ndarray
+    rate_hz: float
+    body_to_board: np.ndarray = field(default_factory=lambda: np.eye(3))
+    path: str | None = None
+    format: str = "csv"
+    #: Sample numbers of the recorder ("Nr" column), when the format has them.
+    nr: np.ndarray | None = None
+    #: A last line without a line end (a row cut off by the end of the recording), unparsed.
+    partial_tail: str | None = None
+
+    def __post_init__(self) -> None:
+        n = len(self.t)
+        for name in ("acc_g", "gyro", "mag"):
+            if getattr(self, name).shape != (n, 3):
+                raise ValueError(f"Recording.{name} must be ({n}, 3), got {getattr(self, name).shape}")
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    def __repr__(self) -> str:
+        return (
+            f"Recording({self.path or '<memory>'}, format={self.format}, samples={len(self)}, "
+            f"rate_hz={self.rate_hz:g}, duration={self.duration_s:.3f} s)"
+        )
+
+    @property
+    def duration_s(self) -> float:
+        return float(self.t[-1] - self.t[0]) if len(self) else 0.0
+
+    def board_acc_g(self) -> np.ndarray:
+        """Specific force in the board frame [g], (n, 3)."""
+        return self.acc_g @ self.body_to_board.T
+
+    def board_gyro(self) -> np.ndarray:
+        """Angular rate in the board frame [rad/s], (n, 3)."""
+        return self.gyro @ self.body_to_board.T
+
+    def board_mag(self) -> np.ndarray:
+        """Magnetic field in the board frame [gauss], (n, 3); NaN where unrecorded."""
+        return self.mag @ self.body_to_board.T
+
+
+# ---------------------------------------------------------------------------------------------
+# reading
+
+
+def _read_lines(path: Path) -> tuple[list[str], str | None]:
+    """The terminated lines of a text file (without their line ends) and an unterminated tail."""
+    data = path.read_bytes()
+    try:
+        text = data.decode("ascii")
+    except UnicodeDecodeError as e:
+        line = data[: e.start].count(b"\n") + 1
+        raise RecordingFormatError(path, line, f"not ASCII text (byte 0x{data[e.start]:02x})") from None
+    lines = text.split("\n")
+    tail = lines.pop()  # text after the last line end ('' for a properly ended file)
+    lines = [ln.rstrip("\r") for ln in lines]  # CRLF, LF, and the recorder's occasional CR CR LF
+    for i, ln in enumerate(lines):
+        if "\r" in ln:
+            raise RecordingFormatError(path, i + 1, "stray carriage return inside a line", ln)
+    return lines, (tail if tail.strip() else None)
+
+
+def _diagnose_openshoe_row(path: Path, lineno: int, line: str) -> RecordingFormatError:
+    tokens = line.split()
+    if len(tokens) != len(_COLUMN_NAMES):
+        return RecordingFormatError(
+            path, lineno, f"expected {len(_COLUMN_NAMES)} columns, found {len(tokens)}", line
+        )
+    for name, pattern, tok in zip(_COLUMN_NAMES, _COLUMN_PATTERNS, tokens, strict=True):
+        if not re.fullmatch(pattern, tok):
+            kind = "a finite number" if pattern == _NUM else "a hexadecimal number" if pattern == _HEX else (
+                "a number or nan" if pattern == _NUM_OR_NAN else "an unsigned integer"
+            )
+            return RecordingFormatError(path, lineno, f"column {name!r} must be {kind}, got {tok!r}", line)
+    return RecordingFormatError(path, lineno, "malformed row", line)
+
+
+def load_openshoe(path: str | Path) -> Recording:
+    """Parse an OpenShoe walk file (see the module docstring); refuses any malformed line."""
+    path = Path(path)
+    lines, tail = _read_lines(path)
+    i = 0
+    while i < len(lines) and not lines[i].strip():
+        i += 1
+    if i >= len(lines) or lines[i].lstrip().startswith("Header:"):
+        raise RecordingFormatError(path, i + 1 if i < len(lines) else None, "missing title line")
+    i += 1
+    if i >= len(lines) or lines[i].strip():
+        raise RecordingFormatError(path, i + 1 if i < len(lines) else None,
+                                   "expected a blank line after the title")
+    while i < len(lines) and not lines[i].strip():
+        i += 1
+    if i >= len(lines):
+        raise RecordingFormatError(path, None, "missing header line")
+    header = " ".join(lines[i].split())
+    if header != OPENSHOE_HEADER:
+        raise RecordingFormatError(path, i + 1, f"unexpected header (expected {OPENSHOE_HEADER!r})", lines[i])
+    first = i + 1
+    groups = []
+    match = _OPENSHOE_ROW.fullmatch
+    for k in range(first, len(lines)):
+        m = match(lines[k])
+        if m is None:
+            raise _diagnose_openshoe_row(path, k + 1, lines[k])
+        groups.append(m.groups())
+    if not groups:
+        raise RecordingFormatError(path, None, "no samples")
+    cols = np.array(groups, dtype=np.float64) if groups else np.empty((0, 13))
+    # groups: 6 imu, counter, nr, filtered ts, 3 mag
+    ts = cols[:, 8]
+    return Recording(
+        t=ts - ts[0],
+        acc_g=cols[:, 0:3].copy(),
+        gyro=cols[:, 3:6].copy(),
+        mag=cols[:, 9:12].copy(),
+        rate_hz=OPENSHOE_RATE_HZ,
+        body_to_board=Z_UP_TO_BOARD.copy(),
+        path=str(path),
+        format="openshoe",
+        nr=cols[:, 7].astype(np.int64),
+        partial_tail=tail,
+    )
+
+
+def load_csv(path: str | Path, rate_hz: float | None = None) -> Recording:
+    """Parse our plain CSV format (see the module docstring); refuses any malformed line."""
+    path = Path(path)
+    lines, tail = _read_lines(path)
+    if tail is not None:
+        lines.append(tail)  # a CSV written by hand may lack the final line end
+    i = 0
+    meta_rate = None
+    while i < len(lines) and lines[i].startswith("#"):
+        m = re.fullmatch(r"#\s*rate_hz\s*=\s*(\S+)\s*", lines[i])
+        if m:
+            try:
+                meta_rate = float(m.group(1))
+            except ValueError:
+                raise RecordingFormatError(path, i + 1, "rate_hz must be a number", lines[i]) from None
+            if not (math.isfinite(meta_rate) and meta_rate > 0):
+                raise RecordingFormatError(path, i + 1, "rate_hz must be positive", lines[i])
+        i += 1
+    if i >= len(lines):
+        raise RecordingFormatError(path, None, "missing header line")
+    header = lines[i].strip().replace(" ", "")
+    if header not in (CSV_HEADER, CSV_HEADER_MAG):
+        raise RecordingFormatError(
+            path, i + 1, f"header must be {CSV_HEADER!r} or {CSV_HEADER_MAG!r}", lines[i]
+        )
+    ncol = header.count(",") + 1
+    num = re.compile(_NUM)
+    numnan = re.compile(_NUM_OR_NAN)
+    rows: list[list[float]] = []
+    prev_t = -math.inf
+    for k in range(i + 1, len(lines)):
+        line = lines[k]
+        if not line.strip() and k == len(lines) - 1:
+            break
+        fields = [f.strip() for f in line.split(",")]
+        if len(fields) != ncol:
+            raise RecordingFormatError(path, k + 1, f"expected {ncol} fields, found {len(fields)}", line)
+        for j, f in enumerate(fields):
+            ok = (numnan if j >= 7 else num).fullmatch(f)
+            if not ok:
+                name = header.split(",")[j]
+                raise RecordingFormatError(path, k + 1, f"field {name!r} must be a number, got {f!r}", line)
+        values = [float(f) for f in fields]
+        if not values[0] > prev_t:
+            raise RecordingFormatError(path, k + 1, "time t must increase strictly", line)
+        prev_t = values[0]
+        rows.append(values)
+    if not rows:
+        raise RecordingFormatError(path, None, "no samples")
+    a = np.array(rows, dtype=np.float64)
+    mag = a[:, 7:10].copy() if ncol == 10 else np.full((len(a), 3), np.nan)
+    rate = rate_hz or meta_rate
+    if rate is None:
+        if len(a) < 2:
+            raise RecordingFormatError(path, None, "one sample and no '# rate_hz=' line: rate unknown")
+        rate = float(1.0 / np.median(np.diff(a[:, 0])))
+    return Recording(
+        t=a[:, 0].copy(), acc_g=a[:, 1:4].copy(), gyro=a[:, 4:7].copy(), mag=mag,
+        rate_hz=float(rate), path=str(path), format="csv",
+    )
+
+
+def save_csv(recording: Recording, path: str | Path, comments: Iterable[str] = ()) -> Path:
+    """Write a recording in our CSV format (board frame, g, rad/s, gauss), losslessly."""
+    path = Path(path)
+    acc, gyro, mag = recording.board_acc_g(), recording.board_gyro(), recording.board_mag()
+    has_mag = not np.all(np.isnan(mag))
+    out = [f"# {c}" for c in comments]
+    out.append(f"# rate_hz={float(recording.rate_hz)!r}")
+    out.append(CSV_HEADER_MAG if has_mag else CSV_HEADER)
+    cols = [recording.t[:, None], acc, gyro] + ([mag] if has_mag else [])
+    table = np.hstack(cols).tolist()
+    out.extend(",".join(map(repr, row)) for row in table)
+    path.write_text("\n".join(out) + "\n", encoding="ascii", newline="\n")
+    return path
+
+
+def _sniff_csv(path: Path) -> bool:
+    with path.open("rb") as f:
+        head = f.read(4096)
+    for raw in head.split(b"\n"):
+        line = raw.strip()
+        if not line or line.startswith(b"#"):
+            continue
+        return line.replace(b" ", b"").startswith(b"t,")
+    return False
+
+
+def load_recording(path: str | Path) -> Recording:
+    """Load a recording, OpenShoe walk or our CSV (told apart by the first non-comment line)."""
+    path = Path(path)
+    return load_csv(path) if _sniff_csv(path) else load_openshoe(path)
+
+
+# ---------------------------------------------------------------------------------------------
+# replay
+
+
+class ReplaySource:
+    """A recording served as the raw registers of a replicated 4-chip board (module docstring).
+
+    ``read(index)`` returns sample *index* of the recording (a view into
+    precomputed arrays) and None past its end. Satisfies
+    :class:`firmware_sim.sensors.base.SensorSource`.
+    """
+
+    def __init__(self, recording: Recording, config: SensorConfig = DEFAULT_CONFIG,
+                 geometry: BoardGeometry = MIMU22BT):
+        self.recording = recording
+        self.config = config
+        self.rate_hz = float(recording.rate_hz)
+        self.dlpf_cfg = config.dlpf.cfg
+        mount = np.asarray(geometry.mounting, dtype=np.float64)  # (chips, 3, 3)
+        n, chips = len(recording), mount.shape[0]
+        acc = np.einsum("kij,nj->nki", mount, recording.board_acc_g())
+        gyro = np.einsum("kij,nj->nki", mount, recording.board_gyro())
+        imu = np.empty((n, chips, 6), dtype=np.int16)
+        imu[..., :3] = accel_to_lsb(acc, config)
+        imu[..., 3:] = gyro_to_lsb(gyro, config)
+        self.imu = imu
+        # magnetometer: gauss → µT; a missing reading holds the previous one (0 before the first)
+        board_mag = recording.board_mag() * GAUSS_TO_UT
+        valid = ~np.isnan(board_mag).any(axis=1)
+        last = np.where(valid, np.arange(n), -1)
+        np.maximum.accumulate(last, out=last)
+        held = np.where((last >= 0)[:, None], board_mag[np.maximum(last, 0)], 0.0)
+        mag_axes = np.asarray(config.mag.axes, dtype=np.float64)
+        mag = np.einsum("ij,kjl,nl->nki", mag_axes, mount, held)
+        self.mag = mag_to_lsb(mag, config)
+        self.temp = np.full(chips, temp_to_lsb(config.temperature.reference_c, config), dtype=np.int16)
+
+    @classmethod
+    def from_file(cls, path: str | Path, config: SensorConfig = DEFAULT_CONFIG,
+                  geometry: BoardGeometry = MIMU22BT) -> ReplaySource:
+        return cls(load_recording(path), config, geometry)
+
+    def __len__(self) -> int:
+        return len(self.imu)
+
+    def __repr__(self) -> str:
+        return f"ReplaySource({self.recording!r})"
+
+    def read(self, index: int) -> RawSample | None:
+        if index < 0:
+            raise IndexError(f"sample index must be ≥ 0, got {index}")
+        if index >= len(self.imu):
+            return None
+        return RawSample(self.imu[index], self.temp, self.mag[index])
+
+    def set_dlpf(self, cfg: int) -> None:
+        """Recorded data is already filtered: the setting is kept but has no effect."""
+        if not 0 <= cfg <= 6:
+            raise ValueError(f"DLPF_CFG must be 0..6, got {cfg}")
+        self.dlpf_cfg = cfg
