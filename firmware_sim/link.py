@@ -1,0 +1,683 @@
+"""Bluetooth and USB link models in virtual time, with seeded fault injection.
+
+A link is a :class:`~firmware_sim.port.Port`: the µC's driver sees a receive
+ring and a transmit ring, the host (a transport or a test) sees
+``host_write``/``host_read``. Time is the module's 64 MHz cycle counter, moved
+forward by :meth:`Link.advance` once per module tick; nothing here reads the
+wall clock, so the same seed and the same calls give the same bytes.
+
+The two directions (protocol.md §8):
+
+    host → module:  host_write → air (latency + jitter, in order) → radio's
+                    UART-out buffer → wire at *rate* B/s → µC receive ring
+    module → host:  tx_write → µC transmit ring → wire at *rate* B/s →
+                    radio buffer / air (latency + jitter, in order, in chunks)
+                    → host receive buffer → host_read
+
+Bluetooth (profile ``"bt"``): 115200 baud 8N1 UART = 11 520 B/s, a 1024-byte
+transmit ring and a 512-byte receive ring in the µC (bytes that do not fit the
+receive ring are lost and counted, as on the real module: the UART has no flow
+control), SPP one-way latency 20 ms plus 0–20 ms jitter. The jitter is redrawn
+every 20 ms of traffic (the radio's latency wanders; chunks are never
+reordered, a chunk behind a slower one arrives with it). Bytes waiting in the
+radio (between the UART and the host) are limited to ``radio_buffer``; during a
+stall that buffer fills and the overflow is lost. By default a Bluetooth link
+loses data only where the real one does: ring overflow, stalls and disconnects.
+
+USB (profile ``"usb"``): 1 ms latency, 1 MB/s, and flow control: a full receive
+ring holds bytes back instead of losing them, so USB is lossless unless faults
+are asked for. ``"ideal"``: no rate, no latency, unbounded buffers.
+
+Fault injection (:class:`LinkFaults`, per direction) adds seeded byte loss,
+corruption, stalls and disconnects on top; runtime controls
+(:meth:`Link.disconnect`, :meth:`Link.reconnect`, :meth:`Link.stall`,
+:meth:`Link.corrupt_next`, :meth:`Link.drop_next`) let a control channel drive
+them. Every lost or corrupted byte is counted in :attr:`Link.counters`.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import asdict, dataclass, field, replace
+from typing import Literal
+
+import numpy as np
+
+#: The µC's cycle counter rate (firmware.md §1).
+CLOCK_HZ = 64_000_000
+
+Direction = Literal["to_module", "to_host"]
+DIRECTIONS: tuple[Direction, Direction] = ("to_module", "to_host")
+
+
+def _cycles(seconds: float) -> int:
+    return int(round(seconds * CLOCK_HZ))
+
+
+# --------------------------------------------------------------------------- configuration
+
+
+@dataclass(frozen=True)
+class DirectionFaults:
+    """Faults injected on one direction of a link (all off by default).
+
+    ``byte_loss`` and ``corrupt`` are per-byte probabilities (a corrupted byte is
+    XORed with a random non-zero value); ``stall_rate_hz`` is the mean number of
+    stalls per second of virtual time (Poisson), each lasting a uniform draw
+    from :attr:`LinkFaults.stall_s`.
+    """
+
+    byte_loss: float = 0.0
+    corrupt: float = 0.0
+    stall_rate_hz: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("byte_loss", "corrupt"):
+            p = getattr(self, name)
+            if not 0.0 <= p <= 1.0:
+                raise ValueError(f"{name} must be a probability in [0, 1], got {p}")
+        if self.stall_rate_hz < 0:
+            raise ValueError(f"stall_rate_hz must be >= 0, got {self.stall_rate_hz}")
+
+    @property
+    def any(self) -> bool:
+        return bool(self.byte_loss or self.corrupt or self.stall_rate_hz)
+
+
+@dataclass(frozen=True)
+class LinkFaults:
+    """Seeded fault injection for a link, per direction plus link-wide disconnects.
+
+    ``disconnect_rate_hz``: mean disconnects per second (Poisson); after one the
+    link reconnects by itself after a uniform draw from ``reconnect_s``
+    (``None``: it stays down until :meth:`Link.reconnect`).
+    """
+
+    to_module: DirectionFaults = field(default_factory=DirectionFaults)
+    to_host: DirectionFaults = field(default_factory=DirectionFaults)
+    stall_s: tuple[float, float] = (0.1, 2.0)
+    disconnect_rate_hz: float = 0.0
+    reconnect_s: tuple[float, float] | None = (0.5, 2.0)
+
+    def __post_init__(self) -> None:
+        lo, hi = self.stall_s
+        if not 0 <= lo <= hi:
+            raise ValueError(f"stall_s must be (min, max) with 0 <= min <= max, got {self.stall_s}")
+        if self.disconnect_rate_hz < 0:
+            raise ValueError(f"disconnect_rate_hz must be >= 0, got {self.disconnect_rate_hz}")
+        if self.reconnect_s is not None and not 0 <= self.reconnect_s[0] <= self.reconnect_s[1]:
+            raise ValueError(f"reconnect_s must be (min, max) or None, got {self.reconnect_s}")
+
+    @classmethod
+    def both(cls, byte_loss: float = 0.0, corrupt: float = 0.0, stall_rate_hz: float = 0.0,
+             **kw: object) -> LinkFaults:
+        """The same per-direction faults on both directions."""
+        d = DirectionFaults(byte_loss=byte_loss, corrupt=corrupt, stall_rate_hz=stall_rate_hz)
+        return cls(to_module=d, to_host=d, **kw)  # type: ignore[arg-type]
+
+    def direction(self, d: Direction) -> DirectionFaults:
+        return self.to_module if d == "to_module" else self.to_host
+
+
+@dataclass(frozen=True)
+class LinkProfile:
+    """The physical parameters of one kind of link.
+
+    ``rate_bps`` is the wire between the µC and the radio / USB engine in bytes
+    per second (``None``: unlimited). Ring and buffer sizes are in bytes
+    (``None``: unbounded).
+    """
+
+    name: str
+    rate_bps: int | None
+    tx_ring: int | None  #: the µC's transmit ring
+    rx_ring: int | None  #: the µC's receive ring
+    latency_s: float  #: one-way base latency
+    jitter_s: float  #: extra latency, uniform in [0, jitter_s)
+    jitter_period_s: float  #: a new jitter value is drawn this often (per direction)
+    flow_control: bool  #: True: a full receive ring holds bytes back; False: they are lost
+    radio_buffer: int | None  #: bytes in flight from the wire to the host before overflow
+    host_rx_buffer: int | None  #: the host's receive buffer (OS serial / socket buffer)
+    host_tx_buffer: int | None  #: bytes in flight host → module before host_write refuses more
+
+
+BLUETOOTH = LinkProfile(
+    name="bt", rate_bps=11_520, tx_ring=1024, rx_ring=512, latency_s=0.020, jitter_s=0.020,
+    jitter_period_s=0.020, flow_control=False, radio_buffer=1024, host_rx_buffer=1 << 20,
+    host_tx_buffer=64 * 1024,
+)
+USB = LinkProfile(
+    name="usb", rate_bps=1_000_000, tx_ring=4096, rx_ring=4096, latency_s=0.001, jitter_s=0.0,
+    jitter_period_s=0.001, flow_control=True, radio_buffer=None, host_rx_buffer=None,
+    host_tx_buffer=None,
+)
+IDEAL = LinkProfile(
+    name="ideal", rate_bps=None, tx_ring=None, rx_ring=None, latency_s=0.0, jitter_s=0.0,
+    jitter_period_s=1.0, flow_control=True, radio_buffer=None, host_rx_buffer=None,
+    host_tx_buffer=None,
+)
+PROFILES: dict[str, LinkProfile] = {"bt": BLUETOOTH, "bluetooth": BLUETOOTH, "usb": USB, "ideal": IDEAL}
+
+#: What ``tx_free`` reports for an unbounded transmit ring.
+UNLIMITED = 1 << 30
+
+
+# --------------------------------------------------------------------------- counters
+
+
+@dataclass
+class DirectionCounters:
+    """Byte counts of one direction. ``lost`` is the sum of every ``lost_*``."""
+
+    sent: int = 0  #: bytes that entered the link (host_write accepted / tx_write)
+    wire: int = 0  #: bytes that crossed the UART / USB wire
+    delivered: int = 0  #: bytes that reached the far end (read by the µC / in the host's buffer)
+    lost_overflow: int = 0  #: a buffer on the way was full (receive ring, radio, host buffer)
+    lost_refused: int = 0  #: host_write could not take them (disconnected or too much in flight)
+    lost_fault: int = 0  #: dropped by injected byte loss
+    lost_disconnect: int = 0  #: in flight when the link went down
+    corrupted: int = 0  #: delivered with injected corruption
+
+    @property
+    def lost(self) -> int:
+        return self.lost_overflow + self.lost_refused + self.lost_fault + self.lost_disconnect
+
+
+@dataclass
+class LinkCounters:
+    """Everything a link counts: per direction, plus stalls and connection changes."""
+
+    to_module: DirectionCounters = field(default_factory=DirectionCounters)
+    to_host: DirectionCounters = field(default_factory=DirectionCounters)
+    stalls: int = 0
+    disconnects: int = 0
+    connects: int = 0
+
+    def direction(self, d: Direction) -> DirectionCounters:
+        return self.to_module if d == "to_module" else self.to_host
+
+    def as_dict(self) -> dict[str, object]:
+        out = asdict(self)
+        out["to_module"]["lost"] = self.to_module.lost
+        out["to_host"]["lost"] = self.to_host.lost
+        return out
+
+
+# --------------------------------------------------------------------------- the link
+
+
+class _Chunk:
+    """Bytes travelling together, with the cycle at which they arrive."""
+
+    __slots__ = ("at", "data")
+
+    def __init__(self, at: int, data: bytearray):
+        self.at = at
+        self.data = data
+
+    def __repr__(self) -> str:
+        return f"_Chunk(at={self.at}, {self.data.hex(' ')})"
+
+
+class _Stall:
+    """A window [start, end) of virtual time in which one direction delivers nothing."""
+
+    __slots__ = ("start", "end")
+
+    def __init__(self) -> None:
+        self.start = 0
+        self.end = 0
+
+    def hold(self, t: int) -> int:
+        """Arrival time of something due at *t*, pushed past the stall if it falls inside."""
+        return self.end if self.start <= t < self.end else t
+
+
+class Link:
+    """One module↔host link in virtual time (a :class:`~firmware_sim.port.Port`).
+
+    ``seed`` fixes the jitter and every injected fault; two links built with the
+    same profile, seed and faults and driven by the same calls behave
+    identically. Starts connected unless ``connected=False``.
+    """
+
+    def __init__(self, profile: LinkProfile = BLUETOOTH, seed: int = 0, faults: LinkFaults | None = None,
+                 connected: bool = True):
+        self.profile = profile
+        self.seed = seed
+        self.faults = faults if faults is not None else LinkFaults()
+        self.connected = connected
+        self.counters = LinkCounters()
+        self.now_cycles = 0
+        self._started = False
+        p = profile
+        self._rate = p.rate_bps
+        self._latency = _cycles(p.latency_s)
+        self._jitter = _cycles(p.jitter_s)
+        self._jitter_period = max(1, _cycles(p.jitter_period_s))
+        # Independent random streams, so switching one fault on does not move another's draws.
+        ss = np.random.SeedSequence(seed)
+        jit_m, jit_h, flt_m, flt_h, evt = (np.random.default_rng(s) for s in ss.spawn(5))
+        self._rng_jitter = {"to_module": jit_m, "to_host": jit_h}
+        self._rng_fault = {"to_module": flt_m, "to_host": flt_h}
+        self._rng_events = evt
+        self._jitter_value = {"to_module": 0, "to_host": 0}
+        self._jitter_until = {"to_module": -1, "to_host": -1}
+        self._last_at = {"to_module": 0, "to_host": 0}
+        self._stall = {"to_module": _Stall(), "to_host": _Stall()}
+        self._force_corrupt = {"to_module": 0, "to_host": 0}
+        self._force_drop = {"to_module": 0, "to_host": 0}
+        self._next_stall: dict[Direction, int | None] = {"to_module": None, "to_host": None}
+        self._next_disconnect: int | None = None
+        self._reconnect_at: int | None = None
+        # host → module
+        self._air_m: deque[_Chunk] = deque()  # on the air, not yet at the radio
+        self._air_m_bytes = 0
+        self._radio_m: deque[_Chunk] = deque()  # at the radio, waiting for the UART (at = arrival)
+        self._radio_m_bytes = 0
+        self._rx = bytearray()  # the µC's receive ring
+        self._rx_wire_u = 0  # wire free time, in cycles × rate
+        # module → host
+        self._tx = bytearray()  # the µC's transmit ring
+        self._tx_wire_u = 0
+        self._air_h: deque[_Chunk] = deque()
+        self._air_h_bytes = 0
+        self._host = bytearray()  # the host's receive buffer
+
+    # ------------------------------------------------------------------ module side
+    def advance(self, now_cycles: int) -> None:
+        """Move the link to virtual time *now_cycles* (once per module tick, before receive)."""
+        if now_cycles < self.now_cycles:
+            raise ValueError(f"virtual time went backwards: {now_cycles} < {self.now_cycles}")
+        self.now_cycles = now_cycles
+        if not self._started:
+            self._started = True
+            self._schedule_random_events(now_cycles)
+        self._random_events(now_cycles)
+        self._pump(now_cycles)
+
+    def rx_read(self, max_n: int) -> bytes:
+        """Up to *max_n* bytes from the µC's receive ring."""
+        if self.profile.latency_s == 0:
+            self._pump(self.now_cycles)
+        if not self._rx or max_n <= 0:
+            return b""
+        data = bytes(self._rx[:max_n])
+        del self._rx[:max_n]
+        self.counters.to_module.delivered += len(data)
+        if self.profile.flow_control and self._radio_m:
+            self._pump_to_module(self.now_cycles)
+        return data
+
+    def rx_pending(self) -> int:
+        """Bytes waiting in the µC's receive ring."""
+        return len(self._rx)
+
+    def tx_free(self) -> int:
+        """Bytes the µC's transmit ring accepts now (0 while disconnected)."""
+        if not self.connected:
+            return 0
+        if self.profile.tx_ring is None:
+            return UNLIMITED
+        return self.profile.tx_ring - len(self._tx)
+
+    def tx_write(self, data: bytes) -> None:
+        """Put *data* (at most :meth:`tx_free` bytes) into the µC's transmit ring."""
+        if not data:
+            return
+        if len(data) > self.tx_free():
+            raise ValueError(f"tx_write of {len(data)} bytes but only {self.tx_free()} free "
+                             f"(connected={self.connected})")
+        if not self._tx and self._rate is not None:
+            # An idle UART starts shifting the first byte now.
+            self._tx_wire_u = max(self._tx_wire_u, self.now_cycles * self._rate)
+        self._tx += data
+        self.counters.to_host.sent += len(data)
+        if self._rate is None and self.profile.latency_s == 0:
+            self._pump_to_host(self.now_cycles)
+
+    # ------------------------------------------------------------------ host side
+    def host_write(self, data: bytes) -> int:
+        """Host sends *data* now; returns the bytes accepted (the rest is lost and counted)."""
+        c = self.counters.to_module
+        n = len(data)
+        if not n:
+            return 0
+        if not self.connected:
+            c.lost_refused += n
+            return 0
+        cap = self.profile.host_tx_buffer
+        if cap is not None:
+            room = max(0, cap - self._air_m_bytes - self._radio_m_bytes)
+            if n > room:
+                c.lost_refused += n - room
+                n = room
+        if not n:
+            return 0
+        c.sent += n
+        now = self.now_cycles
+        self._air_m.append(_Chunk(self._arrival("to_module", now), bytearray(data[:n])))
+        self._air_m_bytes += n
+        if self.profile.latency_s == 0:
+            self._pump_to_module(now)
+        return n
+
+    def host_read(self, max_n: int = -1) -> bytes:
+        """Bytes the module sent that have reached the host (all of them with -1)."""
+        if self.profile.latency_s == 0:
+            self._pump_to_host(self.now_cycles)
+        if max_n < 0 or max_n >= len(self._host):
+            data = bytes(self._host)
+            self._host.clear()
+            return data
+        data = bytes(self._host[:max_n])
+        del self._host[:max_n]
+        return data
+
+    def host_pending(self) -> int:
+        """Bytes the host can read now."""
+        if self.profile.latency_s == 0:
+            self._pump_to_host(self.now_cycles)
+        return len(self._host)
+
+    def in_flight(self) -> dict[str, int]:
+        """Bytes on the way in each direction (rings, wire queue, radio, air)."""
+        return {
+            "to_module": self._air_m_bytes + self._radio_m_bytes + len(self._rx),
+            "to_host": len(self._tx) + self._air_h_bytes,
+        }
+
+    def connect(self) -> None:
+        """The host pairs / the cable is plugged in."""
+        self._reconnect_at = None
+        if self.connected:
+            return
+        self.connected = True
+        self.counters.connects += 1
+        now = self.now_cycles
+        if self._rate is not None:
+            self._rx_wire_u = max(self._rx_wire_u, now * self._rate)
+            self._tx_wire_u = max(self._tx_wire_u, now * self._rate)
+
+    reconnect = connect
+
+    def disconnect(self) -> None:
+        """The link goes down: everything in flight is lost (counted); bytes the host
+        already received stay readable."""
+        self._reconnect_at = None
+        self._disconnect()
+
+    def _disconnect(self) -> None:
+        if not self.connected:
+            return
+        self.connected = False
+        self.counters.disconnects += 1
+        self.counters.to_module.lost_disconnect += self._air_m_bytes + self._radio_m_bytes + len(self._rx)
+        self.counters.to_host.lost_disconnect += len(self._tx) + self._air_h_bytes
+        self._air_m.clear()
+        self._radio_m.clear()
+        self._air_m_bytes = self._radio_m_bytes = 0
+        self._rx.clear()
+        self._tx.clear()
+        self._air_h.clear()
+        self._air_h_bytes = 0
+
+    # ------------------------------------------------------------------ runtime fault controls
+    def stall(self, seconds: float, direction: Direction | Literal["both"] = "both") -> None:
+        """Deliver nothing for *seconds* of virtual time from now (held chunks arrive at its end)."""
+        if seconds < 0:
+            raise ValueError(f"stall of {seconds} s")
+        dirs = DIRECTIONS if direction == "both" else (direction,)
+        for d in dirs:
+            self._start_stall(d, self.now_cycles, _cycles(seconds))
+        self.counters.stalls += 1
+
+    def corrupt_next(self, n: int = 1, direction: Direction = "to_host") -> None:
+        """Corrupt the next *n* bytes delivered in *direction*."""
+        self._force_corrupt[direction] += n
+
+    def drop_next(self, n: int = 1, direction: Direction = "to_host") -> None:
+        """Lose the next *n* bytes delivered in *direction*."""
+        self._force_drop[direction] += n
+
+    def stalled(self, direction: Direction = "to_host") -> bool:
+        s = self._stall[direction]
+        return s.start <= self.now_cycles < s.end
+
+    # ------------------------------------------------------------------ internals
+    def _start_stall(self, d: Direction, now: int, length: int) -> None:
+        s = self._stall[d]
+        if s.start <= now < s.end:
+            s.end = max(s.end, now + length)
+        else:
+            s.start, s.end = now, now + length
+
+    def _arrival(self, d: Direction, t: int) -> int:
+        """When bytes leaving at *t* arrive: latency + jitter, never before earlier ones."""
+        jitter = 0
+        if self._jitter:
+            if t >= self._jitter_until[d]:
+                self._jitter_value[d] = int(self._rng_jitter[d].integers(0, self._jitter))
+                self._jitter_until[d] = t + self._jitter_period
+            jitter = self._jitter_value[d]
+        at = max(self._last_at[d], t + self._latency + jitter)
+        self._last_at[d] = at
+        return at
+
+    def _gap(self, rate_hz: float) -> int:
+        """Cycles to the next event of a Poisson process of *rate_hz* (seeded)."""
+        return max(1, _cycles(self._rng_events.exponential(1.0 / rate_hz)))
+
+    def _schedule_random_events(self, now: int) -> None:
+        for d in DIRECTIONS:
+            rate = self.faults.direction(d).stall_rate_hz
+            if rate > 0:
+                self._next_stall[d] = now + self._gap(rate)
+        if self.faults.disconnect_rate_hz > 0:
+            self._next_disconnect = now + self._gap(self.faults.disconnect_rate_hz)
+
+    def _random_events(self, now: int) -> None:
+        for d in DIRECTIONS:
+            t = self._next_stall[d]
+            while t is not None and t <= now:
+                lo, hi = self.faults.stall_s
+                self._start_stall(d, t, _cycles(self._rng_events.uniform(lo, hi)))
+                self.counters.stalls += 1
+                t = t + self._gap(self.faults.direction(d).stall_rate_hz)
+                self._next_stall[d] = t
+        t = self._next_disconnect
+        while t is not None and t <= now:
+            if self.connected:
+                self._disconnect()
+                if self.faults.reconnect_s is not None:
+                    lo, hi = self.faults.reconnect_s
+                    self._reconnect_at = t + _cycles(self._rng_events.uniform(lo, hi))
+            t = t + self._gap(self.faults.disconnect_rate_hz)
+            self._next_disconnect = t
+        if self._reconnect_at is not None and self._reconnect_at <= now:
+            self.connect()
+
+    def _pump(self, now: int) -> None:
+        if not self.connected:
+            return
+        self._pump_to_host(now)
+        self._pump_to_module(now)
+
+    def _apply_faults(self, d: Direction, data: bytearray) -> bytearray:
+        """Injected loss and corruption on bytes being delivered in direction *d*."""
+        c = self.counters.direction(d)
+        f = self.faults.direction(d)
+        if self._force_drop[d]:
+            k = min(self._force_drop[d], len(data))
+            self._force_drop[d] -= k
+            c.lost_fault += k
+            data = data[k:]
+        if self._force_corrupt[d] and data:
+            k = min(self._force_corrupt[d], len(data))
+            self._force_corrupt[d] -= k
+            rng = self._rng_fault[d]
+            for i in range(k):
+                data[i] ^= int(rng.integers(1, 256))
+            c.corrupted += k
+        if (f.byte_loss or f.corrupt) and data:
+            rng = self._rng_fault[d]
+            n = len(data)
+            if f.corrupt:
+                hit = np.flatnonzero(rng.random(n) < f.corrupt)
+                if hit.size:
+                    flips = rng.integers(1, 256, size=hit.size)
+                    for i, x in zip(hit.tolist(), flips.tolist(), strict=True):
+                        data[i] ^= x
+                    c.corrupted += int(hit.size)
+            if f.byte_loss:
+                keep = rng.random(n) >= f.byte_loss
+                lost = n - int(keep.sum())
+                if lost:
+                    c.lost_fault += lost
+                    data = bytearray(np.frombuffer(bytes(data), dtype=np.uint8)[keep].tobytes())
+        return data
+
+    def _pump_to_host(self, now: int) -> None:
+        """µC transmit ring → wire → radio/air → host buffer, up to *now*."""
+        if not self.connected:
+            return
+        c = self.counters.to_host
+        p = self.profile
+        if self._tx:
+            if self._rate is None:
+                k, done = len(self._tx), now
+            else:
+                byte_u = CLOCK_HZ
+                k = min(len(self._tx), max(0, (now * self._rate - self._tx_wire_u) // byte_u))
+                self._tx_wire_u += k * byte_u
+                done = -(-self._tx_wire_u // self._rate)  # cycle the last of them finished
+            if k:
+                chunk = bytearray(self._tx[:k])
+                del self._tx[:k]
+                c.wire += k
+                if p.radio_buffer is not None:
+                    room = max(0, p.radio_buffer - self._air_h_bytes)
+                    if k > room:
+                        c.lost_overflow += k - room
+                        del chunk[room:]
+                if chunk:
+                    self._air_h.append(_Chunk(self._arrival("to_host", done), chunk))
+                    self._air_h_bytes += len(chunk)
+        stall = self._stall["to_host"]
+        while self._air_h:
+            ch = self._air_h[0]
+            at = stall.hold(ch.at)
+            if at > now:
+                ch.at = at
+                break
+            self._air_h.popleft()
+            self._air_h_bytes -= len(ch.data)
+            data = self._apply_faults("to_host", ch.data)
+            if p.host_rx_buffer is not None:
+                room = max(0, p.host_rx_buffer - len(self._host))
+                if len(data) > room:
+                    c.lost_overflow += len(data) - room
+                    del data[room:]
+            self._host += data
+            c.delivered += len(data)
+
+    def _pump_to_module(self, now: int) -> None:
+        """air → radio → wire → µC receive ring, up to *now*."""
+        if not self.connected:
+            return
+        c = self.counters.to_module
+        p = self.profile
+        stall = self._stall["to_module"]
+        while self._air_m:
+            ch = self._air_m[0]
+            at = stall.hold(ch.at)
+            if at > now:
+                ch.at = at
+                break
+            self._air_m.popleft()
+            self._air_m_bytes -= len(ch.data)
+            data = self._apply_faults("to_module", ch.data)
+            if data:
+                self._radio_m.append(_Chunk(at, data))
+                self._radio_m_bytes += len(data)
+        while self._radio_m:
+            ch = self._radio_m[0]
+            n = len(ch.data)
+            if self._rate is None:
+                k = n
+            else:
+                start = max(self._rx_wire_u, ch.at * self._rate)
+                k = min(n, max(0, (now * self._rate - start) // CLOCK_HZ))
+            if p.flow_control and p.rx_ring is not None:
+                k = min(k, p.rx_ring - len(self._rx))
+            if k <= 0:
+                if p.flow_control and self._rate is not None:
+                    # held back by a full ring: the wire resumes when the µC reads
+                    self._rx_wire_u = max(self._rx_wire_u, now * self._rate)
+                break
+            if self._rate is not None:
+                self._rx_wire_u = start + k * CLOCK_HZ
+            c.wire += k
+            take = ch.data[:k]
+            if p.rx_ring is not None:
+                room = max(0, p.rx_ring - len(self._rx))
+                if k > room:
+                    c.lost_overflow += k - room
+                    take = take[:room]
+            self._rx += take
+            self._radio_m_bytes -= k
+            if k < n:
+                del ch.data[:k]
+                break
+            self._radio_m.popleft()
+
+    def stats(self) -> dict[str, object]:
+        """A snapshot for a status line: profile, connection, counters, bytes in flight."""
+        return {
+            "profile": self.profile.name,
+            "connected": self.connected,
+            "stalled": self.stalled("to_host") or self.stalled("to_module"),
+            "in_flight": self.in_flight(),
+            **self.counters.as_dict(),
+        }
+
+    def __repr__(self) -> str:
+        state = "connected" if self.connected else "disconnected"
+        fl = self.in_flight()
+        return (f"{type(self).__name__}({self.profile.name}, {state}, seed={self.seed}, "
+                f"in flight to module {fl['to_module']} B / to host {fl['to_host']} B, "
+                f"lost {self.counters.to_module.lost}/{self.counters.to_host.lost} B)")
+
+
+class BluetoothLink(Link):
+    """The SPP Bluetooth link over the 115200-baud UART (profile ``"bt"``)."""
+
+    def __init__(self, seed: int = 0, faults: LinkFaults | None = None, connected: bool = True,
+                 **overrides: object):
+        super().__init__(replace(BLUETOOTH, **overrides), seed, faults, connected)  # type: ignore[arg-type]
+
+
+class UsbLink(Link):
+    """The full-speed USB CDC link (profile ``"usb"``): fast, lossless unless faults are asked for."""
+
+    def __init__(self, seed: int = 0, faults: LinkFaults | None = None, connected: bool = True,
+                 **overrides: object):
+        super().__init__(replace(USB, **overrides), seed, faults, connected)  # type: ignore[arg-type]
+
+
+def make_link(profile: str | LinkProfile = "bt", seed: int = 0, faults: LinkFaults | None = None,
+              connected: bool = True, **overrides: object) -> Link:
+    """A link by profile name (``"bt"``, ``"usb"``, ``"ideal"``) or :class:`LinkProfile`.
+
+    ``overrides`` replace profile fields, e.g. ``make_link("bt", rx_ring=256)``.
+    """
+    if isinstance(profile, str):
+        try:
+            prof = PROFILES[profile.lower()]
+        except KeyError:
+            raise ValueError(f"unknown link profile {profile!r}; known: bt, usb, ideal") from None
+    else:
+        prof = profile
+    if overrides:
+        prof = replace(prof, **overrides)  # type: ignore[arg-type]
+    return Link(prof, seed, faults, connected)
