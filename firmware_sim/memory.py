@@ -1,0 +1,143 @@
+"""The µC's state memory: a live typed array behind every state id (protocol.md §4).
+
+Each state of :data:`protocol.states.STATES` is a native-endian numpy array of
+its element type and shape (0-d for scalars); processing functions and commands
+read and write them in place (``memory[0x19][...] = 100000``). On the wire a
+state is its raw memory on a big-endian µC, so :meth:`StateMemory.read_wire`
+and :meth:`StateMemory.write_wire` convert to and from big-endian bytes.
+
+Related states share one block so whole ranges can be written at once:
+``imu_raw`` (32, 6) int16 behind 0x40..0x5F, ``imu_temp`` (32,) behind
+0x60..0x7F, ``imu_mag`` (32, 3) behind 0x90..0xAF and ``ps_dt`` (12,) uint32
+behind 0x80..0x8B; ``memory[0x41]`` is a view of ``imu_raw[1]``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+
+import numpy as np
+
+from protocol.ids import (
+    IMU_MAG_BASE,
+    IMU_RAW_BASE,
+    IMU_TEMP_BASE,
+    MAX_IMU_IDS,
+    NR_SLOTS,
+    PS_DT_BASE,
+    STATE_ID_LIMIT,
+    StateId,
+)
+from protocol.states import STATES, StateSpec
+
+#: Length of the µC serial number (state 0x04).
+MCU_ID_LEN = 15
+#: Serial number of an emulated module unless configured otherwise.
+DEFAULT_MCU_SERIAL = b"OPENSHOE-EMU-01"
+
+
+class StateMemory:
+    """Live state memory of one module; ``memory[state_id]`` is the array."""
+
+    def __init__(self, mcu_serial: bytes = DEFAULT_MCU_SERIAL):
+        self.imu_raw = np.zeros((MAX_IMU_IDS, 6), dtype=np.int16)
+        self.imu_temp = np.zeros(MAX_IMU_IDS, dtype=np.int16)
+        self.imu_mag = np.zeros((MAX_IMU_IDS, 3), dtype=np.int16)
+        self.ps_dt = np.zeros(NR_SLOTS, dtype=np.uint32)
+        arrays: list[np.ndarray | None] = [None] * STATE_ID_LIMIT
+        for sid, spec in STATES.items():
+            if IMU_RAW_BASE <= sid < IMU_RAW_BASE + MAX_IMU_IDS:
+                a = self.imu_raw[sid - IMU_RAW_BASE]
+            elif IMU_TEMP_BASE <= sid < IMU_TEMP_BASE + MAX_IMU_IDS:
+                a = self.imu_temp[sid - IMU_TEMP_BASE: sid - IMU_TEMP_BASE + 1].reshape(())
+            elif IMU_MAG_BASE <= sid < IMU_MAG_BASE + MAX_IMU_IDS:
+                a = self.imu_mag[sid - IMU_MAG_BASE]
+            elif PS_DT_BASE <= sid < PS_DT_BASE + NR_SLOTS:
+                a = self.ps_dt[sid - PS_DT_BASE: sid - PS_DT_BASE + 1].reshape(())
+            else:
+                a = np.zeros(spec.shape, dtype=spec.native_dtype)
+            assert a.dtype == spec.native_dtype and a.shape == spec.shape, spec
+            arrays[sid] = a
+        self._arrays = arrays
+        self._specs: list[StateSpec | None] = [STATES.get(i) for i in range(STATE_ID_LIMIT)]
+        #: Wire size of every id (0 = no state), indexable by any byte value.
+        self.sizes: list[int] = [(s.size if s is not None else 0) for s in self._specs] + [0] * (
+            256 - STATE_ID_LIMIT
+        )
+        self.set_mcu_serial(mcu_serial)
+
+    # ------------------------------------------------------------------ access
+    def __getitem__(self, state_id: int) -> np.ndarray:
+        a = self._arrays[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if a is None:
+            raise KeyError(f"no state with id 0x{state_id:02X}")
+        return a
+
+    def __contains__(self, state_id: object) -> bool:
+        return isinstance(state_id, int) and 0 <= state_id < STATE_ID_LIMIT and (
+            self._arrays[state_id] is not None
+        )
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(STATES)
+
+    def exists(self, state_id: int) -> bool:
+        """Whether *state_id* names a state (ids with no state are ignored by every command)."""
+        return 0 <= state_id < STATE_ID_LIMIT and self._arrays[state_id] is not None
+
+    def size(self, state_id: int) -> int:
+        """Wire size in bytes of a state, 0 if the id has no state."""
+        return self.sizes[state_id] if 0 <= state_id < 256 else 0
+
+    def read_wire(self, state_id: int) -> bytes:
+        """The state's bytes as the big-endian µC holds them."""
+        spec = self._specs[state_id]
+        return self._arrays[state_id].astype(spec.dtype, copy=False).tobytes()
+
+    def write_wire(self, state_id: int, data: bytes) -> None:
+        """Overwrite a state with its wire (big-endian) bytes; *data* must be exactly its size."""
+        spec = self._specs[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if spec is None:
+            raise KeyError(f"no state with id 0x{state_id:02X}")
+        if len(data) != spec.size:
+            raise ValueError(f"state 0x{state_id:02X} ({spec.name}) is {spec.size} bytes, got {len(data)}")
+        a = self._arrays[state_id]
+        if spec.dtype.itemsize == 1:
+            # raw byte copy: a bool state keeps the byte the host wrote, as in C
+            a.reshape(-1).view(np.uint8)[:] = np.frombuffer(data, dtype=np.uint8)
+        else:
+            a[...] = np.frombuffer(data, dtype=spec.dtype).reshape(spec.shape)
+
+    def flag(self, state_id: int) -> bool:
+        """A state read as a C bool: true if its first byte is non-zero (false for no state)."""
+        a = self._arrays[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if a is None:
+            return False
+        return bool(a.reshape(-1).view(np.uint8)[0])
+
+    def clear_flag(self, state_id: int) -> None:
+        """Write 0 to a state's first byte (``*flag = false``)."""
+        a = self._arrays[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if a is not None:
+            a.reshape(-1).view(np.uint8)[0] = 0
+
+    # ------------------------------------------------------------- conveniences
+    def set_mcu_serial(self, serial: bytes) -> None:
+        """Set the 15-byte serial number (state 0x04); shorter values are zero-padded."""
+        serial = bytes(serial)
+        if len(serial) > MCU_ID_LEN:
+            raise ValueError(f"MCU serial number is {MCU_ID_LEN} bytes, got {len(serial)}: {serial.hex(' ')}")
+        self[StateId.MCU_ID][:] = np.frombuffer(serial.ljust(MCU_ID_LEN, b"\0"), dtype=np.uint8)
+
+    @property
+    def mcu_serial(self) -> bytes:
+        return self[StateId.MCU_ID].tobytes()
+
+    def spec(self, state_id: int) -> StateSpec:
+        spec = self._specs[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if spec is None:
+            raise KeyError(f"no state with id 0x{state_id:02X}")
+        return spec
+
+    def __repr__(self) -> str:
+        return f"StateMemory({len(STATES)} states, MCU serial {self.mcu_serial.hex(' ').upper()})"

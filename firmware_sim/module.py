@@ -1,0 +1,155 @@
+"""The emulated OpenShoe module: one µC main loop stepped in virtual time (firmware.md §1).
+
+::
+
+    m = Module()                      # USB and Bluetooth on ideal links, 1 kHz
+    m.usb.port.host_write(bytes.fromhex("030003"))   # PING
+    m.step()                          # one timer tick
+    m.usb.port.host_read()            # b'\\xa0\\x03\\x00\\xa3'
+
+:meth:`Module.step` is one pass of the firmware's loop: wait for the timer
+tick (interrupt counter + 1) → receive_command (USB, then Bluetooth) →
+run_process_sequence → transmit_data (USB, then Bluetooth) → end_of_main_loop
+(GP_DT = cycles since the tick). No threads, no wall clock: the same inputs
+give the same bytes. Transports and real-time pacing wrap a module from outside.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any, TypeVar
+
+import numpy as np
+
+from protocol.commands import CommandSet, command_set
+from protocol.ids import NR_IMUS, Interface, StateId
+
+from . import functions  # noqa: F401  (fills the processing-function registry)
+from .board import MIMU22BT
+from .clock import DEFAULT_RATE_HZ, Clock, CostModel
+from .interface import ExternalInterface, TraceEntry
+from .memory import DEFAULT_MCU_SERIAL, StateMemory
+from .port import IdealPort, Port
+from .sensors.base import ScriptedSource, SensorSource
+from .sequence import ProcessSequence
+from .utility import ConditionalOutput
+
+T = TypeVar("T")
+_U32 = 0xFFFFFFFF
+#: Accelerometer LSB per g at ±16 g (default still source).
+_ACC_LSB_PER_G = 2048
+
+
+@dataclass
+class ModuleConfig:
+    """Build-time and boot-time settings of one emulated module."""
+
+    #: Main-loop (timer) rate [Hz]; 1000 on the module, e.g. 250 for replays of 250 Hz data.
+    rate_hz: float = DEFAULT_RATE_HZ
+    #: Command numbering: "2015"/"current" or "2014" (protocol.md §10), or a CommandSet.
+    command_set: str | CommandSet = "2015"
+    #: The µC's serial number (state 0x04), up to 15 bytes.
+    mcu_serial: bytes = DEFAULT_MCU_SERIAL
+    #: Modelled cycle costs of the loop's fixed parts.
+    costs: CostModel = field(default_factory=CostModel)
+    #: Record every frame in and out (``module.trace``).
+    trace: bool = False
+    #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
+    initial_states: dict[int, Any] = field(default_factory=dict)
+
+
+def still_source(rate_hz: float = DEFAULT_RATE_HZ) -> ScriptedSource:
+    """Raw registers of a board lying still and level (f = (0, 0, −g) in board axes)."""
+    f_board = np.array([0, 0, -_ACC_LSB_PER_G], dtype=np.int64)
+    imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
+    for i in range(NR_IMUS):
+        imu[0, i, 0:3] = MIMU22BT.mounting[i] @ f_board
+    return ScriptedSource(imu, rate_hz=rate_hz)
+
+
+class Module:
+    """One emulated OpenShoe module (µC, firmware, sensors, two external interfaces)."""
+
+    def __init__(self, config: ModuleConfig | None = None, sensors: SensorSource | None = None,
+                 usb_port: Port | None = None, bt_port: Port | None = None):
+        self.config = config = config if config is not None else ModuleConfig()
+        self.costs = config.costs
+        self.clock = Clock(config.rate_hz)
+        self.memory = StateMemory(config.mcu_serial)
+        self.sequence = ProcessSequence()
+        self.sensors: SensorSource = sensors if sensors is not None else still_source(config.rate_hz)
+        self.command_set = command_set(config.command_set)
+        self.trace: list[TraceEntry] | None = [] if config.trace else None
+        #: The conditional output (STATE_IF_SETUP, SETUP_DEBUG_PROC, mode commands).
+        self.cond_output = ConditionalOutput()
+        #: Flag state RESTORE_PROC_SEQU_IF watches (set by 0x36 and the INS mode commands).
+        self.restore_if_flag = 0
+        #: Set by READ_INERTIAL when a finite sensor source ran out.
+        self.sensors_exhausted = False
+        #: Last DLPF_CFG set by SET_IMU_BANDWIDTH.
+        self.dlpf_cfg = 0
+        self._work: dict[str, Any] = {}
+        self.usb = ExternalInterface(self, Interface.USB, usb_port or IdealPort(), self.command_set)
+        self.bt = ExternalInterface(self, Interface.BLUETOOTH, bt_port or IdealPort(), self.command_set)
+        #: Interfaces by kind; ``interface_list`` in the order the loop serves them.
+        self.interfaces = {Interface.USB: self.usb, Interface.BLUETOOTH: self.bt}
+        self.interface_list = (self.usb, self.bt)
+        self._interrupt_counter = self.memory[StateId.INTERRUPT_COUNTER]
+        self._gp_dt = self.memory[StateId.GP_DT]
+        for sid, value in config.initial_states.items():
+            self.memory[sid][...] = value
+
+    # ------------------------------------------------------------------ loop
+    def step(self) -> None:
+        """One timer tick: one pass of the main loop."""
+        clock = self.clock
+        clock.wait_for_tick()
+        self._interrupt_counter[...] = clock.interrupts & _U32
+        clock.now_cycles += self.costs.loop_overhead
+        usb, bt = self.interface_list
+        now = clock.now_cycles
+        usb.port.advance(now)
+        bt.port.advance(now)
+        usb.receive()
+        bt.receive()
+        self.sequence.run(self)
+        usb.transmit()
+        bt.transmit()
+        self._gp_dt[...] = clock.end_loop() & _U32
+
+    def run(self, ticks: int) -> None:
+        """Run *ticks* main loops."""
+        step = self.step
+        for _ in range(ticks):
+            step()
+
+    def run_until(self, predicate: Callable[[Module], bool], max_ticks: int) -> int:
+        """Step until *predicate(module)* holds (checked after each loop); returns loops run.
+
+        Raises TimeoutError after *max_ticks* loops without it.
+        """
+        for n in range(1, max_ticks + 1):
+            self.step()
+            if predicate(self):
+                return n
+        raise TimeoutError(f"condition not met within {max_ticks} loops")
+
+    # --------------------------------------------------------------- helpers
+    def work(self, key: str, factory: Callable[[], T]) -> T:
+        """Private state of a processing function, created once per module by *factory*."""
+        w = self._work.get(key)
+        if w is None:
+            w = self._work[key] = factory()
+        return w
+
+    def interface(self, kind: Interface | int) -> ExternalInterface:
+        return self.interfaces[Interface(kind)]
+
+    @property
+    def overruns(self) -> int:
+        return self.clock.overruns
+
+    def __repr__(self) -> str:
+        return (f"Module({self.command_set.name} numbering, {self.clock!r}, {self.sequence!r}, "
+                f"USB {'on' if self.usb.connected else 'off'}, BT {'on' if self.bt.connected else 'off'})")
