@@ -1,0 +1,281 @@
+"""The host's side of the protocol as a pure state machine: bytes in, events and acks out.
+
+:class:`HostSession` does everything the host must do with the module's byte
+stream, without any I/O, so it can be tested byte by byte:
+
+* split the stream into command acks and state packets
+  (:class:`protocol.stream.StreamDecoder`; garbage skipped and counted);
+* acknowledge **every** state packet while the module is (or may be) in lossless
+  mode — resends too, since the module repeats the oldest packet every 128 loop
+  cycles until it sees ``01 nn nn ck ck`` with its number (protocol.md §6);
+* suppress resends: in lossless mode only the oldest packet is sent, so a resend
+  carries the same number as the packet just before it (stop-and-wait);
+* split each new packet into its states (:class:`hostlib.outputs.OutputPlan`),
+  recognise steps, sum them (:class:`hostlib.tracking.StepTracker`), report
+  step-counter gaps.
+
+``feed(chunk) -> (events, bytes_to_send)``: a thread (or anything else) only
+moves bytes between the port and this object.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from protocol.codec import PayloadError, Step, decode_states
+from protocol.commands import CommandSet
+from protocol.commands import command_set as _command_set
+from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack, hexdump
+from protocol.ids import Command, StateId
+from protocol.stream import StreamDecoder
+
+from .errors import NotSupportedByCommandSet
+from .outputs import OutputPlan
+from .tracking import GapEvent, StepOutcome, StepTracker
+
+__all__ = [
+    "AckPolicy",
+    "CommandAckEvent",
+    "Event",
+    "GapEvent",
+    "HostSession",
+    "PacketEvent",
+    "SessionStats",
+    "StepEvent",
+]
+
+#: When to acknowledge state packets: "auto" (while the module may be lossless,
+#: or when a resend or a step shows it is), "always", or "never".
+AckPolicy = str
+
+
+@dataclass(frozen=True)
+class CommandAckEvent:
+    """The module acknowledged the command with header byte *command_id* (``A0 cmd ck ck``)."""
+
+    command_id: int
+
+    def __repr__(self) -> str:
+        return f"CommandAckEvent(command_id=0x{self.command_id:02X})"
+
+
+@dataclass(frozen=True, eq=False)
+class PacketEvent:
+    """A new state packet (resends are not reported again).
+
+    *states* maps state id → value (native numpy arrays) when the payload could
+    be split by the states the host asked for, else None (the raw *payload* is
+    always there).
+    """
+
+    number: int
+    payload: bytes
+    states: dict[int, np.ndarray] | None = None
+
+    def __repr__(self) -> str:
+        ids = "?" if self.states is None else " ".join(f"{i:02X}" for i in self.states)
+        payload = hexdump(self.payload, 16)
+        return f"PacketEvent(number=0x{self.number:04X}, states=[{ids}], payload={payload!r})"
+
+
+@dataclass(frozen=True, eq=False)
+class StepEvent:
+    """A new step, summed into the track: the step, the packet it came in, the pose after it."""
+
+    step: Step
+    packet_number: int
+    outcome: StepOutcome
+    pose: np.ndarray  #: [x, y, z, χ] after this step
+    covariance: np.ndarray  #: 4×4 covariance of that pose
+    index: int  #: 1-based index of the step in the track
+
+    def __repr__(self) -> str:
+        x, y, z, chi = self.pose
+        return (
+            f"StepEvent(#{self.index} counter={self.step.counter}, packet=0x{self.packet_number:04X}, "
+            f"pose=({x:.3f}, {y:.3f}, {z:.3f}, {chi:.3f}), {self.outcome.value})"
+        )
+
+
+Event = CommandAckEvent | PacketEvent | StepEvent | GapEvent
+
+
+@dataclass
+class SessionStats:
+    """Counters of everything the session saw; nothing is dropped without being counted here."""
+
+    bytes_received: int = 0
+    garbage_bytes: int = 0  #: bytes skipped between frames
+    bad_frames: int = 0  #: frames with a bad checksum or length
+    command_acks: int = 0
+    packets: int = 0  #: new state packets
+    duplicate_packets: int = 0  #: resends of the previous packet (acked again, not reported)
+    packet_number_jumps: int = 0  #: new packets whose number was not previous + 1
+    acks_sent: int = 0  #: packet acks produced
+    undecoded_packets: int = 0  #: payloads that no unique set of requested states fits
+    steps: int = 0  #: steps summed
+    duplicate_steps: int = 0  #: steps whose counter was already summed
+    gaps: int = 0  #: step-counter gaps
+    missing_steps: int = 0  #: steps lost in those gaps
+    extra: dict[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, int]:
+        d = {k: v for k, v in self.__dict__.items() if k != "extra"}
+        d.update(self.extra)
+        return d
+
+
+class HostSession:
+    """Host protocol state for one link to one module interface; I/O-free.
+
+    *command_set* is ``"2015"`` (current numbering) or ``"2014"``. *ack_policy*
+    is ``"auto"``, ``"always"`` or ``"never"``. *tracker* sums the steps (a new
+    :class:`StepTracker` at the origin by default; it counts from step 0 as
+    after 0x34 — pass ``StepTracker(last_counter=None)`` to attach to a module
+    already tracking).
+    """
+
+    def __init__(
+        self,
+        command_set: str | CommandSet = "2015",
+        *,
+        ack_policy: AckPolicy = "auto",
+        tracker: StepTracker | None = None,
+        plan: OutputPlan | None = None,
+    ):
+        if ack_policy not in ("auto", "always", "never"):
+            raise ValueError(f"ack_policy must be 'auto', 'always' or 'never', not {ack_policy!r}")
+        self.command_set: CommandSet = _command_set(command_set)
+        self.ack_policy = ack_policy
+        self.tracker = tracker if tracker is not None else StepTracker()
+        self.plan = plan if plan is not None else OutputPlan()
+        self.decoder = StreamDecoder(self.command_set)
+        self.stats = SessionStats()
+        self._last_number: int | None = None
+        self._resend_seen = False
+
+    # -- host → module ------------------------------------------------------------
+
+    def encode_command(self, meaning: Command | str, **fields: Any) -> bytes:
+        """The frame of a command in this session's numbering; notes its effect on outputs.
+
+        Raises :class:`NotSupportedByCommandSet` if the numbering lacks it.
+        """
+        if isinstance(meaning, str):
+            meaning = Command[meaning.upper()]
+        if not self.command_set.supports(meaning):
+            raise NotSupportedByCommandSet(meaning.name, self.command_set.name)
+        frame = build_command(meaning, command_set=self.command_set, **fields)
+        wire_id = self.command_set.spec(meaning).wire_id
+        if self.plan.sent(meaning, wire_id, dict(fields), frame):
+            self.tracker.restart_counter(0)
+            self._last_number = None
+        return frame
+
+    def wire_id(self, meaning: Command) -> int:
+        if not self.command_set.supports(meaning):
+            raise NotSupportedByCommandSet(meaning.name, self.command_set.name)
+        return self.command_set.spec(meaning).wire_id
+
+    @property
+    def lossless(self) -> bool:
+        """True while the session acknowledges packets."""
+        if self.ack_policy == "always":
+            return True
+        if self.ack_policy == "never":
+            return False
+        return bool(self.plan.lossless) or self._resend_seen
+
+    # -- module → host ------------------------------------------------------------
+
+    def feed(self, data: bytes) -> tuple[list[Event], bytes]:
+        """Process received bytes: the events they complete, and the acks to send back."""
+        data = bytes(data)
+        self.stats.bytes_received += len(data)
+        return self._frames(self.decoder.feed(data))
+
+    def idle(self) -> tuple[list[Event], bytes]:
+        """The link went quiet: stop waiting on a false frame start if a valid frame follows it."""
+        return self._frames(self.decoder.flush())
+
+    def link_reset(self) -> None:
+        """The link was re-opened: a partial frame from before is gone (counted as garbage).
+
+        The last packet number is kept, so a lossless resend after the reconnect
+        is still recognised as a duplicate.
+        """
+        self.decoder.reset()
+        self.stats.garbage_bytes = self.decoder.skipped_bytes
+
+    def _frames(self, frames: list) -> tuple[list[Event], bytes]:
+        events: list[Event] = []
+        out = bytearray()
+        for frame in frames:
+            if isinstance(frame, CommandAck):
+                self.stats.command_acks += 1
+                self.plan.acked(frame.command_id)
+                events.append(CommandAckEvent(frame.command_id))
+            elif isinstance(frame, StatePacket):
+                self._packet(frame, events, out)
+        self.stats.garbage_bytes = self.decoder.skipped_bytes
+        self.stats.bad_frames = self.decoder.bad_frames
+        return events, bytes(out)
+
+    def _packet(self, pkt: StatePacket, events: list[Event], out: bytearray) -> None:
+        duplicate = pkt.number == self._last_number
+        if duplicate and self.ack_policy == "auto":
+            self._resend_seen = True  # only a lossless module resends
+        states = None
+        step = None
+        if not duplicate:
+            layout = self.plan.layout(len(pkt.payload))
+            if layout is not None:
+                try:
+                    states = decode_states(layout, pkt.payload)
+                except PayloadError:  # pragma: no cover - layout sizes match by construction
+                    states = None
+            if states is not None and {StateId.DX, StateId.DP, StateId.STEP_COUNTER} <= states.keys():
+                step = Step(
+                    dx=states[StateId.DX], dp=states[StateId.DP], counter=int(states[StateId.STEP_COUNTER])
+                )
+        if self.lossless or (step is not None and self.ack_policy == "auto"):
+            # Step output is lossless by construction (0x34): ack even if we did not see 0x34 sent.
+            out += build_packet_ack(pkt.number)
+            self.stats.acks_sent += 1
+        if duplicate:
+            self.stats.duplicate_packets += 1
+            return
+        if self._last_number is not None and pkt.number != (self._last_number + 1) & 0xFFFF:
+            self.stats.packet_number_jumps += 1
+        self._last_number = pkt.number
+        self.stats.packets += 1
+        if states is None:
+            self.stats.undecoded_packets += 1
+        events.append(PacketEvent(pkt.number, pkt.payload, states))
+        if step is not None:
+            self._step(step, pkt.number, events)
+
+    def _step(self, step: Step, number: int, events: list[Event]) -> None:
+        n_gaps = len(self.tracker.gaps)
+        outcome = self.tracker.add(step)
+        if outcome is StepOutcome.DUPLICATE:
+            self.stats.duplicate_steps += 1
+            return
+        self.stats.steps += 1
+        for gap in self.tracker.gaps[n_gaps:]:
+            self.stats.gaps += 1
+            self.stats.missing_steps += gap.missing
+            events.append(gap)
+        track = self.tracker.track
+        events.append(
+            StepEvent(step, number, outcome, track._poses[-1].copy(), track._covs[-1].copy(), len(track))
+        )
+
+    def __repr__(self) -> str:
+        return (
+            f"HostSession({self.command_set.name}, lossless={self.lossless}, packets={self.stats.packets}, "
+            f"steps={self.stats.steps}, garbage={self.stats.garbage_bytes})"
+        )
