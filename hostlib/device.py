@@ -1,0 +1,480 @@
+"""A connected OpenShoe module: typed commands with acks, a reader thread, steps and packets.
+
+Why a thread and not asyncio: pyserial's reads block (and on a Bluetooth SPP
+port or a pty there is no portable non-blocking API), so one daemon reader
+thread per device does the reading with a short port timeout, runs the pure
+:class:`hostlib.session.HostSession` on every chunk, writes the packet acks it
+produces immediately (a lossless module waits for them), and hands events to
+bounded queues and callbacks. User calls (commands, iterators) run in the
+caller's thread and wait on condition variables with deadlines — never sleeps.
+
+Typical use::
+
+    with Device("/dev/rfcomm0") as dev:          # or "socket://localhost:5000", a port object …
+        dev.start_stepwise_dead_reckoning()
+        for ev in dev.steps(timeout=30):
+            print(ev.index, ev.pose[:3])
+        print(dev.track)
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+import time
+import warnings
+from collections.abc import Callable, Iterator
+from typing import Any, BinaryIO
+
+import serial
+
+from protocol.ids import Command
+
+from .commands import CommandMethods
+from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
+from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
+from .outputs import OutputPlan
+from .session import CommandAckEvent, Event, GapEvent, HostSession, PacketEvent, StepEvent
+from .tracking import StepTracker, Track
+
+__all__ = ["Device", "LinkEvent"]
+
+log = logging.getLogger(__name__)
+
+_READ_ERRORS = (serial.SerialException, OSError, TypeError, AttributeError, ValueError)
+
+
+class LinkEvent:
+    """The link dropped (``up=False``) or came back (``up=True``); *error* says why it dropped."""
+
+    def __init__(self, up: bool, error: BaseException | None = None):
+        self.up = up
+        self.error = error
+
+    def __repr__(self) -> str:
+        return f"LinkEvent(up={self.up}, error={self.error!r})"
+
+
+class _BoundedQueue:
+    """A bounded FIFO of events; a full queue drops the new event, counts it and warns once per episode."""
+
+    def __init__(self, name: str, maxsize: int):
+        self.name = name
+        self.q: queue.Queue = queue.Queue(maxsize)
+        self.dropped = 0
+        self._warned = False
+
+    def put(self, item: Any) -> None:
+        try:
+            self.q.put_nowait(item)
+            self._warned = False
+        except queue.Full:
+            self.dropped += 1
+            if not self._warned:
+                self._warned = True
+                warnings.warn(
+                    f"the {self.name} queue is full ({self.q.maxsize}); events are being dropped "
+                    f"(counted in dropped_{self.name}); read them faster or raise queue_size",
+                    QueueFullWarning,
+                    stacklevel=2,
+                )
+
+    def get(self, deadline: float | None) -> Any:
+        """The next item, or None when the deadline passes (None = wait forever)."""
+        if deadline is None:
+            return self.q.get()
+        remaining = deadline - time.monotonic()
+        try:
+            return self.q.get(timeout=max(0.0, remaining)) if remaining > 0 else self.q.get_nowait()
+        except queue.Empty:
+            return None
+
+
+_CLOSED = object()  # sentinel put in queues on close to wake iterators
+
+
+class Device(CommandMethods):
+    """One OpenShoe module over one serial link (USB CDC or Bluetooth SPP, real or emulated).
+
+    *target*: a device path or pyserial URL (``/dev/rfcomm0``, ``socket://host:port``,
+    ``loop://``, the emulator's ``openshoe://``), or an already-open pyserial port.
+    *command_set*: ``"2015"`` (current) or ``"2014"`` numbering (protocol.md §10).
+    *ack_timeout* seconds per attempt and *retries* extra attempts for each
+    command. *reconnect*: after a dropped link, keep re-opening it (every
+    *reconnect_interval* s) until :meth:`close`. *queue_size* bounds the packet
+    and step queues. *raw_log*: a binary file that receives every byte read.
+    *tracker*: where steps are summed (default: origin, counting from 0x34).
+    *port_factory*: overrides how the link is opened (tests, custom links).
+    """
+
+    def __init__(
+        self,
+        target: Any = None,
+        *,
+        command_set: str = "2015",
+        ack_timeout: float = 1.0,
+        retries: int = 2,
+        ack_policy: str = "auto",
+        reconnect: bool = True,
+        reconnect_interval: float = 0.5,
+        queue_size: int = 10000,
+        baudrate: int = DEFAULT_BAUDRATE,
+        read_timeout: float = 0.05,
+        raw_log: BinaryIO | None = None,
+        tracker: StepTracker | None = None,
+        port_factory: PortFactory | None = None,
+        start: bool = True,
+    ):
+        if port_factory is None:
+            if target is None:
+                raise ValueError("Device needs a port path/URL, a port object, or a port_factory")
+            port_factory = _default_factory(target, baudrate, read_timeout)
+        self._factory = port_factory
+        self.session = HostSession(command_set, ack_policy=ack_policy, tracker=tracker, plan=OutputPlan())
+        self.ack_timeout = float(ack_timeout)
+        self.retries = int(retries)
+        self.reconnect = reconnect
+        self.reconnect_interval = float(reconnect_interval)
+        self.raw_log = raw_log
+
+        self._lock = threading.RLock()  # session state
+        self._write_lock = threading.Lock()
+        self._cond = threading.Condition(self._lock)  # acks, link state
+        self._ack_counts: dict[int, int] = {}
+        self._packet_seq = 0
+        self._stop = threading.Event()
+        self._closed = False
+        self._link_up = False
+        self.link_drops = 0
+        self.reconnects = 0
+        self.callback_errors = 0
+        self.reader_errors = 0
+        self._packets = _BoundedQueue("packets", queue_size)
+        self._steps = _BoundedQueue("steps", queue_size)
+        self._callbacks: dict[str, list[Callable[[Any], None]]] = {
+            "packet": [], "step": [], "gap": [], "ack": [], "link": []
+        }
+        self.gap_events: list[GapEvent] = []
+        self._port = self._factory()
+        self._link_up = True
+        self.name = port_name(self._port)
+        self._thread = threading.Thread(
+            target=self._reader, name=f"openshoe-reader[{self.name}]", daemon=True
+        )
+        if start:
+            self._thread.start()
+
+    # -- lifecycle ------------------------------------------------------------------
+
+    def __enter__(self) -> Device:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def close(self) -> None:
+        """Stop the reader, close the port, wake every waiter with :class:`DeviceClosed`. Idempotent."""
+        with self._cond:
+            if self._closed:
+                return
+            self._closed = True
+            self._stop.set()
+            self._cond.notify_all()
+        if self._thread.is_alive() and threading.current_thread() is not self._thread:
+            self._thread.join(timeout=5.0)
+        try:
+            self._port.close()
+        except _READ_ERRORS:  # pragma: no cover - closing a broken port
+            pass
+        self._packets.q.put(_CLOSED) if not self._packets.q.full() else None
+        self._steps.q.put(_CLOSED) if not self._steps.q.full() else None
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    @property
+    def link_up(self) -> bool:
+        """True while the serial link is open (False between a drop and the reconnect)."""
+        return self._link_up
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else ("up" if self._link_up else "down")
+        return f"Device({self.name!r}, {self.session.command_set.name}, link {state}, {self.session!r})"
+
+    # -- commands ------------------------------------------------------------------
+
+    def command(self, meaning: Command, *, timeout: float | None = None, retries: int | None = None,
+                **fields: Any) -> CommandAckEvent | None:
+        """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``.
+
+        Each attempt waits *timeout* s (default :attr:`ack_timeout`); while a
+        lossless module keeps delivering data (the ack waits behind it) the wait
+        is extended, up to 10 × *timeout*. After *retries* extra attempts
+        :class:`AckTimeout`. ACK (0x01) is sent once and not waited for.
+        """
+        if self._closed:
+            raise DeviceClosed(f"{self.name} is closed")
+        timeout = self.ack_timeout if timeout is None else float(timeout)
+        retries = self.retries if retries is None else int(retries)
+        with self._lock:
+            frame = self.session.encode_command(meaning, **fields)
+            wire_id = self.session.wire_id(meaning)
+        if meaning is Command.ACK:
+            self._write(frame)
+            return None
+        for _attempt in range(retries + 1):
+            with self._cond:
+                seen = self._ack_counts.get(wire_id, 0)
+            self._write(frame)
+            if self._wait_ack(wire_id, seen, timeout):
+                return CommandAckEvent(wire_id)
+        raise AckTimeout(meaning.name, wire_id, retries + 1, timeout)
+
+    def _wait_ack(self, wire_id: int, seen: int, timeout: float) -> bool:
+        now = time.monotonic()
+        deadline, hard = now + timeout, now + 10 * timeout
+        with self._cond:
+            progress = self._packet_seq
+            while self._ack_counts.get(wire_id, 0) == seen:
+                if self._closed:
+                    raise DeviceClosed(f"{self.name} closed while waiting for the ack of 0x{wire_id:02X}")
+                now = time.monotonic()
+                if self._packet_seq != progress and self.session.lossless:
+                    progress = self._packet_seq  # data keeps flowing: the ack is queued behind it
+                    deadline = min(hard, now + timeout)
+                if now >= deadline:
+                    return False
+                self._cond.wait(deadline - now)
+            return True
+
+    def send_raw(self, data: bytes) -> None:
+        """Write bytes as they are (no framing, no ack wait): for tests and old host apps."""
+        self._write(bytes(data))
+
+    def _write(self, data: bytes) -> None:
+        if self._closed:
+            raise DeviceClosed(f"{self.name} is closed")
+        with self._write_lock:
+            try:
+                self._port.write(data)
+                flush = getattr(self._port, "flush", None)
+                if flush is not None:
+                    flush()
+            except _READ_ERRORS as exc:
+                if not self.reconnect:
+                    raise LinkLost(f"writing to {self.name} failed: {exc}") from exc
+                log.warning("write to %s failed (%s); the reader will reconnect", self.name, exc)
+
+    # -- receiving -----------------------------------------------------------------
+
+    def _reader(self) -> None:
+        while not self._stop.is_set():
+            port = self._port
+            try:
+                waiting = getattr(port, "in_waiting", 0) or 0
+                data = port.read(max(1, min(int(waiting), 4096)))
+            except _READ_ERRORS as exc:
+                if self._stop.is_set():
+                    break
+                if not self._link_dropped(exc):
+                    break
+                continue
+            try:
+                if data:
+                    self.feed(data)
+                elif self.session.decoder.pending:
+                    self._deliver(*self._locked(self.session.idle))
+            except Exception:  # noqa: BLE001 - keep reading (and acking) whatever one chunk did
+                self.reader_errors += 1
+                log.exception("processing %d bytes from %s failed", len(data), self.name)
+        log.debug("reader of %s stopped", self.name)
+
+    def feed(self, data: bytes) -> list[Event]:
+        """Process received bytes as the reader thread does (public for tests and replays)."""
+        if self.raw_log is not None:
+            self.raw_log.write(data)
+        return self._deliver(*self._locked(self.session.feed, data))
+
+    def _locked(self, fn: Callable[..., Any], *args: Any) -> Any:
+        with self._cond:
+            return fn(*args)
+
+    def _deliver(self, events: list[Event], to_send: bytes) -> list[Event]:
+        """Send the session's packet acks, then hand its events to waiters, queues and callbacks."""
+        if to_send:
+            try:
+                self._write(to_send)
+            except (DeviceClosed, LinkLost):
+                pass
+        with self._cond:
+            for ev in events:
+                if isinstance(ev, CommandAckEvent):
+                    self._ack_counts[ev.command_id] = self._ack_counts.get(ev.command_id, 0) + 1
+                elif isinstance(ev, PacketEvent):
+                    self._packet_seq += 1
+            self._cond.notify_all()
+        for ev in events:
+            if isinstance(ev, PacketEvent):
+                self._packets.put(ev)
+                self._dispatch("packet", ev)
+            elif isinstance(ev, StepEvent):
+                self._steps.put(ev)
+                self._dispatch("step", ev)
+            elif isinstance(ev, GapEvent):
+                self.gap_events.append(ev)
+                log.warning("%s: %s", self.name, ev)
+                self._dispatch("gap", ev)
+            elif isinstance(ev, CommandAckEvent):
+                self._dispatch("ack", ev)
+        return events
+
+    def _link_dropped(self, exc: BaseException) -> bool:
+        """Handle a dropped link; True if the reader should go on (reconnected)."""
+        with self._cond:
+            self._link_up = False
+            self.link_drops += 1
+            self._cond.notify_all()
+        log.warning("link to %s dropped: %s", self.name, exc)
+        self._dispatch("link", LinkEvent(False, exc))
+        try:
+            self._port.close()
+        except _READ_ERRORS:
+            pass
+        if not self.reconnect:
+            self.close_on_drop()
+            return False
+        while not self._stop.is_set():
+            try:
+                port = self._factory()
+            except _READ_ERRORS as err:
+                log.debug("reconnect to %s failed: %s", self.name, err)
+                if self._stop.wait(self.reconnect_interval):
+                    return False
+                continue
+            with self._cond:
+                self._port = port
+                self.session.link_reset()
+                self._link_up = True
+                self.reconnects += 1
+                self._cond.notify_all()
+            log.info("link to %s is back", self.name)
+            self._dispatch("link", LinkEvent(True))
+            return True
+        return False
+
+    def close_on_drop(self) -> None:
+        with self._cond:
+            self._closed = True
+            self._stop.set()
+            self._cond.notify_all()
+        self._packets.q.put(_CLOSED) if not self._packets.q.full() else None
+        self._steps.q.put(_CLOSED) if not self._steps.q.full() else None
+
+    def wait_link(self, up: bool = True, timeout: float | None = None) -> bool:
+        """Wait until the link is up (or down); False on timeout."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._cond:
+            while self._link_up != up:
+                if self._closed:
+                    return False
+                remaining = None if deadline is None else deadline - time.monotonic()
+                if remaining is not None and remaining <= 0:
+                    return False
+                self._cond.wait(remaining)
+            return True
+
+    # -- callbacks -----------------------------------------------------------------
+
+    def add_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
+        """Call *fn(event)* in the reader thread for each event of *kind*.
+
+        Kinds: ``"packet"`` (:class:`PacketEvent`), ``"step"`` (:class:`StepEvent`),
+        ``"gap"`` (:class:`GapEvent`), ``"ack"`` (:class:`CommandAckEvent`),
+        ``"link"`` (:class:`LinkEvent`). Keep callbacks short: the reader acks
+        packets only after they return. Exceptions are logged and counted.
+        """
+        if kind not in self._callbacks:
+            raise ValueError(f"unknown callback kind {kind!r}; choose from {sorted(self._callbacks)}")
+        self._callbacks[kind].append(fn)
+
+    def remove_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
+        self._callbacks[kind].remove(fn)
+
+    def _dispatch(self, kind: str, ev: Any) -> None:
+        for fn in list(self._callbacks[kind]):
+            try:
+                fn(ev)
+            except Exception:  # noqa: BLE001 - a user callback must not kill the reader
+                self.callback_errors += 1
+                log.exception("%s callback %r failed", kind, fn)
+
+    # -- iterators -----------------------------------------------------------------
+
+    def recv(self, timeout: float | None = None) -> PacketEvent | None:
+        """The next new state packet, or None after *timeout* s (None = wait forever)."""
+        return self._get(self._packets, timeout)
+
+    def recv_step(self, timeout: float | None = None) -> StepEvent | None:
+        """The next new step (summed into :attr:`track`), or None after *timeout* s."""
+        return self._get(self._steps, timeout)
+
+    def _get(self, q: _BoundedQueue, timeout: float | None) -> Any:
+        if self._closed and q.q.empty():
+            raise DeviceClosed(f"{self.name} is closed")
+        item = q.get(None if timeout is None else time.monotonic() + timeout)
+        if item is _CLOSED:
+            q.q.put(_CLOSED) if not q.q.full() else None  # wake the next reader too
+            raise DeviceClosed(f"{self.name} is closed")
+        return item
+
+    def packets(self, timeout: float | None = None) -> Iterator[PacketEvent]:
+        """Iterate over new state packets until *timeout* s have passed in total (or close)."""
+        yield from self._iterate(self._packets, timeout)
+
+    def steps(self, timeout: float | None = None) -> Iterator[StepEvent]:
+        """Iterate over new steps until *timeout* s have passed in total (or close)."""
+        yield from self._iterate(self._steps, timeout)
+
+    def _iterate(self, q: _BoundedQueue, timeout: float | None) -> Iterator[Any]:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            try:
+                item = q.get(deadline)
+            except Exception:  # pragma: no cover
+                return
+            if item is None or item is _CLOSED:
+                if item is _CLOSED:
+                    q.q.put(_CLOSED) if not q.q.full() else None
+                return
+            yield item
+
+    # -- state ---------------------------------------------------------------------
+
+    @property
+    def track(self) -> Track:
+        """The track summed from every step received so far."""
+        return self.session.tracker.track
+
+    @property
+    def tracker(self) -> StepTracker:
+        return self.session.tracker
+
+    @property
+    def stats(self) -> dict[str, int]:
+        """Every counter: session (bytes, garbage, bad frames, packets, acks, steps, gaps) and device."""
+        d = self.session.stats.as_dict()
+        d.update(
+            dropped_packets=self._packets.dropped,
+            dropped_steps=self._steps.dropped,
+            link_drops=self.link_drops,
+            reconnects=self.reconnects,
+            callback_errors=self.callback_errors,
+            reader_errors=self.reader_errors,
+        )
+        return d
+
+
+def _default_factory(target: Any, baudrate: int, read_timeout: float) -> PortFactory:
+    return port_factory(target, baudrate=baudrate, read_timeout=read_timeout)

@@ -1,0 +1,247 @@
+"""Device: commands with acks, timeouts, retries, the reader thread, iterators, reconnects.
+
+Against an in-memory scripted port (tests/hostlib/fakes.py) and pyserial's own
+``loop://``. No sleeps: every wait is on an event or a short deadline.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+import serial
+
+from hostlib.device import Device, LinkEvent
+from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
+from hostlib.session import StepEvent
+from protocol.codec import encode_step
+from protocol.commands import LEGACY_2014
+from protocol.frames import build_command_ack, build_packet_ack, build_state_packet
+from protocol.ids import StateId
+
+from .fakes import FakeModulePort
+
+
+def step_packet(number: int, counter: int, dx=(0.7, 0.0, 0.0, 0.0)) -> bytes:
+    return build_state_packet(number, encode_step(np.array(dx), np.eye(4) * 1e-4, counter))
+
+
+@pytest.fixture
+def fake():
+    return FakeModulePort()
+
+
+@pytest.fixture
+def dev(fake):
+    with Device(fake, ack_timeout=2.0) as d:
+        yield d
+
+
+def test_ping_waits_for_its_ack(dev, fake):
+    assert dev.ping().command_id == 0x03
+    assert fake.commands == [bytes.fromhex("03 00 03")]
+
+
+def test_typed_commands_send_the_documented_frames(dev, fake):
+    dev.set_state(StateId.TH_ZUPT, 100000)
+    dev.output_all_off()
+    dev.start_stepwise_dead_reckoning()
+    dev.output_multiple_states([0x01, 0x13], mode=1)
+    dev.input_imu_rd(5, np.zeros((4, 6), dtype=int))
+    assert fake.commands[0] == bytes.fromhex("13 19 00 01 86 A0 01 53")
+    assert fake.commands[1] == bytes.fromhex("22 00 22")
+    assert fake.commands[2] == bytes.fromhex("34 00 34")
+    assert fake.commands[3][0] == 0x21 and len(fake.commands[3]) == 12
+    assert fake.commands[4][0] == 0x11 and len(fake.commands[4]) == 55
+
+
+def test_2014_numbering_is_chosen_per_device():
+    fake = FakeModulePort(LEGACY_2014)
+    with Device(fake, command_set="2014") as d:
+        d.start_stepwise_dead_reckoning()
+        d.output_all_off()
+        assert fake.commands == [bytes.fromhex("14 00 14"), bytes.fromhex("21 00 21")]
+        with pytest.raises(NotSupportedByCommandSet):
+            d.mimu_frontend()
+
+
+def test_silent_module_times_out_after_bounded_retries():
+    fake = FakeModulePort(mute=True)
+    with Device(fake, ack_timeout=0.05, retries=2) as d:
+        with pytest.raises(AckTimeout, match="PING") as info:
+            d.ping()
+        assert info.value.attempts == 3
+        assert fake.commands == [bytes.fromhex("03 00 03")] * 3
+
+
+def test_retry_succeeds_when_the_first_command_is_lost(fake):
+    calls = []
+
+    def lossy(frame):
+        calls.append(frame)
+        return None if len(calls) == 1 else build_command_ack(frame[0])
+
+    fake.on_command = lossy
+    with Device(fake, ack_timeout=0.05, retries=2) as d:
+        d.ping()
+    assert len(calls) == 2
+
+
+def test_packet_ack_gets_no_wait(dev, fake):
+    assert dev.ack_packet(0x0102) is None
+    assert fake.wait_written(lambda f: f.packet_acks == [0x0102])
+    assert bytes.fromhex("01 01 02 00 04") in fake.written
+
+
+def test_steps_are_acked_summed_and_iterated(dev, fake):
+    dev.start_stepwise_dead_reckoning()
+    for n in range(1, 4):
+        fake.inject(step_packet(n, n))
+    fake.inject(step_packet(3, 3))  # a resend
+    got = []
+    for ev in dev.steps(timeout=5.0):
+        got.append(ev)
+        if len(got) == 3:
+            break
+    assert [e.step.counter for e in got] == [1, 2, 3]
+    assert fake.wait_written(lambda f: len(f.packet_acks) == 4)
+    assert fake.packet_acks == [1, 2, 3, 3]
+    assert dev.track.distance == pytest.approx(2.1, rel=1e-6)
+
+
+def test_lossless_ack_waits_behind_data(fake):
+    """The command ack comes only after the host acked the queued packets (stop-and-wait)."""
+    fake.on_command = lambda frame: None  # we script the reply below
+    with Device(fake, ack_timeout=2.0) as d:
+        d.session.plan.lossless = True
+        d.session.plan.outputs = frozenset({StateId.IMU_TS})
+        fake.on_command = lambda frame: build_state_packet(1, bytes(4)) if frame[0] == 0x03 else None
+
+        def module():
+            # when the host acks packet 1, send packet 2; when it acks 2, send the command ack
+            assert fake.wait_written(lambda f: 1 in f.packet_acks)
+            fake.inject(build_state_packet(2, bytes(4)))
+            assert fake.wait_written(lambda f: 2 in f.packet_acks)
+            fake.inject(build_command_ack(0x03))
+
+        t = threading.Thread(target=module)
+        t.start()
+        d.ping()
+        t.join(5)
+        assert d.stats["packets"] == 2
+
+
+def test_callbacks_and_recv(dev, fake):
+    seen = threading.Event()
+    steps = []
+    dev.add_callback("step", lambda ev: (steps.append(ev), seen.set()))
+    dev.add_callback("packet", lambda ev: 1 / 0)  # a broken callback does not kill the reader
+    fake.inject(step_packet(1, 1))
+    assert seen.wait(5)
+    assert isinstance(steps[0], StepEvent)
+    assert dev.recv(timeout=5).number == 1
+    assert dev.recv(timeout=0.01) is None
+    assert dev.callback_errors == 1
+    with pytest.raises(ValueError, match="unknown callback"):
+        dev.add_callback("nope", print)
+
+
+def test_garbage_and_gaps_are_counted(dev, fake):
+    fake.inject(b"\x00\x13\x37" + step_packet(1, 1) + b"\xff" + step_packet(2, 5))
+    evs = [dev.recv_step(5), dev.recv_step(5)]
+    assert [e.step.counter for e in evs] == [1, 5]
+    st = dev.stats
+    assert st["garbage_bytes"] == 4 and st["missing_steps"] == 3 and st["gaps"] == 1
+    assert dev.gap_events[0].missing == 3
+
+
+def test_full_queue_is_reported_not_silent(fake):
+    with Device(fake, queue_size=2) as d:
+        with pytest.warns(Warning, match="queue is full"):
+            d.feed(b"".join(build_state_packet(n, bytes(4)) for n in range(1, 6)))
+        assert d.stats["dropped_packets"] == 3
+
+
+def test_close_wakes_waiters_and_refuses_commands(fake):
+    d = Device(fake)
+    result = []
+    t = threading.Thread(target=lambda: result.append(list(d.packets())))
+    t.start()
+    d.close()
+    t.join(5)
+    assert result == [[]]
+    assert not fake.is_open
+    with pytest.raises(DeviceClosed):
+        d.ping()
+    d.close()  # idempotent
+
+
+def test_reconnects_after_a_dropped_link():
+    ports = [FakeModulePort(), FakeModulePort()]
+    made = []
+
+    def factory():
+        made.append(ports[len(made)])
+        return made[-1]
+
+    links = []
+    back = threading.Event()
+    with Device(port_factory=factory, reconnect_interval=0.01) as d:
+        d.add_callback("link", lambda ev: (links.append(ev.up), ev.up and back.set()))
+        d.start_stepwise_dead_reckoning()
+        ports[0].inject(step_packet(1, 1))
+        assert d.recv_step(5).step.counter == 1
+        ports[0].drop()
+        assert back.wait(5)
+        assert links == [False, True] and d.link_up
+        # the module resends the unacked packet, then the next step
+        ports[1].inject(step_packet(1, 1) + step_packet(2, 2))
+        assert d.recv_step(5).step.counter == 2
+        assert d.stats["link_drops"] == 1 and d.stats["reconnects"] == 1
+        assert d.stats["duplicate_packets"] == 1
+        assert isinstance(LinkEvent(True), LinkEvent)
+
+
+def test_without_reconnect_a_drop_closes_the_device(fake):
+    d = Device(fake, reconnect=False)
+    fake.drop()
+    with pytest.raises(DeviceClosed):
+        d.recv(timeout=5)
+    assert d.closed
+
+
+# -- pyserial's loop:// (a real pyserial port object) ---------------------------------------
+
+
+def test_loop_url_commands_time_out_and_packets_flow():
+    # loop:// echoes what the host writes: commands come back as garbage, never as acks.
+    with Device("loop://", ack_timeout=0.05, retries=0) as d:
+        with pytest.raises(AckTimeout):
+            d.ping()
+        d.send_raw(step_packet(1, 1))  # bytes written to loop:// arrive as module bytes
+        ev = d.recv_step(5)
+        assert ev.step.counter == 1
+        assert d.stats["acks_sent"] == 1
+        assert d.stats["garbage_bytes"] >= 3  # the echoed ping
+
+
+def test_already_open_serial_object():
+    port = serial.serial_for_url("loop://", timeout=0.05)
+    with Device(port) as d:
+        d.send_raw(build_state_packet(4, bytes(4)) + build_packet_ack(0))
+        assert d.recv(timeout=5).number == 4
+    assert not port.is_open
+
+
+def test_openshoe_url_needs_the_emulator_package(monkeypatch):
+    import hostlib.connection as conn
+
+    monkeypatch.setattr(conn, "EMULATOR_HANDLER_PACKAGE", "no_such_package_here")
+    with pytest.raises(ValueError, match="emulator"):
+        Device("openshoe://")
+
+
+def test_needs_a_target():
+    with pytest.raises(ValueError, match="needs"):
+        Device()
