@@ -7,9 +7,10 @@ PS_DT states are deterministic and meaningful, whatever the host machine's speed
 
 Timing rules (documented choices where the spec is silent):
 
-* At boot the cycle counter is 0 and the timer starts; timer interrupt *k*
-  (k = 1, 2, …) fires at cycle ``k · cycles_per_tick``. The first main loop
-  therefore starts at ``cycles_per_tick``.
+* At boot the cycle counter is 0 (or ``start_cycles``, which lets tests reach
+  the 2^32 wrap quickly) and the timer starts; timer interrupt *k* (k = 1, 2, …)
+  fires ``k · cycles_per_tick`` cycles after boot, so the first main loop
+  starts one tick after boot.
 * Waiting for the tick: if the previous loop ended before the next interrupt,
   the counter jumps to the interrupt. If it ended later (an **overrun**), the
   next loop starts at once; every interrupt that fired meanwhile increments the
@@ -61,7 +62,7 @@ class CostModel:
 class Clock:
     """The µC's time base: cycle counter, timer interrupts, main-loop accounting."""
 
-    def __init__(self, rate_hz: float = DEFAULT_RATE_HZ, cpu_hz: int = CPU_HZ):
+    def __init__(self, rate_hz: float = DEFAULT_RATE_HZ, cpu_hz: int = CPU_HZ, start_cycles: int = 0):
         period = cpu_hz / rate_hz
         if rate_hz <= 0 or period != int(period) or period < 1:
             raise ValueError(
@@ -72,7 +73,7 @@ class Clock:
         #: Cycles between two timer interrupts (64 000 at 1 kHz).
         self.cycles_per_tick = int(period)
         #: Unbounded virtual cycle count since boot.
-        self.now_cycles = 0
+        self.now_cycles = start_cycles
         #: Main loops run so far (the current loop's number is ``ticks - 1``).
         self.ticks = 0
         #: Timer interrupts since boot (≥ ticks: includes those missed in overruns).
@@ -81,11 +82,11 @@ class Clock:
         self.overruns = 0
         #: Timer interrupts that fired during an overrun and got no loop of their own.
         self.missed_ticks = 0
-        #: Cycle at which the current loop started (when the timer flag was seen).
-        self.loop_start = 0
         #: Cycles the last complete loop took (the GP_DT state).
         self.last_loop_cycles = 0
-        self._next_interrupt = self.cycles_per_tick
+        self._next_interrupt = start_cycles + self.cycles_per_tick
+        #: Cycle at which the current loop started (when the timer flag was seen).
+        self.loop_start = start_cycles
 
     @property
     def count(self) -> int:

@@ -201,6 +201,10 @@ class ExternalInterface:
                 ack = self._ack_frames[spec.wire_id] = build_command_ack(spec.wire_id)
             self.queue.add(ack, 0, single=True, is_ack=True)
 
+    def reset_parser(self) -> None:
+        """Discard a partial command frame now (what the receive timeout does), counted as a timeout."""
+        self._drop_partial("timeout")
+
     def feed(self, data: bytes) -> None:
         """Run *data* through the parser now, bypassing the link (for tests and HIL tools)."""
         self.bytes_received += len(data)

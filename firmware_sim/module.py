@@ -55,6 +55,8 @@ class ModuleConfig:
     costs: CostModel = field(default_factory=CostModel)
     #: Record every frame in and out (``module.trace``).
     trace: bool = False
+    #: Cycle counter at boot (0 on the module; set near 2^32 to exercise the COUNT wrap).
+    start_cycles: int = 0
     #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
     initial_states: dict[int, Any] = field(default_factory=dict)
 
@@ -75,7 +77,7 @@ class Module:
                  usb_port: Port | None = None, bt_port: Port | None = None):
         self.config = config = config if config is not None else ModuleConfig()
         self.costs = config.costs
-        self.clock = Clock(config.rate_hz)
+        self.clock = Clock(config.rate_hz, start_cycles=config.start_cycles)
         self.memory = StateMemory(config.mcu_serial)
         self.sequence = ProcessSequence()
         self.sensors: SensorSource = sensors if sensors is not None else still_source(config.rate_hz)
