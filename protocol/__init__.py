@@ -54,6 +54,7 @@ from .ids import (
     rate_divider,
 )
 from .states import STATES, StateSpec, state_spec
+from .stream import Frame, StreamDecoder, decode_all
 
 __all__ = [
     "ACK_HEADER",
@@ -65,6 +66,7 @@ __all__ = [
     "CommandFrame",
     "CommandSet",
     "CommandSpec",
+    "Frame",
     "FrameError",
     "Interface",
     "LEGACY_2014",
@@ -84,6 +86,7 @@ __all__ = [
     "StateId",
     "StatePacket",
     "StateSpec",
+    "StreamDecoder",
     "assembly_order",
     "build_command",
     "build_command_ack",
@@ -91,6 +94,7 @@ __all__ = [
     "build_state_packet",
     "checksum",
     "command_set",
+    "decode_all",
     "decode_state",
     "decode_states",
     "decode_step",
