@@ -34,3 +34,31 @@ REAL_STEP_PACKET = h(
     "37 1D 9D 6D 29 54 78 20 36 5E 8D AC 00 01 1B 6D"
 )
 REAL_STEP_DX = np.array([2.70e-5, 3.68e-7, -4.86e-4, 2.46e-4])
+
+#: Known-good frames beyond the spec's examples: (what, frame bytes). Checksums by hand:
+#: the sum of the bytes before them, mod 2^16, MSB first.
+KNOWN_GOOD_COMMANDS = [
+    # (meaning, fields, numbering, bytes)
+    ("STEPWISE_DEAD_RECKONING", {}, "2014", "14 00 14"),
+    ("OUTPUT_ALL_OFF", {}, "2014", "21 00 21"),
+    ("ALL_PROC_OFF", {}, "2014", "27 00 27"),
+    ("RESET_ZUPT_AIDED_INS", {}, "2014", "10 00 10"),
+    ("OUTPUT_STATE", {"state_id": 0x30, "mode": 0x20}, "2015", "20 30 20 00 70"),
+    ("OUTPUT_IMU_RD", {"imu_selector": 0x0F, "mode": 0x41}, "2015", "28 00 00 00 0F 41 00 78"),
+    ("SET_IMU_BANDWIDTH", {"dlpf_cfg": 3}, "2015", "29 03 00 2C"),
+    ("RUN_PROC", {"proc_id": 0x13, "slot": 0}, "2015", "30 13 00 00 43"),
+    ("ACK", {"packet_number": 0xFFFF}, "2015", "01 FF FF 01 FF"),
+    ("NORMAL_IMU", {"mode": 0x11}, "2015", "40 11 00 51"),
+    (
+        "OUTPUT_MULTIPLE_STATES",
+        {"state_ids": [0x20, 0x21, 0x22, 0, 0, 0, 0, 0], "mode": 0x03},
+        "2015",
+        "21 20 21 22 00 00 00 00 00 03 00 87",
+    ),
+]
+KNOWN_GOOD_MODULE_FRAMES = [
+    ("ack of SETUP_DEBUG_PROC", "A0 10 00 B0"),
+    ("ack of 2014 processing off", "A0 27 00 C7"),
+    ("empty packet number 0xFFFF", "AA FF FF 00 02 A8"),
+    ("packet 2 with GP_ID = 7", "AA 00 02 01 07 00 B4"),
+]
