@@ -1,0 +1,397 @@
+"""Foot motion with exact derivatives: stance, swing, and the routes built from them.
+
+A foot trajectory is a chain of *segments*. A **stance** segment holds the
+foot flat and still at one pose (where it rests on the ground); a **swing**
+segment carries it from one stance pose to the next: lift-off with the toe
+down (toe-off pitch), a clearance arc, heel-first landing (heel-strike pitch)
+and an optional heel-strike impact. Every quantity of a swing is a polynomial
+in the normalised time τ ∈ [0, 1] whose first five derivatives vanish at both
+ends, so the whole trajectory is C⁵ in position and attitude: acceleration,
+angular rate and angular acceleration are smooth and known analytically (and
+a sampled-data integrator meets no kinks between the sample points).
+
+* position: p = p_A + (p_B − p_A)·S(τ) − h·C(τ)·e_z + impact, with S the
+  degree-13 smoothstep ∫τ⁵(1−τ)⁵(1 + 4(2τ−1)²) (normalised; its speed peaks at
+  2.07 × the mean, its acceleration at 9.2 L/T²), C = (4τ(1−τ))⁶ (peak 1 at
+  mid-swing, h = clearance; e_z points down in NED so −h lifts the foot);
+* attitude (ZYX Euler: yaw ψ, pitch θ, roll φ; body → navigation R =
+  Rz(ψ)Ry(θ)Rx(φ)): each angle goes from A to B by S(τ), and the pitch adds
+  toe-off θ_toe·G₁(τ) + heel-strike θ_heel·G₂(τ), with G₁ ∝ τ⁶(1−τ)¹⁰ (peak
+  at τ = 3/8) and G₂ ∝ τ¹⁰(1−τ)⁶ (peak at τ = 5/8), both normalised to peak 1;
+* impact: a short bump of width w ending just before touch-down,
+  p += A·B(u)·d with B(u) = (4u(1−u))⁸, u = (t − t_i)/w, d = (k·cos ψ_B,
+  k·sin ψ_B, 1); its peak acceleration is 64·A/w², upward (the sole stops the
+  falling foot), and A is chosen from the requested peak in g.
+
+Frames (firmware.md §4): navigation x north, y east, z down; gravity
+g_n = (0, 0, +g); body = board frame (x forward, y right, z down). Outputs:
+specific force f_b = Rᵀ(a − g_n) (at rest (0, 0, −g)), angular rate ω_b and
+angular acceleration α_b from the Euler-angle rates. Evaluation is
+vectorised over any array of times (:meth:`Trajectory.evaluate`).
+
+:class:`GaitBuilder` composes motions — standing, straight and curved walks,
+slopes, stairs, turns on the spot, side and back steps, running — from
+:class:`GaitParams` (stride length, stance and swing time (so cadence and
+speed), clearance, pitch profile, impact). Named scenarios live in
+:mod:`firmware_sim.sensors.scenarios`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+from numpy.polynomial import polynomial as P
+
+from .truth import GroundTruth, Kinematics
+
+__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "GaitBuilder", "Trajectory"]
+
+DEG = math.pi / 180.0
+STANCE, SWING = 0, 1
+
+# ---------------------------------------------------------------------------------------------
+# basis polynomials (coefficients, lowest order first)
+
+
+def _poly_from_roots(zero_order: int, one_order: int) -> np.ndarray:
+    """Coefficients of τ^a (1−τ)^b."""
+    return P.polymul(np.r_[np.zeros(zero_order), 1.0], P.polypow([1.0, -1.0], one_order))
+
+
+def _normalised(c: np.ndarray) -> np.ndarray:
+    tau = np.linspace(0.0, 1.0, 20001)
+    return c / np.max(np.abs(P.polyval(tau, c)))
+
+
+def _smoothstep(order: int, shoulder: float = 0.0) -> np.ndarray:
+    """0 → 1 on [0, 1], first *order* derivatives zero at both ends: ∫ τ^k (1−τ)^k (1 + c(2τ−1)²).
+
+    The shoulder term c flattens the speed profile (peak/mean speed 2.07 for
+    k = 5, c = 4, against 2.71 for c = 0), closer to a real swing.
+    """
+    shape = [1.0 + shoulder, -4.0 * shoulder, 4.0 * shoulder]  # 1 + c(2τ−1)²
+    c = P.polyint(P.polymul(_poly_from_roots(order, order), shape))
+    return c / P.polyval(1.0, c)
+
+
+def _max_abs(c: np.ndarray) -> float:
+    return float(np.max(np.abs(P.polyval(np.linspace(0.0, 1.0, 20001), c))))
+
+
+_S = _smoothstep(5, shoulder=4.0)  # degree 13: position and attitude C⁵ at the segment joints
+_C = 4096.0 * _poly_from_roots(6, 6)  # clearance bump (4τ(1−τ))⁶, peak 1 at 1/2
+_G1 = _normalised(_poly_from_roots(6, 10))  # toe-off pitch, peak at τ = 3/8
+_G2 = _normalised(_poly_from_roots(10, 6))  # heel-strike pitch, peak at τ = 5/8
+_IMPACT = 4.0**8 * _poly_from_roots(8, 8)  # impact bump (4u(1−u))⁸, C⁷ at its ends
+_BUMP_PEAK_ACCEL = _max_abs(P.polyder(_IMPACT, 2))  # = 64, at u = 1/2
+
+
+def _eval3(c: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Value, first and second derivative of the polynomial c at x."""
+    c1 = P.polyder(c)
+    return P.polyval(x, c), P.polyval(x, c1), P.polyval(x, P.polyder(c1))
+
+
+# ---------------------------------------------------------------------------------------------
+# parameters
+
+
+@dataclass(frozen=True)
+class GaitParams:
+    """How one foot moves in one stride (stance then swing)."""
+
+    stride_length: float = 1.4  #: [m] from one rest of this foot to the next
+    stance_s: float = 0.5  #: [s] foot flat and still
+    swing_s: float = 0.4  #: [s] from lift-off to foot flat again
+    clearance: float = 0.10  #: [m] lift at mid-swing, above the straight line from A to B
+    toe_off_pitch_deg: float = -35.0  #: pitch peak early in the swing (negative: toe down)
+    heel_strike_pitch_deg: float = 20.0  #: pitch peak late in the swing (positive: toe up)
+    impact_g: float = 3.0  #: [g] peak acceleration of the heel-strike bump (0: none)
+    impact_width_s: float = 0.03  #: [s] duration of the bump
+    impact_forward: float = 0.3  #: forward share of the impact direction (1 = vertical)
+    impact_end: float = 0.97  #: the bump ends at this fraction of the swing
+
+    @property
+    def stride_s(self) -> float:
+        return self.stance_s + self.swing_s
+
+    @property
+    def cadence_steps_per_min(self) -> float:
+        """Steps of both feet per minute."""
+        return 120.0 / self.stride_s
+
+    @property
+    def speed(self) -> float:
+        """Mean walking speed [m/s]."""
+        return self.stride_length / self.stride_s
+
+    def with_speed(self, speed: float, cadence_steps_per_min: float | None = None) -> GaitParams:
+        """Same style at another speed: the stride length follows (and cadence if given)."""
+        p = self
+        if cadence_steps_per_min is not None:
+            stride_s = 120.0 / cadence_steps_per_min
+            p = replace(p, stance_s=stride_s - p.swing_s)
+            if p.stance_s <= 0:
+                raise ValueError("cadence too high for this swing time")
+        return replace(p, stride_length=speed * p.stride_s)
+
+
+WALKING = GaitParams()
+RUNNING = GaitParams(
+    stride_length=2.6, stance_s=0.2, swing_s=0.5, clearance=0.25, toe_off_pitch_deg=-45.0,
+    heel_strike_pitch_deg=15.0, impact_g=20.0, impact_width_s=0.02,
+)
+STAIRS = GaitParams(stride_length=0.56, stance_s=0.6, swing_s=0.5, clearance=0.12,
+                    toe_off_pitch_deg=-15.0, heel_strike_pitch_deg=5.0, impact_g=2.0)
+SHUFFLE = GaitParams(stride_length=0.4, stance_s=0.5, swing_s=0.4, clearance=0.04,
+                     toe_off_pitch_deg=-5.0, heel_strike_pitch_deg=3.0, impact_g=1.0)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A foot at rest: position [m] (NED) and attitude [rad] (roll, pitch, yaw)."""
+
+    x: float = 0.0
+    y: float = 0.0
+    z: float = 0.0
+    roll: float = 0.0
+    pitch: float = 0.0
+    yaw: float = 0.0
+
+    def as_array(self) -> np.ndarray:
+        return np.array([self.x, self.y, self.z, self.roll, self.pitch, self.yaw])
+
+    def moved(self, forward: float = 0.0, right: float = 0.0, down: float = 0.0, **attitude: float) -> Pose:
+        """This pose moved in its own heading frame (forward/right along yaw, down along z)."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return replace(self, x=self.x + c * forward - s * right, y=self.y + s * forward + c * right,
+                       z=self.z + down, **attitude)
+
+
+# ---------------------------------------------------------------------------------------------
+# the trajectory
+
+
+_FIELDS = ("t0", "dur", "kind", "clear", "toe", "heel", "imp_amp", "imp_w", "imp_t0", "imp_fwd")
+
+
+class Trajectory:
+    """A compiled chain of stance and swing segments; evaluate it at any times."""
+
+    def __init__(self, segments: list[dict], stances: list[tuple[float, float, Pose]]):
+        if not segments:
+            raise ValueError("a trajectory needs at least one segment")
+        for name in _FIELDS:
+            setattr(self, "_" + name, np.array([s[name] for s in segments], dtype=float))
+        self._A = np.array([s["A"].as_array() for s in segments])
+        self._B = np.array([s["B"].as_array() for s in segments])
+        self.stances = stances
+        self.duration = float(self._t0[-1] + self._dur[-1])
+
+    def __repr__(self) -> str:
+        return f"Trajectory({len(self._t0)} segments, {len(self.stances)} stances, {self.duration:.2f} s)"
+
+    def evaluate(self, t: np.ndarray, gravity: float = 9.81) -> Kinematics:
+        """Exact kinematics at times *t* [s] (held at the end pose after the end)."""
+        t = np.atleast_1d(np.asarray(t, dtype=np.float64))
+        i = np.clip(np.searchsorted(self._t0, t, side="right") - 1, 0, len(self._t0) - 1)
+        T = self._dur[i]
+        tau = np.clip((t - self._t0[i]) / T, 0.0, 1.0)
+        k1 = 1.0 / T
+        k2 = k1 * k1
+        A, B = self._A[i], self._B[i]
+        d = B - A
+        S, S1, S2 = _eval3(_S, tau)
+        pos = A[:, :3] + d[:, :3] * S[:, None]
+        vel = d[:, :3] * (S1 * k1)[:, None]
+        acc = d[:, :3] * (S2 * k2)[:, None]
+        ang = A[:, 3:] + d[:, 3:] * S[:, None]
+        dang = d[:, 3:] * (S1 * k1)[:, None]
+        ddang = d[:, 3:] * (S2 * k2)[:, None]
+
+        swing = self._kind[i] == SWING
+        if np.any(swing):
+            C, C1, C2 = _eval3(_C, tau)
+            h = self._clear[i] * swing
+            pos[:, 2] -= h * C
+            vel[:, 2] -= h * C1 * k1
+            acc[:, 2] -= h * C2 * k2
+            for coeffs, amp in ((_G1, self._toe[i]), (_G2, self._heel[i])):
+                G, G1, G2 = _eval3(coeffs, tau)
+                amp = amp * swing
+                ang[:, 1] += amp * G
+                dang[:, 1] += amp * G1 * k1
+                ddang[:, 1] += amp * G2 * k2
+            # heel-strike impact bump
+            w = self._imp_w[i]
+            u = (t - self._t0[i] - self._imp_t0[i]) / w
+            hit = swing & (self._imp_amp[i] > 0) & (u > 0.0) & (u < 1.0)
+            if np.any(hit):
+                uh = u[hit]
+                Bv, B1, B2 = _eval3(_IMPACT, uh)
+                amp, wh, fwd = self._imp_amp[i][hit], w[hit], self._imp_fwd[i][hit]
+                yaw_b = B[hit, 5]
+                direction = np.stack([fwd * np.cos(yaw_b), fwd * np.sin(yaw_b), np.ones_like(fwd)], axis=1)
+                pos[hit] += (amp * Bv)[:, None] * direction
+                vel[hit] += (amp * B1 / wh)[:, None] * direction
+                acc[hit] += (amp * B2 / wh**2)[:, None] * direction
+        return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
+
+    def sample(self, rate_hz: float, gravity: float = 9.81, duration: float | None = None) -> GroundTruth:
+        """Ground truth at t_k = k / rate_hz, k = 0 … ⌊duration·rate⌋."""
+        duration = self.duration if duration is None else duration
+        n = int(math.floor(duration * rate_hz + 1e-9)) + 1
+        t = np.arange(n, dtype=np.float64) / rate_hz
+        kin = self.evaluate(t, gravity)
+        starts = np.array([s[0] for s in self.stances])
+        ends = np.array([s[1] for s in self.stances])
+        poses = np.array([s[2].as_array() for s in self.stances]).reshape(-1, 6)
+        return GroundTruth(kin, rate_hz, starts, ends, poses)
+
+
+# ---------------------------------------------------------------------------------------------
+# building
+
+
+class GaitBuilder:
+    """Compose a foot trajectory from motions; every method returns the builder.
+
+    The foot starts at rest at ``start`` (default: origin, level, heading
+    north). Each stride is a swing to the next rest pose followed by a stance
+    of ``params.stance_s``; :meth:`stand` lengthens the current stance.
+    """
+
+    def __init__(self, params: GaitParams = WALKING, start: Pose | None = None):
+        self.params = params
+        self.pose = start or Pose()
+        self.t = 0.0
+        self._segments: list[dict] = []
+        self._stances: list[tuple[float, float, Pose]] = []
+
+    # -- primitives ------------------------------------------------------------------------------
+
+    def _stance(self, seconds: float) -> None:
+        if seconds <= 0:
+            return
+        seg = dict(t0=self.t, dur=seconds, kind=STANCE, A=self.pose, B=self.pose, clear=0.0, toe=0.0,
+                   heel=0.0, imp_amp=0.0, imp_w=1.0, imp_t0=0.0, imp_fwd=0.0)
+        if self._stances and self._stances[-1][1] == self.t and self._stances[-1][2] == self.pose:
+            t0, _, pose = self._stances[-1]
+            self._stances[-1] = (t0, self.t + seconds, pose)
+        else:
+            self._stances.append((self.t, self.t + seconds, self.pose))
+        self._segments.append(seg)
+        self.t += seconds
+
+    def step_to(self, pose: Pose, params: GaitParams | None = None) -> GaitBuilder:
+        """One stride: swing to *pose*, then stand there for the stance time."""
+        p = params or self.params
+        T = p.swing_s
+        w = min(p.impact_width_s, 0.5 * T)
+        imp_t0 = max(0.0, p.impact_end * T - w)
+        amp = p.impact_g * 9.80665 * w * w / _BUMP_PEAK_ACCEL if p.impact_g > 0 else 0.0
+        self._segments.append(dict(
+            t0=self.t, dur=T, kind=SWING, A=self.pose, B=pose, clear=p.clearance,
+            toe=p.toe_off_pitch_deg * DEG, heel=p.heel_strike_pitch_deg * DEG,
+            imp_amp=amp, imp_w=w, imp_t0=imp_t0, imp_fwd=p.impact_forward,
+        ))
+        self.t += T
+        self.pose = pose
+        self._stance(p.stance_s)
+        return self
+
+    # -- motions ---------------------------------------------------------------------------------
+
+    def stand(self, seconds: float) -> GaitBuilder:
+        """Stand still (foot flat) for *seconds*."""
+        self._stance(seconds)
+        return self
+
+    def walk(self, distance: float, *, slope_deg: float = 0.0,
+             params: GaitParams | None = None) -> GaitBuilder:
+        """Walk straight ahead *distance* metres along the ground (uphill for slope > 0)."""
+        p = params or self.params
+        n = max(1, round(abs(distance) / p.stride_length))
+        step = distance / n
+        slope = slope_deg * DEG
+        for _ in range(n):
+            self.step_to(self.pose.moved(forward=step * math.cos(slope), down=-step * math.sin(slope),
+                                         pitch=slope), p)
+        return self
+
+    def arc(self, radius: float, angle_deg: float, params: GaitParams | None = None) -> GaitBuilder:
+        """Walk along a circular arc; positive angle turns right (clockwise seen from above)."""
+        p = params or self.params
+        angle = angle_deg * DEG
+        n = max(1, round(abs(angle) * radius / p.stride_length))
+        dpsi = angle / n
+        chord = 2.0 * radius * math.sin(abs(dpsi) / 2.0)
+        for _ in range(n):
+            mid = self.pose.moved()  # heading along the chord is the mean heading
+            mid = replace(mid, yaw=self.pose.yaw + dpsi / 2.0)
+            target = mid.moved(forward=chord)
+            self.step_to(replace(target, yaw=self.pose.yaw + dpsi, pitch=0.0), p)
+        return self
+
+    def turn_on_spot(self, angle_deg: float, max_step_deg: float = 45.0,
+                     params: GaitParams = SHUFFLE) -> GaitBuilder:
+        """Turn in place (positive: right), at most *max_step_deg* per stride."""
+        n = max(1, math.ceil(abs(angle_deg) / max_step_deg))
+        for _ in range(n):
+            self.step_to(replace(self.pose, yaw=self.pose.yaw + angle_deg * DEG / n), params)
+        return self
+
+    def stairs(self, n_stairs: int, up: bool = True, rise: float = 0.17, tread: float = 0.28,
+               params: GaitParams = STAIRS) -> GaitBuilder:
+        """Climb (or descend) *n_stairs* stairs; this foot takes two stairs per stride."""
+        left = n_stairs
+        sign = -1.0 if up else 1.0  # z is down
+        while left > 0:
+            k = min(2, left)
+            left -= k
+            # going up, lift higher to clear the stair edge
+            p = replace(params, clearance=params.clearance + (0.5 * k * rise if up else 0.0))
+            self.step_to(self.pose.moved(forward=k * tread, down=sign * k * rise, pitch=0.0), p)
+        return self
+
+    def side_steps(self, n: int, right: bool = True, width: float = 0.35,
+                   params: GaitParams = SHUFFLE) -> GaitBuilder:
+        """Step sideways *n* times without turning."""
+        for _ in range(n):
+            self.step_to(self.pose.moved(right=width if right else -width, pitch=0.0), params)
+        return self
+
+    def back_steps(self, n: int, length: float = 0.5, params: GaitParams = SHUFFLE) -> GaitBuilder:
+        """Step backwards *n* times (toe lands first: the pitch profile is mirrored)."""
+        p = replace(params, toe_off_pitch_deg=-params.heel_strike_pitch_deg,
+                    heel_strike_pitch_deg=-params.toe_off_pitch_deg, impact_forward=-params.impact_forward)
+        for _ in range(n):
+            self.step_to(self.pose.moved(forward=-length, pitch=0.0), p)
+        return self
+
+    def run(self, distance: float, params: GaitParams = RUNNING) -> GaitBuilder:
+        """Run straight ahead *distance* metres."""
+        return self.walk(distance, params=params)
+
+    def rectangle(self, length: float, width: float, corner_radius: float = 1.0,
+                  params: GaitParams | None = None) -> GaitBuilder:
+        """Walk once around a rectangle with rounded corners, turning right; ends where it started."""
+        for side in (length, width, length, width):
+            self.walk(side - 2 * corner_radius, params=params)
+            self.arc(corner_radius, 90.0, params=params)
+        return self
+
+    def track_400m(self, params: GaitParams | None = None, laps: int = 1) -> GaitBuilder:
+        """Laps of a 400 m track (lane 1: straights 84.39 m, bends of radius 36.80 m), turning left."""
+        for _ in range(laps):
+            for _ in range(2):
+                self.walk(84.39, params=params)
+                self.arc(36.80, -180.0, params=params)
+        return self
+
+    def build(self) -> Trajectory:
+        if not self._segments or self._segments[0]["kind"] != STANCE:
+            raise ValueError("a trajectory starts at rest: call stand() first")
+        return Trajectory(self._segments, self._stances)

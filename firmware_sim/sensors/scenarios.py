@@ -1,0 +1,123 @@
+"""Named motion scenarios, composable with a tiny recipe language.
+
+A *recipe* is a ``+``-separated list of pieces, each ``name[:arg[:arg]]``::
+
+    stand:5+walk:20+arc:2:90+stairs_up:12+turn:-180+run:50+stand:3
+
+Pieces (arguments optional, defaults in brackets):
+
+=====================  ===========================================================
+``stand[:s=3]``        foot flat and still for s seconds
+``walk[:m=10[:deg=0]]`` straight walk of m metres, on a slope of deg (uphill > 0)
+``run[:m=50]``         straight run (short stance, heel strikes clip at ±16 g)
+``arc[:r=2[:deg=90]]`` walk along an arc of radius r, turning deg (right > 0)
+``turn[:deg=90]``      turn on the spot (right > 0)
+``stairs_up[:n=12]``   climb n stairs (rise 0.17 m, tread 0.28 m)
+``stairs_down[:n=12]`` descend n stairs
+``side[:n=4[:dir=1]]`` n side steps, to the right (dir 1) or left (dir −1)
+``back[:n=4]``         n steps backwards
+``rectangle[:l=30[:w=15[:r=1]]]`` once round a rounded rectangle, turning right
+``track400[:laps=1]``  laps of a 400 m running track (lane 1), turning left
+``pace[:v=1.55]``      from here on, walk at v m/s (stride length follows)
+=====================  ===========================================================
+
+Every scenario starts and ends at rest (a recipe that does not start with
+``stand`` gets ``stand:3`` in front, so the firmware's initial alignment can
+complete; one that does not end with ``stand`` gets ``stand:2`` at the end).
+:data:`SCENARIOS` names the standard ones; :func:`trajectory` accepts a name
+or a recipe.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from .gait import RUNNING, WALKING, GaitBuilder, GaitParams, Trajectory
+
+__all__ = ["SCENARIOS", "PIECES", "list_scenarios", "recipe", "trajectory"]
+
+_LAP = (
+    "walk:36+arc:2:90+walk:16+arc:2:90+walk:8+stairs_up:12+walk:6.28+stairs_down:12+walk:15"
+    "+arc:2:90+walk:16+arc:2:90"
+)
+
+#: name → recipe.
+SCENARIOS: dict[str, str] = {
+    # the demo: align, two laps (≈ 233 m) of a 40 × 20 m block over a footbridge, stand
+    "default": f"stand:5+{_LAP}+{_LAP}+stand:5",
+    "stand": "stand:10",
+    "walk": "stand:3+walk:100+stand:2",
+    "walk_slow": "stand:3+pace:1.0+walk:30+stand:2",
+    "walk_fast": "stand:3+pace:2.0+walk:50+stand:2",
+    "rectangle": "stand:3+rectangle:30:15:1+stand:2",
+    "track400": "stand:3+track400:1+stand:2",
+    "turn_on_spot": "stand:3+turn:360+turn:-360+stand:2",
+    "stairs_up": "stand:3+walk:3+stairs_up:16+walk:3+stand:2",
+    "stairs_down": "stand:3+walk:3+stairs_down:16+walk:3+stand:2",
+    "slope": "stand:3+walk:20:6+walk:5+walk:20:-6+stand:2",
+    "side_steps": "stand:3+side:6:1+side:6:-1+stand:2",
+    "back_steps": "stand:3+back:8+stand:2",
+    "run": "stand:3+run:100+stand:2",
+    "mixed": "stand:3+walk:10+turn:90+side:3+back:3+arc:3:-90+stairs_up:8+walk:2+stairs_down:8"
+             "+run:20+stand:2",
+}
+
+
+def _pace(b: GaitBuilder, v: float = 1.55) -> None:
+    b.params = WALKING.with_speed(v)
+
+
+PIECES: dict[str, Callable[..., object]] = {
+    "stand": lambda b, s=3.0: b.stand(s),
+    "walk": lambda b, m=10.0, deg=0.0: b.walk(m, slope_deg=deg),
+    "run": lambda b, m=50.0: b.run(m, RUNNING),
+    "arc": lambda b, r=2.0, deg=90.0: b.arc(r, deg),
+    "turn": lambda b, deg=90.0: b.turn_on_spot(deg),
+    "stairs_up": lambda b, n=12: b.stairs(int(n), up=True),
+    "stairs_down": lambda b, n=12: b.stairs(int(n), up=False),
+    "side": lambda b, n=4, d=1.0: b.side_steps(int(n), right=d > 0),
+    "back": lambda b, n=4: b.back_steps(int(n)),
+    "rectangle": lambda b, l=30.0, w=15.0, r=1.0: b.rectangle(l, w, r),
+    "track400": lambda b, laps=1: b.track_400m(laps=int(laps)),
+    "pace": _pace,
+}
+
+
+def list_scenarios() -> list[str]:
+    """Names of the standard scenarios."""
+    return sorted(SCENARIOS)
+
+
+def recipe(name_or_recipe: str) -> str:
+    """The recipe of a named scenario, or the argument itself when it is a recipe."""
+    if name_or_recipe in SCENARIOS:
+        return SCENARIOS[name_or_recipe]
+    head = name_or_recipe.split("+")[0].split(":")[0].strip()
+    if head in PIECES:
+        return name_or_recipe
+    raise KeyError(f"unknown scenario {name_or_recipe!r}; known: {', '.join(list_scenarios())} "
+                   f"(or a recipe of pieces {', '.join(sorted(PIECES))})")
+
+
+def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
+    """Build the foot trajectory of a named scenario or a recipe."""
+    pieces = [p.strip() for p in recipe(name_or_recipe).split("+") if p.strip()]
+    if not pieces or not pieces[0].startswith("stand"):
+        pieces.insert(0, "stand:3")
+    if not pieces[-1].startswith("stand"):
+        pieces.append("stand:2")
+    b = GaitBuilder(params)
+    for piece in pieces:
+        name, *args = piece.split(":")
+        if name not in PIECES:
+            known = ", ".join(sorted(PIECES))
+            raise KeyError(f"unknown piece {name!r} in {name_or_recipe!r}; known: {known}")
+        try:
+            values = [float(a) for a in args]
+        except ValueError:
+            raise ValueError(f"piece {piece!r}: arguments must be numbers") from None
+        try:
+            PIECES[name](b, *values)
+        except TypeError:
+            raise ValueError(f"piece {piece!r}: too many arguments") from None
+    return b.build()
