@@ -143,7 +143,9 @@ class Track:
     and radians, navigation frame x north, y east, z down.
     """
 
-    def __init__(self, pose0: np.ndarray, cov0: np.ndarray):
+    def __init__(self, pose0: np.ndarray, cov0: np.ndarray, start_counter: int | None = 0):
+        #: counter of the step before the first one (0 after 0x34; None when attached mid-walk)
+        self.start_counter = start_counter
         self._poses: list[np.ndarray] = [np.array(pose0, dtype=np.float64)]
         self._covs: list[np.ndarray] = [np.array(cov0, dtype=np.float64)]
         self._steps: list[np.ndarray] = []
@@ -157,6 +159,46 @@ class Track:
         self._steps.append(dx)
         self._counters.append(counter)
         self.distance += math.hypot(float(dx[0]), float(dx[1]))
+
+    @classmethod
+    def from_arrays(
+        cls,
+        poses: np.ndarray,
+        covariances: np.ndarray,
+        steps: np.ndarray | None = None,
+        counters: Iterable[int] | None = None,
+        start_counter: int | None = 0,
+    ) -> Track:
+        """A track from stored arrays (e.g. read back from CSV): poses (n+1, 4), covariances (n+1, 4, 4).
+
+        *steps* (n, 4) default to the pose differences in each previous frame;
+        *counters* (n,) default to 1..n; *start_counter* is the counter before the
+        first step (None: unknown). Distance and gaps are recomputed.
+        """
+        poses = np.asarray(poses, dtype=np.float64)
+        covs = np.asarray(covariances, dtype=np.float64)
+        n = len(poses) - 1
+        if n < 0 or poses.shape != (n + 1, 4) or covs.shape != (n + 1, 4, 4):
+            raise ValueError(
+                f"need poses (n+1, 4) and covariances (n+1, 4, 4), got {poses.shape}, {covs.shape}"
+            )
+        if steps is None:
+            steps = np.empty((n, 4))
+            for k in range(n):
+                steps[k, :3] = rotation_z(poses[k, 3]).T @ (poses[k + 1, :3] - poses[k, :3])
+                steps[k, 3] = poses[k + 1, 3] - poses[k, 3]
+        steps = np.asarray(steps, dtype=np.float64).reshape(n, 4)
+        cnt = list(range(1, n + 1)) if counters is None else [int(c) for c in counters]
+        if len(cnt) != n:
+            raise ValueError(f"{n} steps but {len(cnt)} counters")
+        track = cls(poses[0], covs[0], start_counter)
+        prev: int | None = start_counter
+        for k in range(n):
+            if prev is not None and counter_delta(prev, cnt[k]) > 1:
+                track.gaps.append(GapEvent(prev, cnt[k], counter_delta(prev, cnt[k]) - 1, k + 1))
+            track._append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k])
+            prev = cnt[k]
+        return track
 
     def __len__(self) -> int:
         """Number of summed steps."""
@@ -280,7 +322,7 @@ class StepTracker:
             raise ValueError("covariance must be symmetric")
         if last_counter is not None and not 0 <= int(last_counter) < COUNTER_MODULUS:
             raise ValueError(f"last_counter {last_counter} is not a uint16")
-        self.track = Track(pose0, cov0)
+        self.track = Track(pose0, cov0, None if last_counter is None else int(last_counter))
         self._last: int | None = None if last_counter is None else int(last_counter)
         self.duplicates = 0  #: steps ignored because their counter was already summed
 

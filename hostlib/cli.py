@@ -1,0 +1,180 @@
+"""``openshoe-host``: track, log and inspect an OpenShoe module (real or emulated) from a terminal.
+
+    openshoe-host info  /dev/rfcomm0
+    openshoe-host track /dev/rfcomm0 --duration 60 --csv walk.csv --png walk.png
+    openshoe-host log   socket://localhost:5000 --raw capture.bin --duration 10
+
+URL is anything pyserial opens: a device path (``/dev/rfcomm0``, ``/dev/ttyACM0``,
+``COM5``), ``socket://host:port``, ``loop://``, or the emulator's ``openshoe://``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from collections.abc import Sequence
+from typing import TextIO
+
+from protocol.ids import OutputMode, StateId
+
+from .device import Device
+from .errors import HostError
+
+__all__ = ["main", "summary_line"]
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("url", help="serial device path or pyserial URL (socket://host:port, openshoe://...)")
+    p.add_argument("--command-set", choices=("2014", "2015"), default="2015",
+                   help="command numbering of the module's firmware (default 2015)")
+    p.add_argument("--baudrate", type=int, default=115200, help="UART baud rate (ignored by URLs and USB)")
+    p.add_argument("--ack-timeout", type=float, default=1.0, help="seconds to wait for each command ack")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="openshoe-host", description=__doc__.split("\n\n")[0])
+    sub = parser.add_subparsers(dest="cmd", required=True)
+
+    t = sub.add_parser("track", help="start step-wise dead reckoning (0x34) and sum the steps")
+    _common(t)
+    t.add_argument("--duration", type=float, default=None, help="seconds to track (default: until Ctrl-C)")
+    t.add_argument("--csv", help="write the track (poses + covariances) to this CSV file")
+    t.add_argument("--geojson", help="write the track as GeoJSON")
+    t.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
+    t.add_argument("--png", help="plot the track with 1-sigma ellipses to this PNG (needs matplotlib)")
+    t.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
+    t.add_argument("--leave-running", action="store_true", help="do not switch outputs off at the end")
+
+    lg = sub.add_parser("log", help="capture the module's byte stream to a file (packets still acked)")
+    _common(lg)
+    lg.add_argument("--raw", required=True, help="file to write every received byte to")
+    lg.add_argument("--duration", type=float, default=None, help="seconds to capture (default: until Ctrl-C)")
+    lg.add_argument("--start", action="store_true", help="send 0x34 (step-wise dead reckoning) first")
+
+    i = sub.add_parser("info", help="ping the module and read its MCU serial number")
+    _common(i)
+    return parser
+
+
+def summary_line(dev: Device) -> str:
+    """One line: steps, distance, position, 1σ (horizontal, worst direction), gaps."""
+    tr = dev.track
+    x, y, z, chi = tr.final_pose
+    st = dev.stats
+    return (
+        f"steps {len(tr):5d} | {tr.distance:8.2f} m | x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m "
+        f"| heading {math.degrees(chi) % 360:5.1f}° | 1σ {tr.closure_sigma():6.3f} m "
+        f"| gaps {len(tr.gaps)} (missing {tr.missing}) | garbage {st['garbage_bytes']}"
+    )
+
+
+def _open(args: argparse.Namespace, **kw) -> Device:
+    return Device(args.url, command_set=args.command_set, baudrate=args.baudrate,
+                  ack_timeout=args.ack_timeout, **kw)
+
+
+def _deadline(duration: float | None) -> float | None:
+    return None if duration is None else time.monotonic() + duration
+
+
+def _remaining(deadline: float | None, cap: float = 0.5) -> float:
+    return cap if deadline is None else max(0.0, min(cap, deadline - time.monotonic()))
+
+
+def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
+    origin = None
+    if args.origin:
+        origin = [float(v) for v in args.origin.split(",")]
+    with _open(args) as dev:
+        dev.start_stepwise_dead_reckoning()
+        print(f"tracking on {dev.name} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
+        deadline = _deadline(args.duration)
+        try:
+            while deadline is None or time.monotonic() < deadline:
+                dev.recv_step(timeout=_remaining(deadline))
+                out.write("\r" + summary_line(dev))
+                out.flush()
+        except KeyboardInterrupt:
+            pass
+        out.write("\n")
+        if not args.leave_running:
+            try:
+                dev.output_all_off()
+            except HostError as exc:
+                print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
+        track = dev.track
+        _write_outputs(args, track, origin)
+        print(repr(track), file=out)
+    return 0
+
+
+def _write_outputs(args: argparse.Namespace, track, origin) -> None:
+    if args.csv:
+        from .export import write_csv
+
+        write_csv(track, args.csv)
+    if args.geojson:
+        from .export import write_geojson
+
+        write_geojson(track, args.geojson, origin)
+    if args.png:
+        from .plot import plot_track
+
+        plot_track(track, args.png, every=args.every)
+
+
+def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
+    with open(args.raw, "wb") as raw, _open(args, raw_log=raw) as dev:
+        if args.start:
+            dev.start_stepwise_dead_reckoning()
+        deadline = _deadline(args.duration)
+        try:
+            while deadline is None or time.monotonic() < deadline:
+                dev.recv(timeout=_remaining(deadline))
+                st = dev.stats
+                out.write(f"\rbytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
+                          f"steps {st['steps']:5d} | garbage {st['garbage_bytes']}")
+                out.flush()
+        except KeyboardInterrupt:
+            pass
+        out.write("\n")
+    return 0
+
+
+def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
+    with _open(args) as dev:
+        t0 = time.monotonic()
+        dev.ping()
+        rtt = time.monotonic() - t0
+        print(f"port      {dev.name}", file=out)
+        print(f"commands  {args.command_set} numbering; ping answered in {rtt * 1000:.1f} ms", file=out)
+        got = None
+        dev.request_mcu_id()  # 0x04 in both numberings
+        deadline = time.monotonic() + 2.0
+        while got is None and time.monotonic() < deadline:
+            pkt = dev.recv(timeout=_remaining(deadline))
+            if pkt is not None and pkt.states and StateId.MCU_ID in pkt.states:
+                got = bytes(pkt.states[StateId.MCU_ID].astype("u1"))
+        print("mcu id    " + (got.hex(" ").upper() if got else "(no answer)"), file=out)
+        print(f"lossless  {dev.session.lossless} (mode bit 0x{int(OutputMode.LOSSLESS):02X})", file=out)
+    return 0
+
+
+def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
+    """Entry point of ``openshoe-host``; returns the exit status."""
+    args = build_parser().parse_args(argv)
+    out = sys.stdout if out is None else out
+    try:
+        return {"track": cmd_track, "log": cmd_log, "info": cmd_info}[args.cmd](args, out)
+    except HostError as exc:
+        print(f"openshoe-host: {exc}", file=sys.stderr)
+        return 1
+    except (OSError, ValueError) as exc:
+        print(f"openshoe-host: cannot use {args.url}: {exc}", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

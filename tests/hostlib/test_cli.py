@@ -1,0 +1,52 @@
+"""openshoe-host against a scripted module behind a pyserial URL (tests/hostlib/protocol_fakeshoe.py)."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+import serial
+
+from hostlib.cli import main
+from hostlib.export import read_csv
+
+
+@pytest.fixture(autouse=True)
+def fakeshoe_scheme():
+    serial.protocol_handler_packages.append("tests.hostlib")
+    yield
+    serial.protocol_handler_packages.remove("tests.hostlib")
+
+
+def test_track_sums_steps_and_writes_files(tmp_path):
+    out = io.StringIO()
+    csv_path, png_path = tmp_path / "w.csv", tmp_path / "w.png"
+    rc = main(["track", "fakeshoe://5", "--duration", "1.0", "--csv", str(csv_path),
+               "--geojson", str(tmp_path / "w.geojson")], out)
+    assert rc == 0
+    text = out.getvalue()
+    assert "steps     5" in text and "5.00 m" in text
+    track = read_csv(csv_path)
+    assert len(track) == 5 and track.final_pose[0] == pytest.approx(5.0)
+    assert (tmp_path / "w.geojson").exists()
+    assert not png_path.exists()
+
+
+def test_info_pings_and_reads_the_mcu_id():
+    out = io.StringIO()
+    assert main(["info", "fakeshoe://0"], out) == 0
+    assert "10 11 12 13 14 15 16 17 18 19 1A 1B 1C 1D 1E" in out.getvalue()
+
+
+def test_log_captures_raw_bytes(tmp_path):
+    raw = tmp_path / "cap.bin"
+    argv = ["log", "fakeshoe://3", "--raw", str(raw), "--start", "--duration", "0.5"]
+    assert main(argv, io.StringIO()) == 0
+    data = raw.read_bytes()
+    assert data.startswith(bytes.fromhex("A0 34 00 D4"))
+    assert data.count(b"\xaa") >= 3 and len(data) >= 4 + 3 * 64
+
+
+def test_silent_port_fails_with_a_clear_message(capsys):
+    assert main(["info", "loop://", "--ack-timeout", "0.05"], io.StringIO()) == 1
+    assert "no ack" in capsys.readouterr().err
