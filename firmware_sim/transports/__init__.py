@@ -1,0 +1,29 @@
+"""Transports: how a host reaches an emulated module (docs/design.md, firmware_sim).
+
+* :mod:`.pipe` — :class:`VirtualPipe` (in-process, virtual time, deterministic) and
+  :class:`QueueEndpoint` (in-process, real time, pumped by a pacer);
+* :mod:`.pacer` — :class:`Pacer`, runs a module's ticks paced to the wall clock and
+  pumps endpoints; :class:`PacerStatus` for a status line;
+* :mod:`.tcp` — :class:`TcpEndpoint`, one TCP host at a time;
+* :mod:`.pty` — :class:`PtyEndpoint`, a pty behind a stable symlink for ``serial.Serial(path)``;
+* :mod:`.protocol_openshoe` — the pyserial ``openshoe://`` URL handler, registered on import
+  of this package (:func:`register_url_handler`);
+* :mod:`.factory` — build a module + link from URL-style settings.
+"""
+
+from __future__ import annotations
+
+import serial
+
+PACKAGE = __name__
+
+
+def register_url_handler() -> None:
+    """Make ``serial.serial_for_url("openshoe://...")`` find our handler (idempotent)."""
+    if PACKAGE not in serial.protocol_handler_packages:
+        serial.protocol_handler_packages.append(PACKAGE)
+
+
+register_url_handler()
+
+__all__ = ["register_url_handler", "PACKAGE"]
