@@ -1,0 +1,186 @@
+"""The conformance suite passes against our emulator; against broken devices it fails the right check.
+
+Devices are our emulator core behind an in-process, virtual-time serial port
+(:mod:`tests.conformance.virtual`), so every run is deterministic. Each broken
+device changes exactly one documented behaviour of protocol.md.
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from firmware_sim.module import Module, ModuleConfig
+from protocol.commands import command_set
+from protocol.frames import build_command_ack
+from protocol.ids import Command
+from protocol.stream import StreamDecoder
+from tools.conformance import CHECKS, DeviceDriver, Status, run
+from tools.conformance.cli import main
+
+from .virtual import VirtualSerial
+
+
+def _driver(module: Module, cs: str = "2015", serial_cls=VirtualSerial) -> DeviceDriver:
+    ser = serial_cls(module)
+    return DeviceDriver(ser, command_set(cs), clock=ser.now)
+
+
+def _verdicts(driver: DeviceDriver, names: list[str] | None = None) -> dict[str, Status]:
+    report = run(driver, names)
+    return {r.name: r.status for r in report.results}
+
+
+@pytest.mark.parametrize("cs", ["2015", "2014"])
+def test_our_emulator_conforms(cs):
+    module = Module(ModuleConfig(command_set=cs))
+    report = run(_driver(module, cs), [n for n in CHECKS if n != "step-packets"])
+    failed = {r.name: r.message for r in report.results if r.failed}
+    assert not failed, failed
+    passed = [r.name for r in report.results if r.status is Status.PASS]
+    skipped = [r.name for r in report.results if r.status is Status.SKIP]
+    assert {"ping", "acks", "lossless", "resend-interval", "phase-sync", "ascending-ids"} <= set(passed)
+    if cs == "2014":  # only the commands of the 2014 numbering can be checked
+        assert "set-state" in skipped and "state-if-setup" in skipped
+    else:
+        assert not skipped
+
+
+def test_every_check_proves_its_verdict_with_bytes():
+    module = Module()
+    report = run(_driver(module), ["ping", "set-state", "lossless"])
+    for r in report.results:
+        assert r.status is Status.PASS
+        assert r.proofs and any(p.sent and p.received for p in r.proofs), r.name
+    ping = report.results[0].render()
+    assert "sent     03 00 03" in ping and "received A0 03 00 A3" in ping
+
+
+# --------------------------------------------------------------------------- broken devices
+
+
+class SwappedChecksumSerial(VirtualSerial):
+    """A device that sends every frame's checksum LSB first."""
+
+    def __init__(self, module: Module):
+        super().__init__(module)
+        self._dec = StreamDecoder()
+
+    def _take(self) -> None:
+        for frame in self._dec.feed(self.port.host_read()):
+            raw = frame.to_bytes()
+            self._buf += raw[:-2] + raw[-1:] + raw[-2:-1]
+
+
+def test_checksum_byte_order_is_caught():
+    v = _verdicts(_driver(Module(), serial_cls=SwappedChecksumSerial), ["ping", "garbage"])
+    assert v == {"ping": Status.FAIL, "garbage": Status.FAIL}
+
+
+def test_acking_the_ack_is_caught():
+    module = Module()
+    iface = module.usb
+    original = iface._execute
+
+    def execute_and_ack_acks(spec, raw):
+        original(spec, raw)
+        if spec.command is Command.ACK:
+            iface.queue.add(build_command_ack(0x01), 0, single=True, is_ack=True)
+
+    iface._execute = execute_and_ack_acks
+    v = _verdicts(_driver(module), ["ping", "ack-not-acked"])
+    assert v == {"ping": Status.PASS, "ack-not-acked": Status.FAIL}
+
+
+class _NoSort(list):
+    def sort(self, *args, **kwargs):  # keep request order
+        pass
+
+
+def test_states_in_request_order_are_caught(monkeypatch):
+    import firmware_sim.interface as interface_mod
+
+    module = Module()
+    iface = module.usb
+    requested: list[int] = []
+    original_output = iface.output
+
+    def output(state_id, mode):
+        if state_id in requested:
+            requested.remove(state_id)
+        requested.append(state_id)
+        original_output(state_id, mode)
+
+    iface.output = output
+    iface._periodic = _NoSort(iface._periodic)
+    monkeypatch.setattr(interface_mod, "sorted",
+                        lambda ids: sorted(ids, key=lambda i: requested.index(i) if i in requested else -1),
+                        raising=False)
+    v = _verdicts(_driver(module), ["pull", "ascending-ids", "lossy"])
+    assert v == {"pull": Status.PASS, "ascending-ids": Status.FAIL, "lossy": Status.PASS}
+
+
+def test_no_resend_in_lossless_mode_is_caught():
+    module = Module()
+    module.usb.queue.resend_cycles = 10**9
+    v = _verdicts(_driver(module), ["lossy", "lossless", "resend-interval"])
+    assert v == {"lossy": Status.PASS, "lossless": Status.FAIL, "resend-interval": Status.FAIL}
+
+
+def test_resend_every_64_cycles_is_caught():
+    module = Module()
+    module.usb.queue.resend_cycles = 64
+    driver = _driver(module)
+    report = run(driver, ["lossless", "resend-interval"])
+    v = {r.name: r.status for r in report.results}
+    assert v == {"lossless": Status.PASS, "resend-interval": Status.FAIL}
+    assert "64 and 64 cycles apart" in report.results[1].message
+
+
+def test_phase_out_of_step_is_caught():
+    """A device that starts every new output at counter 0 (ignoring §5's rule) fails phase-sync."""
+    module = Module()
+    iface = module.usb
+    original = iface.set_state_output
+
+    def naive(state_id, rate):
+        original(state_id, rate)
+        if rate:
+            iface.counter[state_id] = 0
+
+    iface.set_state_output = naive
+    v = _verdicts(_driver(module), ["phase-sync", "output-rates"])
+    assert v == {"phase-sync": Status.FAIL, "output-rates": Status.PASS}
+
+
+def test_unacked_output_all_off_fails_fast_with_error_not_hang():
+    """A silent device: every check fails (no ack), none hangs, the run ends."""
+    module = Module()
+    module.usb.port.disconnect()
+    report = run(_driver(module), ["ping", "acks"])
+    assert [r.status for r in report.results] == [Status.FAIL, Status.FAIL]
+    assert "OUTPUT_ALL_OFF" in report.results[0].message
+
+
+# --------------------------------------------------------------------------- CLI
+
+
+def test_cli_lists_every_check_with_its_duration(capsys):
+    assert main(["--list"]) == 0
+    out = capsys.readouterr().out
+    for name in CHECKS:
+        assert name in out
+    assert "3.5 s" in out
+
+
+def test_cli_refuses_unknown_check_and_bad_url(capsys):
+    assert main(["loop://", "--only", "no-such-check"]) == 2
+    assert "unknown check" in capsys.readouterr().err
+    assert main(["/nonexistent/tty-openshoe"]) == 2
+    assert "cannot open" in capsys.readouterr().err
+
+
+def test_cli_against_a_silent_port_fails(capsys):
+    # loop:// echoes what we send: nothing a module would answer
+    assert main(["loop://", "--only", "ping", "--time-scale", "0.1"]) == 1
+    out = capsys.readouterr().out
+    assert "FAIL" in out and "DOES NOT CONFORM" in out
