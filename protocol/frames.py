@@ -26,6 +26,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -114,15 +115,11 @@ def checksum_bytes(data: bytes | bytearray | memoryview) -> bytes:
     return checksum(data).to_bytes(2, "big")
 
 
-def _ck(data: bytes) -> int:
-    return checksum(data)
-
-
 def _with_checksum(body: Construct) -> Construct:
     """``body · checksum(2)`` where the checksum covers the raw bytes of *body*."""
     return Struct(
         "body" / RawCopy(body),
-        "checksum" / Checksum(Int16ub, _ck, this.body.data),
+        "checksum" / Checksum(Int16ub, checksum, this.body.data),
     )
 
 
@@ -214,7 +211,8 @@ class CommandFrame:
     """A parsed command frame: its spec (meaning, wire id), payload fields and raw bytes.
 
     *fields* maps the payload's field names (those of
-    :data:`protocol.commands.PAYLOADS`) to ints, bytes or lists of ints.
+    :data:`protocol.commands.PAYLOADS`) to ints, bytes or lists of ints
+    (read-only; it compares equal to a plain dict).
     """
 
     spec: CommandSpec
@@ -348,7 +346,7 @@ def parse_command(frame: bytes, command_set: CommandSet | None = None) -> Comman
     _check_sum(frame, spec.name)
     parsed = command_frame(spec).parse(frame)
     fields = _plain(parsed.body.value.payload) if parsed.body.value.payload is not None else {}
-    return CommandFrame(spec=spec, fields=fields, raw=frame)
+    return CommandFrame(spec=spec, fields=MappingProxyType(fields), raw=frame)
 
 
 def _check_sum(frame: bytes, what: str) -> None:

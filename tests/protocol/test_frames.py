@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from protocol import LEGACY_2014, Command, Command2014
+from protocol import CURRENT, LEGACY_2014, Command, Command2014
 from protocol.frames import (
     MAX_PAYLOAD,
     CommandAck,
@@ -72,6 +72,8 @@ def test_legacy_numbering_uses_2014_ids_for_the_same_meaning():
     assert build_command(Command.STEPWISE_DEAD_RECKONING, command_set=LEGACY_2014) == bytes.fromhex("140014")
     assert build_command(Command2014.OUTPUT_ALL_OFF) == bytes.fromhex("210021")
     assert parse_command(bytes.fromhex("140014"), LEGACY_2014).command is Command.STEPWISE_DEAD_RECKONING
+    with pytest.raises(ValueError, match="2014 wire id"):
+        build_command(Command2014.OUTPUT_ALL_OFF, command_set=CURRENT)
     with pytest.raises(KeyError, match="SET_STATE_4"):
         build_command(Command.SET_STATE_4, command_set=LEGACY_2014, state_id=1, data=b"")
 
