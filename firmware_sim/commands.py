@@ -37,6 +37,13 @@ if TYPE_CHECKING:  # pragma: no cover
 Handler = Callable[["Module", "ExternalInterface", Any, bytes], None]
 HANDLERS: dict[Command, Handler] = {}
 
+# mode-byte bits as plain ints (IntFlag arithmetic is slow on the per-command path)
+_LOSSLESS = int(OutputMode.LOSSLESS)
+_PULL = int(OutputMode.PULL)
+_INERTIAL = int(OutputMode.INERTIAL)
+_TEMPERATURE = int(OutputMode.TEMPERATURE)
+_MAGNETOMETER = int(OutputMode.MAGNETOMETER)
+
 #: Loop cycles NORMAL_IMU_WITH_BIAS_EST waits before its outputs start (buffers filled).
 BIAS_EST_OUTPUT_DELAY = 128
 
@@ -96,7 +103,7 @@ def _setup_debug_proc(module: Module, iface: ExternalInterface, f: Any, raw: byt
         seq.set_slot(slot, pid)
     seq.set_slot(10, P.STATE_OUTPUT_ONCE_IF)
     seq.set_slot(11, P.STORE_AND_EMPTY_PROC_SEQU)
-    module.cond_output.setup(0, f.interface, OutputMode.PULL, list(f.state_ids), module.clock.interrupts)
+    module.cond_output.setup(0, f.interface, _PULL, list(f.state_ids), module.clock.interrupts)
     seq.store_and_empty()
 
 
@@ -129,13 +136,13 @@ for _meaning, _n in ((Command.SET_STATE_1, 1), (Command.SET_STATE_4, 4), (Comman
 # ---------------------------------------------------------------- outputs
 @handles(Command.OUTPUT_STATE)
 def _output_state(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
-    iface.set_lossless(f.mode & OutputMode.LOSSLESS)
+    iface.set_lossless(f.mode & _LOSSLESS)
     iface.output(f.state_id, f.mode)
 
 
 @handles(Command.OUTPUT_MULTIPLE_STATES)
 def _output_multiple(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
-    iface.set_lossless(f.mode & OutputMode.LOSSLESS)
+    iface.set_lossless(f.mode & _LOSSLESS)
     for sid in f.state_ids:
         iface.output(sid, f.mode)
 
@@ -162,15 +169,15 @@ def _state_if_setup(module: Module, iface: ExternalInterface, f: Any, raw: bytes
 @handles(Command.OUTPUT_IMU_RD)
 def _output_imu_rd(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
     mode = f.mode
-    iface.set_lossless(mode & OutputMode.LOSSLESS)
+    iface.set_lossless(mode & _LOSSLESS)
     sel = f.imu_selector
     for i in range(32):
         if sel >> i & 1:
-            if mode & OutputMode.INERTIAL:
+            if mode & _INERTIAL:
                 iface.output(0x40 + i, mode)
-            if mode & OutputMode.TEMPERATURE:
+            if mode & _TEMPERATURE:
                 iface.output(0x60 + i, mode)
-            if mode & OutputMode.MAGNETOMETER:
+            if mode & _MAGNETOMETER:
                 iface.output(0x90 + i, mode)
     iface.output(StateId.IMU_TS, mode)
 
@@ -239,7 +246,7 @@ def _stepwise_dead_reckoning(module: Module, iface: ExternalInterface, f: Any, r
     iface.set_lossless(True)
     module.memory[StateId.STEP_COUNTER][...] = 0
     _start_ins(module, STEPWISE_SEQUENCE)
-    module.cond_output.setup(StateId.FILTER_RESET_FLAG, iface.mask, OutputMode.PULL, list(STEP_STATES),
+    module.cond_output.setup(StateId.FILTER_RESET_FLAG, iface.mask, _PULL, list(STEP_STATES),
                              module.clock.interrupts)
 
 
@@ -253,7 +260,7 @@ def _mimu_frontend(module: Module, iface: ExternalInterface, f: Any, raw: bytes)
 @handles(Command.NORMAL_IMU)
 def _normal_imu(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
     all_outputs_off(module, iface)
-    iface.set_lossless(f.mode & OutputMode.LOSSLESS)
+    iface.set_lossless(f.mode & _LOSSLESS)
     seq = module.sequence
     seq.empty()
     seq.set_slots((P.READ_INERTIAL, P.FRONTEND_PREPROC))
@@ -264,7 +271,7 @@ def _normal_imu(module: Module, iface: ExternalInterface, f: Any, raw: bytes) ->
 @handles(Command.NORMAL_IMU_WITH_BIAS_EST)
 def _normal_imu_with_bias_est(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
     all_outputs_off(module, iface)
-    iface.set_lossless(f.mode & OutputMode.LOSSLESS)
+    iface.set_lossless(f.mode & _LOSSLESS)
     seq = module.sequence
     seq.empty()
     seq.set_slots(FRONTEND_SEQUENCE + (P.STATE_OUTPUT_IF_COUNTER,))

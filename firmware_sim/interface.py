@@ -54,6 +54,8 @@ _PACKET_HEADER_LEN = 4
 #: Largest header + payload, leaving room for the checksum.
 _MAX_BEFORE_CHECKSUM = MAX_PACKET - 2
 _STATE_IDS = 256
+_PULL = int(OutputMode.PULL)
+_RATE_MASK = int(OutputMode.RATE_MASK)
 
 
 class TraceEntry(NamedTuple):
@@ -244,10 +246,10 @@ class ExternalInterface:
 
     def output(self, state_id: int, mode: int) -> None:
         """state_output(): pull if the mode's pull bit is set, else set the periodic rate."""
-        if mode & OutputMode.PULL:
+        if mode & _PULL:
             self.pull(state_id)
         else:
-            self.set_state_output(state_id, mode & OutputMode.RATE_MASK)
+            self.set_state_output(state_id, mode & _RATE_MASK)
 
     def all_outputs_off(self) -> None:
         """Every periodic output of this interface off (pulled states stay pending, as on the µC)."""
