@@ -13,7 +13,10 @@ The decoder looks at the first buffered byte:
 * not ``A0``/``AA`` → it is garbage: skipped and counted;
 * ``A0`` (command ack) → a candidate of 4 bytes. It is a frame if its checksum
   matches **and** its command byte is a command the module acknowledges (by
-  default any acked id of either numbering: < 0x50 and never 0x01);
+  default any acked id of either numbering: < 0x50 and never 0x01). That
+  check costs nothing on a real stream and rejects most random ``A0 xx``
+  candidates; since an ack's command byte is never ``A0``/``AA``, a real ack
+  is never cut short by a frame "starting" at its second byte;
 * ``AA`` (state packet) → the length byte *L* is the payload length mod 256, so
   the candidates are payloads of *L* and *L* + 256 bytes (the latter only while
   ≤ *max_payload*, 506). The shorter one whose checksum matches is the frame.
@@ -27,7 +30,10 @@ Waiting has a cost: a stray ``AA`` with *L* ≤ 250 makes the decoder wait for u
 to 262 bytes, and the frames behind it are held back until then. A host that
 saw its link go quiet calls :meth:`StreamDecoder.flush`, which gives up on an
 incomplete candidate **only if a valid frame follows it** in the buffer (a
-partly received real frame at the end of the buffer is kept); :meth:`finish`
+partly received real frame at the end of the buffer is kept). Call it after a
+pause in reception, not after every read: while it scans past an incomplete
+candidate it could, with odds of about 2^-16 per header byte, accept a false
+frame inside a real frame still arriving. :meth:`finish`
 (end of a recording, port closed) gives up on everything incomplete. A host that
 never asks for payloads over 255 bytes can pass ``max_payload=255`` and never
 waits on the long candidate.
