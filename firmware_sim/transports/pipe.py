@@ -148,10 +148,12 @@ class QueueEndpoint:
         self.closed = False
         self.dropped = 0  #: bytes from the module dropped because the host did not read
         self.refused = 0  #: bytes the link did not accept from the host
+        self._pump_thread: int | None = None
         port.connect()
 
     # pacer side
     def pump(self) -> None:
+        self._pump_thread = threading.get_ident()
         with self._cond:
             out = bytes(self._to_port)
             self._to_port.clear()
@@ -202,9 +204,13 @@ class QueueEndpoint:
             self._from_port.clear()
 
     def close(self) -> None:
+        """Close the host's side; the port is disconnected at the next pump (or now, when
+        called from the pumping thread — the pacer closes its endpoints when it stops)."""
         with self._cond:
             self.closed = True
             self._cond.notify_all()
+        if self._pump_thread in (None, threading.get_ident()) and self.port.connected:
+            self.port.disconnect()
 
     def status(self) -> dict[str, object]:
         return {"kind": "inproc", "paired": not self.closed, "dropped": self.dropped, "refused": self.refused}

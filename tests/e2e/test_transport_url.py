@@ -1,0 +1,90 @@
+"""pyserial's serial_for_url("openshoe://...") opens an in-process emulated module."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+import serial
+
+import firmware_sim.transports  # noqa: F401  (registers the URL handler)
+from firmware_sim.transports.factory import EmulatorSettings
+
+PING = bytes.fromhex("030003")
+PING_ACK = bytes.fromhex("A00300A3")
+URL = "openshoe://?scenario=default&seed=1&link=ideal&command_set=2015&speed=0"
+
+
+def test_handler_is_registered():
+    assert "firmware_sim.transports" in serial.protocol_handler_packages
+
+
+def test_ping_in_virtual_time():
+    with serial.serial_for_url(URL, timeout=0.5) as s:
+        s.write(PING)
+        assert s.read(4) == PING_ACK
+        assert s.module.clock.ticks == 1  # the ack came on the first tick
+        assert s.cd
+
+
+def test_bluetooth_link_in_virtual_time_is_deterministic():
+    def session(seed):
+        with serial.serial_for_url(f"openshoe://?link=bt&seed={seed}", timeout=1.0) as s:
+            s.write(PING)
+            ack = s.read(4)
+            s.write(bytes.fromhex("20 02 03 00 25"))  # interrupt counter every 4 ms
+            data = s.read(400)
+            return ack, data, s.module.clock.ticks
+    a = session(5)
+    assert a[0] == PING_ACK
+    assert a == session(5)
+    assert a[2] != session(6)[2]  # another seed, other latencies
+
+
+def test_read_timeout_is_virtual_and_in_waiting_lets_time_pass():
+    with serial.serial_for_url("openshoe://?link=bt", timeout=0.25) as s:
+        assert s.read(1) == b""  # nothing was asked for
+        assert s.module.clock.ticks == 250
+        s.write(PING)
+        waited = 0
+        while s.in_waiting < 4:
+            waited += 1
+            assert waited < 1000
+        assert 40 <= waited <= 85  # Bluetooth round trip: 2 × (20–40 ms) + ticks
+        s.reset_input_buffer()
+        s.timeout = 0  # non-blocking: no ticks
+        assert s.read(4) == b""
+
+
+def test_2014_numbering_and_usb_interface():
+    with serial.serial_for_url("openshoe://?command_set=2014&link=usb", timeout=0.1) as s:
+        s.write(bytes.fromhex("140014"))  # 2014 step-wise dead reckoning
+        assert s.read(4) == bytes.fromhex("A01400B4")
+
+
+def test_bad_urls_are_refused_clearly():
+    with pytest.raises(serial.SerialException, match="unknown option 'sed'"):
+        serial.serial_for_url("openshoe://?sed=1")
+    with pytest.raises(serial.SerialException, match="not a number"):
+        serial.serial_for_url("openshoe://?seed=x")
+    with pytest.raises(serial.SerialException, match="unknown link profile"):
+        serial.serial_for_url("openshoe://?link=wifi")
+    with pytest.raises(ValueError, match="speed"):
+        EmulatorSettings.from_url("openshoe://?speed=-1")
+
+
+def test_real_time_ping_with_speed_1():
+    start = time.monotonic()
+    with serial.serial_for_url("openshoe://?link=usb&speed=1", timeout=3) as s:
+        s.write(PING)
+        assert s.read(4) == PING_ACK
+        assert s.pacer is not None and s.pacer.status().running
+    assert time.monotonic() - start < 3
+    assert not s.pacer.status().running  # closing stopped the loop
+
+
+def test_closed_port_refuses_io():
+    s = serial.serial_for_url(URL)
+    s.close()
+    with pytest.raises(serial.PortNotOpenError):
+        s.write(PING)
