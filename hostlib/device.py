@@ -106,6 +106,10 @@ class Device(CommandMethods):
     and step queues. *raw_log*: a binary file that receives every byte read.
     *tracker*: where steps are summed (default: origin, counting from 0x34).
     *port_factory*: overrides how the link is opened (tests, custom links).
+    *serialize_io*: let only the reader thread touch the port (writes are handed
+    to it and go out between reads). Needed by ports that are not thread-safe,
+    such as the emulator's virtual-time ``openshoe://`` port (the default for
+    those URLs); real serial ports read and write concurrently.
     """
 
     def __init__(
@@ -124,6 +128,7 @@ class Device(CommandMethods):
         raw_log: BinaryIO | None = None,
         tracker: StepTracker | None = None,
         port_factory: PortFactory | None = None,
+        serialize_io: bool | None = None,
         start: bool = True,
     ):
         if port_factory is None:
@@ -140,6 +145,10 @@ class Device(CommandMethods):
 
         self._lock = threading.RLock()  # session state
         self._write_lock = threading.Lock()
+        if serialize_io is None:
+            serialize_io = isinstance(target, str) and target.lower().startswith("openshoe://")
+        self.serialize_io = bool(serialize_io)
+        self._outbox = bytearray()  # serialize_io: bytes the reader writes before its next read
         self._cond = threading.Condition(self._lock)  # acks, link state
         self._ack_counts: dict[int, int] = {}
         self._packet_seq = 0
@@ -256,6 +265,20 @@ class Device(CommandMethods):
     def _write(self, data: bytes) -> None:
         if self._closed:
             raise DeviceClosed(f"{self.name} is closed")
+        if self.serialize_io and threading.current_thread() is not self._thread:
+            with self._write_lock:
+                self._outbox += data
+            return
+        self._port_write(data)
+
+    def _flush_outbox(self) -> None:
+        with self._write_lock:
+            data = bytes(self._outbox)
+            self._outbox.clear()
+        if data:
+            self._port_write(data)
+
+    def _port_write(self, data: bytes) -> None:
         with self._write_lock:
             try:
                 self._port.write(data)
@@ -273,6 +296,8 @@ class Device(CommandMethods):
         while not self._stop.is_set():
             port = self._port
             try:
+                if self.serialize_io:
+                    self._flush_outbox()
                 waiting = getattr(port, "in_waiting", 0) or 0
                 data = port.read(max(1, min(int(waiting), 4096)))
             except _READ_ERRORS as exc:
