@@ -1,0 +1,232 @@
+"""Process sequence, processing functions 0x01–0x07 and 0x13, virtual clock and overruns."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from firmware_sim.clock import Clock
+from firmware_sim.inertial import READ_INERTIAL_CYCLES
+from firmware_sim.module import Module, ModuleConfig, still_source
+from firmware_sim.sensors.base import ScriptedSource
+from firmware_sim.sequence import (
+    PROCESSING_FUNCTIONS,
+    ProcessSequence,
+    cost_table,
+    processing_function,
+    sequence_budget,
+)
+from protocol.ids import NR_IMUS, ProcId, StateId
+
+from .emu import Host
+
+
+# ------------------------------------------------------------------ sequence
+def test_unknown_id_empties_the_slot():
+    seq = ProcessSequence()
+    seq.set_slot(0, ProcId.READ_INERTIAL)
+    seq.set_slot(0, 0x2F)
+    assert seq.slots[0] == 0
+
+
+def test_function_replacing_the_sequence_mid_run_follows_the_live_slots(temp_functions):
+    log: list[str] = []
+
+    def replace(m: Module) -> None:
+        log.append("A")
+        m.sequence.empty()
+        m.sequence.set_slot(1, 0x2B)
+        m.sequence.set_slot(5, 0x2C)
+
+    temp_functions(0x2A, replace)
+    temp_functions(0x2B, lambda m: log.append("B"))
+    temp_functions(0x2C, lambda m: log.append("C"))
+    m = Module()
+    m.sequence.set_slot(2, 0x2A)
+    m.sequence.set_slot(7, 0x2B)
+    m.step()
+    assert log == ["A", "C"]  # later slot 5 of the new sequence runs now; slot 1 and old slot 7 do not
+    log.clear()
+    m.step()
+    assert log == ["B", "C"]
+
+
+def test_store_and_empty_stops_the_rest_of_the_sequence(temp_functions):
+    log = []
+    temp_functions(0x2A, lambda m: log.append(1))
+    m = Module()
+    m.sequence.set_slots([0x2A, ProcId.STORE_AND_EMPTY_PROC_SEQU, 0x2A])
+    m.step()
+    assert log == [1] and m.sequence.slots == [0] * 12
+    assert m.sequence.storage[:3] == [0x2A, ProcId.STORE_AND_EMPTY_PROC_SEQU, 0x2A]
+
+
+def test_ps_dt_holds_the_modelled_cost_of_each_slot(temp_functions):
+    temp_functions(0x2A, lambda m: None, cycles=1234)
+    m = Module()
+    m.sequence.set_slots([0x2A, 0, ProcId.READ_INERTIAL])
+    m.step()
+    call = m.costs.slot_call
+    assert int(m.memory[0x80]) == 1234 + call
+    assert int(m.memory[0x81]) == 0
+    assert int(m.memory[0x82]) == READ_INERTIAL_CYCLES + call
+    assert sequence_budget(m.sequence.slots, call) == 1234 + READ_INERTIAL_CYCLES + 2 * call
+    # the loop's GP_DT includes them
+    assert int(m.memory[StateId.GP_DT]) > 1234 + READ_INERTIAL_CYCLES
+
+
+def test_cost_table_lists_every_registered_function():
+    table = cost_table()
+    assert [pid for pid, _, _ in table] == sorted(PROCESSING_FUNCTIONS)
+    assert (0x13, "READ_INERTIAL", READ_INERTIAL_CYCLES) in table
+
+
+def test_registering_an_id_twice_with_a_different_function_is_refused(temp_functions):
+    temp_functions(0x2A, lambda m: None)
+    def another(m: Module) -> None:
+        pass
+
+    with pytest.raises(ValueError, match="already registered"):
+        processing_function(0x2A, cycles=1)(another)
+    with pytest.raises(ValueError):
+        processing_function(0x30, cycles=1)
+
+
+def test_work_state_is_created_once_per_module():
+    m1, m2 = Module(), Module()
+    a = m1.work("x", lambda: np.zeros(3))
+    a[0] = 5
+    assert m1.work("x", lambda: np.ones(3))[0] == 5
+    assert m2.work("x", lambda: np.ones(3))[0] == 1
+
+
+# ----------------------------------------------------------- utility functions
+def test_empty_and_restore_functions():
+    m = Module()
+    m.sequence.storage[:2] = [ProcId.STATE_OUTPUT_IF, ProcId.STATE_OUTPUT_IF]
+    m.sequence.set_slot(4, ProcId.RESTORE_PROC_SEQU)
+    m.step()
+    assert m.sequence.slots[:2] == [5, 5] and m.sequence.slots[4] == 0
+    m.sequence.set_slot(3, ProcId.EMPTY_PROCESS_SEQUENCE)
+    m.step()
+    assert m.sequence.slots == [0] * 12
+
+
+def test_state_output_once_if_clears_its_flag():
+    h = Host()
+    m = h.module
+    m.cond_output.setup(StateId.GP_ID, 1, 0x20, [StateId.INTERRUPT_COUNTER], m.clock.interrupts)
+    m.sequence.set_slot(0, ProcId.STATE_OUTPUT_ONCE_IF)
+    m.memory[StateId.GP_ID][...] = 1
+    assert len(h.step()) == 10
+    assert not m.memory.flag(StateId.GP_ID)
+    assert h.step(3) == b""
+
+
+def test_state_output_if_counter_fires_once_n_loops_after_setup():
+    h = Host()
+    m = h.module
+    m.cond_output.setup(0, 1, 0x20, [StateId.INTERRUPT_COUNTER], m.clock.interrupts, wait_cycles=10)
+    m.sequence.set_slot(0, ProcId.STATE_OUTPUT_IF_COUNTER)
+    outs = h.per_tick(30)
+    assert [i for i, o in enumerate(outs) if o] == [9]
+    assert int.from_bytes(outs[9][4:8], "big") == 10
+
+
+def test_conditional_output_with_a_rate_switches_periodic_output_on():
+    h = Host()
+    m = h.module
+    m.cond_output.setup(StateId.GP_ID, 1, 0x02, [StateId.GP_DT], m.clock.interrupts)
+    m.sequence.set_slot(0, ProcId.STATE_OUTPUT_IF)
+    m.memory[StateId.GP_ID][...] = 1
+    h.step()
+    assert h.iface.periodic_outputs == {StateId.GP_DT: 2}
+    assert not h.iface.lossless
+
+
+# --------------------------------------------------------------- READ_INERTIAL
+def script(n: int) -> np.ndarray:
+    s = np.arange(n * NR_IMUS * 6, dtype=np.int16).reshape(n, NR_IMUS, 6)
+    return s
+
+
+def test_read_inertial_delays_the_accelerometer_by_one_sample():
+    s = script(4)
+    m = Module(sensors=ScriptedSource(s, temp=-40, mag=(1, 2, 3)))
+    m.sequence.set_slot(0, ProcId.READ_INERTIAL)
+    for k in range(4):
+        m.step()
+        raw = m.memory.imu_raw[:NR_IMUS]
+        assert (raw[:, 3:6] == s[k, :, 3:6]).all()
+        assert (raw[:, 0:3] == s[max(k - 1, 0), :, 0:3]).all()
+    assert (m.memory.imu_temp[:NR_IMUS] == -40).all()
+    assert (m.memory.imu_mag[:NR_IMUS] == [1, 2, 3]).all()
+    assert (m.memory.imu_raw[NR_IMUS:] == 0).all()
+
+
+def test_imu_timestamp_is_the_cycle_counter_at_the_read_and_wraps():
+    start = 2**32 - 3 * 64_000
+    m = Module(ModuleConfig(start_cycles=start))
+    m.sequence.set_slot(0, ProcId.READ_INERTIAL)
+    stamps = []
+    for _ in range(5):
+        m.step()
+        stamps.append(int(m.memory[StateId.IMU_TS]))
+    diffs = [(b - a) % 2**32 for a, b in zip(stamps[:-1], stamps[1:], strict=True)]
+    assert diffs == [64_000] * 4  # modulo 2^32 across the wrap
+    assert stamps[-1] < stamps[0]
+    assert m.clock.now_cycles > 2**32
+
+
+def test_exhausted_source_sets_the_flag_and_writes_nothing():
+    m = Module(sensors=ScriptedSource(script(2), finite=True))
+    m.sequence.set_slot(0, ProcId.READ_INERTIAL)
+    m.run(2)
+    assert not m.sensors_exhausted
+    before = m.memory.imu_raw.copy()
+    m.step()
+    assert m.sensors_exhausted and (m.memory.imu_raw == before).all()
+
+
+def test_empty_sequence_reads_nothing():
+    src = ScriptedSource(script(3))
+    m = Module(sensors=src)
+    m.run(3)
+    assert (m.memory.imu_raw == 0).all()
+
+
+def test_default_source_is_a_board_at_rest():
+    s = still_source().read(0)
+    assert s.imu[0].tolist() == [0, 0, -2048, 0, 0, 0]
+    assert s.imu[2].tolist() == [0, 0, 2048, 0, 0, 0]  # bottom chips are upside down
+
+
+# ----------------------------------------------------------------------- clock
+def test_clock_rates_and_tick_lengths():
+    assert Clock(1000).cycles_per_tick == 64_000
+    assert Clock(250).cycles_per_tick == 256_000
+    with pytest.raises(ValueError):
+        Clock(3)  # 64e6 / 3 is not whole
+
+
+def test_overrun_starts_the_next_loop_at_once_and_counts_missed_ticks(temp_functions):
+    temp_functions(0x2A, lambda m: None, cycles=150_000)
+    m = Module()
+    m.sequence.set_slot(0, 0x2A)
+    m.step()  # 64 000 .. > 214 000
+    assert m.clock.overruns == 0
+    end = m.clock.now_cycles
+    m.step()
+    assert m.clock.loop_start == end  # started at once
+    assert m.clock.overruns == 1 and m.clock.missed_ticks == 1  # ticks at 128k and 192k: one loop
+    assert m.clock.interrupts == 3 and m.clock.ticks == 2
+    assert int(m.memory[StateId.INTERRUPT_COUNTER]) == 3
+    assert int(m.memory[StateId.GP_DT]) > 150_000
+
+
+def test_loops_fit_a_tick_without_overrun_in_normal_use():
+    m = Module()
+    m.sequence.set_slot(0, ProcId.READ_INERTIAL)
+    m.run(100)
+    assert m.clock.overruns == 0
+    assert m.clock.now_cycles < 101 * 64_000
