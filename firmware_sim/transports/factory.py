@@ -15,6 +15,7 @@ The served interface gets the link; the other one is left unplugged.
 
 from __future__ import annotations
 
+import importlib
 import math
 from dataclasses import dataclass, fields
 from urllib.parse import parse_qs, urlsplit
@@ -76,12 +77,19 @@ class EmulatorSettings:
 
 def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource | None:
     """The sensor source of a scenario; None = the module's default (lying still)."""
-    try:
-        from ..sensors import make_source  # type: ignore[attr-defined]
-    except ImportError:
-        make_source = None
+    make_source = None
+    for where in ("firmware_sim.sensors", "firmware_sim.sensors.array"):
+        try:
+            make_source = getattr(importlib.import_module(where), "make_source", None)
+        except ImportError:
+            continue
+        if make_source is not None:
+            break
     if make_source is not None:
-        return make_source(scenario, seed=seed)
+        try:
+            return make_source(scenario, seed=seed, rate_hz=rate_hz)
+        except KeyError as e:  # an unknown scenario name, reported as a bad option
+            raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
     if scenario in ("default", "still"):
         return None
     raise ValueError(f"scenario {scenario!r} needs firmware_sim.sensors.make_source, which is not available; "

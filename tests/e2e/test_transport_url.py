@@ -12,7 +12,8 @@ from firmware_sim.transports.factory import EmulatorSettings
 
 PING = bytes.fromhex("030003")
 PING_ACK = bytes.fromhex("A00300A3")
-URL = "openshoe://?scenario=default&seed=1&link=ideal&command_set=2015&speed=0"
+#: "stand" builds in ~0.1 s; the walking scenarios take seconds to synthesise.
+URL = "openshoe://?scenario=stand&seed=1&link=ideal&command_set=2015&speed=0"
 
 
 def test_handler_is_registered():
@@ -27,9 +28,23 @@ def test_ping_in_virtual_time():
         assert s.cd
 
 
+@pytest.mark.slow
+def test_the_documented_url_with_the_default_walking_scenario():
+    url = "openshoe://?scenario=default&seed=1&link=ideal&command_set=2015&speed=0"
+    with serial.serial_for_url(url, timeout=0.5) as s:
+        s.write(PING)
+        assert s.read(4) == PING_ACK
+        assert type(s.module.sensors).__name__ != "ScriptedSource"
+
+
+def test_unknown_scenario_is_refused():
+    with pytest.raises(serial.SerialException, match="unknown scenario 'moonwalk'"):
+        serial.serial_for_url("openshoe://?scenario=moonwalk")
+
+
 def test_bluetooth_link_in_virtual_time_is_deterministic():
     def session(seed):
-        with serial.serial_for_url(f"openshoe://?link=bt&seed={seed}", timeout=1.0) as s:
+        with serial.serial_for_url(f"openshoe://?scenario=stand&link=bt&seed={seed}", timeout=1.0) as s:
             s.write(PING)
             ack = s.read(4)
             s.write(bytes.fromhex("20 02 03 00 25"))  # interrupt counter every 4 ms
@@ -42,7 +57,7 @@ def test_bluetooth_link_in_virtual_time_is_deterministic():
 
 
 def test_read_timeout_is_virtual_and_in_waiting_lets_time_pass():
-    with serial.serial_for_url("openshoe://?link=bt", timeout=0.25) as s:
+    with serial.serial_for_url("openshoe://?scenario=stand&link=bt", timeout=0.25) as s:
         assert s.read(1) == b""  # nothing was asked for
         assert s.module.clock.ticks == 250
         s.write(PING)
@@ -57,7 +72,7 @@ def test_read_timeout_is_virtual_and_in_waiting_lets_time_pass():
 
 
 def test_2014_numbering_and_usb_interface():
-    with serial.serial_for_url("openshoe://?command_set=2014&link=usb", timeout=0.1) as s:
+    with serial.serial_for_url("openshoe://?scenario=stand&command_set=2014&link=usb", timeout=0.1) as s:
         s.write(bytes.fromhex("140014"))  # 2014 step-wise dead reckoning
         assert s.read(4) == bytes.fromhex("A01400B4")
 
@@ -75,7 +90,7 @@ def test_bad_urls_are_refused_clearly():
 
 def test_real_time_ping_with_speed_1():
     start = time.monotonic()
-    with serial.serial_for_url("openshoe://?link=usb&speed=1", timeout=3) as s:
+    with serial.serial_for_url("openshoe://?scenario=stand&link=usb&speed=1", timeout=3) as s:
         s.write(PING)
         assert s.read(4) == PING_ACK
         assert s.pacer is not None and s.pacer.status().running
