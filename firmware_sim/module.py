@@ -32,7 +32,7 @@ from .interface import ExternalInterface, TraceEntry
 from .memory import DEFAULT_MCU_SERIAL, StateMemory
 from .port import IdealPort, Port
 from .sensors.base import ScriptedSource, SensorSource
-from .sequence import ProcessSequence
+from .sequence import BOOT_HOOKS, ProcessSequence
 from .utility import ConditionalOutput
 
 T = TypeVar("T")
@@ -57,6 +57,8 @@ class ModuleConfig:
     trace: bool = False
     #: Cycle counter at boot (0 on the module; set near 2^32 to exercise the COUNT wrap).
     start_cycles: int = 0
+    #: Front-end configuration (calibration, detector windows) for firmware_sim.frontend; None = default.
+    frontend: Any = None
     #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
     initial_states: dict[int, Any] = field(default_factory=dict)
 
@@ -99,6 +101,8 @@ class Module:
         self.interface_list = (self.usb, self.bt)
         self._interrupt_counter = self.memory[StateId.INTERRUPT_COUNTER]
         self._gp_dt = self.memory[StateId.GP_DT]
+        for hook in BOOT_HOOKS:
+            hook(self)
         for sid, value in config.initial_states.items():
             self.memory[sid][...] = value
 

@@ -73,6 +73,18 @@ def processing_function(proc_id: int, *, cycles: int) -> Callable[[ProcessingFn]
     return register
 
 
+#: Power-on hooks ``fn(module)``, run once by every new Module after its memory
+#: exists (e.g. a function module writing default thresholds), in registration order.
+BOOT_HOOKS: list[ProcessingFn] = []
+
+
+def on_boot(fn: ProcessingFn) -> ProcessingFn:
+    """Register ``fn(module)`` to run when a module boots (before ModuleConfig.initial_states)."""
+    if fn not in BOOT_HOOKS:
+        BOOT_HOOKS.append(fn)
+    return fn
+
+
 def is_registered(proc_id: int) -> bool:
     return proc_id in PROCESSING_FUNCTIONS
 

@@ -230,3 +230,18 @@ def test_loops_fit_a_tick_without_overrun_in_normal_use():
     m.run(100)
     assert m.clock.overruns == 0
     assert m.clock.now_cycles < 101 * 64_000
+
+
+def test_boot_hooks_run_before_initial_states():
+    from firmware_sim.sequence import BOOT_HOOKS, on_boot
+
+    def hook(m: Module) -> None:
+        m.memory[StateId.GP_ID][...] = 7
+        m.memory[StateId.TH_ZARU][...] = 99
+
+    on_boot(hook)
+    try:
+        m = Module(ModuleConfig(initial_states={StateId.TH_ZARU: 5}))
+        assert int(m.memory[StateId.GP_ID]) == 7 and int(m.memory[StateId.TH_ZARU]) == 5
+    finally:
+        BOOT_HOOKS.remove(hook)
