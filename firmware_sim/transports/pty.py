@@ -9,7 +9,10 @@ never sees a half-made path, and it is removed on :meth:`PtyEndpoint.close`
 Pairing ("a host holds the slave open"): we keep **no** slave descriptor of our
 own. While no process has the slave open, Linux reports ``POLLHUP`` on the
 master (and ``read`` on it fails with ``EIO``); opening the slave clears it.
-So the loop polls the master with timeout 0 each iteration: no ``POLLHUP`` →
+This is the known trick for "has someone opened the slave side?" (there is no
+documented interface; see e.g. the Stack Overflow question "How can I detect
+when someone opens the slave side of a pty" and unix.stackexchange 538198 on
+the EIO). So the loop polls the master with timeout 0 each iteration: no ``POLLHUP`` →
 paired (``port.connect()``), ``POLLHUP``/``EIO`` → unpaired
 (``port.disconnect()``). The master is not handed to the pacer's selector while
 unpaired, since a hung-up master is always "readable".
