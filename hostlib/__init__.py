@@ -1,1 +1,45 @@
-"""Host SDK for OpenShoe modules, real or emulated."""
+"""Host SDK for OpenShoe modules, real or emulated.
+
+Its data path uses only :mod:`protocol` and pyserial (numpy for the numbers;
+matplotlib only for :mod:`hostlib.plot`), so it talks to a real module on
+``/dev/rfcomm0`` exactly as to the emulator.
+
+* :class:`Device` — open a link, typed commands with acks, reader thread,
+  lossless acking, steps and packets (:mod:`hostlib.device`);
+* :class:`HostSession` — the same protocol logic without I/O (:mod:`hostlib.session`);
+* :class:`StepTracker`, :class:`Track` — step-wise dead reckoning with covariance
+  (:mod:`hostlib.tracking`);
+* :mod:`hostlib.export` (CSV, GeoJSON), :mod:`hostlib.plot` (PNG), :mod:`hostlib.cli`.
+"""
+
+from .errors import AckTimeout, DeviceClosed, HostError, LinkLost, NotSupportedByCommandSet, QueueFullWarning
+from .tracking import GapEvent, StepOutcome, StepTracker, Track
+
+__all__ = [
+    "AckTimeout",
+    "Device",
+    "DeviceClosed",
+    "GapEvent",
+    "HostError",
+    "HostSession",
+    "LinkLost",
+    "NotSupportedByCommandSet",
+    "QueueFullWarning",
+    "StepOutcome",
+    "StepTracker",
+    "Track",
+]
+
+
+def __getattr__(name: str):
+    # Device and HostSession pull in pyserial/protocol.stream; import them on first use so that
+    # `import hostlib.tracking` stays light for users who only sum steps.
+    if name == "Device":
+        from .device import Device
+
+        return Device
+    if name == "HostSession":
+        from .session import HostSession
+
+        return HostSession
+    raise AttributeError(f"module 'hostlib' has no attribute {name!r}")
