@@ -245,3 +245,17 @@ def test_boot_hooks_run_before_initial_states():
         assert int(m.memory[StateId.GP_ID]) == 7 and int(m.memory[StateId.TH_ZARU]) == 5
     finally:
         BOOT_HOOKS.remove(hook)
+
+
+def test_the_tracking_sequences_fit_one_tick_at_1khz():
+    """With the documented costs, step-wise tracking must not overrun (DT would jitter)."""
+    from firmware_sim.commands import ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE
+
+    missing = [hex(p) for p in STEPWISE_SEQUENCE if p not in PROCESSING_FUNCTIONS]
+    if missing:
+        pytest.skip(f"navigation functions {missing} not registered yet")
+    m = Module()
+    c = m.costs
+    fixed = c.loop_overhead + 2 * c.rx_poll + c.tx_scan + 64 * (c.tx_per_byte + c.tx_write_per_byte)
+    for seq in (ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE):
+        assert sequence_budget(seq, c.slot_call) + fixed < m.clock.cycles_per_tick
