@@ -196,47 +196,53 @@ class Trajectory:
     def evaluate(self, t: np.ndarray, gravity: float = 9.81) -> Kinematics:
         """Exact kinematics at times *t* [s] (held at the end pose after the end)."""
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        i = np.clip(np.searchsorted(self._t0, t, side="right") - 1, 0, len(self._t0) - 1)
-        T = self._dur[i]
-        tau = np.clip((t - self._t0[i]) / T, 0.0, 1.0)
-        k1 = 1.0 / T
-        k2 = k1 * k1
-        A, B = self._A[i], self._B[i]
-        d = B - A
-        S, S1, S2 = _eval3(_S, tau)
-        pos = A[:, :3] + d[:, :3] * S[:, None]
-        vel = d[:, :3] * (S1 * k1)[:, None]
-        acc = d[:, :3] * (S2 * k2)[:, None]
-        ang = A[:, 3:] + d[:, 3:] * S[:, None]
-        dang = d[:, 3:] * (S1 * k1)[:, None]
-        ddang = d[:, 3:] * (S2 * k2)[:, None]
-
-        swing = self._kind[i] == SWING
-        if np.any(swing):
+        n = len(t)
+        seg = np.clip(np.searchsorted(self._t0, t, side="right") - 1, 0, len(self._t0) - 1)
+        swing = self._kind[seg] == SWING
+        A = self._A[seg]
+        pos = A[:, :3].copy()
+        ang = A[:, 3:].copy()
+        vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
+        dang, ddang = np.zeros((n, 3)), np.zeros((n, 3))
+        sw = np.flatnonzero(swing)  # a stance is A = B, still: only swing samples move
+        if len(sw):
+            i = seg[sw]
+            ts = t[sw]
+            k1 = 1.0 / self._dur[i]
+            k2 = k1 * k1
+            tau = np.clip((ts - self._t0[i]) * k1, 0.0, 1.0)
+            d = self._B[i] - self._A[i]
+            S, S1, S2 = _eval3(_S, tau)
+            pos[sw] += d[:, :3] * S[:, None]
+            vel[sw] = d[:, :3] * (S1 * k1)[:, None]
+            acc[sw] = d[:, :3] * (S2 * k2)[:, None]
+            ang[sw] += d[:, 3:] * S[:, None]
+            dang[sw] = d[:, 3:] * (S1 * k1)[:, None]
+            ddang[sw] = d[:, 3:] * (S2 * k2)[:, None]
             C, C1, C2 = _eval3(_C, tau)
-            h = self._clear[i] * swing
-            pos[:, 2] -= h * C
-            vel[:, 2] -= h * C1 * k1
-            acc[:, 2] -= h * C2 * k2
+            h = self._clear[i]
+            pos[sw, 2] -= h * C
+            vel[sw, 2] -= h * C1 * k1
+            acc[sw, 2] -= h * C2 * k2
             for coeffs, amp in ((_G1, self._toe[i]), (_G2, self._heel[i])):
                 G, G1, G2 = _eval3(coeffs, tau)
-                amp = amp * swing
-                ang[:, 1] += amp * G
-                dang[:, 1] += amp * G1 * k1
-                ddang[:, 1] += amp * G2 * k2
+                ang[sw, 1] += amp * G
+                dang[sw, 1] += amp * G1 * k1
+                ddang[sw, 1] += amp * G2 * k2
             # heel-strike impact bump
             w = self._imp_w[i]
-            u = (t - self._t0[i] - self._imp_t0[i]) / w
-            hit = swing & (self._imp_amp[i] > 0) & (u > 0.0) & (u < 1.0)
+            u = (ts - self._t0[i] - self._imp_t0[i]) / w
+            hit = (self._imp_amp[i] > 0) & (u > 0.0) & (u < 1.0)
             if np.any(hit):
-                uh = u[hit]
-                Bv, B1, B2 = _eval3(_IMPACT, uh)
-                amp, wh, fwd = self._imp_amp[i][hit], w[hit], self._imp_fwd[i][hit]
-                yaw_b = B[hit, 5]
+                rows = sw[hit]
+                Bv, B1, B2 = _eval3(_IMPACT, u[hit])
+                ih = i[hit]
+                amp, wh, fwd = self._imp_amp[ih], w[hit], self._imp_fwd[ih]
+                yaw_b = self._B[ih, 5]
                 direction = np.stack([fwd * np.cos(yaw_b), fwd * np.sin(yaw_b), np.ones_like(fwd)], axis=1)
-                pos[hit] += (amp * Bv)[:, None] * direction
-                vel[hit] += (amp * B1 / wh)[:, None] * direction
-                acc[hit] += (amp * B2 / wh**2)[:, None] * direction
+                pos[rows] += (amp * Bv)[:, None] * direction
+                vel[rows] += (amp * B1 / wh)[:, None] * direction
+                acc[rows] += (amp * B2 / wh**2)[:, None] * direction
         return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
 
     def sample(self, rate_hz: float, gravity: float = 9.81, duration: float | None = None) -> GroundTruth:

@@ -23,7 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["Kinematics", "GroundTruth", "euler_to_matrix", "euler_to_quat", "quat_to_matrix", "strapdown_rk4"]
+__all__ = [
+    "Kinematics", "GroundTruth", "euler_to_matrix", "mul_transposed", "rotate", "cross", "euler_to_quat",
+    "quat_to_matrix", "strapdown_rk4",
+]
 
 
 def euler_to_matrix(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -42,6 +45,23 @@ def euler_to_matrix(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.
     R[..., 2, 1] = cp * sr
     R[..., 2, 2] = cp * cr
     return R
+
+
+def mul_transposed(R: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """Rᵀ v for stacks (n, 3, 3) and (n, 3) (navigation → body)."""
+    return R[:, 0, :] * v[:, 0:1] + R[:, 1, :] * v[:, 1:2] + R[:, 2, :] * v[:, 2:3]
+
+
+def rotate(M: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """M v for one 3×3 matrix and a stack of vectors (n, 3) (faster than v @ M.T for small M)."""
+    return v[:, 0:1] * M[:, 0] + v[:, 1:2] * M[:, 1] + v[:, 2:3] * M[:, 2]
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b for stacks of vectors (broadcasting over leading axes)."""
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], axis=-1)
 
 
 def euler_to_quat(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
@@ -102,7 +122,7 @@ class Kinematics:
         ], axis=1)
         R = euler_to_matrix(*ang.T)
         a_minus_g = acc - np.array([0.0, 0.0, gravity])
-        f_b = np.einsum("nji,nj->ni", R, a_minus_g)
+        f_b = mul_transposed(R, a_minus_g)
         return cls(t, pos, vel, acc, ang, R, omega, alpha, f_b, np.asarray(stance, dtype=bool), gravity)
 
     @property

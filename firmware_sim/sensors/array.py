@@ -1,0 +1,172 @@
+"""The MIMU22BT's four MPU9150s on a moving foot: a simulated :class:`SensorSource`.
+
+:class:`SimulatedSource` samples a foot trajectory (a scenario of
+:mod:`.scenarios`) at the module's loop rate and turns it into the raw
+registers of the four chips, all sampled at the same instant t_k = k / rate:
+
+1. ground truth at the board centre (:class:`~.truth.GroundTruth`);
+2. per chip i at lever arm r_i (``board.MIMU22BT``): specific force
+   f_b + ω×(ω×r_i) + α×r_i and angular rate ω_b, turned into the chip's raw
+   axes by ``mounting[i]`` — the motion is evaluated earlier by the part of
+   the DLPF delay the filter itself does not produce (:func:`.mpu9150.dlpf_delays`);
+3. the chip's error model and noise (:mod:`.mpu9150`), the DLPF one-pole,
+   round-to-nearest and int16 saturation (a running heel strike clips at ±16 g);
+4. die temperature (a warm-up) in the temperature register;
+5. the AK8975: Earth + building + shoe field (:mod:`.magnetic`) in the
+   magnetometer's axes, new every 1/100 s and held in between, ±4095.
+
+Everything is computed once, in numpy, when the source is made (or when
+``set_dlpf`` changes the filter); ``read(index)`` hands out views. Every random
+draw comes from ``numpy.random.default_rng(seed)``, in a fixed order, so the
+same (scenario, config, seed, rate) gives the same registers bit for bit.
+Past the end of the scenario ``read`` returns None.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..board import MIMU22BT, BoardGeometry
+from .base import RawSample
+from .config import DEFAULT_CONFIG, G0, SensorConfig
+from .gait import WALKING, GaitParams, Trajectory
+from .magnetic import MagneticWorld
+from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, white_sigma
+from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
+from .scenarios import list_scenarios, trajectory
+from .truth import GroundTruth, Kinematics, cross, rotate
+
+__all__ = ["SimulatedSource", "make_source", "list_scenarios"]
+
+
+class SimulatedSource:
+    """Raw registers of the 4-IMU array on a simulated foot (see the module docstring).
+
+    Attributes: ``rate_hz``, ``truth`` (:class:`GroundTruth` at the sample
+    times), ``imu`` int16 (n, 4, 6), ``temp`` int16 (n, 4), ``mag`` int16
+    (n, 4, 3), ``chips`` the drawn :class:`ChipErrors`, ``clipped`` the
+    number of saturated accelerometer/gyro registers.
+    """
+
+    def __init__(self, motion: Trajectory | str = "default", config: SensorConfig | None = None,
+                 seed: int = 0, rate_hz: float = 1000.0, geometry: BoardGeometry = MIMU22BT,
+                 params: GaitParams = WALKING):
+        self.config = config or DEFAULT_CONFIG
+        self.name = motion if isinstance(motion, str) else "<trajectory>"
+        self.trajectory = trajectory(motion, params) if isinstance(motion, str) else motion
+        self.seed = seed
+        self.rate_hz = float(rate_hz)
+        self.geometry = geometry
+        cfg = self.config
+        self.truth: GroundTruth = self.trajectory.sample(self.rate_hz, gravity=cfg.gravity)
+        n, chips = len(self.truth), geometry.mounting.shape[0]
+        t = self.truth.t
+
+        # --- every random draw, in a fixed order ---------------------------------------------
+        rng = np.random.default_rng(seed)
+        self.chips = [ChipErrors.draw(rng, cfg) for _ in range(chips)]
+        self.magnetic = MagneticWorld.draw(rng, cfg)
+        sa = white_sigma(cfg.accel.noise_density_g, self.rate_hz) if cfg.noise else 0.0
+        sg = white_sigma(cfg.gyro.noise_density_rad_s, self.rate_hz) if cfg.noise else 0.0
+        sm = cfg.mag.noise_ut if cfg.noise else 0.0
+        self._noise_acc = rng.standard_normal((n, chips, 3)) * sa
+        self._noise_gyro = rng.standard_normal((n, chips, 3)) * sg
+        noise_mag = rng.standard_normal((n, chips, 3)) * sm
+        rw_a = cfg.accel.bias_random_walk_g_per_sqrt_s if cfg.drift else 0.0
+        rw_g = cfg.gyro.bias_random_walk_rad_s_per_sqrt_s if cfg.drift else 0.0
+        step = np.sqrt(1.0 / self.rate_hz)
+        self._drift_acc = np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_a * step), axis=0)
+        self._drift_gyro = np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_g * step), axis=0)
+
+        # --- temperature ----------------------------------------------------------------------
+        tc = cfg.temperature
+        warm = tc.ambient_c + tc.warmup_c * (1.0 - np.exp(-t / tc.warmup_tau_s))
+        self.die_temp_c = warm[:, None] + np.array([c.temp_offset_c for c in self.chips])[None, :]
+        self.temp = temp_to_lsb(self.die_temp_c, cfg)
+
+        # --- magnetometer: sampled at its own rate, held in between ----------------------------
+        mag_rate = min(cfg.mag.rate_hz, self.rate_hz)
+        held = np.floor(np.floor(t * mag_rate + 1e-9) / mag_rate * self.rate_hz + 1e-6).astype(np.int64)
+        held = np.clip(held, 0, n - 1)
+        field_b = self.magnetic.board_field(self.truth.pos[held], self.truth.R[held])  # (n, 3) µT
+        axes = np.asarray(cfg.mag.axes, dtype=float)
+        mount = geometry.mounting.astype(float)
+        field_chip = np.stack([rotate(axes @ m, field_b) for m in mount], axis=1) + noise_mag[held]
+        self.mag = mag_to_lsb(field_chip, cfg)
+
+        self.dlpf_cfg = cfg.dlpf.cfg
+        self._build_imu()
+
+    # -------------------------------------------------------------------------------------------
+
+    def __repr__(self) -> str:
+        return (f"SimulatedSource({self.name!r}, seed={self.seed}, rate_hz={self.rate_hz:g}, "
+                f"samples={len(self)}, dlpf_cfg={self.dlpf_cfg})")
+
+    def __len__(self) -> int:
+        return len(self.imu)
+
+    def _kinematics(self, delay: float) -> Kinematics:
+        if delay == 0.0:
+            return self.truth.kinematics
+        return self.trajectory.evaluate(self.truth.t - delay, gravity=self.config.gravity)
+
+    def chip_motion(self, delay_acc: float = 0.0, delay_gyro: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """Error-free chip signals: specific force [m/s²] and rate [rad/s], (n, chips, 3), chip axes.
+
+        Includes each chip's lever-arm acceleration ω×(ω×r) + α×r.
+        """
+        ka, kg = self._kinematics(delay_acc), self._kinematics(delay_gyro)
+        r = self.geometry.lever_arms[None, :, :]  # (1, chips, 3)
+        w = ka.omega_b[:, None, :]
+        al = ka.alpha_b[:, None, :]
+        f = ka.f_b[:, None, :] + cross(w, cross(w, r)) + cross(al, r)
+        mount = self.geometry.mounting.astype(float)
+        f_chip = np.stack([rotate(m, f[:, k]) for k, m in enumerate(mount)], axis=1)
+        w_chip = np.stack([rotate(m, kg.omega_b) for m in mount], axis=1)
+        return f_chip, w_chip
+
+    def _build_imu(self) -> None:
+        cfg = self.config
+        d_acc, d_gyro = dlpf_delays(cfg, self.dlpf_cfg, self.rate_hz)
+        f_chip, w_chip = self.chip_motion(d_acc, d_gyro)
+        a_true = f_chip / G0
+        dtemp = self.die_temp_c - cfg.temperature.reference_c
+        acc = np.empty_like(a_true)
+        gyro = np.empty_like(w_chip)
+        for k, chip in enumerate(self.chips):
+            acc[:, k] = chip.apply_accel(a_true[:, k], dtemp[:, k])
+            gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k])
+        acc += self._noise_acc + self._drift_acc
+        gyro += self._noise_gyro + self._drift_gyro
+        if cfg.dlpf.enabled:
+            acc = dlpf_filter(acc, cfg.dlpf.accel_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
+            gyro = dlpf_filter(gyro, cfg.dlpf.gyro_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
+        imu = np.empty(acc.shape[:2] + (6,), dtype=np.int16)
+        imu[..., :3] = accel_to_lsb(acc, cfg)
+        imu[..., 3:] = gyro_to_lsb(gyro, cfg)
+        self.imu = imu
+        self.clipped = int(np.count_nonzero((imu == INT16_MAX) | (imu == INT16_MIN)))
+
+    # --- SensorSource ------------------------------------------------------------------------
+
+    def read(self, index: int) -> RawSample | None:
+        if index < 0:
+            raise IndexError(f"sample index must be ≥ 0, got {index}")
+        if index >= len(self.imu):
+            return None
+        return RawSample(self.imu[index], self.temp[index], self.mag[index])
+
+    def set_dlpf(self, cfg: int) -> None:
+        """Apply DLPF_CFG 0..6: the registers are recomputed with that filter (same noise draws)."""
+        if not 0 <= cfg <= 6:
+            raise ValueError(f"DLPF_CFG must be 0..6, got {cfg}")
+        if cfg != self.dlpf_cfg:
+            self.dlpf_cfg = cfg
+            self._build_imu()
+
+
+def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
+                config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT) -> SimulatedSource:
+    """A simulated 4-IMU source for a named scenario (``list_scenarios()``) or a recipe."""
+    return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry)

@@ -1,0 +1,79 @@
+"""The magnetic field the AK8975s see: Earth, building, shoe.
+
+* Earth: a constant field in the navigation frame (NED) of the configured
+  intensity F, inclination I (positive down) and declination D (positive
+  east): m_n = F (cos I cos D, cos I sin D, sin I).
+* Building (Foxlin 2005: indoor heading errors of tens of degrees): a smooth
+  random deviation field d(p) added in the navigation frame, a sum of J plane
+  waves Σ a_j cos(k_j·p + φ_j) with |k_j| around 2π/ℓ (ℓ = ``indoor_length_m``)
+  and amplitudes so that each axis has the configured rms. Points closer than
+  ``indoor_radius_m`` to the start are outdoors (no deviation).
+* Shoe: soft iron (a matrix I + S) and hard iron (a constant vector h) in the
+  board frame: m_b = (I + S) Rᵀ (m_n + d(p)) + h.
+
+Every random part is drawn once, from the source's seeded generator.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .config import DEG, SensorConfig
+from .truth import mul_transposed
+
+__all__ = ["earth_field_ned", "MagneticWorld"]
+
+_MODES = 12
+
+
+def earth_field_ned(config: SensorConfig) -> np.ndarray:
+    """The Earth's field in NED [µT]."""
+    m = config.mag
+    inc, dec = m.inclination_deg * DEG, m.declination_deg * DEG
+    return m.intensity_ut * np.array([np.cos(inc) * np.cos(dec), np.cos(inc) * np.sin(dec), np.sin(inc)])
+
+
+@dataclass(frozen=True, eq=False)
+class MagneticWorld:
+    """Earth + indoor deviation + shoe iron, fixed for one simulated walk."""
+
+    earth_ned: np.ndarray  #: (3,) µT
+    wave_vectors: np.ndarray  #: (J, 3) rad/m
+    wave_amplitudes: np.ndarray  #: (J, 3) µT
+    wave_phases: np.ndarray  #: (J,)
+    soft_iron: np.ndarray  #: (3, 3) I + S
+    hard_iron: np.ndarray  #: (3,) µT, board frame
+    indoor_radius_m: float = 0.0
+
+    @classmethod
+    def draw(cls, rng: np.random.Generator, config: SensorConfig) -> MagneticWorld:
+        m = config.mag
+        direction = rng.normal(size=(_MODES, 3))
+        direction[:, 2] *= 0.3  # buildings vary mostly along the floor
+        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+        k = direction * (2 * np.pi / m.indoor_length_m) * rng.uniform(0.5, 1.5, (_MODES, 1))
+        amp = rng.normal(size=(_MODES, 3)) * m.indoor_rms_ut * np.sqrt(2.0 / _MODES)
+        phase = rng.uniform(0, 2 * np.pi, _MODES)
+        soft = np.eye(3) + rng.uniform(-1, 1, (3, 3)) * m.soft_iron_bound
+        hard = rng.uniform(-1, 1, 3) * m.hard_iron_bound_ut
+        if not config.mag_disturbance:
+            amp = np.zeros_like(amp)
+            soft = np.eye(3)
+            hard = np.zeros(3)
+        return cls(earth_field_ned(config), k, amp, phase, soft, hard, m.indoor_radius_m)
+
+    def deviation_ned(self, pos: np.ndarray) -> np.ndarray:
+        """Indoor deviation at NED positions (n, 3) [µT]."""
+        arg = pos @ self.wave_vectors.T + self.wave_phases  # (n, J)
+        d = np.cos(arg) @ self.wave_amplitudes
+        if self.indoor_radius_m > 0:
+            d *= (np.linalg.norm(pos, axis=1) >= self.indoor_radius_m)[:, None]
+        return d
+
+    def board_field(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
+        """Field in the board frame [µT] at positions (n, 3) with attitudes R (n, 3, 3)."""
+        m_n = self.earth_ned + self.deviation_ned(pos)
+        m_b = mul_transposed(R, m_n)
+        return m_b @ self.soft_iron.T + self.hard_iron
