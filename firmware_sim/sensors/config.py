@@ -106,11 +106,11 @@ class MagConfig:
     inclination_deg: float = 72.5  #: positive: field points down (northern hemisphere)
     declination_deg: float = 6.0  #: positive: magnetic north east of true north
     # Shoe distortion, in the board frame (choice: a steel shank and a battery)
-    hard_iron_bound_ut: float = 15.0  #: ± per axis, drawn once per source
+    hard_iron_bound_ut: float = 4.0  #: ± per axis, drawn once per source
     soft_iron_bound: float = 0.05  #: ± per element of (I + S), drawn once per source
     #: Indoor deviation (Foxlin 2005): a smooth random field of this rms per axis, varying over
     #: ``indoor_length_m`` of walking (positions ≥ ``indoor_radius_m`` from the start are indoors).
-    indoor_rms_ut: float = 15.0
+    indoor_rms_ut: float = 5.0
     indoor_length_m: float = 3.0
     indoor_radius_m: float = 0.0  #: 0: the whole walk is indoors
 
