@@ -69,14 +69,16 @@ class SimulatedSource:
         sa = white_sigma(cfg.accel.noise_density_g, self.rate_hz) if cfg.noise else 0.0
         sg = white_sigma(cfg.gyro.noise_density_rad_s, self.rate_hz) if cfg.noise else 0.0
         sm = cfg.mag.noise_ut if cfg.noise else 0.0
-        self._noise_acc = rng.standard_normal((n, chips, 3)) * sa
-        self._noise_gyro = rng.standard_normal((n, chips, 3)) * sg
+        noise_acc = rng.standard_normal((n, chips, 3)) * sa
+        noise_gyro = rng.standard_normal((n, chips, 3)) * sg
         noise_mag = rng.standard_normal((n, chips, 3)) * sm
         rw_a = cfg.accel.bias_random_walk_g_per_sqrt_s if cfg.drift else 0.0
         rw_g = cfg.gyro.bias_random_walk_rad_s_per_sqrt_s if cfg.drift else 0.0
         step = np.sqrt(1.0 / self.rate_hz)
-        self._drift_acc = np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_a * step), axis=0)
-        self._drift_gyro = np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_g * step), axis=0)
+        # random part of each register before the DLPF: white noise + bias random walk
+        noise_acc += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_a * step), axis=0)
+        noise_gyro += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_g * step), axis=0)
+        self._random_acc, self._random_gyro = noise_acc, noise_gyro
 
         # --- temperature ----------------------------------------------------------------------
         tc = cfg.temperature
@@ -137,9 +139,9 @@ class SimulatedSource:
         for k, chip in enumerate(self.chips):
             acc[:, k] = chip.apply_accel(a_true[:, k], dtemp[:, k])
             gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k])
-        acc += self._noise_acc + self._drift_acc
-        gyro += self._noise_gyro + self._drift_gyro
-        if cfg.dlpf.enabled:
+        acc += self._random_acc
+        gyro += self._random_gyro
+        if cfg.dlpf.enabled and not cfg.dlpf.delays_only:
             acc = dlpf_filter(acc, cfg.dlpf.accel_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
             gyro = dlpf_filter(gyro, cfg.dlpf.gyro_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
         imu = np.empty(acc.shape[:2] + (6,), dtype=np.int16)

@@ -66,10 +66,12 @@ class DlpfConfig:
     Our model (choice): each path is delayed by its datasheet delay and
     smoothed by a one-pole low-pass of the datasheet bandwidth, whose own
     low-frequency delay 1/(2π f_c) is taken out of the pure delay (never below
-    zero). ``enabled=False`` bypasses the filter and every delay.
+    zero). ``enabled=False`` bypasses the filter and every delay;
+    ``delays_only=True`` keeps the datasheet delays but not the smoothing.
     """
 
     enabled: bool = True
+    delays_only: bool = False
     cfg: int = 0  #: DLPF_CFG at power-on (SET_IMU_BANDWIDTH changes it)
     accel_bandwidth_hz: tuple[float, ...] = (260.0, 184.0, 94.0, 44.0, 21.0, 10.0, 5.0)
     gyro_bandwidth_hz: tuple[float, ...] = (256.0, 188.0, 98.0, 42.0, 20.0, 10.0, 5.0)
@@ -134,10 +136,17 @@ class SensorConfig:
     mag_disturbance: bool = True  #: hard/soft iron and indoor deviation
 
     @classmethod
-    def ideal(cls) -> SensorConfig:
-        """Every sensor error off (geometry, quantisation and clipping remain)."""
+    def ideal(cls, keep_delays: bool = False) -> SensorConfig:
+        """Every sensor error off (geometry, quantisation and clipping remain).
+
+        By default the DLPF is bypassed altogether: the registers hold the motion
+        at the sampling instant. The firmware's READ_INERTIAL delays the
+        accelerometer by one sample to match the gyro's ≈ 1 ms filter delay;
+        ``keep_delays=True`` keeps the datasheet delays (without smoothing) so
+        that an INS fed through that pipeline sees aligned signals.
+        """
         return cls(
-            dlpf=DlpfConfig(enabled=False),
+            dlpf=DlpfConfig(enabled=keep_delays, delays_only=True),
             offsets=False,
             scale_errors=False,
             noise=False,

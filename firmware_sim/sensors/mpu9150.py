@@ -114,6 +114,8 @@ def dlpf_delays(config: SensorConfig, cfg: int, rate_hz: float) -> tuple[float, 
     d = config.dlpf
     if not d.enabled:
         return 0.0, 0.0
+    if d.delays_only:
+        return d.accel_delay_s[cfg], d.gyro_delay_s[cfg]
     out = []
     for bw, delay in ((d.accel_bandwidth_hz[cfg], d.accel_delay_s[cfg]), (d.gyro_bandwidth_hz[cfg],
                                                                           d.gyro_delay_s[cfg])):

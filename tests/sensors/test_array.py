@@ -197,3 +197,13 @@ def test_a_simulated_source_accepts_a_trajectory_and_keeps_its_truth():
     src = SimulatedSource(tr, config=IDEAL_CONFIG, rate_hz=500.0)
     assert src.rate_hz == 500.0 and len(src) == len(src.truth) == int(tr.duration * 500) + 1
     assert "trajectory" in repr(src)
+
+
+def test_ideal_with_delays_keeps_the_gyro_one_millisecond_behind_for_the_firmware():
+    from firmware_sim.sensors.registers import gyro_to_lsb
+
+    src = make_source("stand:1+walk:3", config=SensorConfig.ideal(keep_delays=True))
+    _, w_late = src.chip_motion(0.0, 0.98e-3)
+    assert np.array_equal(src.imu[..., 3:], gyro_to_lsb(w_late))
+    _, w_now = src.chip_motion()
+    assert not np.array_equal(src.imu[..., 3:], gyro_to_lsb(w_now))
