@@ -1,0 +1,37 @@
+"""`openshoe-emu`: the emulator's command line (thin argparse wiring; the work is elsewhere).
+
+Each subcommand lives in its own module with ``add_arguments(parser)`` and
+``main(args) -> int``; add one by appending to :data:`SUBCOMMANDS`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+from collections.abc import Sequence
+
+#: name → (module implementing it, one-line help).
+SUBCOMMANDS: dict[str, tuple[str, str]] = {
+    "serve": ("firmware_sim.serve", "run emulated modules in real time on a pty and/or TCP port"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="openshoe-emu", description="The OpenShoe module emulator.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (modname, help_text) in SUBCOMMANDS.items():
+        module = importlib.import_module(modname)
+        p = sub.add_parser(name, help=help_text, description=(module.__doc__ or help_text).split("\n\n")[0])
+        module.add_arguments(p)
+        p.set_defaults(_main=module.main)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    return int(args._main(args) or 0)
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,150 @@
+"""`openshoe-emu serve` as a real subprocess: READY line, pty and TCP hosts, control channel, clean stop.
+
+Every wait is on bytes or events with a deadline (pyserial read timeouts,
+the READY line), never a fixed sleep.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+
+import pytest
+import serial
+
+from firmware_sim.serve import parse_ready, spawn
+from protocol.frames import build_command, build_packet_ack
+from protocol.ids import Command, StateId
+from protocol.stream import StreamDecoder
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux")
+
+#: A short scenario (quick to build) and no status lines.
+FAST = ("--scenario", "stand", "--status-interval", "0")
+PING = bytes.fromhex("030003")
+PING_ACK = bytes.fromhex("A00300A3")
+
+
+def _read_exact(port, n: int, timeout: float = 3.0) -> bytes:
+    port.timeout = timeout
+    return port.read(n)
+
+
+def _control(address: str, *lines: str) -> list[str]:
+    host, port = address.rsplit(":", 1)
+    with socket.create_connection((host, int(port)), timeout=5) as c:
+        f = c.makefile("rw", encoding="utf-8", newline="\n")
+        replies = []
+        for line in lines:
+            f.write(line + "\n")
+            f.flush()
+            reply = []
+            while True:
+                r = f.readline().rstrip("\n")
+                reply.append(r)
+                if r.startswith(("OK", "ERR")):
+                    break
+            replies.append("\n".join(reply))
+        return replies
+
+
+def test_ready_line_parses():
+    ready = parse_ready("READY bt-pty=/tmp/a bt-tcp=127.0.0.1:4")
+    assert ready == {"bt-pty": "/tmp/a", "bt-tcp": "127.0.0.1:4"}
+    with pytest.raises(ValueError):
+        parse_ready("hello")
+
+
+def test_serve_on_pty_and_tcp_answers_both_hosts(tmp_path):
+    pty_path = tmp_path / "openshoe0"
+    with spawn("--pty", str(pty_path), "--tcp", "0", "--link", "usb", *FAST) as srv:
+        assert srv.ready["bt-pty"] == str(pty_path)
+        assert pty_path.is_symlink()
+        with serial.Serial(str(pty_path), timeout=3) as host:
+            host.write(PING)
+            assert _read_exact(host, 4) == PING_ACK
+            with serial.serial_for_url(f"socket://{srv.ready['bt-tcp']}", timeout=3) as tcp:
+                tcp.write(PING)
+                # both hosts share the Bluetooth interface: both see the module's answer
+                assert _read_exact(tcp, 4) == PING_ACK
+                assert _read_exact(host, 4) == PING_ACK
+        assert srv.stop() == 0
+    assert not pty_path.exists(), "the pty symlink is removed on shutdown"
+
+
+def test_serve_streams_lossless_packets_that_the_host_acks(tmp_path):
+    pty_path = tmp_path / "os0"
+    with spawn("--pty", str(pty_path), *FAST) as srv, \
+            serial.Serial(srv.ready["bt-pty"], timeout=2) as host:
+        host.write(build_command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER, mode=0x10 | 3))
+        dec = StreamDecoder()
+        numbers: list[int] = []
+        while len(numbers) < 5:
+            chunk = host.read(max(1, host.in_waiting))
+            assert chunk, "the module stopped sending"
+            for f in dec.feed(chunk):
+                if hasattr(f, "number"):
+                    if not numbers or f.number != numbers[-1]:
+                        numbers.append(f.number)
+                    host.write(build_packet_ack(f.number))
+        assert [(b - a) % 65536 for a, b in zip(numbers[:-1], numbers[1:], strict=True)] == [1, 1, 1, 1]
+
+
+def test_control_channel_disconnects_and_reconnects_the_link(tmp_path):
+    pty_path = tmp_path / "os1"
+    with spawn("--pty", str(pty_path), "--control", "0", *FAST) as srv, \
+            serial.Serial(srv.ready["bt-pty"], timeout=1) as host:
+        ctl = srv.ready["control"]
+        host.write(PING)
+        assert _read_exact(host, 4) == PING_ACK
+        assert _control(ctl, "disconnect") == ["OK disconnect"]
+        host.write(PING)
+        assert _read_exact(host, 4, timeout=0.5) == b"", "a disconnected module answers nothing"
+        assert _control(ctl, "reconnect") == ["OK reconnect"]
+        host.reset_input_buffer()
+        host.write(PING)
+        assert _read_exact(host, 4) == PING_ACK
+        replies = _control(ctl, "corrupt 4", "stall 0.2", "bogus", "status", "@7 stall 1")
+        assert replies[0] == "OK corrupt 4" and replies[1] == "OK stall 0.2"
+        assert replies[2].startswith("ERR unknown command")
+        assert "t=" in replies[3] and replies[3].endswith("OK")
+        assert replies[4].startswith("ERR no module")
+        host.write(PING)
+        got = _read_exact(host, 4)
+        assert len(got) == 4 and got != PING_ACK, "the next 4 bytes to the host were corrupted"
+
+
+def test_two_modules_each_on_its_own_pty(tmp_path):
+    base = tmp_path / "mod"
+    with spawn("--pty", str(base), "--modules", "2", "--link", "usb", *FAST) as srv:
+        assert set(srv.ready) == {"m0.bt-pty", "m1.bt-pty"}
+        for key in ("m0.bt-pty", "m1.bt-pty"):
+            with serial.Serial(srv.ready[key], timeout=3) as host:
+                host.write(PING)
+                assert _read_exact(host, 4) == PING_ACK
+
+
+def test_sigint_stops_cleanly_and_bad_usage_is_refused(tmp_path):
+    srv = spawn("--pty", str(tmp_path / "p"), *FAST)
+    srv.proc.send_signal(__import__("signal").SIGINT)
+    assert srv.proc.wait(10) == 0
+    srv.stop()
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.cli", "serve"], capture_output=True, text=True,
+                       timeout=30)
+    assert r.returncode == 2 and "--pty" in r.stderr
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.cli", "serve", "--tcp", "x:y"],
+                       capture_output=True, text=True, timeout=30)
+    assert r.returncode == 2 and "[HOST:]PORT" in r.stderr
+
+
+def test_conformance_cli_passes_against_serve_on_a_pty(tmp_path):
+    """The product's own conformance tool, run as a user would, against a served module."""
+    with spawn("--pty", str(tmp_path / "c0"), "--link", "usb", *FAST) as srv:
+        r = subprocess.run(
+            [sys.executable, "-m", "tools.conformance.cli", srv.ready["bt-pty"], "-q",
+             "--only", "ping", "acks", "bad-checksum", "phase-sync", "lossless", "resend-interval"],
+            capture_output=True, text=True, timeout=60, env={**os.environ, "PYTHONUNBUFFERED": "1"})
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert r.stdout.count("PASS") == 6 and "CONFORMS" in r.stdout
