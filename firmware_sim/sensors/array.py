@@ -71,7 +71,6 @@ class SimulatedSource:
         sm = cfg.mag.noise_ut if cfg.noise else 0.0
         noise_acc = rng.standard_normal((n, chips, 3)) * sa
         noise_gyro = rng.standard_normal((n, chips, 3)) * sg
-        noise_mag = rng.standard_normal((n, chips, 3)) * sm
         rw_a = cfg.accel.bias_random_walk_g_per_sqrt_s if cfg.drift else 0.0
         rw_g = cfg.gyro.bias_random_walk_rad_s_per_sqrt_s if cfg.drift else 0.0
         step = np.sqrt(1.0 / self.rate_hz)
@@ -89,12 +88,13 @@ class SimulatedSource:
         # --- magnetometer: sampled at its own rate, held in between ----------------------------
         mag_rate = min(cfg.mag.rate_hz, self.rate_hz)
         held = np.floor(np.floor(t * mag_rate + 1e-9) / mag_rate * self.rate_hz + 1e-6).astype(np.int64)
-        held = np.clip(held, 0, n - 1)
-        field_b = self.magnetic.board_field(self.truth.pos[held], self.truth.R[held])  # (n, 3) µT
+        updates, which = np.unique(np.clip(held, 0, n - 1), return_inverse=True)
+        field_b = self.magnetic.board_field(self.truth.pos[updates], self.truth.R[updates])  # µT
+        noise_mag = rng.standard_normal((len(updates), chips, 3)) * sm
         axes = np.asarray(cfg.mag.axes, dtype=float)
         mount = geometry.mounting.astype(float)
-        field_chip = np.stack([rotate(axes @ m, field_b) for m in mount], axis=1) + noise_mag[held]
-        self.mag = mag_to_lsb(field_chip, cfg)
+        field_chip = np.stack([rotate(axes @ m, field_b) for m in mount], axis=1) + noise_mag
+        self.mag = mag_to_lsb(field_chip, cfg)[which]
 
         self.dlpf_cfg = cfg.dlpf.cfg
         self._build_imu()
