@@ -33,6 +33,7 @@ from .gait import WALKING, GaitParams, Trajectory
 from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
+from .replay import Recording
 from .scenarios import list_scenarios, trajectory
 from .truth import GroundTruth, Kinematics, cross, rotate
 
@@ -149,6 +150,16 @@ class SimulatedSource:
         imu[..., 3:] = gyro_to_lsb(gyro, cfg)
         self.imu = imu
         self.clipped = int(np.count_nonzero((imu == INT16_MAX) | (imu == INT16_MIN)))
+
+    def to_recording(self) -> Recording:
+        """The error-free board-centre signals as a :class:`Recording` (board frame, g, rad/s, gauss).
+
+        With :func:`.replay.save_csv` this writes a simulated walk in our CSV
+        format, e.g. to feed other tools or to replay it at another rate.
+        """
+        field_b = self.magnetic.board_field(self.truth.pos, self.truth.R) / 100.0  # µT → gauss
+        return Recording(t=self.truth.t.copy(), acc_g=self.truth.f_b / G0, gyro=self.truth.omega_b.copy(),
+                         mag=field_b, rate_hz=self.rate_hz, path=None, format="simulated")
 
     # --- SensorSource ------------------------------------------------------------------------
 

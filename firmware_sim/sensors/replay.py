@@ -44,8 +44,10 @@ make that average exactly the recorded sample, with no invented inter-chip
 differences (the recording's real noise stays the only noise, no lever-arm
 terms are made up), and the firmware path runs unchanged — including the
 bottom pair's upside-down mounting, which the calibration matrices undo.
-The DLPF setting is ignored (the recording is already filtered); the
-temperature register holds the reference temperature of the configuration.
+The magnetometer (gauss → µT) goes the same way and then into the AK8975's
+own axes (``config.mag.axes``); a missing reading holds the previous one. The
+DLPF setting is ignored (the recording is already filtered); the temperature
+register holds the reference temperature of the configuration.
 """
 
 from __future__ import annotations

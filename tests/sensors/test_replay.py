@@ -14,6 +14,7 @@ from firmware_sim.board import MIMU22BT
 from firmware_sim.sensors.base import SensorSource
 from firmware_sim.sensors.registers import lsb_to_accel, lsb_to_gyro
 from firmware_sim.sensors.replay import (
+    CSV_HEADER,
     OPENSHOE_HEADER,
     Recording,
     RecordingFormatError,
@@ -213,3 +214,43 @@ def test_quantisation_saturates_at_int16(tmp_path):
                     mag=np.full((1, 3), np.nan), rate_hz=250.0)
     s = ReplaySource(rec).read(0)
     assert list(s.imu[0]) == [32767, -32768, 0, 32767, 0, 0]
+
+
+def test_a_simulated_walk_written_as_csv_replays_as_its_board_signals(tmp_path):
+    from firmware_sim.sensors.array import make_source
+    from firmware_sim.sensors.config import IDEAL_CONFIG
+
+    sim = make_source("stand:1+walk:3", config=IDEAL_CONFIG, rate_hz=250.0)
+    rec = load_recording(save_csv(sim.to_recording(), tmp_path / "sim.csv"))
+    assert rec.rate_hz == 250.0 and len(rec) == len(sim)
+    assert np.array_equal(rec.board_acc_g(), sim.truth.f_b / 9.80665)  # lossless
+    replay = ReplaySource(rec)
+    # replayed chips hold the board-centre signals (no lever arms): equal to the simulation's mean chip
+    acc = np.einsum("kji,nkj->nki", MIMU22BT.mounting.astype(float), lsb_to_accel(replay.imu[..., :3]))
+    assert np.abs(acc.mean(axis=1) - sim.truth.f_b / 9.80665).max() <= 1 / 4096 + 1e-12
+
+
+def test_an_empty_recording_is_refused(tmp_path):
+    path = write_openshoe(tmp_path / "w.txt", [])
+    with pytest.raises(RecordingFormatError, match="no samples"):
+        load_openshoe(path)
+    (tmp_path / "e.csv").write_text("t,ax,ay,az,gx,gy,gz\n")
+    with pytest.raises(RecordingFormatError, match="no samples"):
+        load_csv(tmp_path / "e.csv")
+
+
+@settings(max_examples=40, suppress_health_check=[HealthCheck.function_scoped_fixture], deadline=None)
+@given(n=st.integers(1, 10), data=st.data(),
+       junk=st.sampled_from(["", "x", "1,,2", "nan", "1e", "--1", "0x10", "1 2"]))
+def test_a_corrupted_csv_field_is_refused_with_its_line_number(tmp_path, n, data, junk):
+    rows = [f"{0.01 * (k + 1)!r},0.0,0.0,-1.0,0.1,0.2,0.3" for k in range(n)]
+    bad = data.draw(st.integers(0, n - 1))
+    col = data.draw(st.integers(1, 6))
+    fields = rows[bad].split(",")
+    fields[col] = junk
+    rows[bad] = ",".join(fields)
+    path = tmp_path / "c.csv"
+    path.write_text("# made by a test\n" + CSV_HEADER + "\n" + "\n".join(rows) + "\n")
+    with pytest.raises(RecordingFormatError) as err:
+        load_csv(path)
+    assert err.value.line == bad + 3
