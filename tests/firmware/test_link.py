@@ -373,3 +373,28 @@ def test_every_byte_is_accounted_for(ops, profile, seed, lossy):
         else:
             link.connect()
         conservation(link)
+
+
+def test_faults_are_per_direction():
+    link = make_link("bt", seed=2, faults=LinkFaults(to_module=DirectionFaults(byte_loss=0.5)))
+    clk = Clock(link)
+    for _ in range(500):
+        link.host_write(b"\x03\x00\x03")
+        link.tx_write(b"\xa0\x03\x00\xa3")
+        clk.step()
+        link.rx_read(400)
+        link.host_read()
+    assert link.counters.to_module.lost_fault > 0
+    assert link.counters.to_host.lost == 0 and link.counters.to_host.corrupted == 0
+
+
+def test_a_stall_towards_the_module_holds_commands_without_loss():
+    link = make_link("bt", seed=3)
+    clk = Clock(link)
+    link.stall(0.3, direction="to_module")
+    link.host_write(b"\x03\x00\x03")
+    clk.step(299)
+    assert link.rx_pending() == 0
+    clk.step(2)
+    assert link.rx_read(10) == b"\x03\x00\x03"
+    assert link.counters.to_module.lost == 0
