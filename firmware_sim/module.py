@@ -84,6 +84,8 @@ class Module:
         self.sequence = ProcessSequence()
         self.sensors: SensorSource = sensors if sensors is not None else still_source(config.rate_hz)
         self.command_set = command_set(config.command_set)
+        #: Every frame in and out (TraceEntry) when ModuleConfig.trace is set; any object
+        #: with ``append(entry)`` may be assigned instead (a hook), None switches tracing off.
         self.trace: list[TraceEntry] | None = [] if config.trace else None
         #: The conditional output (STATE_IF_SETUP, SETUP_DEBUG_PROC, mode commands).
         self.cond_output = ConditionalOutput()
@@ -155,6 +157,16 @@ class Module:
     @property
     def overruns(self) -> int:
         return self.clock.overruns
+
+    def counters(self) -> dict[str, int]:
+        """Everything a host developer may want to watch: loop timing and both interfaces."""
+        c = self.clock
+        out = {"loops": c.ticks, "interrupts": c.interrupts, "overruns": c.overruns,
+               "missed_ticks": c.missed_ticks, "last_loop_cycles": c.last_loop_cycles}
+        for iface in self.interface_list:
+            for k, v in iface.counters().items():
+                out[f"{iface.name.lower()}.{k}"] = v
+        return out
 
     def __repr__(self) -> str:
         return (f"Module({self.command_set.name} numbering, {self.clock!r}, {self.sequence!r}, "

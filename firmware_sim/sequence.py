@@ -146,7 +146,10 @@ class ProcessSequence:
         for j in range(NR_SLOTS):
             pid = slots[j]
             if pid:
-                pf = funcs[pid]
+                pf = funcs.get(pid)
+                if pf is None:  # unregistered since it was written: an empty slot
+                    slots[j] = 0
+                    continue
                 pf.fn(module)
                 cost = pf.cycles + call
                 clock.now_cycles += cost

@@ -81,3 +81,27 @@ def test_memory_states_are_live_arrays():
     m.memory[0x41][...] = np.arange(6)
     assert m.memory.imu_raw[1].tolist() == [0, 1, 2, 3, 4, 5]
     assert m.memory.read_wire(0x41) == bytes.fromhex("0000 0001 0002 0003 0004 0005")
+
+
+def test_counters_cover_loop_timing_and_both_interfaces():
+    h = Host()
+    h.send(b"\xff" + bytes.fromhex("03 00 04") + bytes.fromhex("03 00 03"))
+    h.step(2)
+    c = h.module.counters()
+    assert c["loops"] == 2 and c["overruns"] == 0
+    assert c["usb.bytes_discarded"] == 1 and c["usb.bad_checksums"] == 1
+    assert c["usb.frames_executed"] == 1 and c["bt.frames_executed"] == 0
+
+
+def test_trace_accepts_any_append_hook():
+    seen = []
+
+    class Hook:
+        def append(self, entry):
+            seen.append((entry.direction, entry.note))
+
+    h = Host()
+    h.module.trace = Hook()
+    h.send(bytes.fromhex("03 00 03"))
+    h.step()
+    assert seen == [("in", "command"), ("out", "ack")]
