@@ -28,12 +28,14 @@ fit (a host that stopped reading) is dropped and counted in ``dropped``.
 
 from __future__ import annotations
 
+import atexit
 import errno
 import os
 import select
 import termios
 import threading
 import tty
+import weakref
 from pathlib import Path
 
 from ..port import Port
@@ -70,6 +72,10 @@ class PtyEndpoint:
         self._changed = threading.Condition()
         if port.connected:
             port.disconnect()
+        # remove the symlink even if the program ends without close() (not on SIGKILL)
+        ref = weakref.ref(self)
+        self._atexit = lambda: (ep := ref()) is not None and ep.close()
+        atexit.register(self._atexit)
 
     def _publish(self) -> None:
         path = self.link_path
@@ -173,6 +179,7 @@ class PtyEndpoint:
         if self.closed:
             return
         self.closed = True
+        atexit.unregister(self._atexit)
         if self.paired:
             self.paired = False
             self.port.disconnect()

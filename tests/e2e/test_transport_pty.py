@@ -115,3 +115,18 @@ def test_a_host_that_does_not_read_gets_drops_counted_not_a_stuck_module(served)
         ticks = pacer.call(lambda m: m.clock.ticks).result(5)
         assert pacer.call(lambda m: m.clock.ticks).result(5) >= ticks  # the loop goes on
         assert pacer.status().running
+
+
+def test_symlink_removed_when_the_program_exits_without_close(tmp_path):
+    import subprocess
+
+    path = tmp_path / "shoe"
+    code = ("from firmware_sim.module import Module\n"
+            "from firmware_sim.transports.pty import PtyEndpoint\n"
+            f"ep = PtyEndpoint(Module().usb.port, {str(path)!r})\n"
+            "import os; print(os.readlink(ep.link_path))\n")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                         cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith("/dev/pts/")
+    assert not os.path.lexists(path)
