@@ -16,9 +16,9 @@ from hostlib.device import Device, LinkEvent
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
 from hostlib.session import StepEvent
 from protocol.codec import encode_step
-from protocol.commands import LEGACY_2014
-from protocol.frames import build_command_ack, build_packet_ack, build_state_packet
-from protocol.ids import StateId
+from protocol.commands import LEGACY_2014, command_set
+from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
+from protocol.ids import Command, StateId
 
 from .fakes import FakeModulePort
 
@@ -245,3 +245,53 @@ def test_openshoe_url_needs_the_emulator_package(monkeypatch):
 def test_needs_a_target():
     with pytest.raises(ValueError, match="needs"):
         Device()
+
+
+# every typed method sends the frame of its command, in both numberings where it exists
+METHOD_CALLS = [
+    ("ping", (), Command.PING),
+    ("request_mcu_id", (), Command.MCU_ID),
+    ("set_state", (StateId.GP_ID, 7), Command.SET_STATE_1),
+    ("set_state", (StateId.TH_ZARU, 5), Command.SET_STATE_4),
+    ("set_state", (StateId.POSITION, [1.0, 2.0, 3.0]), Command.SET_STATE_12),
+    ("set_state", (StateId.U_K, [0.0] * 6), Command.SET_STATE_24),
+    ("set_state", (StateId.DP, [0.0] * 10), Command.SET_STATE_48),
+    ("set_state", (StateId.P, [0.0] * 45), Command.SET_STATE_254),
+    ("output_state", (0x01, 1), Command.OUTPUT_STATE),
+    ("output_multiple_states", ([0x01, 0x02], 1), Command.OUTPUT_MULTIPLE_STATES),
+    ("output_all_off", (), Command.OUTPUT_ALL_OFF),
+    ("state_if_setup", (0x33, 0x20, [0x30]), Command.STATE_IF_SETUP),
+    ("output_imu_rd", (0xF, 0x41), Command.OUTPUT_IMU_RD),
+    ("set_imu_bandwidth", (3,), Command.SET_IMU_BANDWIDTH),
+    ("run_proc", (0x13, 0), Command.RUN_PROC),
+    ("run_mult_proc", ([0x13, 0x10],), Command.RUN_MULT_PROC),
+    ("all_proc_off", (), Command.ALL_PROC_OFF),
+    ("start_zupt_aided_ins", (), Command.RESET_ZUPT_AIDED_INS),
+    ("start_stepwise_dead_reckoning", (), Command.STEPWISE_DEAD_RECKONING),
+    ("mimu_frontend", (), Command.MIMU_FRONTEND),
+    ("reset_proc_setup", (0x24,), Command.RESET_PROC_SETUP),
+    ("store_and_empty", (), Command.STORE_AND_EMPTY),
+    ("restore_proc_sequ", (), Command.RESTORE_PROC_SEQU),
+    ("normal_imu", (1,), Command.NORMAL_IMU),
+    ("normal_imu_with_bias_est", (1,), Command.NORMAL_IMU_WITH_BIAS_EST),
+    ("setup_debug_proc", ([0x10, 0x11], [0x13]), Command.SETUP_DEBUG_PROC),
+    ("input_imu_rd", (1, np.ones((4, 6), dtype=int)), Command.INPUT_IMU_RD),
+    ("gp_test", (1, 2), Command.GP_TEST),
+]
+
+
+@pytest.mark.parametrize("numbering", ["2015", "2014"])
+def test_every_typed_method_sends_its_command(numbering):
+    cs = command_set(numbering)
+    fake = FakeModulePort(cs)
+    with Device(fake, command_set=numbering, ack_timeout=2.0) as d:
+        for name, args, meaning in METHOD_CALLS:
+            if not cs.supports(meaning):
+                with pytest.raises(NotSupportedByCommandSet):
+                    getattr(d, name)(*args)
+                continue
+            n = len(fake.commands)
+            getattr(d, name)(*args)
+            frame = parse_command(fake.commands[n], cs)
+            assert frame.command is meaning, name
+    assert {m for _, _, m in METHOD_CALLS} | {Command.ACK} == set(Command)

@@ -16,7 +16,7 @@ from protocol.ids import OutputMode, StateId  # noqa: E402
 
 
 def test_ping_and_mcu_id_over_the_emulator():
-    with Device("openshoe://?seed=1") as dev:
+    with Device("openshoe://?scenario=stand&seed=1") as dev:
         assert dev.serialize_io  # the virtual-time port is driven by the reader thread only
         dev.ping()
         dev.request_mcu_id()
@@ -26,18 +26,19 @@ def test_ping_and_mcu_id_over_the_emulator():
 
 
 def test_2014_numbering_against_a_2014_module_and_silence_across_numberings():
-    with Device("openshoe://?command_set=2014", command_set="2014") as dev:
+    with Device("openshoe://?scenario=stand&command_set=2014", command_set="2014") as dev:
         dev.ping()
         dev.start_stepwise_dead_reckoning()  # 14 00 14
         dev.output_all_off()  # 21 00 21
     # An old app talking to a new module gets silence (protocol.md §10).
-    with Device("openshoe://?command_set=2015", command_set="2014", ack_timeout=0.2, retries=0) as dev:
+    url = "openshoe://?scenario=stand&command_set=2015"
+    with Device(url, command_set="2014", ack_timeout=0.2, retries=0) as dev:
         with pytest.raises(AckTimeout):
             dev.output_all_off()
 
 
 def test_lossless_output_is_acked_and_flows_in_order():
-    with Device("openshoe://?seed=2") as dev:
+    with Device("openshoe://?scenario=stand&seed=2") as dev:
         dev.output_state(StateId.INTERRUPT_COUNTER, 1 | OutputMode.LOSSLESS)
         got = []
         for pkt in dev.packets(timeout=20):
@@ -53,7 +54,7 @@ def test_lossless_output_is_acked_and_flows_in_order():
 
 def test_lossless_over_a_faulty_bluetooth_link_loses_nothing():
     """Lost and corrupted bytes: bad frames are counted, resends fill the holes, none is seen twice."""
-    url = "openshoe://?seed=3&link=bt&loss=0.003&corrupt=0.003"
+    url = "openshoe://?scenario=stand&seed=3&link=bt&loss=0.003&corrupt=0.003"
     with Device(url, ack_timeout=2.0, retries=5) as dev:
         dev.output_state(StateId.INTERRUPT_COUNTER, 6 | OutputMode.LOSSLESS)  # every 32 loop cycles
         got = []
@@ -80,13 +81,19 @@ def _walking_available() -> bool:
 @pytest.mark.slow
 @pytest.mark.skipif(not _walking_available(), reason="the emulator has no walking sensor scenarios yet")
 def test_steps_of_a_straight_walk_are_summed():
-    with Device("openshoe://?scenario=walk_slow&seed=1") as dev:
+    """A 12 m walk north: every step acked once, none twice, no gaps, the sum ends near (12, 0)."""
+    recipe = "stand:3%2Bwalk:12%2Bstand:3"  # '+' must be %2B in a URL query
+    with Device(f"openshoe://?scenario={recipe}&seed=1") as dev:
         dev.start_stepwise_dead_reckoning()
-        steps = []
-        for ev in dev.steps(timeout=120):
-            steps.append(ev)
-            if dev.track.distance > 25:
+        for _ev in dev.steps(timeout=120):
+            if dev.track.final_pose[0] > 11.0:
                 break
-        assert len(steps) > 10
-        assert dev.track.gaps == [] and dev.stats["duplicate_steps"] == 0
-        assert dev.stats["acks_sent"] >= len(steps)
+        for _ev in dev.steps(timeout=2.0):  # the last step(s) of the stance at the end
+            pass
+        track, st = dev.track, dev.stats
+    assert len(track) >= 10
+    assert track.gaps == [] and st["duplicate_steps"] == 0
+    assert st["acks_sent"] == st["packets"] + st["duplicate_packets"]
+    x, y, _, chi = track.final_pose
+    assert 11.0 < x < 13.0 and abs(y) < 0.5 and abs(chi) < 0.05
+    assert track.distance == pytest.approx(x, rel=0.05)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 from hypothesis import assume, given, settings
@@ -13,6 +15,7 @@ from hostlib.session import CommandAckEvent, GapEvent, HostSession, PacketEvent,
 from protocol.codec import Step, encode_states, encode_step
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet
 from protocol.ids import Command, OutputMode, StateId
+from protocol.states import STATES
 from protocol.stream import decode_all
 
 GOLDEN_STEP = bytes.fromhex(
@@ -271,3 +274,18 @@ def test_step_class_is_the_protocol_one():
     s = started()
     ev, _ = s.feed(step_packet(1, 1))
     assert isinstance(ev[1].step, Step)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.sets(st.sampled_from(sorted(STATES)), min_size=1, max_size=10), st.data())
+def test_match_layout_agrees_with_brute_force(candidates, data):
+    chosen = data.draw(st.sets(st.sampled_from(sorted(candidates)), min_size=1))
+    length = sum(STATES[i].size for i in chosen)
+    fits = [
+        combo
+        for r in range(1, len(candidates) + 1)
+        for combo in itertools.combinations(sorted(candidates), r)
+        if sum(STATES[i].size for i in combo) == length
+    ]
+    expected = fits[0] if len(fits) == 1 else None
+    assert match_layout(frozenset(candidates), length) == expected
