@@ -6,7 +6,8 @@ Per chip, in the chip's raw axes (all numbers from :mod:`.config`):
     ω_meas = (I + E_g)(1 + s_g·ΔT) ω_true + b_g + c_g·ΔT + w_g(t) + n_g   [rad/s]
 
 with E a scale/cross-axis matrix (diagonal ±sensitivity tolerance, off-diagonal
-±cross-axis), b the turn-on offset, c and s the temperature coefficients of
+±cross-axis), b the turn-on offset (E and b scaled by the calibration residual
+of the configuration: the module is calibrated), c and s the temperature coefficients of
 offset and sensitivity, ΔT the die temperature minus the 25 °C reference,
 w(t) a bias random walk (in-run drift) and n white noise of the datasheet
 noise density (one-sided; per-sample σ = density·√(f_s/2)). Then the DLPF
@@ -62,6 +63,8 @@ class ChipErrors:
         on = config.scale_errors
         off = config.offsets
         tc = config.temperature_effects
+        res = config.calibration_residual
+        acc_m, acc_b, gyr_m, gyr_b = acc_m * res, acc_b * res, gyr_m * res, gyr_b * res
         return cls(
             acc_matrix=np.eye(3) + (acc_m if on else 0.0),
             acc_offset_g=acc_b if off else np.zeros(3),

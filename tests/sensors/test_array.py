@@ -111,7 +111,8 @@ def test_running_heel_strikes_clip_at_16_g_and_walking_does_not():
 
 
 def test_offsets_and_scale_errors_stay_within_the_datasheet_bounds():
-    src = make_source("stand:1", seed=11, config=replace(IDEAL_CONFIG, offsets=True, scale_errors=True))
+    raw_chips = replace(IDEAL_CONFIG, offsets=True, scale_errors=True, calibration_residual=1.0)
+    src = make_source("stand:1", seed=11, config=raw_chips)
     for chip in src.chips:
         assert np.all(np.abs(chip.acc_offset_g) <= [0.080, 0.080, 0.150])
         assert np.all(np.abs(chip.gyro_offset) <= math.radians(20))
@@ -120,6 +121,13 @@ def test_offsets_and_scale_errors_stay_within_the_datasheet_bounds():
         assert np.all(np.abs(off) <= 0.02)
     still = lsb_to_gyro(src.imu[:, 0, 3:]).mean(axis=0)
     assert still == pytest.approx(src.chips[0].gyro_offset, abs=GYRO_LSB)
+
+
+def test_a_calibrated_module_keeps_small_residual_offsets():
+    src = make_source("stand:1", seed=11)
+    for chip in src.chips:
+        assert np.all(np.abs(chip.gyro_offset) <= math.radians(20) * 0.02)
+        assert np.all(np.abs(chip.acc_offset_g) <= 0.150 * 0.02)
 
 
 def test_default_errors_are_on_and_each_chip_differs():
