@@ -13,7 +13,10 @@ Choices where the spec is silent (each matches the module's firmware):
 * OUTPUT_ALL_OFF switches off this interface's periodic outputs, clears the
   module's conditional output (flag, ids, interface) and empties this
   interface's queue; states already pulled for the next packet stay pending.
-* RESET_ZUPT_AIDED_INS (0x33) leaves outputs, lossless flag and step counter alone.
+* RESET_ZUPT_AIDED_INS (0x33) is 0x34 without the step-wise reset and without
+  setting up outputs: it empties the sequence and switches all outputs of its
+  interface off (queue emptied, conditional output cleared), as the firmware's
+  handler does, but leaves the lossless flag and the step counter alone.
 * NORMAL_IMU_WITH_BIAS_EST (0x41) delays its outputs with the conditional
   output and STATE_OUTPUT_IF_COUNTER in slot 5: the periodic outputs switch on
   in the loop whose interrupt count is 128 past the command's.
@@ -236,6 +239,8 @@ def _start_ins(module: Module, stored: tuple[int, ...]) -> None:
 
 @handles(Command.RESET_ZUPT_AIDED_INS)
 def _zupt_aided_ins(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
+    module.sequence.empty()
+    all_outputs_off(module, iface)
     _start_ins(module, ZUPT_INS_SEQUENCE)
 
 

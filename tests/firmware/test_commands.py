@@ -291,6 +291,7 @@ def test_zupt_aided_ins_sets_alignment_and_stored_sequence_without_outputs():
     m = h.module
     h.command(Command.OUTPUT_STATE, state_id=0x02, mode=0x01)
     h.step()
+    h.command(Command.OUTPUT_STATE, state_id=0x05, mode=0x12)  # lossless, periodic
     h.send(bytes.fromhex("33 00 33"))
     m.usb.receive()
     slots = registered(ALIGNMENT_SEQUENCE)
@@ -298,7 +299,10 @@ def test_zupt_aided_ins_sets_alignment_and_stored_sequence_without_outputs():
     assert m.sequence.slots == slots
     assert m.sequence.storage == registered(ZUPT_INS_SEQUENCE)
     assert m.restore_if_flag == StateId.INIT_DONE
-    assert h.iface.periodic_outputs == {0x02: 1} and not h.iface.lossless
+    # outputs switched off, queue emptied (only the ack left), lossless flag untouched
+    assert h.iface.periodic_outputs == {} and h.iface.lossless
+    assert [f.data for f in h.iface.queue.frames] == [bytes.fromhex("A0 33 00 D3")]
+    assert m.cond_output.from_mask == 0
 
 
 def test_mimu_frontend_sequence():
