@@ -129,3 +129,17 @@ def test_pacer_control_channel_reports_errors():
 def test_bad_speed_is_refused():
     with pytest.raises(ValueError, match="speed"):
         Pacer(Module(), speed=-1)
+
+
+def test_pacer_speed_10_runs_ten_times_faster_than_the_wall_clock():
+    m = Module()
+    pacer = Pacer(m, speed=10.0).start()
+    try:
+        t0 = time.monotonic()
+        while pacer.call(lambda mod: mod.clock.ticks).result(5) < 1000 and time.monotonic() - t0 < 10:
+            pass
+        elapsed = time.monotonic() - t0
+    finally:
+        pacer.stop()
+    assert m.clock.ticks >= 1000
+    assert elapsed >= 0.095  # 1 s of module time, not sooner than 0.1 s of wall time
