@@ -193,3 +193,21 @@ def test_1e5_random_streams_through_one_parser():
             m.step()  # let the sequence and transmission run with whatever got set up
             usb.port.host_read()
     assert usb.bad_checksums > 10_000
+
+
+@settings(max_examples=60, deadline=None)
+@given(parts=streams, chunk=st.integers(1, 64))
+def test_same_random_inputs_twice_give_identical_bytes_and_traces(parts, chunk):
+    def run() -> tuple[bytes, list]:
+        m = Module(ModuleConfig(trace=True))
+        data = b"".join(parts)
+        out = bytearray()
+        for i in range(0, len(data), chunk):
+            m.usb.port.host_write(data[i:i + chunk])
+            m.step()
+            out += m.usb.port.host_read()
+        m.run(3)
+        out += m.usb.port.host_read()
+        return bytes(out), list(m.trace)
+
+    assert run() == run()

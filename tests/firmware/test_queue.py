@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from firmware_sim.port import IdealPort
 from firmware_sim.queue import QUEUE_BYTES, PackageQueue
 from protocol.ids import Command, StateId
@@ -168,3 +171,31 @@ def test_queue_rules_directly():
     assert q.send_lossless(port) == 500
     q.clear()
     assert len(q) == 0 and q.used == 0
+
+
+@settings(max_examples=200, deadline=None)
+@given(ops=st.lists(st.tuples(st.sampled_from(["add", "ack", "lossy", "lossless", "clear"]),
+                              st.integers(1, 600), st.integers(0, 40)), max_size=80))
+def test_queue_invariants_under_any_operations(ops):
+    q = PackageQueue()
+    port = ThrottledPort(per_tick=0)
+    number = 0
+    for op, size, k in ops:
+        port.per_tick = 7 * k
+        port.advance(0)
+        if op == "add":
+            number += 1
+            q.add(bytes([0xAA]) + bytes(min(size, 512) - 1), number, single=k % 2 == 0)
+        elif op == "ack":
+            head = q.frames[0].number if q.frames else None
+            removed = q.ack(number - k)
+            assert removed == (head == number - k)
+        elif op == "lossy":
+            q.push_lossy(port)
+        elif op == "lossless":
+            q.send_lossless(port)
+        else:
+            q.clear()
+        assert 0 <= q.used <= q.capacity and len(q) <= q.max_entries
+        assert q.used == sum(f.remaining for f in q.frames)
+        assert 0 <= q.delay_counter < q.resend_cycles
