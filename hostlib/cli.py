@@ -60,7 +60,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def summary_line(dev: Device) -> str:
     """One line: steps, distance, position, 1σ (horizontal, worst direction), gaps."""
-    tr = dev.track
+    tr = dev.track_snapshot()
     x, y, z, chi = tr.final_pose
     st = dev.stats
     return (
@@ -104,7 +104,7 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
                 dev.output_all_off()
             except HostError as exc:
                 print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
-        track = dev.track
+        track = dev.track_snapshot()
         _write_outputs(args, track, origin)
         print(repr(track), file=out)
     return 0

@@ -479,8 +479,16 @@ class Device(CommandMethods):
 
     @property
     def track(self) -> Track:
-        """The track summed from every step received so far."""
+        """The live track summed from every step so far (the reader thread appends to it).
+
+        For a consistent view while steps arrive use :meth:`track_snapshot`.
+        """
         return self.session.tracker.track
+
+    def track_snapshot(self) -> Track:
+        """A copy of the track taken between two chunks of the stream."""
+        with self._lock:
+            return self.session.tracker.track.copy()
 
     @property
     def tracker(self) -> StepTracker:

@@ -200,6 +200,18 @@ class Track:
             prev = cnt[k]
         return track
 
+    def copy(self) -> Track:
+        """An independent copy (take it under the owner's lock while steps are being added)."""
+        t = Track(self._poses[0], self._covs[0], self.start_counter)
+        n = len(self._steps)
+        t._poses = [p.copy() for p in self._poses[: n + 1]]
+        t._covs = [c.copy() for c in self._covs[: n + 1]]
+        t._steps = [s.copy() for s in self._steps[:n]]
+        t._counters = list(self._counters[:n])
+        t.distance = self.distance
+        t.gaps = list(self.gaps)
+        return t
+
     def __len__(self) -> int:
         """Number of summed steps."""
         return len(self._steps)

@@ -50,3 +50,10 @@ def test_log_captures_raw_bytes(tmp_path):
 def test_silent_port_fails_with_a_clear_message(capsys):
     assert main(["info", "loop://", "--ack-timeout", "0.05"], io.StringIO()) == 1
     assert "no ack" in capsys.readouterr().err
+
+
+def test_info_against_the_emulator_url():
+    pytest.importorskip("firmware_sim.transports.protocol_openshoe")
+    out = io.StringIO()
+    assert main(["info", "openshoe://?scenario=stand"], out) == 0
+    assert "mcu id" in out.getvalue() and "(no answer)" not in out.getvalue()

@@ -252,3 +252,12 @@ def test_resends_and_gaps_never_change_the_sum(increments, repeats):
     np.testing.assert_array_equal(noisy.track.covariances, clean.track.covariances)
     assert noisy.duplicates == sum(repeats[: len(counters)])
     assert noisy.missing == sum(increments) - len(increments)
+
+
+def test_track_copy_is_independent():
+    t = StepTracker()
+    t.add(step([1.0, 0, 0, 0], 1))
+    snap = t.track.copy()
+    t.add(step([1.0, 0, 0, 0], 3))
+    assert len(snap) == 1 and snap.distance == pytest.approx(1.0) and snap.gaps == []
+    np.testing.assert_array_equal(snap.poses, t.track.poses[:2])
