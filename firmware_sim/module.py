@@ -32,7 +32,7 @@ from .interface import ExternalInterface, TraceEntry
 from .memory import DEFAULT_MCU_SERIAL, StateMemory
 from .port import IdealPort, Port
 from .sensors.base import ScriptedSource, SensorSource
-from .sequence import BOOT_HOOKS, ProcessSequence
+from .sequence import BOOT_HOOKS, ProcessSequence, sequence_budget
 from .utility import ConditionalOutput
 
 T = TypeVar("T")
@@ -157,6 +157,19 @@ class Module:
     @property
     def overruns(self) -> int:
         return self.clock.overruns
+
+    def budget(self) -> dict[str, int]:
+        """Modelled cycles of the running sequence against one tick (does it fit 64 000 at 1 kHz?).
+
+        ``slots`` is the sum of the occupied slots' costs (what PS_DT will show),
+        ``fixed`` the loop's own minimum (wake-up, polling both interfaces), ``free``
+        what is left of a tick for commands and transmission.
+        """
+        slots = sequence_budget(self.sequence.slots, self.costs.slot_call)
+        c = self.costs
+        fixed = c.loop_overhead + 2 * c.rx_poll
+        tick = self.clock.cycles_per_tick
+        return {"tick": tick, "slots": slots, "fixed": fixed, "free": tick - slots - fixed}
 
     def counters(self) -> dict[str, int]:
         """Everything a host developer may want to watch: loop timing and both interfaces."""

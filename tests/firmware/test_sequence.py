@@ -259,3 +259,16 @@ def test_the_tracking_sequences_fit_one_tick_at_1khz():
     fixed = c.loop_overhead + 2 * c.rx_poll + c.tx_scan + 64 * (c.tx_per_byte + c.tx_write_per_byte)
     for seq in (ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE):
         assert sequence_budget(seq, c.slot_call) + fixed < m.clock.cycles_per_tick
+
+
+def test_module_budget_shows_whether_the_running_sequence_fits(temp_functions):
+    temp_functions(0x2A, lambda m: None, cycles=70_000)
+    m = Module()
+    m.sequence.set_slot(0, ProcId.READ_INERTIAL)
+    b = m.budget()
+    assert b["tick"] == 64_000 and b["slots"] == READ_INERTIAL_CYCLES + m.costs.slot_call
+    assert b["free"] > 0
+    m.sequence.set_slot(1, 0x2A)
+    assert m.budget()["free"] < 0
+    m.run(3)
+    assert m.clock.overruns > 0  # and the clock reports it
