@@ -429,3 +429,27 @@ def test_an_old_app_sending_21_00_21_gets_silence():
     h.send(bytes.fromhex("21 00 21"))
     assert h.step(20) == b""
     assert h.iface.frames_executed == 0
+
+
+def test_hil_values_are_copied_at_transmission_after_processing(temp_functions):
+    def double(m: Module) -> None:
+        m.memory.imu_raw[0] *= 2
+
+    temp_functions(0x2A, double)
+    h = Host()
+    h.command(Command.SETUP_DEBUG_PROC, proc_ids=[0x2A] + [0] * 9, state_ids=[0x40] + [0] * 9, interface=1)
+    h.step()
+    h.command(Command.INPUT_IMU_RD, timestamp=1, imu=[[1, 2, 3, 4, 5, 6]] + [[0] * 6] * 3)
+    payload = h.frames()[1][4:-2]
+    assert payload == np.array([2, 4, 6, 8, 10, 12], ">i2").tobytes()
+
+
+def test_hil_with_read_inertial_in_the_list_overwrites_the_input():
+    src = ScriptedSource(np.full((1, 4, 6), 9, dtype=np.int16))
+    h = Host(Module(sensors=src))
+    h.command(Command.SETUP_DEBUG_PROC, proc_ids=[ProcId.READ_INERTIAL] + [0] * 9,
+              state_ids=[0x40] + [0] * 9, interface=1)
+    h.step()
+    h.command(Command.INPUT_IMU_RD, timestamp=1, imu=[[1, 2, 3, 4, 5, 6]] * 4)
+    payload = h.frames()[1][4:-2]
+    assert payload == np.full(6, 9, ">i2").tobytes()
