@@ -6,6 +6,7 @@ faster than real time and wait only on packets with deadlines.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 pytest.importorskip("firmware_sim.transports.protocol_openshoe")
@@ -97,3 +98,25 @@ def test_steps_of_a_straight_walk_are_summed():
     x, y, _, chi = track.final_pose
     assert 11.0 < x < 13.0 and abs(y) < 0.5 and abs(chi) < 0.05
     assert track.distance == pytest.approx(x, rel=0.05)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not _walking_available(), reason="the emulator has no walking sensor scenarios yet")
+def test_a_right_turn_sends_the_next_steps_east():
+    """5 m north, turn right 90° on the spot, 5 m: the summed track ends near (5 N, 5 E), χ = +90°.
+
+    Checks the host's rotation R(χ) against the module's frame (x north, y east, z down).
+    """
+    recipe = "stand:3%2Bwalk:5%2Bturn:90%2Bwalk:5%2Bstand:3"
+    with Device(f"openshoe://?scenario={recipe}&seed=1") as dev:
+        dev.start_stepwise_dead_reckoning()
+        for ev in dev.steps(timeout=120):
+            if ev.pose[1] > 4.5:
+                break
+        for _ev in dev.steps(timeout=2.0):
+            pass
+        track = dev.track_snapshot()
+    x, y, _, chi = track.final_pose
+    assert x == pytest.approx(5.0, abs=0.3) and y == pytest.approx(5.0, abs=0.3)
+    assert chi == pytest.approx(np.pi / 2, abs=0.05)
+    assert track.distance == pytest.approx(10.0, rel=0.05)
