@@ -174,3 +174,15 @@ def test_disconnect_discards_a_partial_frame():
     h.port.connect()
     h.send(bytes.fromhex("03 00 03"))
     assert h.step() == bytes.fromhex("A0 03 00 A3")
+
+
+def test_a_response_goes_out_on_the_interface_the_command_came_from():
+    m = Host().module
+    usb, bt = Host(m), Host(m, interface=2)
+    bt.send(bytes.fromhex("03 00 03"))
+    bt.command(Command.OUTPUT_STATE, state_id=StateId.GP_ID, mode=0x20)
+    m.step()
+    assert usb.port.host_read() == b""
+    frames = split_frames(bt.port.host_read())
+    assert frames[0] == bytes.fromhex("A0 03 00 A3") and frames[2][:3] == bytes.fromhex("AA 00 01")
+    assert m.usb.packet_number == 0 and m.bt.packet_number == 1
