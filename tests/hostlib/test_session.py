@@ -193,13 +193,13 @@ def test_match_layout_is_unique_or_none():
 counters_st = st.lists(st.integers(1, 3), min_size=1, max_size=12)
 
 
-def _stream(increments, resends):
+def _stream(increments, resends, first_number=1):
     """Module bytes for steps with counter increments; each packet sent 1 + resends[i] times."""
     frames, c = [], 0
     for i, inc in enumerate(increments):
         c += inc
         dx = (0.6 + 0.01 * i, 0.02 * i, 0.0, 0.05 * ((-1) ** i))
-        frames += [step_packet(i + 1, c, dx)] * (1 + resends[i % len(resends)])
+        frames += [step_packet((first_number + i) & 0xFFFF, c, dx)] * (1 + resends[i % len(resends)])
     return frames
 
 
@@ -257,9 +257,10 @@ def test_arbitrary_garbage_including_header_bytes(increments, resends, garbage, 
 
 
 @settings(max_examples=60, deadline=None)
-@given(counters_st, st.lists(st.integers(0, 3), min_size=1, max_size=12))
-def test_resends_never_summed_twice_and_gaps_add_up(increments, resends):
-    frames = _stream(increments, resends)
+@given(counters_st, st.lists(st.integers(0, 3), min_size=1, max_size=12), st.integers(0xFFF0, 0x1000F))
+def test_resends_never_summed_twice_and_gaps_add_up(increments, resends, first_number):
+    """Also across the packet-number wrap 0xFFFF → 0x0000."""
+    frames = _stream(increments, resends, first_number & 0xFFFF)
     s = started()
     events, _ = _run(s, frames)
     steps = [e for e in events if isinstance(e, StepEvent)]
@@ -267,6 +268,7 @@ def test_resends_never_summed_twice_and_gaps_add_up(increments, resends):
     assert s.stats.duplicate_packets == len(frames) - len(increments)
     assert s.stats.missing_steps == sum(increments) - len(increments)
     assert s.stats.gaps == sum(1 for i in increments if i > 1)
+    assert s.stats.packet_number_jumps == 0
     np.testing.assert_array_equal(s.tracker.track.counters, np.cumsum(increments))
 
 
