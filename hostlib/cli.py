@@ -15,12 +15,13 @@ import math
 import sys
 import time
 from collections.abc import Sequence
-from typing import TextIO
+from typing import Any, TextIO
 
 from protocol.ids import OutputMode, StateId
 
 from .device import Device
 from .errors import HostError
+from .tracking import StepTracker
 
 __all__ = ["main", "summary_line"]
 
@@ -46,6 +47,10 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--png", help="plot the track with 1-sigma ellipses to this PNG (needs matplotlib)")
     t.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
     t.add_argument("--leave-running", action="store_true", help="do not switch outputs off at the end")
+    t.add_argument("--attach", action="store_true",
+                   help="do not send 0x34: sum the steps of a module that is already tracking")
+    t.add_argument("--heading", type=float, default=0.0,
+                   help="initial heading in degrees from north towards east (default 0)")
 
     lg = sub.add_parser("log", help="capture the module's byte stream to a file (packets still acked)")
     _common(lg)
@@ -70,7 +75,7 @@ def summary_line(dev: Device) -> str:
     )
 
 
-def _open(args: argparse.Namespace, **kw) -> Device:
+def _open(args: argparse.Namespace, **kw: Any) -> Device:
     return Device(args.url, command_set=args.command_set, baudrate=args.baudrate,
                   ack_timeout=args.ack_timeout, **kw)
 
@@ -87,8 +92,10 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     origin = None
     if args.origin:
         origin = [float(v) for v in args.origin.split(",")]
-    with _open(args) as dev:
-        dev.start_stepwise_dead_reckoning()
+    tracker = StepTracker(heading=math.radians(args.heading), last_counter=None if args.attach else 0)
+    with _open(args, tracker=tracker) as dev:
+        if not args.attach:
+            dev.start_stepwise_dead_reckoning()
         print(f"tracking on {dev.name} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
         deadline = _deadline(args.duration)
         try:

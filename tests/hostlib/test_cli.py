@@ -57,3 +57,18 @@ def test_info_against_the_emulator_url():
     out = io.StringIO()
     assert main(["info", "openshoe://?scenario=stand"], out) == 0
     assert "mcu id" in out.getvalue() and "(no answer)" not in out.getvalue()
+
+
+def test_attach_does_not_restart_the_module(tmp_path):
+    # Without 0x34 the scripted module sends nothing: attaching just listens.
+    out = io.StringIO()
+    assert main(["track", "fakeshoe://3", "--attach", "--duration", "0.2", "--leave-running"], out) == 0
+    assert "steps     0" in out.getvalue()
+
+
+def test_initial_heading_rotates_the_track(tmp_path):
+    csv_path = tmp_path / "w.csv"
+    assert main(["track", "fakeshoe://2", "--duration", "0.5", "--heading", "90", "--csv", str(csv_path)],
+                io.StringIO()) == 0
+    x, y, _, _ = read_csv(csv_path).final_pose
+    assert x == pytest.approx(0.0, abs=1e-9) and y == pytest.approx(2.0)
