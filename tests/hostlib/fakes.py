@@ -75,7 +75,11 @@ class FakeModulePort:
             self._cond.notify_all()
 
     def open(self) -> None:
-        self.is_open = True
+        """Re-open: a dropped link is usable again (the module kept running)."""
+        with self._cond:
+            self.is_open = True
+            self._broken = False
+            self.reopens = getattr(self, "reopens", 0) + 1
 
     # -- module side -------------------------------------------------------------------
 

@@ -72,3 +72,8 @@ def test_initial_heading_rotates_the_track(tmp_path):
                 io.StringIO()) == 0
     x, y, _, _ = read_csv(csv_path).final_pose
     assert x == pytest.approx(0.0, abs=1e-9) and y == pytest.approx(2.0)
+
+
+def test_missing_device_path_fails_clearly(capsys):
+    assert main(["info", "/dev/openshoe-does-not-exist"], io.StringIO()) == 1
+    assert "cannot use /dev/openshoe-does-not-exist" in capsys.readouterr().err

@@ -295,3 +295,13 @@ def test_every_typed_method_sends_its_command(numbering):
             frame = parse_command(fake.commands[n], cs)
             assert frame.command is meaning, name
     assert {m for _, _, m in METHOD_CALLS} | {Command.ACK} == set(Command)
+
+
+def test_an_already_open_port_object_is_reopened_after_a_drop(fake):
+    back = threading.Event()
+    with Device(fake, reconnect_interval=0.01) as d:
+        d.add_callback("link", lambda ev: ev.up and back.set())
+        fake.drop()
+        assert back.wait(5)
+        assert fake.reopens == 1
+        d.ping()
