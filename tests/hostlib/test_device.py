@@ -305,3 +305,29 @@ def test_an_already_open_port_object_is_reopened_after_a_drop(fake):
         assert back.wait(5)
         assert fake.reopens == 1
         d.ping()
+
+
+def test_stray_header_before_an_ack_is_resolved_by_the_reader(fake):
+    fake.on_command = lambda frame: b"\xaa\x00\x01\x10" + build_command_ack(frame[0])
+    with Device(fake, ack_timeout=5.0, retries=0) as d:
+        d.ping()
+        assert d.stats["garbage_bytes"] == 4
+
+
+def test_close_while_waiting_for_an_ack_raises_device_closed():
+    fake = FakeModulePort(mute=True)
+    d = Device(fake, ack_timeout=30.0, retries=0)
+    errors = []
+
+    def waiter():
+        try:
+            d.ping()
+        except DeviceClosed as exc:
+            errors.append(exc)
+
+    t = threading.Thread(target=waiter)
+    t.start()
+    assert fake.wait_written(lambda f: len(f.commands) == 1)
+    d.close()
+    t.join(5)
+    assert len(errors) == 1 and "closed" in str(errors[0])

@@ -291,3 +291,12 @@ def test_match_layout_agrees_with_brute_force(candidates, data):
     ]
     expected = fits[0] if len(fits) == 1 else None
     assert match_layout(frozenset(candidates), length) == expected
+
+
+def test_a_stray_packet_header_does_not_hold_back_frames_once_the_link_is_quiet():
+    s = HostSession()
+    events, _ = s.feed(b"\xaa\x00\x01\x10" + build_command_ack(0x03))
+    assert events == []  # could be the start of a 22-byte packet: wait for more
+    events, _ = s.idle()
+    assert events == [CommandAckEvent(0x03)]
+    assert s.stats.garbage_bytes == 4
