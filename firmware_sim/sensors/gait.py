@@ -102,12 +102,14 @@ def _eval3(c: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.nda
 class GaitParams:
     """How one foot moves in one stride (stance then swing)."""
 
-    stride_length: float = 1.4  #: [m] from one rest of this foot to the next
-    stance_s: float = 0.5  #: [s] foot flat and still
-    swing_s: float = 0.4  #: [s] from lift-off to foot flat again
+    # defaults: 5.4 km/h at 120 steps/min; peaks ≈ 7 g and 515 °/s (the shared 5–7 km/h
+    # recordings peak at ≈ 5 g and 440 °/s behind their sensor's own filter)
+    stride_length: float = 1.5  #: [m] from one rest of this foot to the next
+    stance_s: float = 0.55  #: [s] foot flat and still
+    swing_s: float = 0.45  #: [s] from lift-off to foot flat again
     clearance: float = 0.10  #: [m] lift at mid-swing, above the straight line from A to B
-    toe_off_pitch_deg: float = -35.0  #: pitch peak early in the swing (negative: toe down)
-    heel_strike_pitch_deg: float = 20.0  #: pitch peak late in the swing (positive: toe up)
+    toe_off_pitch_deg: float = -30.0  #: pitch peak early in the swing (negative: toe down)
+    heel_strike_pitch_deg: float = 18.0  #: pitch peak late in the swing (positive: toe up)
     impact_g: float = 3.0  #: [g] peak acceleration of the heel-strike bump (0: none)
     impact_width_s: float = 0.03  #: [s] duration of the bump
     impact_forward: float = 0.3  #: forward share of the impact direction (1 = vertical)
