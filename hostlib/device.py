@@ -57,28 +57,38 @@ class LinkEvent:
 
 
 class _BoundedQueue:
-    """A bounded FIFO of events; a full queue drops the new event, counts it and warns once per episode."""
+    """A bounded FIFO of events; a full queue drops the new event, counts it and warns once per episode.
+
+    The bound applies to events only: the close marker always fits, so a reader
+    blocked on a full queue still learns that the device closed.
+    """
 
     def __init__(self, name: str, maxsize: int):
+        if maxsize < 1:
+            raise ValueError(f"queue_size must be >= 1, got {maxsize}")
         self.name = name
-        self.q: queue.Queue = queue.Queue(maxsize)
+        self.maxsize = maxsize
+        self.q: queue.Queue = queue.Queue()  # bounded by hand in put()
         self.dropped = 0
         self._warned = False
 
     def put(self, item: Any) -> None:
-        try:
-            self.q.put_nowait(item)
-            self._warned = False
-        except queue.Full:
+        if self.q.qsize() >= self.maxsize:
             self.dropped += 1
             if not self._warned:
                 self._warned = True
                 warnings.warn(
-                    f"the {self.name} queue is full ({self.q.maxsize}); events are being dropped "
+                    f"the {self.name} queue is full ({self.maxsize}); events are being dropped "
                     f"(counted in dropped_{self.name}); read them faster or raise queue_size",
                     QueueFullWarning,
                     stacklevel=2,
                 )
+            return
+        self.q.put_nowait(item)
+        self._warned = False
+
+    def close(self) -> None:
+        self.q.put_nowait(_CLOSED)
 
     def get(self, deadline: float | None) -> Any:
         """The next item, or None when the deadline passes (None = wait forever)."""
@@ -86,12 +96,12 @@ class _BoundedQueue:
             return self.q.get()
         remaining = deadline - time.monotonic()
         try:
-            return self.q.get(timeout=max(0.0, remaining)) if remaining > 0 else self.q.get_nowait()
+            return self.q.get(timeout=remaining) if remaining > 0 else self.q.get_nowait()
         except queue.Empty:
             return None
 
 
-_CLOSED = object()  # sentinel put in queues on close to wake iterators
+_CLOSED = object()  # marker put in the queues on close to wake iterators
 
 
 class Device(CommandMethods):
@@ -106,6 +116,8 @@ class Device(CommandMethods):
     and step queues. *raw_log*: a binary file that receives every byte read.
     *tracker*: where steps are summed (default: origin, counting from 0x34).
     *port_factory*: overrides how the link is opened (tests, custom links).
+    *start*: False leaves the reader thread off (bytes are then processed only
+    by calling :meth:`feed`, e.g. to replay a capture).
     *serialize_io*: let only the reader thread touch the port (writes are handed
     to it and go out between reads). Needed by ports that are not thread-safe,
     such as the emulator's virtual-time ``openshoe://`` port (the default for
@@ -196,8 +208,8 @@ class Device(CommandMethods):
             self._port.close()
         except _READ_ERRORS:  # pragma: no cover - closing a broken port
             pass
-        self._packets.q.put(_CLOSED) if not self._packets.q.full() else None
-        self._steps.q.put(_CLOSED) if not self._steps.q.full() else None
+        self._packets.close()
+        self._steps.close()
 
     @property
     def closed(self) -> bool:
@@ -368,7 +380,7 @@ class Device(CommandMethods):
         except _READ_ERRORS:
             pass
         if not self.reconnect:
-            self.close_on_drop()
+            self._close_on_drop()
             return False
         while not self._stop.is_set():
             try:
@@ -389,13 +401,14 @@ class Device(CommandMethods):
             return True
         return False
 
-    def close_on_drop(self) -> None:
+    def _close_on_drop(self) -> None:
+        """The link dropped and reconnecting is off: the device is closed for good."""
         with self._cond:
             self._closed = True
             self._stop.set()
             self._cond.notify_all()
-        self._packets.q.put(_CLOSED) if not self._packets.q.full() else None
-        self._steps.q.put(_CLOSED) if not self._steps.q.full() else None
+        self._packets.close()
+        self._steps.close()
 
     def wait_link(self, up: bool = True, timeout: float | None = None) -> bool:
         """Wait until the link is up (or down); False on timeout."""
@@ -450,7 +463,7 @@ class Device(CommandMethods):
             raise DeviceClosed(f"{self.name} is closed")
         item = q.get(None if timeout is None else time.monotonic() + timeout)
         if item is _CLOSED:
-            q.q.put(_CLOSED) if not q.q.full() else None  # wake the next reader too
+            q.close()  # wake the next reader too
             raise DeviceClosed(f"{self.name} is closed")
         return item
 
@@ -465,13 +478,10 @@ class Device(CommandMethods):
     def _iterate(self, q: _BoundedQueue, timeout: float | None) -> Iterator[Any]:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
-            try:
-                item = q.get(deadline)
-            except Exception:  # pragma: no cover
-                return
+            item = q.get(deadline)
             if item is None or item is _CLOSED:
                 if item is _CLOSED:
-                    q.q.put(_CLOSED) if not q.q.full() else None
+                    q.close()
                 return
             yield item
 

@@ -331,3 +331,11 @@ def test_close_while_waiting_for_an_ack_raises_device_closed():
     d.close()
     t.join(5)
     assert len(errors) == 1 and "closed" in str(errors[0])
+
+
+def test_close_ends_an_iterator_even_when_its_queue_is_full(fake):
+    d = Device(fake, queue_size=2, start=False)
+    with pytest.warns(Warning, match="queue is full"):
+        d.feed(b"".join(build_state_packet(n, bytes(4)) for n in range(1, 5)))
+    d.close()
+    assert [p.number for p in d.packets()] == [1, 2]  # no timeout, yet it ends
