@@ -172,6 +172,13 @@ class Recording:
     def duration_s(self) -> float:
         return float(self.t[-1] - self.t[0]) if len(self) else 0.0
 
+    @property
+    def missing_samples(self) -> int:
+        """Samples the recorder numbered but did not write (gaps in ``nr``); 0 without ``nr``."""
+        if self.nr is None or len(self.nr) < 2:
+            return 0
+        return int(np.sum(np.maximum(np.diff(self.nr) - 1, 0)))
+
     def board_acc_g(self) -> np.ndarray:
         """Specific force in the board frame [g], (n, 3)."""
         return self.acc_g @ self.body_to_board.T

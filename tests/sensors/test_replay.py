@@ -59,6 +59,7 @@ def test_replaying_a_walk_gives_every_sample_back_within_one_lsb(walks_dir, walk
     n = terminated_data_lines(path)
     assert len(rec) == n and len(src) == n
     assert np.array_equal(rec.nr, np.arange(1, n + 1))  # no sample lost or repeated
+    assert rec.missing_samples == 0
     assert src.rate_hz == 250.0
     assert src.read(n - 1) is not None and src.read(n) is None
 
@@ -254,3 +255,9 @@ def test_a_corrupted_csv_field_is_refused_with_its_line_number(tmp_path, n, data
     with pytest.raises(RecordingFormatError) as err:
         load_csv(path)
     assert err.value.line == bad + 3
+
+
+def test_samples_the_recorder_skipped_are_counted(tmp_path):
+    rows = [openshoe_row(k) for k in (0, 1, 4, 5)]  # nr 1 2 5 6
+    rec = load_openshoe(write_openshoe(tmp_path / "w.txt", rows))
+    assert len(rec) == 4 and rec.missing_samples == 2
