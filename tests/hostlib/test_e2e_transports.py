@@ -61,3 +61,64 @@ def test_device_over_tcp_survives_a_dropped_link():
         numbers = [p.number for p in before + after]
         assert len(numbers) == 20 and numbers == sorted(set(numbers))  # nothing twice, in order
         assert dev.stats["link_drops"] == 1 and dev.stats["reconnects"] == 1
+
+
+def _walking_source():
+    try:
+        from firmware_sim.sensors import make_source
+    except ImportError:
+        pytest.skip("the emulator has no walking sensor scenarios yet")
+    return make_source("stand:3+walk:20+stand:3", seed=1)
+
+
+@pytest.mark.slow
+def test_steps_missed_while_the_link_is_down_are_reported_as_a_gap():
+    """The module keeps tracking while nobody listens; after the reconnect only the latest step
+    comes (protocol.md §9): the host reports the missing steps instead of hiding them."""
+    import serial
+
+    from firmware_sim.module import ModuleConfig
+    from firmware_sim.port import IdealPort
+
+    src = _walking_source()
+    link = make_link("bt", seed=1)
+    module = Module(ModuleConfig(rate_hz=src.rate_hz), src, usb_port=IdealPort(connected=False), bt_port=link)
+    ep = TcpEndpoint(link)
+    url = f"socket://{ep.address[0]}:{ep.address[1]}"
+    allow = threading.Event()
+    allow.set()
+
+    def factory():  # the host may reconnect only when the test allows it
+        if not allow.wait(30):
+            raise serial.SerialException("reconnect not allowed yet")
+        return serial.serial_for_url(url, timeout=0.05)
+
+    with Pacer(module, [ep], speed=4.0) as pacer:
+
+        def module_steps() -> int:
+            return pacer.call(lambda m: int(m.memory[StateId.STEP_COUNTER])).result(5)
+
+        with Device(port_factory=factory, ack_timeout=2.0, reconnect_interval=0.05) as dev:
+            down = threading.Event()
+            dev.add_callback("link", lambda ev: ev.up or down.set())
+            dev.start_stepwise_dead_reckoning()
+            for ev in dev.steps(timeout=30):
+                if ev.pose[0] > 3.0:
+                    break
+            allow.clear()
+            pacer.call(lambda m: ep._hangup()).result(5)
+            assert down.wait(10)
+            first = module_steps()
+            poll = threading.Event()
+            for _ in range(400):  # until the module has counted 3 more steps (deadline 20 s)
+                if module_steps() >= first + 3:
+                    break
+                poll.wait(0.05)
+            allow.set()
+            for ev in dev.steps(timeout=30):
+                if ev.pose[0] > 8.0:
+                    break
+            gaps, stats = list(dev.gap_events), dev.stats
+    assert len(gaps) == 1 and gaps[0].missing >= 2
+    assert stats["missing_steps"] == gaps[0].missing and stats["duplicate_steps"] == 0
+    assert stats["reconnects"] == 1
