@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Sequence
+import time
+from collections.abc import Callable, Sequence
 
 import serial
 
@@ -18,6 +19,17 @@ from protocol.commands import command_set
 
 from .checks import CHECKS, run, select
 from .driver import DeviceDriver
+
+
+def device_clock(port: object) -> Callable[[], float]:
+    """The clock deadlines are measured in: the module's virtual seconds for an in-process
+    emulator running in virtual time (``openshoe://`` with speed 0), else the wall clock."""
+    module = getattr(port, "module", None)
+    settings = getattr(port, "settings", None)
+    if module is not None and settings is not None and getattr(settings, "speed", None) == 0:
+        clock = module.clock
+        return lambda: clock.now_cycles / clock.cpu_hz
+    return time.monotonic
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -54,6 +66,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"openshoe-conformance: {exc}", file=sys.stderr)
         return 2
+    if args.url.lower().startswith("openshoe://"):
+        import firmware_sim.transports  # noqa: F401  (registers the in-process emulator's URL scheme)
     try:
         port = serial.serial_for_url(args.url, baudrate=args.baudrate, timeout=0.005)
     except (serial.SerialException, ValueError, OSError) as exc:
@@ -62,7 +76,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     cs = command_set(args.command_set)
     print(f"openshoe-conformance: {args.url}, command set {cs.name}", flush=True)
     try:
-        driver = DeviceDriver(port, cs, time_scale=args.time_scale)
+        driver = DeviceDriver(port, cs, time_scale=args.time_scale, clock=device_clock(port))
         report = run(driver, args.only, url=args.url,
                      on_result=lambda r: print(r.render(verbose=not args.quiet), flush=True))
     finally:
