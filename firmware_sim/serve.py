@@ -85,6 +85,7 @@ class HostTap:
         return out
 
     def connect(self) -> None:
+        self.hub.distribute()  # bytes sent before this host came belong to the others
         self.connected = True
         self._buf.clear()
         self.hub.update()

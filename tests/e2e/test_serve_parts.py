@@ -1,0 +1,87 @@
+"""The parts of `openshoe-emu serve` that need no subprocess: link sharing, held sensors, control commands."""
+
+from __future__ import annotations
+
+import argparse
+
+import numpy as np
+import pytest
+
+from firmware_sim.link import make_link
+from firmware_sim.port import IdealPort
+from firmware_sim.sensors.base import ScriptedSource
+from firmware_sim.serve import ControlServer, HoldLastSource, HostHub, ServedModule, tcp_address
+
+
+def test_one_link_fans_out_to_every_connected_host():
+    port = IdealPort()
+    hub = HostHub(port)
+    assert not port.connected, "no host yet: the link is down"
+    pty, tcp = hub.tap("pty"), hub.tap("tcp")
+    pty.connect()
+    assert port.connected
+    port.tx_write(b"\xa0\x03\x00\xa3")
+    tcp.connect()  # joins later: does not get what was sent before
+    port.tx_write(b"\xaa")
+    assert pty.host_read() == b"\xa0\x03\x00\xa3\xaa"
+    assert tcp.host_read() == b"\xaa"
+    assert tcp.host_write(b"\x03\x00\x03") == 3 and port.rx_read(10) == b"\x03\x00\x03"
+    pty.disconnect()
+    assert port.connected, "one host is still there"
+    tcp.disconnect()
+    assert not port.connected
+
+
+def test_a_finished_source_holds_its_last_sample():
+    script = np.arange(2 * 4 * 6, dtype=np.int16).reshape(2, 4, 6)
+    src = HoldLastSource(ScriptedSource(script, finite=True))
+    first, last = src.read(0), src.read(1)
+    assert src.read(2) is not None and np.array_equal(src.read(5).imu, last.imu)
+    assert src.ended_at == 2
+    assert not np.array_equal(first.imu, last.imu)
+
+
+def test_tcp_address_defaults_to_loopback_and_refuses_junk():
+    assert tcp_address("0") == ("127.0.0.1", 0)
+    assert tcp_address("0.0.0.0:5000") == ("0.0.0.0", 5000)
+    for bad in ("x", "1:2:y", "70000"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            tcp_address(bad)
+
+
+class _FakePacer:
+    """Runs control actions at once (the real pacer runs them between two ticks)."""
+
+    def __init__(self):
+        from concurrent.futures import Future
+
+        self._future = Future
+
+    def call(self, fn):
+        f = self._future()
+        f.set_result(fn(None))
+        return f
+
+    def status(self):
+        class S:
+            def line(self):
+                return "t=1.000s"
+
+        return S()
+
+
+def test_control_commands_drive_the_link():
+    link = make_link("bt", seed=1)
+    served = ServedModule(0, None, {"bt": link}, [], _FakePacer())  # type: ignore[arg-type]
+    ctl = ControlServer.__new__(ControlServer)
+    ctl.modules = [served]
+    assert ctl.execute("disconnect") == "OK disconnect" and not link.connected
+    assert ctl.execute("reconnect") == "OK reconnect" and link.connected
+    assert ctl.execute("stall 0.5") == "OK stall 0.5" and link.counters.stalls == 1
+    assert ctl.execute("@0 corrupt 3") == "OK corrupt 3"
+    assert ctl.execute("status") == "m0 t=1.000s\nOK"
+    assert ctl.execute("stall -1").startswith("ERR stall: must be >= 0")
+    assert ctl.execute("corrupt x").startswith("ERR corrupt: 'x' is not a number")
+    assert ctl.execute("@3 stall 1").startswith("ERR no module @3")
+    assert ctl.execute("jump").startswith("ERR unknown command")
+    assert ctl.execute("quit") is None
