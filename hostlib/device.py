@@ -101,6 +101,9 @@ class _BoundedQueue:
             return None
 
 
+#: The clock of ack deadlines (a module attribute so tests can drive it).
+_now = time.monotonic
+
 _CLOSED = object()  # marker put in the queues on close to wake iterators
 
 
@@ -254,14 +257,14 @@ class Device(CommandMethods):
         raise AckTimeout(meaning.name, wire_id, retries + 1, timeout)
 
     def _wait_ack(self, wire_id: int, seen: int, timeout: float) -> bool:
-        now = time.monotonic()
+        now = _now()
         deadline, hard = now + timeout, now + 10 * timeout
         with self._cond:
             progress = self._packet_seq
             while self._ack_counts.get(wire_id, 0) == seen:
                 if self._closed:
                     raise DeviceClosed(f"{self.name} closed while waiting for the ack of 0x{wire_id:02X}")
-                now = time.monotonic()
+                now = _now()
                 if self._packet_seq != progress and self.session.lossless:
                     progress = self._packet_seq  # data keeps flowing: the ack is queued behind it
                     deadline = min(hard, now + timeout)

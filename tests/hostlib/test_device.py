@@ -339,3 +339,32 @@ def test_close_ends_an_iterator_even_when_its_queue_is_full(fake):
         d.feed(b"".join(build_state_packet(n, bytes(4)) for n in range(1, 5)))
     d.close()
     assert [p.number for p in d.packets()] == [1, 2]  # no timeout, yet it ends
+
+
+def test_ack_behind_lossless_data_extends_the_wait(fake, monkeypatch):
+    """The module acks only after 10 data packets, 0.05 s apart (on a test clock): longer than the
+    0.1 s ack timeout, but the data keeps flowing, so the host keeps waiting (and acking)."""
+    import hostlib.device as device_module
+
+    clock = [1000.0]
+    monkeypatch.setattr(device_module, "_now", lambda: clock[0])
+    state = {}
+    fake.on_command = lambda frame: None  # the ping is answered below, behind the data
+    with Device(fake, ack_timeout=0.1, retries=0) as d:
+        d.session.plan.lossless = True
+        d.session.plan.outputs = frozenset({StateId.IMU_TS})
+
+        def run():
+            assert fake.wait_written(lambda f: len(f.commands) == 1)
+            for n in range(1, 11):
+                clock[0] += 0.05
+                fake.inject(build_state_packet(n, bytes(4)))
+                assert fake.wait_written(lambda f, n=n: n in f.packet_acks)
+            fake.inject(build_command_ack(0x03))
+            state["done"] = True
+
+        t = threading.Thread(target=run)
+        t.start()
+        d.ping()
+        t.join(5)
+    assert state.get("done") and clock[0] - 1000.0 > 0.1
