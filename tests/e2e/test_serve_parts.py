@@ -6,11 +6,13 @@ import argparse
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from firmware_sim.link import make_link
 from firmware_sim.port import IdealPort
 from firmware_sim.sensors.base import ScriptedSource
-from firmware_sim.serve import ControlServer, HoldLastSource, HostHub, ServedModule, tcp_address
+from firmware_sim.serve import ControlServer, HoldLastSource, HostHub, ServedModule, parse_ready, tcp_address
 
 
 def test_one_link_fans_out_to_every_connected_host():
@@ -85,3 +87,27 @@ def test_control_commands_drive_the_link():
     assert ctl.execute("@3 stall 1").startswith("ERR no module @3")
     assert ctl.execute("jump").startswith("ERR unknown command")
     assert ctl.execute("quit") is None
+
+
+_keys = st.from_regex(r"[a-z0-9][a-z0-9.\-]{0,15}", fullmatch=True)
+_values = st.from_regex(r"[A-Za-z0-9/:._\-]{1,30}", fullmatch=True)
+
+
+@given(st.dictionaries(_keys, _values, max_size=6))
+def test_ready_line_round_trips(fields):
+    line = "READY " + " ".join(f"{k}={v}" for k, v in fields.items())
+    assert parse_ready(line) == fields
+
+
+@given(st.text(max_size=30))
+def test_anything_not_a_ready_line_is_refused(text):
+    if text.split()[:1] == ["READY"]:
+        return
+    with pytest.raises(ValueError):
+        parse_ready(text)
+
+
+@given(st.ip_addresses(v=4).map(str), st.integers(0, 65535))
+def test_tcp_address_round_trips(host, port):
+    assert tcp_address(f"{host}:{port}") == (host, port)
+    assert tcp_address(str(port)) == ("127.0.0.1", port)

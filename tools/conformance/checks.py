@@ -678,6 +678,57 @@ def check_all_off(ctx: Context) -> str:
     return "nothing sent after the ack"
 
 
+@check("lossless-flag", "a lossy request (mode bit 0x10 clear) turns lossless mode off again: the queued "
+       "packets then flow without ACKs (§9)")
+def check_lossless_flag(ctx: Context) -> str:
+    d = ctx.driver
+    s, _ = d.command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER,
+                     mode=int(OutputMode.LOSSLESS) | 3)
+    first = d.next_packet(1.0)
+    if first is None:
+        ctx.fail("no packet after a lossless output", s)
+    copies = [first] + _copies(d, first.frame.number, 1, 1.0)
+    if len(copies) < 2:
+        ctx.fail("lossless mode is not on: the packet was not resent", s, first.raw)
+    s2 = d.send(Command.OUTPUT_STATE, state_id=StateId.GP_DT, mode=PULL)  # lossy pull: flag off
+    pkts = _packets(d.collect(1.0, until=lambda f: len({p.frame.number for p in _packets(f)}) >= 6))
+    d.command(Command.OUTPUT_ALL_OFF)
+    numbers = sorted({p.frame.number for p in pkts})
+    ctx.proof(f"lossless rate 3, packet 0x{first.frame.number:04X} resent; then a lossy pull of GP_DT",
+              s + s2, _raw(copies, 2) + _raw(pkts, 4))
+    if len(numbers) < 6:
+        ctx.fail(f"after the lossy request only packets {[f'0x{n:04X}' for n in numbers]} came without ACKs")
+    return f"{len(numbers)} packets flowed unacknowledged"
+
+
+@check("packet-size", "the length byte is the payload length mod 256 (279 bytes → 0x17); a packet never "
+       "exceeds 512 bytes: states that would overflow it are left out (§9)",
+       needs=(Command.OUTPUT_MULTIPLE_STATES,))
+def check_packet_size(ctx: Context) -> str:
+    d = ctx.driver
+    # P 180 + U_K 24 + U_NEW 24 + U_INT_K 24 + MCU_ID 15 + 3 × 4 = 279 bytes
+    ids = [StateId.P, StateId.U_K, StateId.U_NEW, StateId.U_INT_K, StateId.MCU_ID,
+           StateId.IMU_TS, StateId.INTERRUPT_COUNTER, StateId.GP_DT]
+    s, _ = d.command(Command.OUTPUT_MULTIPLE_STATES, state_ids=ids, mode=PULL)
+    p = d.next_packet(1.0)
+    ctx.proof("pull of 8 states, 279 bytes", s, p.raw if p else b"")
+    if p is None:
+        ctx.fail("no packet for a 279-byte pull", s, d.received_log[-64:])
+    if len(p.frame.payload) != 279 or p.raw[3] != 0x17:
+        ctx.fail(f"expected a 279-byte payload announced as 0x17, got {len(p.frame.payload)} bytes, "
+                 f"length byte 0x{p.raw[3]:02X}")
+    # all 32 IMU id slots × inertial, temperature, magnetometer: 4 + 32 × 20 = 644 bytes requested
+    mode = int(OutputMode.INERTIAL | OutputMode.TEMPERATURE | OutputMode.MAGNETOMETER | OutputMode.PULL)
+    s, _ = d.command(Command.OUTPUT_IMU_RD, imu_selector=0xFFFFFFFF, mode=mode)
+    q = d.next_packet(1.0)
+    ctx.proof("OUTPUT_IMU_RD of all 32 IMU slots (644 bytes asked)", s, q.raw if q else b"")
+    if q is None:
+        ctx.fail("no packet for an oversized request")
+    if len(q.raw) > 512:
+        ctx.fail(f"a {len(q.raw)}-byte packet exceeds the 512-byte cap")
+    return f"0x17 for 279 bytes; capped request gave a {len(q.raw)}-byte packet"
+
+
 @check("step-packets", "step-wise dead reckoning: one 64-byte lossless packet per step (length 0x3A, DX · DP "
        "· STEP_COUNTER), step counters 1, 2, 3 …", duration="up to 20 s (alignment, then 3 steps)",
        needs=(Command.STEPWISE_DEAD_RECKONING,))
