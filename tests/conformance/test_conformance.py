@@ -185,3 +185,18 @@ def test_cli_against_a_silent_port_fails(capsys):
     assert main(["loop://", "--only", "ping", "--time-scale", "0.1"]) == 1
     out = capsys.readouterr().out
     assert "FAIL" in out and "DOES NOT CONFORM" in out
+
+
+def test_lossless_flag_stuck_on_is_caught():
+    """A device where a lossy request does not turn lossless mode off (protocol.md §9) fails lossless-flag."""
+    module = Module()
+    iface = module.usb
+    original = iface.set_lossless
+
+    def only_on(on):
+        if on:
+            original(True)
+
+    iface.set_lossless = only_on
+    v = _verdicts(_driver(module), ["ping", "lossless-flag"])
+    assert v == {"ping": Status.PASS, "lossless-flag": Status.FAIL}
