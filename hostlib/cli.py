@@ -3,6 +3,7 @@
     openshoe-host info  /dev/rfcomm0
     openshoe-host track /dev/rfcomm0 --duration 60 --csv walk.csv --png walk.png
     openshoe-host log   socket://localhost:5000 --raw capture.bin --duration 10
+    openshoe-host replay capture.bin --csv walk.csv
 
 URL is anything pyserial opens: a device path (``/dev/rfcomm0``, ``/dev/ttyACM0``,
 ``COM5``), ``socket://host:port``, ``loop://``, or the emulator's ``openshoe://``.
@@ -60,6 +61,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     i = sub.add_parser("info", help="ping the module and read its MCU serial number")
     _common(i)
+
+    r = sub.add_parser("replay", help="sum the steps of a raw capture (from `log --raw`) offline")
+    r.add_argument("capture", help="file of module bytes")
+    r.add_argument("--command-set", choices=("2014", "2015"), default="2015")
+    r.add_argument("--csv", help="write the track to this CSV file")
+    r.add_argument("--geojson", help="write the track as GeoJSON")
+    r.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
+    r.add_argument("--png", help="plot the track to this PNG (needs matplotlib)")
+    r.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
     return parser
 
 
@@ -169,17 +179,31 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
+    from .replay import replay_capture
+
+    track, stats = replay_capture(args.capture, command_set=args.command_set)
+    origin = [float(v) for v in args.origin.split(",")] if args.origin else None
+    _write_outputs(args, track, origin)
+    print(repr(track), file=out)
+    print(f"packets {stats.packets} (+{stats.duplicate_packets} resends) | garbage {stats.garbage_bytes} B | "
+          f"bad frames {stats.bad_frames} | gaps {stats.gaps} (missing {stats.missing_steps})", file=out)
+    return 0
+
+
 def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
     out = sys.stdout if out is None else out
     try:
-        return {"track": cmd_track, "log": cmd_log, "info": cmd_info}[args.cmd](args, out)
+        commands = {"track": cmd_track, "log": cmd_log, "info": cmd_info, "replay": cmd_replay}
+        return commands[args.cmd](args, out)
     except HostError as exc:
         print(f"openshoe-host: {exc}", file=sys.stderr)
         return 1
     except (OSError, ValueError) as exc:
-        print(f"openshoe-host: cannot use {args.url}: {exc}", file=sys.stderr)
+        what = getattr(args, "url", None) or args.capture
+        print(f"openshoe-host: cannot use {what}: {exc}", file=sys.stderr)
         return 1
 
 

@@ -201,6 +201,10 @@ class HostSession:
         """The link went quiet: stop waiting on a false frame start if a valid frame follows it."""
         return self._frames(self.decoder.flush())
 
+    def finish(self) -> tuple[list[Event], bytes]:
+        """The stream ended (end of a capture): decode what is complete, drop the rest (counted)."""
+        return self._frames(self.decoder.finish())
+
     def link_reset(self) -> None:
         """The link was re-opened: a partial frame from before is gone (counted as garbage).
 

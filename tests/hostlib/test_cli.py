@@ -77,3 +77,15 @@ def test_initial_heading_rotates_the_track(tmp_path):
 def test_missing_device_path_fails_clearly(capsys):
     assert main(["info", "/dev/openshoe-does-not-exist"], io.StringIO()) == 1
     assert "cannot use /dev/openshoe-does-not-exist" in capsys.readouterr().err
+
+
+def test_a_capture_replays_into_the_same_track(tmp_path):
+    raw, live_csv = tmp_path / "cap.bin", tmp_path / "live.csv"
+    argv = ["log", "fakeshoe://4", "--raw", str(raw), "--start", "--duration", "0.5"]
+    assert main(argv, io.StringIO()) == 0
+    out = io.StringIO()
+    assert main(["replay", str(raw), "--csv", str(live_csv)], out) == 0
+    track = read_csv(live_csv)
+    assert len(track) == 4 and track.final_pose[0] == pytest.approx(4.0)
+    assert "gaps 0" in out.getvalue()
+    assert main(["replay", str(tmp_path / "nope.bin")], io.StringIO()) == 1

@@ -300,3 +300,12 @@ def test_a_stray_packet_header_does_not_hold_back_frames_once_the_link_is_quiet(
     events, _ = s.idle()
     assert events == [CommandAckEvent(0x03)]
     assert s.stats.garbage_bytes == 4
+
+
+def test_replay_of_bytes_with_garbage_and_resends():
+    from hostlib.replay import replay_bytes
+
+    data = b"\x00garbage" + step_packet(7, 3) * 2 + step_packet(8, 4) + b"\xaa\x00"
+    track, stats = replay_bytes(data, chunk=5)
+    assert len(track) == 2 and track.gaps == []  # counter before the capture is unknown
+    assert stats.duplicate_packets == 1 and stats.garbage_bytes == 8 + 2
