@@ -16,8 +16,12 @@ its checksum, so a payload is at most :data:`MAX_PAYLOAD` = 506 bytes.
 
 The layouts are declared once with construct (:data:`COMMAND_ACK_FRAME`,
 :data:`STATE_PACKET_FRAME`, :data:`PACKET_ACK_FRAME`, :func:`command_frame`);
-the builders and parsers below use those declarations and return frozen
-dataclasses. Every parse failure is a :class:`FrameError` (a ``ValueError``)
+the parsers below use those declarations and return frozen dataclasses. The
+three module-side builders (:func:`build_state_packet`, :func:`build_command_ack`,
+:func:`build_packet_ack`) are on every emulated module's hot path, so they write
+the same bytes with plain ``bytes`` operations; tests check them against the
+construct declarations (:func:`build_state_packet_declared` is the declared build).
+Every parse failure is a :class:`FrameError` (a ``ValueError``)
 naming the problem and showing the offending bytes in hex.
 """
 
@@ -70,6 +74,7 @@ __all__ = [
     "build_command_ack",
     "build_packet_ack",
     "build_state_packet",
+    "build_state_packet_declared",
     "checksum",
     "checksum_bytes",
     "command_frame",
@@ -363,7 +368,8 @@ def build_command_ack(cmd_id: int) -> bytes:
     """The module's ack of command *cmd_id* (its wire id): ``A0 cmd ck ck``."""
     if not 0 <= cmd_id <= 0xFF:
         raise ValueError(f"command id {cmd_id} is not a byte")
-    return COMMAND_ACK_FRAME.build({"body": {"value": {"command_id": cmd_id}}})
+    ck = ACK_HEADER + cmd_id  # < 2^16: no wrap
+    return bytes((ACK_HEADER, cmd_id, ck >> 8, ck & 0xFF))
 
 
 def parse_command_ack(frame: bytes, command_set: CommandSet | None = None) -> CommandAck:
@@ -386,6 +392,27 @@ def parse_command_ack(frame: bytes, command_set: CommandSet | None = None) -> Co
 
 def build_state_packet(number: int, payload: bytes) -> bytes:
     """``AA · number · len%256 · payload · ck ck`` for packet *number* (0..65535)."""
+    n = len(payload)
+    if not 0 <= number <= 0xFFFF:
+        raise ValueError(f"packet number {number} out of range 0..0xFFFF")
+    if n > MAX_PAYLOAD:
+        raise ValueError(f"payload of {n} bytes exceeds the {MAX_PAYLOAD}-byte cap")
+    # The hot path of every emulated module: plain bytes, the layout of STATE_PACKET_FRAME
+    # (tests/protocol/test_frames_fast.py checks both agree for random inputs).
+    frame = bytearray(n + PACKET_OVERHEAD)
+    frame[0] = PACKET_HEADER
+    frame[1] = number >> 8
+    frame[2] = number & 0xFF
+    frame[3] = n & 0xFF
+    frame[4:4 + n] = payload
+    ck = sum(frame) & 0xFFFF  # the two checksum bytes are still 0
+    frame[-2] = ck >> 8
+    frame[-1] = ck & 0xFF
+    return bytes(frame)
+
+
+def build_state_packet_declared(number: int, payload: bytes) -> bytes:
+    """:func:`build_state_packet` through the construct declaration (the reference layout; slower)."""
     payload = bytes(payload)
     if not 0 <= number <= 0xFFFF:
         raise ValueError(f"packet number {number} out of range 0..0xFFFF")
@@ -428,7 +455,9 @@ def build_packet_ack(number: int) -> bytes:
     """The host's ack of lossless packet *number*: ``01 num num ck ck`` (command 0x01)."""
     if not 0 <= number <= 0xFFFF:
         raise ValueError(f"packet number {number} out of range 0..0xFFFF")
-    return PACKET_ACK_FRAME.build({"body": {"value": {"packet_number": number}}})
+    hi, lo = number >> 8, number & 0xFF
+    ck = Command.ACK + hi + lo
+    return bytes((Command.ACK, hi, lo, ck >> 8, ck & 0xFF))
 
 
 def parse_packet_ack(frame: bytes) -> PacketAck:
