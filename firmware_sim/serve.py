@@ -128,6 +128,152 @@ class HostHub:
             self.port.disconnect()
 
 
+# --------------------------------------------------------------------------- RFC 2217
+
+
+class _EmulatedLineSettings:
+    """What an RFC 2217 client may read or set on the "serial port": a UART at 115200 8N1.
+
+    The emulated link ignores the settings (its rate is the link model's); CD
+    is the link's connected line.
+    """
+
+    def __init__(self, port: Port):
+        self._port = port
+        self.baudrate = 115200
+        self.bytesize = 8
+        self.parity = "N"
+        self.stopbits = 1
+        self.xonxoff = False
+        self.rtscts = False
+        self.break_condition = False
+        self.dtr = True
+        self.rts = True
+        self.cts = True
+        self.dsr = True
+        self.ri = False
+
+    @property
+    def cd(self) -> bool:
+        return bool(self._port.connected)
+
+    def reset_input_buffer(self) -> None:
+        pass
+
+    def reset_output_buffer(self) -> None:
+        pass
+
+
+class Rfc2217Endpoint:
+    """Serve *port* over RFC 2217 (telnet COM-port control) to one TCP host at a time.
+
+    Hosts open it with pyserial as ``rfc2217://HOST:PORT``. Telnet negotiation
+    and escaping are pyserial's :class:`serial.rfc2217.PortManager`.
+    """
+
+    def __init__(self, port: Port, host: str = "127.0.0.1", tcp_port: int = 0):
+        self.port = port
+        self.server = socket.create_server((host, tcp_port), backlog=4)
+        self.server.setblocking(False)
+        self.address: tuple[str, int] = self.server.getsockname()[:2]
+        self.client: socket.socket | None = None
+        self.manager: Any = None
+        self._out = bytearray()
+        self.connects = 0
+        self.closed = False
+        if port.connected:
+            port.disconnect()
+
+    @property
+    def paired(self) -> bool:
+        return self.client is not None
+
+    @property
+    def fds(self) -> tuple[int, ...]:
+        if self.closed:
+            return ()
+        return (self.server.fileno(),) + ((self.client.fileno(),) if self.client is not None else ())
+
+    def write(self, data: bytes) -> None:
+        """The PortManager's "connection": bytes for the network."""
+        self._out += data
+
+    def pump(self) -> None:
+        if self.closed:
+            return
+        self._accept()
+        c = self.client
+        if c is None:
+            return
+        while True:
+            try:
+                data = c.recv(4096)
+            except (BlockingIOError, InterruptedError):
+                break
+            except OSError:
+                self._hangup()
+                return
+            if not data:
+                self._hangup()
+                return
+            payload = b"".join(self.manager.filter(data))
+            if payload:
+                self.port.host_write(payload)
+        out = self.port.host_read()
+        if out:
+            self._out += b"".join(self.manager.escape(out))
+        if self._out:
+            try:
+                sent = c.send(self._out)
+            except (BlockingIOError, InterruptedError):
+                sent = 0
+            except OSError:
+                self._hangup()
+                return
+            del self._out[:sent]
+
+    def _accept(self) -> None:
+        from serial.rfc2217 import PortManager
+
+        while True:
+            try:
+                sock, _ = self.server.accept()
+            except (BlockingIOError, InterruptedError, OSError):
+                return
+            if self.client is not None:
+                sock.close()
+                continue
+            sock.setblocking(False)
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            self.client = sock
+            self._out.clear()
+            self.port.host_read()
+            self.port.connect()
+            self.connects += 1
+            self.manager = PortManager(_EmulatedLineSettings(self.port), self)
+
+    def _hangup(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+        self._out.clear()
+        self.port.disconnect()
+
+    def close(self) -> None:
+        if self.closed:
+            return
+        self._hangup()
+        self.server.close()
+        self.closed = True
+
+    def status(self) -> dict[str, object]:
+        return {"kind": "rfc2217", "address": f"{self.address[0]}:{self.address[1]}", "paired": self.paired,
+                "connects": self.connects}
+
+    def __repr__(self) -> str:
+        return f"Rfc2217Endpoint({self.address[0]}:{self.address[1]}, {'host' if self.paired else 'no host'})"
+
+
 # --------------------------------------------------------------------------- sensors
 
 
@@ -198,6 +344,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a pty with this stable path (a symlink), e.g. /tmp/openshoe0")
     g.add_argument("--tcp", metavar="[HOST:]PORT", type=tcp_address,
                    help="a TCP port (127.0.0.1 unless HOST given; 0 = pick a free port)")
+    g.add_argument("--rfc2217", metavar="[HOST:]PORT", type=tcp_address,
+                   help="an RFC 2217 port (pyserial rfc2217://HOST:PORT; 0 = pick a free port)")
     g.add_argument("--usb-pty", metavar="PATH", help="also expose the USB interface on this pty")
     g.add_argument("--usb-tcp", metavar="[HOST:]PORT", type=tcp_address,
                    help="also expose the USB interface on this TCP port")
@@ -289,22 +437,23 @@ def build_module(args: argparse.Namespace, index: int) -> ServedModule:
     other = "usb" if main_kind == "bt" else "bt"
     links: dict[str, Link] = {main_kind: make_link(args.link or main_kind, seed=seed, faults=_faults(args))}
     n = args.modules
-    wants = {main_kind: (args.pty, args.tcp), other: (None, None)}
+    wants = {main_kind: (args.pty, args.tcp, args.rfc2217), other: (None, None, None)}
     if args.usb_pty or args.usb_tcp:
         if main_kind == "usb":
             raise SystemExit("openshoe-emu serve: --usb-pty/--usb-tcp need --interface bt")
         links["usb"] = make_link("usb", seed=seed)
-        wants["usb"] = (args.usb_pty, args.usb_tcp)
+        wants["usb"] = (args.usb_pty, args.usb_tcp, None)
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
     module = Module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints: list[Any] = []
     ready: list[tuple[str, str]] = []
     prefix = "" if n == 1 else f"m{index}."
     try:
-        for kind, (pty_path, tcp_addr) in wants.items():
+        for kind, (pty_path, tcp_addr, rfc_addr) in wants.items():
             if kind not in links:
                 continue
-            hub = HostHub(links[kind]) if (pty_path and tcp_addr) else None
+            shared = sum(x is not None and x != "" for x in (pty_path, tcp_addr, rfc_addr)) > 1
+            hub = HostHub(links[kind]) if shared else None
             if pty_path:
                 path = _indexed_path(pty_path, index, n)
                 ep = PtyEndpoint(hub.tap("pty") if hub else links[kind], path)
@@ -315,6 +464,11 @@ def build_module(args: argparse.Namespace, index: int) -> ServedModule:
                 ep = TcpEndpoint(hub.tap("tcp") if hub else links[kind], host, port)
                 endpoints.append(ep)
                 ready.append((f"{prefix}{kind}-tcp", f"{ep.address[0]}:{ep.address[1]}"))
+            if rfc_addr:
+                host, port = _indexed_port(rfc_addr, index)
+                ep = Rfc2217Endpoint(hub.tap("rfc2217") if hub else links[kind], host, port)
+                endpoints.append(ep)
+                ready.append((f"{prefix}{kind}-rfc2217", f"{ep.address[0]}:{ep.address[1]}"))
     except BaseException:
         for ep in endpoints:
             ep.close()
@@ -481,7 +635,7 @@ class TraceWriter:
 def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.stderr,
           stop: threading.Event | None = None) -> int:
     """Run ``serve`` until *stop* is set, SIGINT/SIGTERM, or ``--duration``; returns the exit status."""
-    if not (args.pty or args.tcp or args.usb_pty or args.usb_tcp):
+    if not (args.pty or args.tcp or args.rfc2217 or args.usb_pty or args.usb_tcp):
         print("openshoe-emu serve: say where hosts connect: --pty PATH and/or --tcp [HOST:]PORT", file=err)
         return 2
     if args.modules < 1:

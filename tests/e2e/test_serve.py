@@ -148,3 +148,14 @@ def test_conformance_cli_passes_against_serve_on_a_pty(tmp_path):
             capture_output=True, text=True, timeout=60, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     assert r.returncode == 0, r.stdout + r.stderr
     assert r.stdout.count("PASS") == 6 and "CONFORMS" in r.stdout
+
+
+def test_rfc2217_port_speaks_to_pyserial(tmp_path):
+    with spawn("--rfc2217", "0", "--link", "usb", *FAST) as srv, \
+            serial.serial_for_url(f"rfc2217://{srv.ready['bt-rfc2217']}", timeout=3) as host:
+        host.write(PING)
+        assert _read_exact(host, 4) == PING_ACK
+        # bytes that look like telnet IAC (0xFF) are escaped both ways: garbage skipped, PING answered
+        host.write(b"\xff\xff" + PING)
+        assert _read_exact(host, 4) == PING_ACK
+        assert host.cd, "carrier detect is the link's connected line"
