@@ -150,6 +150,8 @@ def test_conformance_cli_passes_against_serve_on_a_pty(tmp_path):
     assert r.stdout.count("PASS") == 6 and "CONFORMS" in r.stdout
 
 
+# pyserial's rfc2217 client uses deprecated threading calls
+@pytest.mark.filterwarnings("ignore:set(Daemon|Name)\\(\\) is deprecated:DeprecationWarning")
 def test_rfc2217_port_speaks_to_pyserial(tmp_path):
     with spawn("--rfc2217", "0", "--link", "usb", *FAST) as srv, \
             serial.serial_for_url(f"rfc2217://{srv.ready['bt-rfc2217']}", timeout=3) as host:
