@@ -95,8 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--link", choices=["bt", "usb", "ideal"], default="bt", help="link model (default bt)")
     p.add_argument("--speed", type=float, default=0.0,
                    help="module time per wall time; 0 = as fast as the CPU allows (default)")
-    p.add_argument("--out", default="demo-output",
-                   help="folder for track.png and track.csv (default demo-output)")
+    p.add_argument("--out", default="out/demo",
+                   help="folder for track.png and track.csv (default out/demo)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
     p.add_argument("--timeout", type=float, default=900.0, help="give up after this many wall seconds")
     p.add_argument("-q", "--quiet", action="store_true", help="only the summary")
