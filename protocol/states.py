@@ -8,6 +8,7 @@ that splits a packet's payload by the ids it carries is in :mod:`protocol.codec`
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -33,12 +34,12 @@ class StateSpec:
     shape: tuple[int, ...]  #: () for a scalar
     doc: str = ""
 
-    @property
+    @cached_property
     def size(self) -> int:
         """Bytes on the wire."""
         return int(self.dtype.itemsize * int(np.prod(self.shape, dtype=np.int64)))
 
-    @property
+    @cached_property
     def native_dtype(self) -> np.dtype:
         """The same element type in the host's byte order (for live memory)."""
         return self.dtype.newbyteorder("=")
