@@ -1,0 +1,186 @@
+"""Batch replay: a sensor source through the emulated module → the bytes it transmitted.
+
+``openshoe-emu replay FILE --wire OUT`` (and :func:`run_replay`) run one
+:class:`~firmware_sim.module.Module` in batch mode (virtual time, as fast as
+the host machine goes) with the recording as its sensors, its main loop at the
+recording's own rate (250 Hz for the OpenShoe walks). The session is the one a
+host app runs over Bluetooth:
+
+* at power-on the host sends ``34 00 34`` (start step-wise dead reckoning);
+* it acknowledges every state packet at once (``01 nn nn cc cc``, lossless mode),
+  i.e. the acknowledgement reaches the module in the next loop cycle;
+* OUT receives exactly the bytes the module transmitted on its Bluetooth
+  interface, in order: the command ack ``A0 34 00 D4``, then one 64-byte step
+  packet per step.
+
+When the source runs out the process sequence is emptied (the foot stops being
+sensed) and the loop keeps running until the packet queue has drained, so the
+last step is on the wire too. ``--scenario NAME`` replays a simulated walk
+(:func:`firmware_sim.sensors.array.make_source`, 1 kHz by default) instead and
+writes its ground truth beside OUT (``OUT.truth.csv``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from protocol.frames import StatePacket, build_packet_ack
+from protocol.ids import Command
+from protocol.stream import StreamDecoder
+
+from .module import Module, ModuleConfig
+from .sensors.base import SensorSource
+
+__all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "main"]
+
+#: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
+START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
+#: Loop cycles allowed for the queue to drain after the source ended.
+DRAIN_TICKS = 2000
+
+
+class ReplayResult(bytes):
+    """The transmitted bytes, with the run's counters as attributes.
+
+    ``ticks`` loops run, ``packets`` state packets acknowledged,
+    ``samples`` sensor samples consumed.
+    """
+
+    ticks: int = 0
+    packets: int = 0
+    samples: int = 0
+
+
+def _source_length(source: SensorSource) -> int | None:
+    try:
+        return len(source)  # type: ignore[arg-type]
+    except TypeError:
+        return None
+
+
+def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
+               progress: Callable[[int, int | None], None] | None = None,
+               progress_every: int = 5000) -> ReplayResult:
+    """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
+
+    *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
+    *progress(samples_done, samples_total_or_None)* is called every
+    *progress_every* loops.
+    """
+    if config is None:
+        config = ModuleConfig(rate_hz=float(source.rate_hz))
+    module = Module(config, sensors=source)
+    port = module.bt.port
+    decoder = StreamDecoder()
+    out = bytearray()
+    total = _source_length(source)
+    port.host_write(START_STEPWISE)
+    packets = 0
+    ticks = 0
+
+    def loop_once() -> int:
+        nonlocal packets, ticks
+        module.step()
+        ticks += 1
+        data = port.host_read()
+        if not data:
+            return 0
+        out.extend(data)
+        for frame in decoder.feed(data):
+            if isinstance(frame, StatePacket):
+                port.host_write(build_packet_ack(frame.number))
+                packets += 1
+        return len(data)
+
+    while True:
+        if total is not None and module.clock.ticks >= total:
+            break
+        loop_once()
+        if module.sensors_exhausted:
+            break
+        if progress is not None and ticks % progress_every == 0:
+            progress(ticks, total)
+    # the source has ended: stop processing, let the queue drain
+    module.sequence.empty()
+    quiet = 0
+    for _ in range(DRAIN_TICKS):
+        if loop_once() == 0 and getattr(port, "rx_pending", lambda: 0)() == 0:
+            quiet += 1
+            if quiet > 2 and not _queue_busy(module):
+                break
+        else:
+            quiet = 0
+    result = ReplayResult(bytes(out))
+    result.ticks = ticks
+    result.packets = packets
+    result.samples = ticks if total is None else min(total, ticks)
+    return result
+
+
+def _queue_busy(module: Module) -> bool:
+    queue = getattr(module.bt, "queue", None)
+    if queue is None:
+        return False
+    try:
+        return len(queue) > 0
+    except TypeError:
+        return False
+
+
+# ---------------------------------------------------------------------------------------------
+# command line (wired into `openshoe-emu` by firmware_sim.cli)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("file", nargs="?", type=Path,
+                     help="recording to replay (OpenShoe walk .txt or our CSV), at its own rate")
+    src.add_argument("--scenario", metavar="NAME",
+                     help="replay a simulated scenario instead (see firmware_sim.sensors.scenarios)")
+    p.add_argument("--wire", required=True, type=Path, metavar="OUT",
+                   help="write the bytes the module transmitted (Bluetooth) to OUT")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
+    p.add_argument("--rate", type=float, default=1000.0,
+                   help="loop/sample rate of a simulated scenario [Hz] (default 1000)")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+
+
+def main(args: argparse.Namespace) -> int:
+    from .sensors.replay import RecordingFormatError, ReplaySource
+
+    truth = None
+    try:
+        if args.scenario is not None:
+            from .sensors.array import make_source
+
+            source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate)
+            truth = source.truth
+            name = f"scenario {args.scenario!r} (seed {args.seed}, {args.rate:g} Hz)"
+        else:
+            source = ReplaySource.from_file(args.file)
+            name = str(args.file)
+    except (OSError, RecordingFormatError, KeyError, ValueError) as e:
+        print(f"openshoe-emu replay: {e}", file=sys.stderr)
+        return 2
+    t0 = time.monotonic()
+
+    def progress(done: int, total: int | None) -> None:
+        if args.quiet:
+            return
+        rate = done / max(time.monotonic() - t0, 1e-9)
+        of = f"/{total}" if total else ""
+        print(f"\r{name}: {done}{of} samples, {rate:,.0f} samples/s", end="", file=sys.stderr, flush=True)
+
+    data = run_replay(source, progress=progress)
+    args.wire.write_bytes(data)
+    if truth is not None:
+        truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
+    if not args.quiet:
+        elapsed = time.monotonic() - t0
+        print(f"\r{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "
+              f"{len(data)} bytes → {args.wire}", file=sys.stderr)
+    return 0
