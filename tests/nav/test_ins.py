@@ -1,0 +1,202 @@
+"""The float32 ZUPT-aided INS and the step-wise reset (firmware.md §4)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from firmware_sim import ins
+from firmware_sim import nav_config as cfg
+from protocol.states import DP_INDEX, P_INDEX
+
+F32 = np.float32
+G = float(cfg.GRAVITY)
+
+
+def level_quat() -> np.ndarray:
+    return np.array([0, 0, 0, 1], dtype=np.float32)
+
+
+def p45_diag(values) -> np.ndarray:
+    pm = np.diag(np.asarray(values, dtype=np.float32))
+    return pm[np.triu_indices(9)].astype(np.float32)
+
+
+def test_float_constants_are_single_precision():
+    """Every INS tuning constant is a numpy.float32, so none can promote the arithmetic to float64."""
+    names = ["GRAVITY", "SIGMA_ACC", "SIGMA_GYRO", "SIGMA_ZUPT", "SIGMA_P0", "SIGMA_V0", "SIGMA_TH0",
+             "RESET_COV_THRESHOLD", "MIN_TIME_BETWEEN_RESETS", "MAX_TIME_RESET_PENDING", "NOMINAL_PERIOD",
+             "ACC_SCALE", "GYRO_SCALE", "CPU_HZ", "BIAS_P0", "BIAS_Q", "BIAS_R"]
+    for n in names:
+        assert type(getattr(cfg, n)) is np.float32, n
+
+
+def test_kernels_keep_float32_throughout():
+    """A float64 anywhere in the arithmetic would show up in these results' dtypes."""
+    rng = np.random.default_rng(0)
+    q = ins.alignment_quaternion(np.array([0.5, -0.3, -9.7], F32))
+    assert q.dtype == np.float32
+    assert ins.quat_to_rot(q).dtype == np.float32
+    assert ins.quat_mul(q, q).dtype == np.float32
+    assert ins.rot_to_yaw(ins.quat_to_rot(q)).dtype == np.float32
+    s = rng.normal(size=(3, 3)).astype(F32)
+    assert ins.inv3_sym(s @ s.T + np.eye(3, dtype=F32)).dtype == np.float32
+    pos, vel = np.zeros(3, F32), np.array([0.1, 0.2, 0.0], F32)
+    f_n = np.zeros(3, F32)
+    p45 = p45_diag([1e-4] * 9)
+    pm = np.zeros((9, 9), F32)
+    u_k = np.array([0.3, 0.1, -9.8, 0.2, -0.1, 0.05], F32)
+    # run every kernel on a private copy and check that the values equal a float32-only recomputation
+    ins.mechanization(u_k, F32(0.001), False, pos, vel, q, f_n)
+    fn = ins.quat_to_rot(q) @ u_k[0:3]
+    assert fn.dtype == np.float32
+    ins.time_update(f_n, F32(0.001), False, p45, pm)
+    ins.zupt_update(pos, vel, q, p45, pm, F32(0.001))
+    for a in (pos, vel, q, f_n, p45, pm):
+        assert a.dtype == np.float32
+
+
+def test_float64_leak_detector_works():
+    """The check above would catch a float64 constant (sanity of the method)."""
+    x = np.array([1.0], F32)
+    assert (x * np.float64(2.0)).dtype == np.float64
+    assert (x * F32(2.0)).dtype == np.float32
+
+
+def test_p24_is_var_vx_and_dp_picks_the_position_yaw_block():
+    assert P_INDEX[ins.P24_INDEX] == (3, 3)
+    assert list(ins.POS_YAW_TRIANGLE) == [0, 1, 2, 8, 9, 10, 16, 17, 23, 44]
+    idx = (0, 1, 2, 8)
+    for k, (r, c) in enumerate(DP_INDEX):
+        assert P_INDEX[ins.POS_YAW_TRIANGLE[k]] == (idx[r], idx[c])
+
+
+@pytest.mark.parametrize("roll,pitch", [(0.0, 0.0), (0.3, -0.2), (-1.0, 0.7), (2.5, 0.1)])
+def test_alignment_recovers_roll_and_pitch(roll, pitch):
+    from firmware_sim.sensors.truth import euler_to_matrix
+
+    r = euler_to_matrix(np.array([roll]), np.array([pitch]), np.array([0.0]))[0]
+    f_b = (r.T @ np.array([0, 0, -G])).astype(F32)
+    q = ins.alignment_quaternion(f_b)
+    np.testing.assert_allclose(ins.quat_to_rot(q), r, atol=2e-6)
+
+
+def test_alignment_needs_256_consecutive_stationary_samples():
+    w = ins.InsWork()
+    pos, vel, q, p45 = np.ones(3, F32), np.ones(3, F32), level_quat(), np.zeros(45, F32)
+    f = np.array([0, 0, -G], F32)
+    for _ in range(200):
+        assert not ins.initial_alignment(f, True, w, pos, vel, q, p45)
+    assert not ins.initial_alignment(f, False, w, pos, vel, q, p45)  # motion restarts the count
+    done = [ins.initial_alignment(f, True, w, pos, vel, q, p45) for _ in range(cfg.ALIGNMENT_SAMPLES)]
+    assert done == [False] * (cfg.ALIGNMENT_SAMPLES - 1) + [True]
+    assert not pos.any() and not vel.any()
+    pm = np.zeros((9, 9), F32)
+    ins.unpack_p(p45, pm)
+    np.testing.assert_allclose(np.diag(pm), [1e-10] * 3 + [1e-4] * 3 + [0.00174**2] * 3, rtol=1e-5)
+
+
+def test_mechanization_at_rest_stays_put_and_turns_with_the_gyro():
+    pos, vel, q, f_n = np.zeros(3, F32), np.zeros(3, F32), level_quat(), np.zeros(3, F32)
+    u = np.array([0, 0, -G, 0, 0, 0.5], F32)
+    for _ in range(1000):
+        ins.mechanization(u, F32(0.001), False, pos, vel, q, f_n)
+    assert np.abs(vel).max() < 1e-5 and np.abs(pos).max() < 1e-5
+    assert float(ins.rot_to_yaw(ins.quat_to_rot(q))) == pytest.approx(0.5, abs=1e-4)
+
+
+def test_zaru_freezes_heading_and_position():
+    pos, vel, q, f_n = np.zeros(3, F32), np.array([0.1, 0, 0], F32), level_quat(), np.zeros(3, F32)
+    u = np.array([0, 0, -G, 0.0, 0.0, 0.5], F32)
+    ins.mechanization(u, F32(0.01), True, pos, vel, q, f_n)
+    assert not pos.any()
+    assert float(ins.rot_to_yaw(ins.quat_to_rot(q))) == 0.0
+    p45 = p45_diag([1e-4] * 9)
+    pm = np.zeros((9, 9), F32)
+    ins.time_update(f_n, F32(0.01), True, p45, pm)
+    ins.unpack_p(p45, pm)
+    assert pm[0, 0] == F32(1e-4) and pm[8, 8] == F32(1e-4)
+    assert pm[3, 3] > F32(1e-4) and pm[6, 6] > F32(1e-4)
+
+
+def test_inv3_sym_inverts():
+    rng = np.random.default_rng(1)
+    a = rng.normal(size=(3, 3))
+    s = (a @ a.T + np.eye(3)).astype(F32)
+    np.testing.assert_allclose(ins.inv3_sym(s) @ s, np.eye(3), atol=1e-5)
+
+
+def test_zupts_remove_a_tilt_error():
+    """Sign check of F and of the attitude correction: a wrong tilt at rest is estimated and removed."""
+    true_roll = 0.02
+    from firmware_sim.sensors.truth import euler_to_matrix
+
+    r = euler_to_matrix(np.array([true_roll]), np.array([0.0]), np.array([0.0]))[0]
+    u = np.concatenate([(r.T @ np.array([0, 0, -G])), np.zeros(3)]).astype(F32)
+    pos, vel, q, f_n = np.zeros(3, F32), np.zeros(3, F32), level_quat(), np.zeros(3, F32)  # roll error 0.02
+    p45 = p45_diag([1e-10] * 3 + [1e-4] * 3 + [0.05**2] * 3)
+    pm = np.zeros((9, 9), F32)
+    for _ in range(2000):
+        ins.mechanization(u, F32(0.001), False, pos, vel, q, f_n)
+        ins.time_update(f_n, F32(0.001), False, p45, pm)
+        ins.zupt_update(pos, vel, q, p45, pm, F32(0.001))
+    rr = ins.quat_to_rot(q)
+    assert math.atan2(rr[2, 1], rr[2, 2]) == pytest.approx(true_roll, abs=1e-3)
+
+
+def _reset_state():
+    w = ins.InsWork()
+    pos = np.array([0.7, 0.1, -0.01], F32)
+    yaw = 0.3
+    q = ins.quat_mul(np.array([0, 0, math.sin(yaw / 2), math.cos(yaw / 2)], F32),
+                     ins.alignment_quaternion(np.array([1.0, -0.5, -9.7], F32)))
+    p45 = np.arange(1, 46, dtype=F32) * F32(1e-6)
+    p45[ins.P24_INDEX] = F32(5e-5)
+    return w, pos, q, p45, np.zeros(4, F32), np.zeros(10, F32)
+
+
+def test_reset_waits_for_0_75_s_then_for_the_end_of_the_stance():
+    w, pos, q, p45, dx, dp = _reset_state()
+    dt = F32(0.004)
+    fired = [ins.stepwise_reset(True, dt, w, pos, q, p45, dx, dp) for _ in range(190)]  # 0.76 s stance
+    assert not any(fired)
+    assert bool(w.pending[0])  # pending from > 0.75 s on
+    assert ins.stepwise_reset(False, dt, w, pos, q, p45, dx, dp)  # end of stance → reset
+
+
+def test_pending_reset_happens_after_0_25_s_of_stance():
+    w, pos, q, p45, dx, dp = _reset_state()
+    dt = F32(0.004)
+    n = 0
+    while not ins.stepwise_reset(True, dt, w, pos, q, p45, dx, dp):
+        n += 1
+    assert (n + 1) * 0.004 == pytest.approx(0.752 + 0.252, abs=0.0041)
+
+
+def test_no_reset_while_var_vx_is_above_the_threshold():
+    w, pos, q, p45, dx, dp = _reset_state()
+    p45[ins.P24_INDEX] = F32(2e-4)
+    assert not any(ins.stepwise_reset(False, F32(0.004), w, pos, q, p45, dx, dp) for _ in range(1000))
+
+
+def test_reset_hands_over_dx_dp_and_zeroes_position_yaw_and_their_covariance():
+    w, pos, q, p45, dx, dp = _reset_state()
+    w.t_since_reset[0] = F32(1.0)
+    r0 = ins.quat_to_rot(q)
+    roll0, pitch0 = math.atan2(r0[2, 1], r0[2, 2]), -math.asin(r0[2, 0])
+    p_before = p45.copy()
+    assert ins.stepwise_reset(False, F32(0.004), w, pos, q, p45, dx, dp)
+    np.testing.assert_allclose(dx, [0.7, 0.1, -0.01, 0.3], atol=1e-6)
+    assert list(dp) == list(p_before[ins.POS_YAW_TRIANGLE])
+    assert not pos.any()
+    r = ins.quat_to_rot(q)
+    assert abs(float(ins.rot_to_yaw(r))) < 1e-6
+    assert math.atan2(r[2, 1], r[2, 2]) == pytest.approx(roll0, abs=1e-5)
+    assert -math.asin(r[2, 0]) == pytest.approx(pitch0, abs=1e-5)
+    for k, (i, j) in enumerate(P_INDEX):
+        if i in (0, 1, 2, 8) or j in (0, 1, 2, 8):
+            assert p45[k] == 0
+        else:
+            assert p45[k] == p_before[k]
