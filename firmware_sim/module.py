@@ -61,6 +61,29 @@ class ModuleConfig:
     frontend: Any = None
     #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
     initial_states: dict[int, Any] = field(default_factory=dict)
+    #: Run the step-wise tracking sequence compiled (numba, firmware_sim.fastpath): None = when
+    #: numba is importable and OPENSHOE_PURE is not 1; False = pure Python (the reference);
+    #: True = compiled (ImportError without numba). The bytes are the same either way.
+    compiled: bool | None = None
+
+
+def _compiled_available() -> tuple[bool, str]:
+    """Whether firmware_sim.fastpath can run here (numba, the navigation modules), and why not."""
+    try:
+        from . import fastpath
+    except ImportError as e:  # the navigation modules are optional in a partial tree
+        return False, str(e)
+    return fastpath.available(), fastpath.reason_unavailable()
+
+
+def _want_compiled(setting: bool | None) -> bool:
+    if setting is False:
+        return False
+    ok, why = _compiled_available()
+    if setting and not ok:
+        raise ImportError(f"compiled path requested but unavailable: {why} "
+                          "(pip install 'openshoe-emulator[fast]')")
+    return ok
 
 
 def still_source(rate_hz: float = DEFAULT_RATE_HZ) -> ScriptedSource:
@@ -101,6 +124,13 @@ class Module:
         #: Interfaces by kind; ``interface_list`` in the order the loop serves them.
         self.interfaces = {Interface.USB: self.usb, Interface.BLUETOOTH: self.bt}
         self.interface_list = (self.usb, self.bt)
+        self._compiled = _want_compiled(config.compiled)
+        self._fast: Any = None
+        if self._compiled:
+            from .fastpath import TRACKING_SLOTS, FastNav
+
+            self._tracking_slots: list[int] = TRACKING_SLOTS
+            self._fast_cls: Any = FastNav
         self._interrupt_counter = self.memory[StateId.INTERRUPT_COUNTER]
         self._gp_dt = self.memory[StateId.GP_DT]
         for hook in BOOT_HOOKS:
@@ -121,16 +151,56 @@ class Module:
         bt.port.advance(now)
         usb.receive()
         bt.receive()
-        self.sequence.run(self)
+        if (self._compiled and self.sequence.slots == self._tracking_slots
+                and self._fast_cls.sequence_matches(self)):
+            self._fastnav().sequence_tick(self)
+        else:
+            self.sequence.run(self)
         usb.transmit()
         bt.transmit()
         self._gp_dt[...] = clock.end_loop() & _U32
 
     def run(self, ticks: int) -> None:
         """Run *ticks* main loops."""
+        if self._compiled:
+            while ticks > 0:
+                ticks -= self.advance(ticks)
+            return
         step = self.step
         for _ in range(ticks):
             step()
+
+    def advance(self, max_ticks: int) -> int:
+        """Run between 1 and *max_ticks* main loops, as many as run unobserved; returns how many.
+
+        One loop in pure Python. With the compiled path, a *quiet* stretch (the
+        tracking sequence running, ideal ports, nothing received or due for
+        output) runs in one compiled call up to and including the next step
+        reset's loop, whose packet is then on the port: a batch driver reads and
+        acknowledges after each call and gets the same bytes as loop by loop.
+        """
+        if max_ticks < 1:
+            return 0
+        if (self._compiled and self.sequence.slots == self._tracking_slots
+                and self._fast_cls.sequence_matches(self)):
+            fast = self._fastnav()
+            if fast.quiet(self):
+                n = fast.run_quiet(self, max_ticks)
+                if n:
+                    return n
+        self.step()
+        return 1
+
+    @property
+    def compiled(self) -> bool:
+        """Whether this module runs the tracking sequence compiled (firmware_sim.fastpath)."""
+        return self._compiled
+
+    def _fastnav(self) -> Any:
+        fast = self._fast
+        if fast is None:
+            fast = self._fast = self._fast_cls(self)
+        return fast
 
     def run_until(self, predicate: Callable[[Module], bool], max_ticks: int) -> int:
         """Step until *predicate(module)* holds (checked after each loop); returns loops run.

@@ -1,0 +1,780 @@
+"""Compiled (numba) path of the step-wise tracking sequence: the same bytes, faster.
+
+The pure-Python processing functions (:mod:`firmware_sim.inertial`,
+:mod:`~firmware_sim.frontend`, :mod:`~firmware_sim.ins`, :mod:`~firmware_sim.utility`)
+are the reference. This module runs the tracking sequence of step-wise dead
+reckoning (0x34) — READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP,
+STEPWISE_SYSTEM_RESET, MECHANIZATION, TIME_UPDATE, ZUPT_UPDATE, STATE_OUTPUT_IF —
+as one compiled loop over the module's own live arrays (state memory and the
+functions' work arrays), with the reference's arithmetic operation for
+operation: int32/uint32 wrap like C with 64-bit intermediates, float32 stays
+float32 (every product and sum rounded to single precision in the reference's
+order, never fused), sin/cos/atan2 are the C library's double functions
+rounded to float32 as in the reference. So the wire bytes are identical
+(tests/tools/test_fastpath.py checks it on simulated walks and on the six
+recordings).
+
+Two entry points, used by :class:`~firmware_sim.module.Module` when the running
+sequence is exactly that tracking sequence with the reference functions
+registered:
+
+* :meth:`FastNav.sequence_tick` — the process sequence of one loop (any tick):
+  READ_INERTIAL and STATE_OUTPUT_IF run in Python (any sensor source, the
+  conditional output), the eight numeric slots compiled.
+* :meth:`FastNav.run_quiet` — whole loops while nothing but the sequence
+  happens (ideal ports, nothing received, no output due, queues empty): up to
+  the loop of the next step reset, reading the sensor block directly; the
+  clock, interrupt counter, GP_DT and PS_DT advance exactly as loop by loop.
+
+Selection: numba importable and ``OPENSHOE_PURE`` not set to 1 (:func:`available`);
+``ModuleConfig.compiled`` forces either path. numba is the optional ``fast``
+extra; without it everything runs in pure Python, unchanged.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from protocol.ids import NR_IMUS, ProcId, StateId
+
+from . import frontend, inertial, ins, utility
+from . import nav_config as cfg
+from .port import IdealPort
+from .sequence import PROCESSING_FUNCTIONS
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .module import Module
+
+__all__ = ["TRACKING_SLOTS", "FastNav", "available", "numba_version", "reason_unavailable"]
+
+P = ProcId
+#: The running slots of step-wise dead reckoning after the initial alignment.
+TRACKING_SLOTS = [P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST,
+                  P.FRONTEND_CONVCOMP, P.STEPWISE_SYSTEM_RESET, P.MECHANIZATION, P.TIME_UPDATE,
+                  P.ZUPT_UPDATE, P.STATE_OUTPUT_IF, 0, 0]
+TRACKING_SLOTS = [int(p) for p in TRACKING_SLOTS]
+#: The reference functions the compiled loop stands for (a re-registered id disables it).
+_REFERENCE = {
+    P.READ_INERTIAL: inertial.read_inertial,
+    P.FRONTEND_PREPROC: frontend.frontend_preproc,
+    P.FRONTEND_STATDET: frontend.frontend_statdet,
+    P.FRONTEND_BIASEST: frontend.frontend_biasest,
+    P.FRONTEND_CONVCOMP: frontend.frontend_convcomp,
+    P.STEPWISE_SYSTEM_RESET: ins.ins_stepwise_system_reset,
+    P.MECHANIZATION: ins.ins_mechanization,
+    P.TIME_UPDATE: ins.ins_time_update,
+    P.ZUPT_UPDATE: ins.ins_zupt_update,
+    P.STATE_OUTPUT_IF: utility.state_output_if,
+}
+#: States the compiled loop writes (a conditional output watching one of them ends a quiet run).
+_WRITTEN = {StateId.IMU_TS, StateId.U_NEW, StateId.U_K, StateId.U_INT_K, StateId.T_INT_K, StateId.DT,
+            StateId.T1S2F, StateId.T2S2F, StateId.ZUPT, StateId.ZARU, StateId.POSITION,
+            StateId.VELOCITY, StateId.QUATERNION, StateId.P, StateId.DX, StateId.DP,
+            StateId.STEP_COUNTER, StateId.FILTER_RESET_FLAG, StateId.INTERRUPT_COUNTER, StateId.GP_DT}
+
+_U32 = 0xFFFFFFFF
+
+try:  # numba is optional (the `fast` extra)
+    if os.environ.get("OPENSHOE_PURE", "") == "1":
+        raise ImportError("OPENSHOE_PURE=1")
+    import numba
+    from numba import njit
+
+    _NUMBA_ERROR = ""
+except ImportError as _e:  # pragma: no cover - depends on the environment
+    numba = None
+    _NUMBA_ERROR = str(_e) or "numba is not installed"
+
+if numba is not None and not all(hasattr(ins, h) for h in ("_mv", "_mm", "_sinf", "_cosf", "_atan2f")):
+    # The kernels follow the reference's explicit float32 order (ins._mv/_mm, libm sin/cos/atan2);
+    # a reference that still calls BLAS (machine-dependent fused multiply-adds) cannot be matched.
+    numba = None
+    _NUMBA_ERROR = "firmware_sim.ins has no explicit-order float32 helpers (_mv, _mm, _sinf …)"
+
+
+def available() -> bool:
+    """Whether the compiled path can be used (numba importable, OPENSHOE_PURE not 1)."""
+    return numba is not None
+
+
+def reason_unavailable() -> str:
+    return "" if numba is not None else _NUMBA_ERROR
+
+
+def numba_version() -> str | None:
+    return None if numba is None else numba.__version__
+
+
+# ---------------------------------------------------------------------------------------------
+# the kernels (plain Python over arrays; compiled below when numba is present)
+
+_N = cfg.N
+_NM = cfg.N - 1
+_HALF_N = cfg.N >> 1
+_HALF_M = cfg.M >> 1
+_LOG2_M = cfg.LOG2_M
+_LOG2_N = cfg.LOG2_N
+_G_RED = cfg.G_RED
+_SR_Q = cfg.SR_Q
+_SR_SHIFT = cfg.SR_SHIFT
+_RED_F = cfg.RED_SHIFT_F
+_RED_G = cfg.RED_SHIFT_G
+_LOG2_IMUS = cfg.LOG2_NR_IMUS
+_ACC_SCALE = np.float32(cfg.ACC_SCALE)
+_GYRO_SCALE = np.float32(cfg.GYRO_SCALE)
+_CPU_HZ = np.float32(cfg.CPU_HZ)
+_BIAS_Q = np.float32(cfg.BIAS_Q)
+_BIAS_R = np.float32(cfg.BIAS_R)
+_GRAVITY = np.float32(cfg.GRAVITY)
+_SIG_ACC = np.float32(cfg.SIGMA_ACC)
+_SIG_GYRO = np.float32(cfg.SIGMA_GYRO)
+_SIG_ZUPT = np.float32(cfg.SIGMA_ZUPT)
+_RESET_TH = np.float32(cfg.RESET_COV_THRESHOLD)
+_MIN_T_RESET = np.float32(cfg.MIN_TIME_BETWEEN_RESETS)
+_MAX_T_PENDING = np.float32(cfg.MAX_TIME_RESET_PENDING)
+#: The module's loop period T₀ the noise densities refer to (Q = dt·T₀·σ², R = σ²_zupt·T₀/dt).
+_T0 = np.float32(cfg.NOMINAL_PERIOD)
+_F0 = np.float32(0.0)
+_F1 = np.float32(1.0)
+_F2 = np.float32(2.0)
+_FH = np.float32(0.5)
+_P24 = ins.P24_INDEX
+_TRI_ROW = np.ascontiguousarray(ins.P_IU[0], dtype=np.int64)
+_TRI_COL = np.ascontiguousarray(ins.P_IU[1], dtype=np.int64)
+_POS_YAW = np.ascontiguousarray(ins.POS_YAW_TRIANGLE, dtype=np.int64)
+_RESET_MASK = np.ascontiguousarray(ins._RESET_MASK, dtype=np.bool_)
+_INT32_MIN = -0x80000000
+
+
+def _i32(x):
+    return ((x + 0x80000000) & 0xFFFFFFFF) - 0x80000000
+
+
+def _isqrt64(x):
+    res = 0
+    bit = 1 << 62
+    while bit > x:
+        bit >>= 2
+    while bit:
+        if x >= res + bit:
+            x -= res + bit
+            res = (res >> 1) + bit
+        else:
+            res >>= 1
+        bit >>= 2
+    return res
+
+
+def _sat_u32(x):
+    if x < 0:
+        return 0
+    if x > 0xFFFFFFFF:
+        return 0xFFFFFFFF
+    return x
+
+
+def _window(ab, cd, s16, norm, j, sign, n):
+    """Add (sign +1) / remove (−1) buffered sample j from a window's running sums (wrapping)."""
+    for i in range(n):
+        ab[i] = np.int64(ab[i]) + sign * np.int64(s16[j, i])
+    n0 = np.int64(norm[j, 0])
+    n1 = np.int64(norm[j, 1])
+    cd[0] = np.int64(cd[0]) + sign * (n0 & 0xFFFF)
+    cd[1] = np.int64(cd[1]) + sign * (n1 & 0xFFFF)
+    cd[2] = np.int64(cd[2]) + sign * (n0 >> 16)
+    cd[3] = np.int64(cd[3]) + sign * (n1 >> 16)
+
+
+def _quat_mul(a, b, out):
+    ax, ay, az, aw = a[0], a[1], a[2], a[3]
+    bx, by, bz, bw = b[0], b[1], b[2], b[3]
+    out[0] = aw * bx + bw * ax + (ay * bz - az * by)
+    out[1] = aw * by + bw * ay + (az * bx - ax * bz)
+    out[2] = aw * bz + bw * az + (ax * by - ay * bx)
+    out[3] = aw * bw - (ax * bx + ay * by + az * bz)
+
+
+def _normalise_into(q, out):
+    n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    for i in range(4):
+        out[i] = q[i] / n
+
+
+def _quat_to_rot(q, r):
+    x, y, z, w = q[0], q[1], q[2], q[3]
+    xx, yy, zz = x * x, y * y, z * z
+    xy, xz, yz = x * y, x * z, y * z
+    wx, wy, wz = w * x, w * y, w * z
+    r[0, 0] = _F1 - _F2 * (yy + zz)
+    r[0, 1] = _F2 * (xy - wz)
+    r[0, 2] = _F2 * (xz + wy)
+    r[1, 0] = _F2 * (xy + wz)
+    r[1, 1] = _F1 - _F2 * (xx + zz)
+    r[1, 2] = _F2 * (yz - wx)
+    r[2, 0] = _F2 * (xz - wy)
+    r[2, 1] = _F2 * (yz + wx)
+    r[2, 2] = _F1 - _F2 * (xx + yy)
+
+
+def _mm(a, b, out):
+    """out = a @ b, each element a[i,0]·b[0,j] + a[i,1]·b[1,j] + … left to right (as ins._mm)."""
+    n, k = a.shape
+    m = b.shape[1]
+    for i in range(n):
+        for j in range(m):
+            s = a[i, 0] * b[0, j]
+            for t in range(1, k):
+                s = s + a[i, t] * b[t, j]
+            out[i, j] = s
+
+
+def _unpack(p45, pm):
+    for e in range(45):
+        pm[_TRI_ROW[e], _TRI_COL[e]] = p45[e]
+    for e in range(45):
+        pm[_TRI_COL[e], _TRI_ROW[e]] = p45[e]
+
+
+def _pack(pm, p45):
+    for e in range(45):
+        p45[e] = pm[_TRI_ROW[e], _TRI_COL[e]]
+
+
+#: Columns t where row i of TIME_UPDATE's F can be non-zero (ascending; −1 ends a row):
+#: I, dt on the δp–δv block, −[f_n×]·dt on the δv–δθ block. Every other entry is ±0.
+_F_TERMS = np.array([[0, 3, -1, -1], [1, 4, -1, -1], [2, 5, -1, -1], [3, 6, 7, 8], [4, 6, 7, 8],
+                     [5, 6, 7, 8], [6, -1, -1, -1], [7, -1, -1, -1], [8, -1, -1, -1]], dtype=np.int64)
+_D33, _D44, _D55, _D66, _D77, _D88 = (
+    int(np.flatnonzero((ins.P_IU[0] == d) & (ins.P_IU[1] == d))[0]) for d in (3, 4, 5, 6, 7, 8))
+
+
+def _finite(a):
+    for x in a.flat:
+        if not (x - x == 0):
+            return False
+    return True
+
+
+def _f_pm(fm, pm, out):
+    """out = F @ P with _mm's rounding, summing only F's structurally non-zero terms.
+
+    Exact: with finite inputs, a ±0 product added to a non-zero partial sum changes
+    nothing and a zero partial sum followed by x gives x, so the short sum equals the
+    full one except perhaps for the sign of an exactly-zero result, which is then
+    recomputed in full (as is everything when an input is not finite).
+    """
+    if not (_finite(fm) and _finite(pm)):
+        _mm(fm, pm, out)
+        return
+    for i in range(9):
+        for j in range(9):
+            t = _F_TERMS[i, 0]
+            s = fm[i, t] * pm[t, j]
+            for u in range(1, 4):
+                t = _F_TERMS[i, u]
+                if t < 0:
+                    break
+                s = s + fm[i, t] * pm[t, j]
+            if s == 0:
+                s = fm[i, 0] * pm[0, j]
+                for t in range(1, 9):
+                    s = s + fm[i, t] * pm[t, j]
+            out[i, j] = s
+
+
+def _pm_ft_upper(tp, fm, p45):
+    """Upper triangle of tp @ Fᵀ into p45, with the short sums of :func:`_f_pm`."""
+    dense = not (_finite(fm) and _finite(tp))
+    for e in range(45):
+        i = _TRI_ROW[e]
+        j = _TRI_COL[e]
+        # (tp @ Fᵀ)[i, j] = Σ_t tp[i, t] · F[j, t]
+        if not dense:
+            t = _F_TERMS[j, 0]
+            s = tp[i, t] * fm[j, t]
+            for u in range(1, 4):
+                t = _F_TERMS[j, u]
+                if t < 0:
+                    break
+                s = s + tp[i, t] * fm[j, t]
+        if dense or s == 0:
+            s = tp[i, 0] * fm[j, 0]
+            for t in range(1, 9):
+                s = s + tp[i, t] * fm[j, t]
+        p45[e] = s
+
+
+def _sinf(x):
+    return np.float32(math.sin(np.float64(x)))
+
+
+def _cosf(x):
+    return np.float32(math.cos(np.float64(x)))
+
+
+def _atan2f(y, x):
+    return np.float32(math.atan2(np.float64(y), np.float64(x)))
+
+
+def _run(n, do_read, imu, start_cycles, period, ts_off,
+         imu_raw, prev_acc, have_prev, imu_ts,
+         cal, bias, buf32, buf16, norm, tsbuf, newest, zaru_ab, zaru_cd, zupt_a, zupt_cd,
+         gyro_bias, bias_p, t_prev,
+         u_new, u_k, u_int_k, t_int_k, dt_s, t1_s, t2_s, zupt_s, zaru_s, th_zupt, th_zaru,
+         pos, vel, quat, p45, dx_out, dp_out, step_counter, reset_flag,
+         f_n, t_since, t_pending, pending, scratch):
+    """Slots 0–8 of the tracking sequence for up to *n* loops; stops after a loop with a reset.
+
+    With *do_read* the loop reads ``imu[i]`` (READ_INERTIAL, timestamp
+    ``start_cycles + i·period + ts_off``); without, the caller has read one sample.
+    Returns the loops run.
+    """
+    pm = scratch[0:9, :]
+    fm = scratch[9:18, :]
+    tmp = scratch[18:27, :]
+    r = np.empty((3, 3), np.float32)
+    q2 = np.empty(4, np.float32)
+    q3 = np.empty(4, np.float32)
+    dq = np.empty(4, np.float32)
+    k = np.empty((9, 3), np.float32)
+    sinv = np.empty((3, 3), np.float32)
+    d = np.empty(9, np.float32)
+    for it in range(n):
+        # ---- READ_INERTIAL (0x13)
+        if do_read:
+            for c in range(NR_IMUS):
+                for a in range(3):
+                    cur = imu[it, c, a]
+                    if have_prev[0]:
+                        imu_raw[c, a] = prev_acc[c, a]
+                    else:
+                        imu_raw[c, a] = cur
+                    prev_acc[c, a] = cur
+                    imu_raw[c, 3 + a] = imu[it, c, 3 + a]
+            have_prev[0] = True
+            imu_ts[0] = (start_cycles + it * period + ts_off) & 0xFFFFFFFF
+        # ---- FRONTEND_PREPROC (0x10)
+        for s in range(2):
+            for i in range(3):
+                acc = np.int64(0)
+                for c in range(NR_IMUS):
+                    for jj in range(3):
+                        acc += np.int64(cal[c, s, i, jj]) * np.int64(imu_raw[c, 3 * s + jj])
+                v = _i32(_i32(acc >> _LOG2_IMUS) - np.int64(bias[3 * s + i]))
+                u_new[3 * s + i] = v
+        for i in range(3):
+            u_k[i] = np.float32(u_new[i]) * _ACC_SCALE
+            u_k[3 + i] = np.float32(u_new[3 + i]) * _GYRO_SCALE
+        # ---- FRONTEND_STATDET (0x11)
+        ts = np.int64(imu_ts[0])
+        j_old = np.int64(newest[0])
+        j = (j_old + 1) & _NM
+        _window(zaru_ab, zaru_cd, buf16, norm, j, -1, 6)
+        z_out = (j_old - _HALF_N - _HALF_M + 1) & _NM
+        _window(zupt_a, zupt_cd, buf16, norm, z_out, -1, 3)
+        for i in range(3):
+            buf32[j, i] = u_new[i]
+            buf32[j, 3 + i] = u_new[3 + i]
+            buf16[j, i] = np.int64(u_new[i]) >> _RED_F
+            buf16[j, 3 + i] = np.int64(u_new[3 + i]) >> _RED_G
+        sa = np.int64(buf16[j, 0])
+        sb = np.int64(buf16[j, 1])
+        sc = np.int64(buf16[j, 2])
+        norm[j, 0] = sa * sa + sb * sb + sc * sc
+        sa = np.int64(buf16[j, 3])
+        sb = np.int64(buf16[j, 4])
+        sc = np.int64(buf16[j, 5])
+        norm[j, 1] = sa * sa + sb * sb + sc * sc
+        tsbuf[j] = ts
+        newest[0] = j
+        _window(zaru_ab, zaru_cd, buf16, norm, j, 1, 6)
+        z_in = (j - _HALF_N + _HALF_M) & _NM
+        _window(zupt_a, zupt_cd, buf16, norm, z_in, 1, 3)
+        # T1 over the ZUPT window
+        c_ = (np.int64(zupt_cd[2]) << 16) + np.int64(zupt_cd[0])
+        d_ = (np.int64(zupt_cd[3]) << 16) + np.int64(zupt_cd[1])
+        a0 = np.int64(zupt_a[0])
+        a1 = np.int64(zupt_a[1])
+        a2 = np.int64(zupt_a[2])
+        norm_a = _isqrt64(a0 * a0 + a1 * a1 + a2 * a2)
+        t1 = ((c_ >> _LOG2_M) - ((2 * _G_RED * norm_a) >> _LOG2_M) + _G_RED * _G_RED
+              + ((_SR_Q * (d_ >> _LOG2_M)) >> _SR_SHIFT))
+        t1 = _sat_u32(t1)
+        # T2 over the whole buffer
+        c_ = (np.int64(zaru_cd[2]) << 16) + np.int64(zaru_cd[0])
+        d_ = (np.int64(zaru_cd[3]) << 16) + np.int64(zaru_cd[1])
+        a0 = np.int64(zaru_ab[0])
+        a1 = np.int64(zaru_ab[1])
+        a2 = np.int64(zaru_ab[2])
+        b0 = np.int64(zaru_ab[3])
+        b1 = np.int64(zaru_ab[4])
+        b2 = np.int64(zaru_ab[5])
+        var_f = (c_ >> _LOG2_N) - ((a0 * a0 + a1 * a1 + a2 * a2) >> (2 * _LOG2_N))
+        var_g = (d_ >> _LOG2_N) - ((b0 * b0 + b1 * b1 + b2 * b2) >> (2 * _LOG2_N))
+        t2 = _sat_u32(var_f + ((_SR_Q * var_g) >> _SR_SHIFT))
+        zupt = t1 < np.int64(th_zupt[0])
+        zaru = zupt and t2 < np.int64(th_zaru[0])
+        kk = (j - _HALF_N) & _NM
+        for i in range(6):
+            u_int_k[i] = buf32[kk, i]
+        t1_s[0] = t1
+        t2_s[0] = t2
+        zupt_s[0] = zupt
+        zaru_s[0] = zaru
+        t_int_k[0] = tsbuf[kk]
+        # ---- FRONTEND_BIASEST (0x12)
+        bias_p[0] = bias_p[0] + _BIAS_Q
+        if zaru:
+            pk = bias_p[0]
+            kg = pk / (pk + _BIAS_R)
+            for i in range(3):
+                om = np.float32(u_int_k[3 + i]) * _GYRO_SCALE
+                gyro_bias[i] = gyro_bias[i] + kg * (om - gyro_bias[i])
+            bias_p[0] = pk * (_F1 - kg)
+        # ---- FRONTEND_CONVCOMP (0x14)
+        for i in range(3):
+            u_k[i] = np.float32(u_int_k[i]) * _ACC_SCALE
+            u_k[3 + i] = np.float32(u_int_k[3 + i]) * _GYRO_SCALE - gyro_bias[i]
+        tik = np.int64(t_int_k[0])
+        dt_s[0] = np.float32((tik - np.int64(t_prev[0])) & 0xFFFFFFFF) / _CPU_HZ
+        t_prev[0] = tik
+        dt = dt_s[0]
+        # ---- STEPWISE_SYSTEM_RESET (0x24)
+        flag = False
+        t_since[0] = t_since[0] + dt
+        go = True
+        if not pending[0]:
+            if p45[_P24] < _RESET_TH and t_since[0] > _MIN_T_RESET:
+                pending[0] = True
+                t_pending[0] = _F0
+            else:
+                go = False
+        if go:
+            t_pending[0] = t_pending[0] + dt
+            if not (zupt and not t_pending[0] > _MAX_T_PENDING):
+                _quat_to_rot(quat, r)
+                yaw = _atan2f(r[1, 0], r[0, 0])
+                for i in range(3):
+                    dx_out[i] = pos[i]
+                dx_out[3] = yaw
+                for i in range(10):
+                    dp_out[i] = p45[_POS_YAW[i]]
+                for i in range(3):
+                    pos[i] = _F0
+                half = -yaw * _FH
+                dq[0] = _F0
+                dq[1] = _F0
+                dq[2] = _sinf(half)
+                dq[3] = _cosf(half)
+                _quat_mul(dq, quat, q2)
+                _normalise_into(q2, quat)
+                for e in range(45):
+                    if _RESET_MASK[e]:
+                        p45[e] = _F0
+                t_since[0] = _F0
+                t_pending[0] = _F0
+                pending[0] = False
+                flag = True
+        reset_flag[0] = flag
+        if flag:
+            step_counter[0] = (np.int64(step_counter[0]) + 1) & 0xFFFF
+        # ---- MECHANIZATION (0x20)
+        _quat_to_rot(quat, r)
+        f0, f1, f2 = u_k[0], u_k[1], u_k[2]
+        o0, o1, o2 = u_k[3], u_k[4], u_k[5]
+        if zaru:
+            up0, up1, up2 = r[2, 0], r[2, 1], r[2, 2]
+            proj = up0 * o0 + up1 * o1 + up2 * o2
+            o0 = o0 - proj * up0
+            o1 = o1 - proj * up1
+            o2 = o2 - proj * up2
+        fn0 = r[0, 0] * f0 + r[0, 1] * f1 + r[0, 2] * f2
+        fn1 = r[1, 0] * f0 + r[1, 1] * f1 + r[1, 2] * f2
+        fn2 = r[2, 0] * f0 + r[2, 1] * f1 + r[2, 2] * f2
+        f_n[0] = fn0
+        f_n[1] = fn1
+        f_n[2] = fn2
+        if not zaru:
+            for i in range(3):
+                pos[i] = pos[i] + vel[i] * dt
+        vel[0] = vel[0] + (fn0 + _F0) * dt
+        vel[1] = vel[1] + (fn1 + _F0) * dt
+        vel[2] = vel[2] + (fn2 + _GRAVITY) * dt
+        th0 = o0 * dt
+        th1 = o1 * dt
+        th2 = o2 * dt
+        angle = np.sqrt(th0 * th0 + th1 * th1 + th2 * th2)
+        if angle > _F0:
+            sh = _sinf(angle * _FH) / angle
+            dq[0] = th0 * sh
+            dq[1] = th1 * sh
+            dq[2] = th2 * sh
+            dq[3] = _cosf(angle * _FH)
+        else:
+            dq[0] = _F0
+            dq[1] = _F0
+            dq[2] = _F0
+            dq[3] = _F1
+        _quat_mul(quat, dq, q2)
+        _normalise_into(q2, quat)
+        # ---- TIME_UPDATE (0x21)
+        _unpack(p45, pm)
+        for a in range(9):
+            for b in range(9):
+                fm[a, b] = _F1 if a == b else _F0
+        if not zaru:
+            fm[0, 3] = dt
+            fm[1, 4] = dt
+            fm[2, 5] = dt
+        # −[f_n×]·dt, element by element as −(skew)·dt
+        fm[3, 6] = -_F0 * dt
+        fm[3, 7] = f_n[2] * dt
+        fm[3, 8] = -f_n[1] * dt
+        fm[4, 6] = -f_n[2] * dt
+        fm[4, 7] = -_F0 * dt
+        fm[4, 8] = f_n[0] * dt
+        fm[5, 6] = f_n[1] * dt
+        fm[5, 7] = -f_n[0] * dt
+        fm[5, 8] = -_F0 * dt
+        _f_pm(fm, pm, tmp)  # tmp = F P
+        dt2 = dt * _T0  # dt·T₀ (= dt² at the module's 1 kHz)
+        qa = dt2 * _SIG_ACC * _SIG_ACC
+        qg = dt2 * _SIG_GYRO * _SIG_GYRO
+        _pm_ft_upper(tmp, fm, p45)  # upper triangle of (F P) Fᵀ
+        p45[_D33] += qa
+        p45[_D44] += qa
+        p45[_D55] += qa
+        p45[_D66] += qg
+        p45[_D77] += qg
+        if not zaru:
+            p45[_D88] += qg
+        # ---- ZUPT_UPDATE (0x22)
+        if zupt:
+            _unpack(p45, pm)
+            rz = (_SIG_ZUPT * _SIG_ZUPT) * (_T0 / dt)  # σ²_zupt·(T₀/dt)
+            for a in range(3):
+                for b in range(3):
+                    sinv[a, b] = pm[3 + a, 3 + b] + (rz if a == b else _F0)
+            sa_ = sinv[0, 0]
+            sb_ = sinv[0, 1]
+            sc_ = sinv[0, 2]
+            sd_ = sinv[1, 1]
+            se_ = sinv[1, 2]
+            sf_ = sinv[2, 2]
+            c00 = sd_ * sf_ - se_ * se_
+            c01 = sc_ * se_ - sb_ * sf_
+            c02 = sb_ * se_ - sc_ * sd_
+            c11 = sa_ * sf_ - sc_ * sc_
+            c12 = sb_ * sc_ - sa_ * se_
+            c22 = sa_ * sd_ - sb_ * sb_
+            inv_det = _F1 / (sa_ * c00 + sb_ * c01 + sc_ * c02)
+            sinv[0, 0] = c00 * inv_det
+            sinv[0, 1] = c01 * inv_det
+            sinv[0, 2] = c02 * inv_det
+            sinv[1, 0] = c01 * inv_det
+            sinv[1, 1] = c11 * inv_det
+            sinv[1, 2] = c12 * inv_det
+            sinv[2, 0] = c02 * inv_det
+            sinv[2, 1] = c12 * inv_det
+            sinv[2, 2] = c22 * inv_det
+            _mm(pm[:, 3:6], sinv, k)
+            v0, v1, v2 = vel[0], vel[1], vel[2]
+            for a in range(9):
+                d[a] = k[a, 0] * v0 + k[a, 1] * v1 + k[a, 2] * v2
+            for i in range(3):
+                pos[i] = pos[i] - d[i]
+                vel[i] = vel[i] - d[3 + i]
+            dq[0] = -d[6] * _FH
+            dq[1] = -d[7] * _FH
+            dq[2] = -d[8] * _FH
+            dq[3] = _F1
+            _normalise_into(dq, q3)
+            _quat_mul(q3, quat, q2)
+            _normalise_into(q2, quat)
+            for e in range(45):  # P − K·P[3:6, :], upper triangle
+                a = _TRI_ROW[e]
+                b = _TRI_COL[e]
+                p45[e] = pm[a, b] - (k[a, 0] * pm[3, b] + k[a, 1] * pm[4, b] + k[a, 2] * pm[5, b])
+        if flag:
+            return it + 1
+    return n
+
+
+if numba is not None:
+    _jit = njit(cache=True, nogil=True)
+    _i32 = _jit(_i32)
+    _isqrt64 = _jit(_isqrt64)
+    _sat_u32 = _jit(_sat_u32)
+    _window = _jit(_window)
+    _quat_mul = _jit(_quat_mul)
+    _normalise_into = _jit(_normalise_into)
+    _quat_to_rot = _jit(_quat_to_rot)
+    _mm = _jit(_mm)
+    _finite = _jit(_finite)
+    _f_pm = _jit(_f_pm)
+    _pm_ft_upper = _jit(_pm_ft_upper)
+    _unpack = _jit(_unpack)
+    _pack = _jit(_pack)
+    _sinf = _jit(_sinf)
+    _cosf = _jit(_cosf)
+    _atan2f = _jit(_atan2f)
+    _run = _jit(_run)
+
+
+# ---------------------------------------------------------------------------------------------
+# binding to one module
+
+
+def _one(a: np.ndarray) -> np.ndarray:
+    """A 1-element view of a scalar (0-d) state."""
+    return a.reshape(1)
+
+
+class FastNav:
+    """The compiled tracking sequence bound to one module's live arrays."""
+
+    def __init__(self, module: Module):
+        mem = module.memory
+        fw = frontend.frontend_work(module)
+        iw = ins.ins_work(module)
+        iwk = module.work("inertial", inertial._work)
+        self._empty_imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
+        self._scratch = np.zeros((27, 9), dtype=np.float32)
+        self._cond_keys = _WRITTEN
+        #: Arguments after (n, do_read, imu, start, period, ts_off): the module's live arrays.
+        self.arrays: tuple[Any, ...] = (
+            mem.imu_raw, iwk["prev_acc"], iwk["have_prev"], _one(mem[StateId.IMU_TS]),
+            fw.cal, fw.bias, fw.buf32, fw.buf16, fw.norm, fw.ts, fw.newest, fw.zaru_ab, fw.zaru_cd,
+            fw.zupt_a, fw.zupt_cd, fw.gyro_bias, fw.bias_p, fw.t_prev,
+            mem[StateId.U_NEW], mem[StateId.U_K], mem[StateId.U_INT_K], _one(mem[StateId.T_INT_K]),
+            _one(mem[StateId.DT]), _one(mem[StateId.T1S2F]), _one(mem[StateId.T2S2F]),
+            _one(mem[StateId.ZUPT]), _one(mem[StateId.ZARU]), _one(mem[StateId.TH_ZUPT]),
+            _one(mem[StateId.TH_ZARU]),
+            mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
+            mem[StateId.DX], mem[StateId.DP], _one(mem[StateId.STEP_COUNTER]),
+            _one(mem[StateId.FILTER_RESET_FLAG]),
+            iw.f_n, iw.t_since_reset, iw.t_pending, iw.pending, self._scratch,
+        )
+        self._ids = [p for p in TRACKING_SLOTS if p]
+        self._costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call for p in self._ids]
+        self.seq_cycles = sum(self._costs)
+        self._ps_dt = np.array(self._costs, dtype=np.uint32)
+        #: Loops run compiled, loop by loop and in quiet runs (for the benchmark).
+        self.ticks_single = 0
+        self.ticks_quiet = 0
+
+    # -------------------------------------------------------------- eligibility
+    @staticmethod
+    def sequence_matches(module: Module) -> bool:
+        """The running slots are the tracking sequence and every id is the reference function."""
+        if module.sequence.slots != TRACKING_SLOTS:
+            return False
+        funcs = PROCESSING_FUNCTIONS
+        for pid, fn in _REFERENCE.items():
+            pf = funcs.get(pid)
+            if pf is None or pf.fn is not fn:
+                return False
+        return True
+
+    # ------------------------------------------------------------ one loop's sequence
+    def sequence_tick(self, module: Module) -> None:
+        """run_process_sequence() of one loop with the numeric slots compiled."""
+        seq = module.sequence
+        seq.runs += 1
+        clock = module.clock
+        costs = self._costs
+        # slot 0 in Python: any sensor source, exhaustion, temperature and magnetometer
+        inertial.read_inertial(module)
+        clock.now_cycles += costs[0]
+        _run(1, False, self._empty_imu, 0, 0, 0, *self.arrays)
+        clock.now_cycles += sum(costs[1:9])
+        utility.state_output_if(module)
+        clock.now_cycles += costs[9]
+        module.memory.ps_dt[:10] = self._ps_dt
+        self.ticks_single += 1
+
+    # ------------------------------------------------------------------ quiet runs
+    @staticmethod
+    def _block(module: Module) -> np.ndarray | None:
+        """The source's whole int16 (n, chips, 6) register array, if it has one (simulated, replay)."""
+        src = module.sensors
+        imu = getattr(src, "imu", None)
+        if (isinstance(imu, np.ndarray) and imu.dtype == np.int16 and imu.ndim == 3
+                and imu.shape[1:] == (NR_IMUS, 6) and hasattr(src, "__len__")):
+            return imu
+        return None
+
+    def quiet(self, module: Module) -> bool:
+        """Nothing but the sequence happens in the next loops (see the module doc)."""
+        if module.sensors_exhausted or self._block(module) is None:
+            return False
+        clock = module.clock
+        if clock.now_cycles > clock._next_interrupt:
+            return False
+        c = module.costs
+        if c.loop_overhead + 2 * c.rx_poll + self.seq_cycles > clock.cycles_per_tick:
+            return False
+        for iface in module.interface_list:
+            port = iface.port
+            if type(port) is not IdealPort or port._rx:
+                return False
+            if iface._need or iface._periodic or iface._pulled or iface.queue.frames:
+                return False
+        cond = module.cond_output
+        if cond.from_mask and cond.flag_id != StateId.FILTER_RESET_FLAG and (
+                cond.flag_id in self._cond_keys or module.memory.flag(cond.flag_id)):
+            return False
+        return True
+
+    def run_quiet(self, module: Module, max_ticks: int) -> int:
+        """Run up to *max_ticks* quiet loops (stopping after a step reset's loop); returns loops run.
+
+        The caller checked :meth:`quiet` and :meth:`sequence_matches`.
+        """
+        clock = module.clock
+        start = clock.ticks  # sample index of the first loop
+        imu = self._block(module)
+        avail = len(imu) - start
+        n = min(max_ticks, avail)
+        if n <= 0:
+            return 0
+        c = module.costs
+        period = clock.cycles_per_tick
+        first = clock._next_interrupt
+        ts_off = c.loop_overhead + 2 * c.rx_poll
+        done = _run(n, True, imu[start:start + n], first, period, ts_off, *self.arrays)
+        last_start = first + (done - 1) * period
+        # what `done` loops did to the clock and the loop's own states
+        clock.ticks += done
+        clock.interrupts += done
+        clock._next_interrupt = first + done * period
+        clock.loop_start = last_start
+        loop_cycles = ts_off + self.seq_cycles
+        clock.now_cycles = last_start + loop_cycles
+        clock.last_loop_cycles = loop_cycles
+        mem = module.memory
+        mem[StateId.INTERRUPT_COUNTER][...] = clock.interrupts & _U32
+        mem[StateId.GP_DT][...] = loop_cycles & _U32
+        mem.ps_dt[:10] = self._ps_dt
+        module.sequence.runs += done
+        sample = module.sensors.read(start + done - 1)  # temperature, magnetometer of the last read
+        if sample is not None:
+            mem.imu_temp[:NR_IMUS] = sample.temp
+            mem.imu_mag[:NR_IMUS] = sample.mag
+        for iface in module.interface_list:
+            iface.port.advance(last_start + c.loop_overhead)
+        if mem.flag(StateId.FILTER_RESET_FLAG):
+            # the step's loop: STATE_OUTPUT_IF and transmit_data() in Python, as Module.step does
+            clock.now_cycles -= self._costs[9]
+            utility.state_output_if(module)
+            clock.now_cycles += self._costs[9]
+            module.usb.transmit()
+            module.bt.transmit()
+            clock.last_loop_cycles = clock.now_cycles - clock.loop_start
+            mem[StateId.GP_DT][...] = clock.last_loop_cycles & _U32
+        self.ticks_quiet += done
+        return done

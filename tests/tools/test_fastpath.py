@@ -1,0 +1,144 @@
+"""The compiled tracking sequence (firmware_sim.fastpath, numba) sends the same bytes as the
+pure-Python reference, and leaves the module in the same state (issue 8).
+
+The compiled tests skip with a reason when numba is not importable (it is the optional
+``fast`` extra); the first run compiles the kernels (≈ 20 s, then cached on disk).
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from firmware_sim import fastpath
+from firmware_sim.batch import run_replay
+from firmware_sim.link import make_link
+from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.replay import ReplaySource
+from protocol.states import STATES
+from tests.conftest import WALK_IDS, walk_path
+from tools.bench.driver import START_STEPWISE, run_session
+
+REPO = Path(__file__).resolve().parents[2]
+
+needs_numba = pytest.mark.skipif(
+    not fastpath.available(),
+    reason=f"compiled path unavailable: {fastpath.reason_unavailable()} (fast extra: pip install '.[fast]')",
+)
+
+
+def _state_bytes(module: Module) -> dict[int, bytes]:
+    return {sid: module.memory.read_wire(sid) for sid in STATES}
+
+
+def _assert_same_module(a: Module, b: Module) -> None:
+    ca, cb = a.clock, b.clock
+    assert (ca.ticks, ca.now_cycles, ca.interrupts, ca.overruns, ca.last_loop_cycles) == (
+        cb.ticks, cb.now_cycles, cb.interrupts, cb.overruns, cb.last_loop_cycles)
+    sa, sb = _state_bytes(a), _state_bytes(b)
+    differ = [f"0x{sid:02X}" for sid in STATES if sa[sid] != sb[sid]]
+    assert not differ, f"states differ: {differ}"
+    assert a.counters() == b.counters()
+    assert a.sequence.runs == b.sequence.runs
+
+
+@needs_numba
+def test_synthetic_walk_same_wire_bytes_and_state() -> None:
+    """A simulated walk with turns: identical Bluetooth bytes, clock, states and counters."""
+    source = make_source("stand:2+walk:4+turn:90+walk:3", seed=3)
+    pure = run_session(source, compiled=False)
+    fast = run_session(source, compiled=True)
+    assert pure.packets >= 5  # steps were sent
+    assert fast.wire == pure.wire
+    _assert_same_module(fast.module, pure.module)
+    # the compiled loop did the work (all but the alignment and the drain)
+    assert fast.ticks_compiled > 0.8 * fast.ticks
+
+
+def test_session_driver_is_the_replay_session() -> None:
+    """The benchmark's driver sends and acknowledges exactly like firmware_sim.batch.run_replay."""
+    source = make_source("stand:2+walk:2", seed=5)
+    reference = run_replay(source, config=ModuleConfig(rate_hz=source.rate_hz, compiled=False))
+    assert run_session(source, compiled=False).wire == bytes(reference)
+
+
+@needs_numba
+def test_loop_by_loop_on_a_bluetooth_link_matches() -> None:
+    """Module.step with the compiled sequence (a real link model: never a quiet stretch)."""
+    source = make_source("stand:2+walk:2", seed=7)
+    mods = [Module(ModuleConfig(compiled=c), sensors=source, bt_port=make_link("bt", seed=1))
+            for c in (False, True)]
+    out = [bytearray(), bytearray()]
+    for m in mods:
+        m.bt.port.host_write(START_STEPWISE)
+    for tick in range(len(source)):
+        for m, buf in zip(mods, out, strict=True):
+            m.step()
+            buf += m.bt.port.host_read()
+        if tick % 500 == 0:
+            _assert_same_module(*mods)
+    assert mods[1]._fast is not None and mods[1]._fast.ticks_single > 1000
+    assert out[0] == out[1] and len(out[0]) > 4
+    _assert_same_module(*mods)
+
+
+@needs_numba
+def test_host_thresholds_and_custom_functions_respected() -> None:
+    """Thresholds written by the host reach the kernel; a re-registered function id turns it off."""
+    from firmware_sim.sequence import PROCESSING_FUNCTIONS
+
+    source = make_source("stand:2+walk:2", seed=2)
+    cfg = {"initial_states": {0x19: 3000, 0x1A: 8}}
+    results = []
+    for c in (False, True):
+        m = Module(ModuleConfig(compiled=c, **cfg), sensors=source)
+        m.bt.port.host_write(START_STEPWISE)
+        m.run(len(source))
+        results.append(m)
+    _assert_same_module(*results)
+    assert fastpath.FastNav.sequence_matches(results[1])
+    saved = PROCESSING_FUNCTIONS[0x22]
+    try:
+        PROCESSING_FUNCTIONS[0x22] = saved.__class__(0x22, lambda module: None, saved.cycles, saved.name)
+        assert not fastpath.FastNav.sequence_matches(results[1])
+    finally:
+        PROCESSING_FUNCTIONS[0x22] = saved
+
+
+def test_pure_path_selected_by_environment() -> None:
+    """OPENSHOE_PURE=1 selects the reference even when numba is installed."""
+    code = ("from firmware_sim import fastpath; from firmware_sim.module import Module; "
+            "print(fastpath.available(), Module().compiled)")
+    env = {**os.environ, "OPENSHOE_PURE": "1", "PYTHONPATH": str(REPO)}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         cwd=REPO, timeout=120, check=True).stdout.split()
+    assert out == ["False", "False"]
+
+
+def test_compiled_request_without_numba_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    from firmware_sim import module as module_mod
+
+    monkeypatch.setattr(module_mod, "_compiled_available", lambda: (False, "numba is not installed"))
+    with pytest.raises(ImportError, match="fast"):
+        Module(ModuleConfig(compiled=True))
+    assert Module(ModuleConfig(compiled=None)).compiled is False
+
+
+@needs_numba
+@pytest.mark.slow
+@pytest.mark.parametrize("walk_id", WALK_IDS)
+def test_six_walks_same_wire_bytes(walks_dir: Path, walk_id: str) -> None:
+    """The six OpenShoe recordings (250 Hz): identical bytes and final state."""
+    source = ReplaySource.from_file(walk_path(walk_id))
+    pure = run_session(source, compiled=False)
+    fast = run_session(source, compiled=True)
+    assert pure.packets > 10
+    assert fast.wire == pure.wire
+    _assert_same_module(fast.module, pure.module)
+    assert np.isfinite(np.frombuffer(fast.module.memory.read_wire(0x23), dtype=">f4")).all()
