@@ -82,10 +82,15 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     packets = 0
     ticks = 0
 
-    def loop_once() -> int:
+    advance = getattr(module, "advance", None)  # runs quiet stretches compiled, when available
+
+    def loop_once(max_ticks: int = 1) -> int:
         nonlocal packets, ticks
-        module.step()
-        ticks += 1
+        if advance is not None and max_ticks > 1:
+            ticks += advance(max_ticks)
+        else:
+            module.step()
+            ticks += 1
         data = port.host_read()
         if not data:
             return 0
@@ -96,14 +101,16 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                 packets += 1
         return len(data)
 
+    next_progress = progress_every
     while True:
         if total is not None and module.clock.ticks >= total:
             break
-        loop_once()
+        loop_once(min(total - module.clock.ticks, progress_every) if total is not None else 1)
         if module.sensors_exhausted:
             break
-        if progress is not None and ticks % progress_every == 0:
+        if progress is not None and ticks >= next_progress:
             progress(ticks, total)
+            next_progress += progress_every
     # the source has ended: stop processing, let the queue drain
     module.sequence.empty()
     quiet = 0
