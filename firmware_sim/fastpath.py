@@ -605,7 +605,8 @@ def _run(n, do_read, imu, start_cycles, period, ts_off,
 
 
 if numba is not None:
-    _jit = njit(cache=True, nogil=True)
+    # error_model="numpy": a float division by zero gives inf/nan as in the reference, never raises
+    _jit = njit(cache=True, nogil=True, error_model="numpy")
     _i32 = _jit(_i32)
     _isqrt64 = _jit(_isqrt64)
     _sat_u32 = _jit(_sat_u32)
