@@ -109,6 +109,7 @@ class FrontendWork:
         self.gyro_bias = np.zeros(3, dtype=np.float32)  # BIASEST estimate [rad/s]
         self.bias_p = np.full(1, cfg.BIAS_P0, dtype=np.float32)
         self.t_prev = np.zeros(1, dtype=np.uint32)  # CONVCOMP's previous T_INT_K
+        self.stat_out = np.zeros(5, dtype=np.uint32)  # STATDET's T1, T2, ZUPT, ZARU, T_INT_K
 
     def __repr__(self) -> str:
         return f"FrontendWork(N={cfg.N}, M={cfg.M}, newest={int(self.newest[0])})"
@@ -288,7 +289,7 @@ def frontend_statdet(module: Module) -> None:
     """0x11: zero-velocity (ZUPT) and zero-angular-rate (ZARU) detection."""
     w = frontend_work(module)
     mem = module.memory
-    out = np.zeros(5, dtype=np.uint32)
+    out = w.stat_out
     statdet(mem[StateId.U_NEW], int(mem[StateId.IMU_TS]), w, int(mem[StateId.TH_ZUPT]),
             int(mem[StateId.TH_ZARU]), mem[StateId.U_INT_K], out)
     mem[StateId.T1S2F][...] = out[0]
