@@ -200,3 +200,21 @@ def test_lossless_flag_stuck_on_is_caught():
     iface.set_lossless = only_on
     v = _verdicts(_driver(module), ["ping", "lossless-flag"])
     assert v == {"ping": Status.PASS, "lossless-flag": Status.FAIL}
+
+
+def test_run_proc_slot_out_of_range_not_ignored_is_caught():
+    """A device that wraps RUN_PROC's slot (12 → 0) instead of ignoring it fails run-proc."""
+    from protocol.frames import build_command
+
+    module = Module()
+    iface = module.usb
+    original = iface._execute
+
+    def wrapping_slots(spec, raw):
+        if spec.command is Command.RUN_PROC and raw[2] >= 12:
+            raw = build_command(Command.RUN_PROC, proc_id=raw[1], slot=raw[2] % 12)
+        original(spec, raw)
+
+    iface._execute = wrapping_slots
+    v = _verdicts(_driver(module), ["run-proc", "store-restore"])
+    assert v == {"run-proc": Status.FAIL, "store-restore": Status.PASS}

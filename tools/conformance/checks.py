@@ -529,6 +529,95 @@ def check_processing(ctx: Context) -> str:
     return f"IMU_TS advanced {cycles} cycles while on, frozen when off"
 
 
+def _imu_ts_advances(ctx: Context, label: str, sent: bytes) -> bool:
+    """Pull IMU_TS, let 5 ticks pass, pull again: True if the sensors were read meanwhile."""
+    d = ctx.driver
+    a = d.pull(StateId.IMU_TS)[1]
+    d.wait_ticks(5)
+    b = d.pull(StateId.IMU_TS)[1]
+    ctx.proof(f"{label}; IMU_TS twice", sent, a.raw + b.raw)
+    return a.frame.payload != b.frame.payload
+
+
+@check("run-proc", "RUN_PROC puts a processing function in a slot (READ_INERTIAL → IMU_TS advances, its "
+       "PS_DT records cycles); an unregistered id empties the slot; slot >= 12 or id >= 0x30 is ignored",
+       needs=(Command.RUN_PROC, Command.ALL_PROC_OFF))
+def check_run_proc(ctx: Context) -> str:
+    d = ctx.driver
+    read = 0x13  # READ_INERTIAL
+    s, _ = d.command(Command.RUN_PROC, proc_id=read, slot=3)
+    if not _imu_ts_advances(ctx, "RUN_PROC READ_INERTIAL → slot 3", s):
+        ctx.fail("READ_INERTIAL in slot 3 does not read the sensors")
+    s2, ps = d.pull(0x83)
+    ctx.proof("pull PS_DT3 (0x83)", s2, ps.raw)
+    if int.from_bytes(ps.frame.payload, "big") == 0:
+        ctx.fail("PS_DT3 is 0 although slot 3 runs READ_INERTIAL")
+    s, _ = d.command(Command.RUN_PROC, proc_id=0x00, slot=3)
+    if _imu_ts_advances(ctx, "RUN_PROC 0x00 → slot 3 (empties it)", s):
+        ctx.fail("an unregistered id did not empty the slot")
+    s, _ = d.command(Command.RUN_PROC, proc_id=read, slot=12)
+    s2, _ = d.command(Command.RUN_PROC, proc_id=0x30 + read, slot=4)
+    if _imu_ts_advances(ctx, "RUN_PROC into slot 12, and id 0x43 into slot 4 (both ignored)", s + s2):
+        ctx.fail("RUN_PROC with slot >= 12 or id >= 0x30 was not ignored")
+    return "placed, emptied, out-of-range ignored"
+
+
+@check("store-restore", "STORE_AND_EMPTY stores the sequence and empties it; RESTORE_PROC_SEQU brings it "
+       "back",
+       needs=(Command.RUN_PROC, Command.STORE_AND_EMPTY, Command.RESTORE_PROC_SEQU))
+def check_store_restore(ctx: Context) -> str:
+    d = ctx.driver
+    s, _ = d.command(Command.RUN_PROC, proc_id=0x13, slot=0)
+    s2, _ = d.command(Command.STORE_AND_EMPTY)
+    if _imu_ts_advances(ctx, "READ_INERTIAL in slot 0, STORE_AND_EMPTY", s + s2):
+        ctx.fail("the sequence still runs after STORE_AND_EMPTY")
+    s, _ = d.command(Command.RESTORE_PROC_SEQU)
+    if not _imu_ts_advances(ctx, "RESTORE_PROC_SEQU", s):
+        ctx.fail("the stored sequence did not come back")
+    return "stored, emptied, restored"
+
+
+@check("normal-imu", "NORMAL_IMU: read + preproc, IMU_TS and U_K output at the mode's rate (28-byte packets, "
+       "IMU_TS ≈ 4 × 64000 cycles apart at rate 3)", needs=(Command.NORMAL_IMU,))
+def check_normal_imu(ctx: Context) -> str:
+    d = ctx.driver
+    s, _ = d.command(Command.NORMAL_IMU, mode=3)
+    pkts = _packets(d.collect(1.0, until=lambda f: len(_packets(f)) >= 6))
+    d.command(Command.OUTPUT_ALL_OFF)
+    ctx.proof("NORMAL_IMU mode 03", s, _raw(pkts, 3))
+    if len(pkts) < 6 or any(len(p.frame.payload) != 28 for p in pkts):
+        ctx.fail(f"expected 28-byte packets (IMU_TS + U_K), got sizes {[len(p.frame.payload) for p in pkts]}")
+    steps = _diffs([_counter(p) for p in pkts])
+    # the read happens at a point of the loop that moves a little (commands, link work): ±2 %
+    if any(abs(x - 4 * 64000) > 5000 for x in steps):
+        ctx.fail(f"IMU_TS steps {steps}, expected ≈ 256000 cycles (every 4 loops at 64 MHz)")
+    u_k = np.frombuffer(pkts[-1].frame.payload[4:], dtype=">f4")
+    if not np.all(np.isfinite(u_k)):
+        ctx.fail(f"U_K is not finite: {u_k}")
+    return f"{len(pkts)} packets every 4 loops"
+
+
+@check("bias-est-delay", "NORMAL_IMU_WITH_BIAS_EST starts output only after 128 loop cycles (buffers filled)",
+       needs=(Command.NORMAL_IMU_WITH_BIAS_EST,))
+def check_bias_est_delay(ctx: Context) -> str:
+    d = ctx.driver
+    start = build_command(Command.NORMAL_IMU_WITH_BIAS_EST, mode=3)
+    pull = build_command(Command.OUTPUT_STATE, state_id=StateId.IMU_TS, mode=PULL)
+    sent = d.write(start + pull)  # one write: both run in the same loop cycle
+    first = d.expect(lambda r: r.is_packet and len(r.frame.payload) == 4, 1.0)
+    out = d.expect(lambda r: r.is_packet and len(r.frame.payload) == 28, 2.0)
+    d.command(Command.OUTPUT_ALL_OFF)
+    ctx.proof("NORMAL_IMU_WITH_BIAS_EST mode 03 and a pull of IMU_TS in one write", sent,
+              (first.raw if first else b"") + (out.raw if out else b""))
+    if first is None or out is None:
+        ctx.fail("expected the pulled IMU_TS and then the periodic output")
+    delay = round(((_counter(out) - _counter(first)) % U32) / 64000)
+    if not 127 <= delay <= 134:  # 128, or one less when the two commands straddle a cycle
+        ctx.fail(f"output started {delay:.0f} loop cycles after the command, expected 128 (+ up to 3 for "
+                 "the divider and the link)")
+    return f"first output {delay:.0f} loop cycles after the command"
+
+
 # =========================================================================== transmission
 
 
