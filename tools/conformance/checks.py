@@ -618,6 +618,31 @@ def check_bias_est_delay(ctx: Context) -> str:
     return f"first output {delay:.0f} loop cycles after the command"
 
 
+@check("hardware-in-the-loop", "SETUP_DEBUG_PROC + INPUT_IMU_RD: raw samples fed by the host come back "
+       "in the conditional output on the named interface (IMU_TS and IMU0 raw as sent)",
+       needs=(Command.SETUP_DEBUG_PROC, Command.INPUT_IMU_RD))
+def check_hil(ctx: Context) -> str:
+    d = ctx.driver
+    timestamp = 0x12345678
+    imu = [[100 * i + k - 300 for k in range(6)] for i in range(4)]
+    want = timestamp.to_bytes(4, "big") + b"".join(v.to_bytes(2, "big", signed=True) for v in imu[0])
+    tried = []
+    for iface, name in ((1, "USB"), (2, "Bluetooth")):
+        s1, _ = d.command(Command.SETUP_DEBUG_PROC, proc_ids=[0] * 10,
+                          state_ids=[StateId.IMU_TS, 0x40] + [0] * 8, interface=iface)
+        s2, _ = d.command(Command.INPUT_IMU_RD, timestamp=timestamp, imu=imu)
+        p = d.next_packet(0.3)
+        ctx.proof(f"SETUP_DEBUG_PROC on {name} (states 01, 40), INPUT_IMU_RD", s1 + s2, p.raw if p else b"")
+        if p is None:
+            tried.append(name)
+            continue
+        if p.frame.payload != want:
+            ctx.fail(f"expected IMU_TS · IMU0 raw = {hexdump(want)}, got {hexdump(p.frame.payload)}")
+        return f"this link is the module's {name} interface; samples came back as sent"
+    ctx.fail(f"no conditional output on this link for interface byte 1 or 2 (tried {', '.join(tried)})")
+    return ""
+
+
 # =========================================================================== transmission
 
 
