@@ -101,7 +101,9 @@ SR_Q = 415
 #: Default thresholds (states 0x19, 0x1A), LSB_f². One window at γ σ_a² = 3e4 · 0.522² = 8172 is
 #: stricter than the reference, which marks a sample stationary when ANY of the W windows holding it
 #: passes; ≈ 2 γ σ_a² gives the reference's stance detection and accuracy on the six walks
-#: (tests/nav/test_fidelity.py; 8172 → mean 0.57 %, walk 2 1.2 %; 16000 → 0.60 %, ≤ 0.93 %).
+#: (tests/nav/test_fidelity.py; 8172 → mean 0.57 %, walk 2 1.2 %; 16000 → 0.60 %, ≤ 0.94 %).
+#: Neighbourhood (mean / worst walk, %): TH_ZUPT 15000 → 0.61 / 0.94, 17000 → 0.59 / 0.92;
+#: TH_ZARU 14 → 0.56 / 0.89, 18 → 0.58 / 0.94; TH_ZARU 32 → 0.57 / 1.21 (ZARU in walking stances).
 TH_ZUPT_DEFAULT = 16000
 #: TH_ZARU: total variance (acc + SR · gyro) in LSB_f²; on the walks T2 is 7–13 (5–95 %) while
 #: standing and ≥ 88 (1st percentile) in walking stances: 16 = only a foot that is really still.
