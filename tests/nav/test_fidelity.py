@@ -59,6 +59,7 @@ def walk_results():
 
 
 @pytest.mark.slow
+@pytest.mark.walks
 @requires_walks
 def test_every_walk_closes_within_0_95_percent(walk_results):
     for w, (err, steps, dist) in walk_results.items():
@@ -67,6 +68,7 @@ def test_every_walk_closes_within_0_95_percent(walk_results):
 
 
 @pytest.mark.slow
+@pytest.mark.walks
 @requires_walks
 def test_mean_closure_matches_the_openshoe_reference(walk_results):
     ours = np.mean([walk_results[w][0] for w in WALK_IDS])
