@@ -155,9 +155,12 @@ def run_demo(args: argparse.Namespace) -> DemoResult:
                     x, y = ev.pose[0], ev.pose[1]
                     print(f"      t={st.virtual_s:6.1f} s  step {ev.index:4d}  at ({x:7.2f}, {y:7.2f}) m",
                           flush=True)
-                if ev is None and st.virtual_s >= route_s + TAIL_S:
+                if st.virtual_s >= route_s + TAIL_S:
+                    # the walk is over (the wearer now stands still): steps of the route have
+                    # arrived (the link's latency is far below TAIL_S); later stand-still
+                    # steps are not part of the route
                     break
-            track = dev.track
+            track = dev.track_snapshot()
             gaps, missing = len(track.gaps), track.missing
         wall = time.monotonic() - wall0
         virtual = pacer.status().virtual_s
