@@ -7,6 +7,7 @@ summary's numbers against the ground truth, and the PNG and CSV it wrote.
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -48,3 +49,23 @@ def test_demo_reports_a_bad_scenario_in_one_line(tmp_path):
     assert r.returncode == 1
     assert r.stderr.startswith("demo failed:") and "moonwalk" in r.stderr
     assert "Traceback" not in r.stderr
+
+
+@pytest.mark.slow
+def test_make_demo_walks_the_default_route_faster_than_real_time(tmp_path):
+    """What `make demo` runs: the 235 m built-in route, closed loop, no shared data needed."""
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.demo", "-q", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=600,
+                       env={**os.environ, "OPENSHOE_WALKS": str(tmp_path / "no-walks")})
+    assert r.returncode == 0, r.stdout + r.stderr
+    text = r.stdout
+    true_distance = float(re.search(r"\(true ([\d.]+) m\)", text).group(1))
+    distance = float(re.search(r"distance\s+([\d.]+) m", text).group(1))
+    error = float(re.search(r"error at the end\s+([\d.]+) m", text).group(1))
+    ratio = float(re.search(r"\(([\d.]+)× real time\)", text).group(1))
+    assert true_distance > 200
+    assert abs(distance - true_distance) / true_distance < 0.02
+    assert error / true_distance < 0.01, "closes within 1 % of the distance"
+    assert "loop closure" in text and "0 gaps, 0 steps missing" in text
+    assert ratio > 1.0, "virtual time runs faster than real time"
+    assert (tmp_path / "track.png").stat().st_size > 10_000
