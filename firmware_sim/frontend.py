@@ -194,7 +194,9 @@ def statistic_t2(zaru_ab: np.ndarray, zaru_cd: np.ndarray, log2n: int, sr_q: int
     return _sat_u32(var_f + ((sr_q * var_g) >> sr_shift))
 
 
-def statdet(u_new: np.ndarray, ts: int, w: FrontendWork, th_zupt: int, th_zaru: int,
+def statdet(u_new: np.ndarray, ts: int, buf32: np.ndarray, buf16: np.ndarray, norm: np.ndarray,
+            tsbuf: np.ndarray, newest: np.ndarray, zaru_ab: np.ndarray, zaru_cd: np.ndarray,
+            zupt_a: np.ndarray, zupt_cd: np.ndarray, th_zupt: int, th_zaru: int,
             u_int_k: np.ndarray, out: np.ndarray) -> None:
     """STATDET: push U_NEW into the ring buffer, update the windows, decide ZUPT / ZARU.
 
@@ -203,44 +205,46 @@ def statdet(u_new: np.ndarray, ts: int, w: FrontendWork, th_zupt: int, th_zaru: 
     Window layout (slot indices modulo N, newest = j): the ZARU window is
     j−N+1 … j; the judged sample is k = j − N/2; the ZUPT window is
     k − M/2 + 1 … k + M/2. Order as on the µC: remove the leaving samples,
-    overwrite the oldest slot, add the entering samples.
+    overwrite the oldest slot, add the entering samples. The arrays are those of
+    :class:`FrontendWork` (ring buffer, newest slot, running sums), passed one by
+    one so the kernel is a plain function over arrays and scalars.
     """
     nm = cfg.N - 1
     half_n = cfg.N >> 1
     half_m = cfg.M >> 1
-    j_old = int(w.newest[0])
+    j_old = int(newest[0])
     j = (j_old + 1) & nm
     # leaving: the oldest sample (ZARU) and the first of the old ZUPT window
-    _add_sample(w.zaru_ab, w.zaru_cd, w.buf16[j], w.norm[j], -1, 6)
+    _add_sample(zaru_ab, zaru_cd, buf16[j], norm[j], -1, 6)
     z_out = (j_old - half_n - half_m + 1) & nm
-    _add_sample(w.zupt_a, w.zupt_cd, w.buf16[z_out], w.norm[z_out], -1, 3)
+    _add_sample(zupt_a, zupt_cd, buf16[z_out], norm[z_out], -1, 3)
     # store the newest sample, reduced to int16, with its squared norms
-    s16 = w.buf16[j]
+    s16 = buf16[j]
     for i in range(3):
-        w.buf32[j, i] = u_new[i]
-        w.buf32[j, 3 + i] = u_new[3 + i]
+        buf32[j, i] = u_new[i]
+        buf32[j, 3 + i] = u_new[3 + i]
         s16[i] = int(u_new[i]) >> cfg.RED_SHIFT_F
         s16[3 + i] = int(u_new[3 + i]) >> cfg.RED_SHIFT_G
-    w.norm[j, 0] = _sumsq3(s16, 0)
-    w.norm[j, 1] = _sumsq3(s16, 3)
-    w.ts[j] = ts
-    w.newest[0] = j
+    norm[j, 0] = _sumsq3(s16, 0)
+    norm[j, 1] = _sumsq3(s16, 3)
+    tsbuf[j] = ts
+    newest[0] = j
     # entering: the newest sample (ZARU) and the last of the new ZUPT window
-    _add_sample(w.zaru_ab, w.zaru_cd, w.buf16[j], w.norm[j], +1, 6)
+    _add_sample(zaru_ab, zaru_cd, buf16[j], norm[j], +1, 6)
     z_in = (j - half_n + half_m) & nm
-    _add_sample(w.zupt_a, w.zupt_cd, w.buf16[z_in], w.norm[z_in], +1, 3)
+    _add_sample(zupt_a, zupt_cd, buf16[z_in], norm[z_in], +1, 3)
     # statistics and decisions
-    t1 = statistic_t1(w.zupt_a, w.zupt_cd, cfg.LOG2_M, cfg.G_RED, cfg.SR_Q, cfg.SR_SHIFT)
-    t2 = statistic_t2(w.zaru_ab, w.zaru_cd, cfg.LOG2_N, cfg.SR_Q, cfg.SR_SHIFT)
+    t1 = statistic_t1(zupt_a, zupt_cd, cfg.LOG2_M, cfg.G_RED, cfg.SR_Q, cfg.SR_SHIFT)
+    t2 = statistic_t2(zaru_ab, zaru_cd, cfg.LOG2_N, cfg.SR_Q, cfg.SR_SHIFT)
     zupt = t1 < th_zupt
     zaru = zupt and t2 < th_zaru
     k = (j - half_n) & nm
-    u_int_k[:] = w.buf32[k]
+    u_int_k[:] = buf32[k]
     out[0] = t1
     out[1] = t2
     out[2] = zupt
     out[3] = zaru
-    out[4] = w.ts[k]
+    out[4] = tsbuf[k]
 
 
 def biasest(u_int_k: np.ndarray, zaru: bool, gyro_bias: np.ndarray, p: np.ndarray) -> None:
@@ -290,7 +294,8 @@ def frontend_statdet(module: Module) -> None:
     w = frontend_work(module)
     mem = module.memory
     out = w.stat_out
-    statdet(mem[StateId.U_NEW], int(mem[StateId.IMU_TS]), w, int(mem[StateId.TH_ZUPT]),
+    statdet(mem[StateId.U_NEW], int(mem[StateId.IMU_TS]), w.buf32, w.buf16, w.norm, w.ts, w.newest,
+            w.zaru_ab, w.zaru_cd, w.zupt_a, w.zupt_cd, int(mem[StateId.TH_ZUPT]),
             int(mem[StateId.TH_ZARU]), mem[StateId.U_INT_K], out)
     mem[StateId.T1S2F][...] = out[0]
     mem[StateId.T2S2F][...] = out[1]

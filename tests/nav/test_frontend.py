@@ -132,7 +132,8 @@ def _run_statdet(samples: list[np.ndarray], th_zupt=cfg.TH_ZUPT_DEFAULT, th_zaru
     out = np.zeros(5, np.uint32)
     results = []
     for n, u in enumerate(samples):
-        fe.statdet(np.asarray(u, dtype=np.int32), (n * 64000) & 0xFFFFFFFF, w, th_zupt, th_zaru, u_int_k, out)
+        fe.statdet(np.asarray(u, dtype=np.int32), (n * 64000) & 0xFFFFFFFF, w.buf32, w.buf16, w.norm, w.ts,
+                   w.newest, w.zaru_ab, w.zaru_cd, w.zupt_a, w.zupt_cd, th_zupt, th_zaru, u_int_k, out)
         results.append((int(out[0]), int(out[1]), bool(out[2]), bool(out[3]), u_int_k.copy(), int(out[4])))
     return w, results
 
