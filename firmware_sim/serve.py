@@ -610,16 +610,20 @@ class TraceWriter:
         self.modules = modules
         self.file.write("# cycles module interface direction note bytes\n")
 
-    def flush(self) -> None:
+    def flush(self, stopped: bool = False) -> None:
+        """Write the frames traced so far; *stopped*: the pacers have ended, take them directly."""
         for m in self.modules:
             def swap(mod: Module) -> list:
                 entries, mod.trace = mod.trace or [], []
                 return entries
 
-            try:
-                entries = m.pacer.call(swap).result(timeout=5.0)
-            except Exception:  # noqa: BLE001 - the pacer has stopped: take what is left directly
-                entries, m.module.trace = m.module.trace or [], []
+            if stopped:
+                entries = swap(m.module)
+            else:
+                try:
+                    entries = m.pacer.call(swap).result(timeout=5.0)
+                except Exception:  # noqa: BLE001 - the pacer has stopped: take what is left directly
+                    entries = swap(m.module)
             for e in entries:
                 self.file.write(f"{e.cycles} m{m.index} {e.interface} {e.direction} {e.note} "
                                 f"{e.data.hex(' ').upper()}\n")
@@ -708,7 +712,7 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         if control is not None:
             control.close()
         if trace is not None:
-            trace.flush()
+            trace.flush(stopped=True)
             trace.close()
         sel.close()
         for sig, h in old_handlers.items():

@@ -194,3 +194,19 @@ def test_serve_refuses_a_bad_recording_with_its_line(tmp_path):
                         "--replay", str(bad)], capture_output=True, text=True, timeout=30)
     assert r.returncode == 1
     assert "bad.txt, line 2" in r.stderr and "READY" not in r.stdout
+
+
+def test_trace_file_records_every_frame_with_its_cycle(tmp_path):
+    trace = tmp_path / "frames.txt"
+    with spawn("--pty", str(tmp_path / "t0"), "--trace", str(trace), "--link", "usb", *FAST) as srv:
+        with serial.Serial(srv.ready["bt-pty"], timeout=3) as host:
+            host.write(PING + bytes.fromhex("030004"))  # a good PING and one with a bad checksum
+            assert _read_exact(host, 4) == PING_ACK
+        assert srv.stop() == 0
+    lines = trace.read_text().splitlines()
+    assert lines[0].startswith("# cycles")
+    assert any(line.endswith("BT in command 03 00 03") for line in lines)
+    assert any(line.endswith("BT out ack A0 03 00 A3") for line in lines)
+    assert any(line.endswith("BT in bad checksum 03 00 04") for line in lines)
+    cycles = [int(line.split()[0]) for line in lines[1:]]
+    assert cycles == sorted(cycles)
