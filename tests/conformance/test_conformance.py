@@ -1,7 +1,7 @@
 """The conformance suite passes against our emulator; against broken devices it fails the right check.
 
 Devices are our emulator core behind an in-process, virtual-time serial port
-(:mod:`tests.conformance.virtual`), so every run is deterministic. Each broken
+(:class:`firmware_sim.transports.pipe.VirtualPipe`), so every run is deterministic. Each broken
 device changes exactly one documented behaviour of protocol.md.
 """
 
@@ -10,19 +10,20 @@ from __future__ import annotations
 import pytest
 
 from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.transports.pipe import VirtualPipe
 from protocol.commands import command_set
 from protocol.frames import build_command_ack
 from protocol.ids import Command
 from protocol.stream import StreamDecoder
 from tools.conformance import CHECKS, DeviceDriver, Status, run
 from tools.conformance.cli import main
+from tools.conformance.driver import device_clock
 
-from .virtual import VirtualSerial
 
-
-def _driver(module: Module, cs: str = "2015", serial_cls=VirtualSerial) -> DeviceDriver:
-    ser = serial_cls(module)
-    return DeviceDriver(ser, command_set(cs), clock=ser.now)
+def _driver(module: Module, cs: str = "2015", serial_cls=VirtualPipe) -> DeviceDriver:
+    """The suite's driver on the module's USB interface, in virtual time (deterministic)."""
+    pipe = serial_cls(module, "usb")
+    return DeviceDriver(pipe, command_set(cs), clock=device_clock(pipe))
 
 
 def _verdicts(driver: DeviceDriver, names: list[str] | None = None) -> dict[str, Status]:
@@ -59,14 +60,14 @@ def test_every_check_proves_its_verdict_with_bytes():
 # --------------------------------------------------------------------------- broken devices
 
 
-class SwappedChecksumSerial(VirtualSerial):
+class SwappedChecksumSerial(VirtualPipe):
     """A device that sends every frame's checksum LSB first."""
 
-    def __init__(self, module: Module):
-        super().__init__(module)
+    def __init__(self, module: Module, interface: str):
+        super().__init__(module, interface)
         self._dec = StreamDecoder()
 
-    def _take(self) -> None:
+    def _fill(self) -> None:
         for frame in self._dec.feed(self.port.host_read()):
             raw = frame.to_bytes()
             self._buf += raw[:-2] + raw[-1:] + raw[-2:-1]

@@ -10,26 +10,14 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import serial
 
 from protocol.commands import command_set
 
 from .checks import CHECKS, run, select
-from .driver import DeviceDriver
-
-
-def device_clock(port: object) -> Callable[[], float]:
-    """The clock deadlines are measured in: the module's virtual seconds for an in-process
-    emulator running in virtual time (``openshoe://`` with speed 0), else the wall clock."""
-    module = getattr(port, "module", None)
-    settings = getattr(port, "settings", None)
-    if module is not None and settings is not None and getattr(settings, "speed", None) == 0:
-        clock = module.clock
-        return lambda: clock.now_cycles / clock.cpu_hz
-    return time.monotonic
+from .driver import DeviceDriver, device_clock
 
 
 def build_parser() -> argparse.ArgumentParser:

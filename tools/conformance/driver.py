@@ -59,6 +59,18 @@ class Received:
         return f"Received({hexdump(self.raw, 24)})"
 
 
+def device_clock(port: Any) -> Callable[[], float]:
+    """The clock deadlines are measured in: an in-process emulator running in virtual time
+    (``openshoe://`` with speed 0, or a ``VirtualPipe``; both expose ``.module``) gives its
+    module's virtual seconds, anything else the wall clock."""
+    module = getattr(port, "module", None)
+    speed = getattr(getattr(port, "settings", None), "speed", 0)
+    if module is not None and speed == 0:
+        clock = module.clock
+        return lambda: clock.now_cycles / clock.cpu_hz
+    return time.monotonic
+
+
 class DeviceDriver:
     """Talk to one interface of one module through a pyserial-like port.
 
