@@ -25,6 +25,7 @@ functions over arrays and scalars (numba-compilable later).
 
 from __future__ import annotations
 
+import math
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -139,13 +140,48 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     )
 
 
+def _mv(a: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """a @ x for a small float32 matrix: y_i = a_i0·x_0 + a_i1·x_1 + … left to right, every
+    product and sum rounded to float32 (not BLAS, whose order and fused multiply-adds depend
+    on the machine): the same bytes everywhere, and what the compiled path computes."""
+    y = a[:, 0] * x[0]
+    for k in range(1, a.shape[1]):
+        y = y + a[:, k] * x[k]
+    return y
+
+
+def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a @ b for small float32 matrices, in the order of :func:`_mv` (no BLAS)."""
+    c = a[:, 0:1] * b[0:1, :]
+    for k in range(1, a.shape[1]):
+        c = c + a[:, k:k + 1] * b[k:k + 1, :]
+    return c
+
+
+def _sinf(x: np.float32) -> np.float32:
+    """sin of a float32, rounded from the C library's double sin (numpy's float32 sin is
+    machine-dependent SIMD code); the compiled path calls the same function. ±inf gives
+    NaN as in C (Python's math.sin would raise)."""
+    v = float(x)
+    return F32(v - v) if math.isinf(v) else F32(math.sin(v))
+
+
+def _cosf(x: np.float32) -> np.float32:
+    v = float(x)
+    return F32(v - v) if math.isinf(v) else F32(math.cos(v))
+
+
+def _atan2f(y: np.float32, x: np.float32) -> np.float32:
+    return F32(math.atan2(float(y), float(x)))
+
+
 def _normalise(q: np.ndarray) -> np.ndarray:
     return q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
 
 
 def rot_to_yaw(r: np.ndarray) -> np.float32:
     """Heading ψ = atan2(R21, R11) of a body → navigation rotation."""
-    return np.arctan2(r[1, 0], r[0, 0])
+    return _atan2f(r[1, 0], r[0, 0])
 
 
 def unpack_p(p45: np.ndarray, out: np.ndarray) -> np.ndarray:
@@ -222,7 +258,7 @@ def mechanization(u_k: np.ndarray, dt: np.float32, zaru: bool, pos: np.ndarray, 
     if zaru:
         up = r[2]  # the navigation z axis in body coordinates
         omega = omega - (up[0] * omega[0] + up[1] * omega[1] + up[2] * omega[2]) * up
-    fn = r @ f
+    fn = _mv(r, f)
     f_n[:] = fn
     if not zaru:
         pos[:] = pos + vel * dt
@@ -231,9 +267,9 @@ def mechanization(u_k: np.ndarray, dt: np.float32, zaru: bool, pos: np.ndarray, 
     angle = np.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
     dq = np.empty(4, dtype=np.float32)
     if angle > _0:
-        s = np.sin(angle * _HALF) / angle
+        s = _sinf(angle * _HALF) / angle
         dq[0:3] = theta * s
-        dq[3] = np.cos(angle * _HALF)
+        dq[3] = _cosf(angle * _HALF)
     else:
         dq[0:3] = _0
         dq[3] = _1
@@ -250,7 +286,7 @@ def time_update(f_n: np.ndarray, dt: np.float32, zaru: bool, p45: np.ndarray, pm
     if not zaru:
         fm[0, 3] = fm[1, 4] = fm[2, 5] = dt
     fm[3:6, 6:9] = -_skew(f_n) * dt
-    pm = fm @ pm @ fm.T
+    pm = _mm(_mm(fm, pm), fm.T)
     dt2 = dt * cfg.NOMINAL_PERIOD  # = dt² at the module's 1 kHz (see nav_config)
     qa = dt2 * cfg.SIGMA_ACC * cfg.SIGMA_ACC
     qg = dt2 * cfg.SIGMA_GYRO * cfg.SIGMA_GYRO
@@ -288,13 +324,13 @@ def zupt_update(pos: np.ndarray, vel: np.ndarray, quat: np.ndarray, p45: np.ndar
     P ← P − K H P. R is σ²_zupt at the module's 1 kHz loop (T₀ = 1 ms), see nav_config."""
     unpack_p(p45, pm)
     ph = pm[:, 3:6]  # P Hᵀ (9×3)
-    k = ph @ inv3_sym(pm[3:6, 3:6] + _R_ZUPT * (cfg.NOMINAL_PERIOD / dt))
-    dx = k @ vel  # estimated error of [p, v, θ] (estimate minus truth)
+    k = _mm(ph, inv3_sym(pm[3:6, 3:6] + _R_ZUPT * (cfg.NOMINAL_PERIOD / dt)))
+    dx = _mv(k, vel)  # estimated error of [p, v, θ] (estimate minus truth)
     pos[:] = pos - dx[0:3]
     vel[:] = vel - dx[3:6]
     dq = np.array([-dx[6] * _HALF, -dx[7] * _HALF, -dx[8] * _HALF, _1], dtype=np.float32)
     quat[:] = _normalise(quat_mul(_normalise(dq), quat))
-    pm = pm - k @ pm[3:6, :]
+    pm = pm - _mm(k, pm[3:6, :])
     pack_p(pm, p45)
 
 
@@ -325,7 +361,7 @@ def stepwise_reset(zupt: bool, dt: np.float32, w: InsWork, pos: np.ndarray, quat
     dp_out[:] = p45[POS_YAW_TRIANGLE]
     pos[:] = _0
     half = -yaw * _HALF  # q ← q_z(−ψ) ⊗ q
-    quat[:] = _normalise(quat_mul(np.array([_0, _0, np.sin(half), np.cos(half)], dtype=np.float32), quat))
+    quat[:] = _normalise(quat_mul(np.array([_0, _0, _sinf(half), _cosf(half)], dtype=np.float32), quat))
     p45[_RESET_MASK] = _0
     w.t_since_reset[0] = _0
     w.t_pending[0] = _0
