@@ -49,7 +49,7 @@ from .sequence import PROCESSING_FUNCTIONS
 if TYPE_CHECKING:  # pragma: no cover
     from .module import Module
 
-__all__ = ["TRACKING_SLOTS", "FastNav", "available", "numba_version", "reason_unavailable"]
+__all__ = ["ALIGNMENT_SLOTS", "TRACKING_SLOTS", "FastNav", "available", "numba_version", "reason_unavailable"]
 
 P = ProcId
 #: The running slots of step-wise dead reckoning after the initial alignment.
@@ -57,6 +57,12 @@ TRACKING_SLOTS = [P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRO
                   P.FRONTEND_CONVCOMP, P.STEPWISE_SYSTEM_RESET, P.MECHANIZATION, P.TIME_UPDATE,
                   P.ZUPT_UPDATE, P.STATE_OUTPUT_IF, 0, 0]
 TRACKING_SLOTS = [int(p) for p in TRACKING_SLOTS]
+#: The running slots of both INS modes until the initial alignment is done.
+ALIGNMENT_SLOTS = [int(p) for p in (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET,
+                                    P.FRONTEND_BIASEST, P.FRONTEND_CONVCOMP,
+                                    P.FRONTEND_INITIAL_ALIGNMENT)] + [0] * 5 + [int(P.RESTORE_PROC_SEQU_IF)]
+#: Kinds of running sequence the compiled path knows (FastNav.kind).
+TRACKING, ALIGNMENT = 1, 2
 #: The reference functions the compiled loop stands for (a re-registered id disables it).
 _REFERENCE = {
     P.READ_INERTIAL: inertial.read_inertial,
@@ -69,6 +75,8 @@ _REFERENCE = {
     P.TIME_UPDATE: ins.ins_time_update,
     P.ZUPT_UPDATE: ins.ins_zupt_update,
     P.STATE_OUTPUT_IF: utility.state_output_if,
+    P.FRONTEND_INITIAL_ALIGNMENT: ins.frontend_initial_alignment,
+    P.RESTORE_PROC_SEQU_IF: utility.restore_proc_sequ_if,
 }
 #: States the compiled loop writes (a conditional output watching one of them ends a quiet run).
 _WRITTEN = {StateId.IMU_TS, StateId.U_NEW, StateId.U_K, StateId.U_INT_K, StateId.T_INT_K, StateId.DT,
@@ -148,6 +156,7 @@ _TRI_COL = np.ascontiguousarray(ins.P_IU[1], dtype=np.int64)
 _POS_YAW = np.ascontiguousarray(ins.POS_YAW_TRIANGLE, dtype=np.int64)
 _RESET_MASK = np.ascontiguousarray(ins._RESET_MASK, dtype=np.bool_)
 _INT32_MIN = -0x80000000
+_ALIGN_N = cfg.ALIGNMENT_SAMPLES
 
 
 def _i32(x):
@@ -280,10 +289,34 @@ def _f_pm(fm, pm, out):
                     break
                 s = s + fm[i, t] * pm[t, j]
             if s == 0:
-                s = fm[i, 0] * pm[0, j]
-                for t in range(1, 9):
-                    s = s + fm[i, t] * pm[t, j]
+                s = _zero_sign(fm, pm, i, j, _F_TERMS[i], True)
             out[i, j] = s
+
+
+def _zero_sign(a, b, i, j, terms, left_f):
+    """The full sum's value when the short sum is exactly zero (finite inputs).
+
+    A sum that comes out zero is −0 only if every term is −0 (x + (−x), +0 + −0 and
+    +0 + +0 all give +0), so one short term that is not −0 settles it as +0; only
+    otherwise is the full sum computed. ``left_f``: the terms are F[i,t]·b[t,j] (F P),
+    else a[i,t]·F[j,t] (… Fᵀ).
+    """
+    for u in range(4):
+        t = terms[u]
+        if t < 0:
+            break
+        p = a[i, t] * b[t, j] if left_f else a[i, t] * b[j, t]
+        if p != 0 or math.copysign(1.0, p) > 0:
+            return _F0
+    if left_f:
+        s = a[i, 0] * b[0, j]
+        for t in range(1, 9):
+            s = s + a[i, t] * b[t, j]
+    else:
+        s = a[i, 0] * b[j, 0]
+        for t in range(1, 9):
+            s = s + a[i, t] * b[j, t]
+    return s
 
 
 def _pm_ft_upper(tp, fm, p45):
@@ -301,10 +334,12 @@ def _pm_ft_upper(tp, fm, p45):
                 if t < 0:
                     break
                 s = s + tp[i, t] * fm[j, t]
-        if dense or s == 0:
+        if dense:
             s = tp[i, 0] * fm[j, 0]
             for t in range(1, 9):
                 s = s + tp[i, t] * fm[j, t]
+        elif s == 0:
+            s = _zero_sign(tp, fm, i, j, _F_TERMS[j], False)
         p45[e] = s
 
 
@@ -320,18 +355,21 @@ def _atan2f(y, x):
     return np.float32(math.atan2(np.float64(y), np.float64(x)))
 
 
-def _run(n, do_read, imu, start_cycles, period, ts_off,
+def _run(n, do_read, mode, imu, start_cycles, period, ts_off,
          imu_raw, prev_acc, have_prev, imu_ts,
          cal, bias, buf32, buf16, norm, tsbuf, newest, zaru_ab, zaru_cd, zupt_a, zupt_cd,
          gyro_bias, bias_p, t_prev,
          u_new, u_k, u_int_k, t_int_k, dt_s, t1_s, t2_s, zupt_s, zaru_s, th_zupt, th_zaru,
          pos, vel, quat, p45, dx_out, dp_out, step_counter, reset_flag,
-         f_n, t_since, t_pending, pending, scratch):
+         f_n, t_since, t_pending, pending, align_sum, align_count, scratch):
     """Slots 0–8 of the tracking sequence for up to *n* loops; stops after a loop with a reset.
 
     With *do_read* the loop reads ``imu[i]`` (READ_INERTIAL, timestamp
     ``start_cycles + i·period + ts_off``); without, the caller has read one sample.
-    Returns the loops run.
+    *mode* 0: the tracking sequence's slots 0–8; 1: the front end only (slots 0–4);
+    2: the alignment sequence's front end and INITIAL_ALIGNMENT's averaging, stopping
+    before the loop whose sample completes the alignment (returned as −loops: that
+    loop's INITIAL_ALIGNMENT is left to the caller). Returns the loops run.
     """
     pm = scratch[0:9, :]
     fm = scratch[9:18, :]
@@ -443,6 +481,21 @@ def _run(n, do_read, imu, start_cycles, period, ts_off,
         dt_s[0] = np.float32((tik - np.int64(t_prev[0])) & 0xFFFFFFFF) / _CPU_HZ
         t_prev[0] = tik
         dt = dt_s[0]
+        if mode == 1:
+            continue
+        if mode == 2:
+            # INITIAL_ALIGNMENT's averaging (the completing sample is left to the reference)
+            if not zupt:
+                align_count[0] = 0
+                for i in range(3):
+                    align_sum[i] = _F0
+            elif align_count[0] + 1 >= _ALIGN_N:
+                return -(it + 1)
+            else:
+                for i in range(3):
+                    align_sum[i] = align_sum[i] + u_k[i]
+                align_count[0] += 1
+            continue
         # ---- STEPWISE_SYSTEM_RESET (0x24)
         flag = False
         t_since[0] = t_since[0] + dt
@@ -616,6 +669,7 @@ if numba is not None:
     _quat_to_rot = _jit(_quat_to_rot)
     _mm = _jit(_mm)
     _finite = _jit(_finite)
+    _zero_sign = _jit(_zero_sign)
     _f_pm = _jit(_f_pm)
     _pm_ft_upper = _jit(_pm_ft_upper)
     _unpack = _jit(_unpack)
@@ -658,11 +712,17 @@ class FastNav:
             mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
             mem[StateId.DX], mem[StateId.DP], _one(mem[StateId.STEP_COUNTER]),
             _one(mem[StateId.FILTER_RESET_FLAG]),
-            iw.f_n, iw.t_since_reset, iw.t_pending, iw.pending, self._scratch,
+            iw.f_n, iw.t_since_reset, iw.t_pending, iw.pending, iw.align_sum, iw.align_count,
+            self._scratch,
         )
         self._ids = [p for p in TRACKING_SLOTS if p]
         self._costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call for p in self._ids]
         self.seq_cycles = sum(self._costs)
+        self._mid_cycles = sum(self._costs[1:9])
+        self._fe_cycles = sum(self._costs[1:5])
+        self._align_costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call
+                             for p in (P.FRONTEND_INITIAL_ALIGNMENT, P.RESTORE_PROC_SEQU_IF)]
+        self._align_seq_cycles = self._costs[0] + self._fe_cycles + sum(self._align_costs)
         self._ps_dt = np.array(self._costs, dtype=np.uint32)
         #: Loops run compiled, loop by loop and in quiet runs (for the benchmark).
         self.ticks_single = 0
@@ -670,48 +730,83 @@ class FastNav:
 
     # -------------------------------------------------------------- eligibility
     @staticmethod
-    def sequence_matches(module: Module) -> bool:
-        """The running slots are the tracking sequence and every id is the reference function."""
-        if module.sequence.slots != TRACKING_SLOTS:
-            return False
+    def kind(module: Module) -> int:
+        """TRACKING or ALIGNMENT if the running slots are one of those sequences with the
+        reference functions registered, else 0 (the pure-Python sequence runs)."""
+        slots = module.sequence.slots
+        if slots == TRACKING_SLOTS:
+            kind = TRACKING
+        elif slots == ALIGNMENT_SLOTS:
+            kind = ALIGNMENT
+        else:
+            return 0
         funcs = PROCESSING_FUNCTIONS
-        for pid, fn in _REFERENCE.items():
-            pf = funcs.get(pid)
-            if pf is None or pf.fn is not fn:
-                return False
-        return True
+        for pid in slots:
+            if pid:
+                pf = funcs.get(pid)
+                if pf is None or pf.fn is not _REFERENCE[pid]:
+                    return 0
+        return kind
+
+    @classmethod
+    def sequence_matches(cls, module: Module) -> bool:
+        """The running slots are the tracking sequence and every id is the reference function."""
+        return cls.kind(module) == TRACKING
 
     # ------------------------------------------------------------ one loop's sequence
-    def sequence_tick(self, module: Module) -> None:
-        """run_process_sequence() of one loop with the numeric slots compiled."""
+    def sequence_tick(self, module: Module, kind: int = TRACKING) -> None:
+        """run_process_sequence() of one loop of a known sequence, the numeric slots compiled."""
         seq = module.sequence
         seq.runs += 1
         clock = module.clock
         costs = self._costs
+        ps_dt = module.memory.ps_dt
         # slot 0 in Python: any sensor source, exhaustion, temperature and magnetometer
         inertial.read_inertial(module)
         clock.now_cycles += costs[0]
-        _run(1, False, self._empty_imu, 0, 0, 0, *self.arrays)
-        clock.now_cycles += sum(costs[1:9])
-        utility.state_output_if(module)
-        clock.now_cycles += costs[9]
-        module.memory.ps_dt[:10] = self._ps_dt
+        if kind == TRACKING:
+            _run(1, False, 0, self._empty_imu, 0, 0, 0, *self.arrays)
+            clock.now_cycles += self._mid_cycles
+            utility.state_output_if(module)
+            clock.now_cycles += costs[9]
+            ps_dt[:10] = self._ps_dt
+        else:
+            _run(1, False, 1, self._empty_imu, 0, 0, 0, *self.arrays)
+            clock.now_cycles += self._fe_cycles
+            ins.frontend_initial_alignment(module)
+            clock.now_cycles += self._align_costs[0]
+            utility.restore_proc_sequ_if(module)
+            clock.now_cycles += self._align_costs[1]
+            ps_dt[:5] = self._ps_dt[:5]
+            ps_dt[5] = self._align_costs[0]
+            ps_dt[11] = self._align_costs[1]
         self.ticks_single += 1
 
     # ------------------------------------------------------------------ quiet runs
     @staticmethod
-    def _block(module: Module) -> np.ndarray | None:
-        """The source's whole int16 (n, chips, 6) register array, if it has one (simulated, replay)."""
+    def _block(module: Module, start: int, n: int) -> np.ndarray | None:
+        """Up to *n* int16 (chips, 6) register samples from *start* as one array view, or None.
+
+        From the source's ``imu_block(start, n)`` if it has one, else from a whole-record
+        ``imu`` array (simulated and replay sources) when it also has a length.
+        """
         src = module.sensors
-        imu = getattr(src, "imu", None)
-        if (isinstance(imu, np.ndarray) and imu.dtype == np.int16 and imu.ndim == 3
-                and imu.shape[1:] == (NR_IMUS, 6) and hasattr(src, "__len__")):
-            return imu
-        return None
+        block = getattr(src, "imu_block", None)
+        if block is not None:
+            imu = block(start, n)
+        else:
+            imu = getattr(src, "imu", None)
+            if not hasattr(src, "__len__") or not isinstance(imu, np.ndarray):
+                return None
+            imu = imu[start:start + n]
+        if imu.dtype != np.int16 or imu.ndim != 3 or imu.shape[1:] != (NR_IMUS, 6) or not len(imu):
+            return None
+        return imu
 
     def quiet(self, module: Module) -> bool:
         """Nothing but the sequence happens in the next loops (see the module doc)."""
-        if module.sensors_exhausted or self._block(module) is None:
+        src = module.sensors
+        if module.sensors_exhausted or not (hasattr(src, "imu_block") or hasattr(src, "imu")):
             return False
         clock = module.clock
         if clock.now_cycles > clock._next_interrupt:
@@ -731,36 +826,46 @@ class FastNav:
             return False
         return True
 
-    def run_quiet(self, module: Module, max_ticks: int) -> int:
-        """Run up to *max_ticks* quiet loops (stopping after a step reset's loop); returns loops run.
+    def run_quiet(self, module: Module, max_ticks: int, kind: int = TRACKING) -> int:
+        """Run up to *max_ticks* quiet loops of a known sequence (*kind*); returns loops run.
 
-        The caller checked :meth:`quiet` and :meth:`sequence_matches`.
+        A tracking run stops after a step reset's loop, an alignment run after the loop
+        that completes the alignment (the sequence then switches). The caller checked
+        :meth:`quiet` and :meth:`kind`.
         """
         clock = module.clock
         start = clock.ticks  # sample index of the first loop
-        imu = self._block(module)
-        avail = len(imu) - start
-        n = min(max_ticks, avail)
-        if n <= 0:
+        imu = self._block(module, start, max_ticks)
+        if imu is None:
             return 0
+        n = len(imu)
         c = module.costs
         period = clock.cycles_per_tick
         first = clock._next_interrupt
         ts_off = c.loop_overhead + 2 * c.rx_poll
-        done = _run(n, True, imu[start:start + n], first, period, ts_off, *self.arrays)
+        tracking = kind == TRACKING
+        done = _run(n, True, 0 if tracking else 2, imu, first, period, ts_off, *self.arrays)
+        completing = done < 0
+        done = abs(done)
         last_start = first + (done - 1) * period
         # what `done` loops did to the clock and the loop's own states
         clock.ticks += done
         clock.interrupts += done
         clock._next_interrupt = first + done * period
         clock.loop_start = last_start
-        loop_cycles = ts_off + self.seq_cycles
+        seq_cycles = self.seq_cycles if tracking else self._align_seq_cycles
+        loop_cycles = ts_off + seq_cycles
         clock.now_cycles = last_start + loop_cycles
         clock.last_loop_cycles = loop_cycles
         mem = module.memory
         mem[StateId.INTERRUPT_COUNTER][...] = clock.interrupts & _U32
         mem[StateId.GP_DT][...] = loop_cycles & _U32
-        mem.ps_dt[:10] = self._ps_dt
+        if tracking:
+            mem.ps_dt[:10] = self._ps_dt
+        else:
+            mem.ps_dt[:5] = self._ps_dt[:5]
+            mem.ps_dt[5] = self._align_costs[0]
+            mem.ps_dt[11] = self._align_costs[1]
         module.sequence.runs += done
         sample = module.sensors.read(start + done - 1)  # temperature, magnetometer of the last read
         if sample is not None:
@@ -768,14 +873,23 @@ class FastNav:
             mem.imu_mag[:NR_IMUS] = sample.mag
         for iface in module.interface_list:
             iface.port.advance(last_start + c.loop_overhead)
-        if mem.flag(StateId.FILTER_RESET_FLAG):
+        if completing:
+            # the alignment's last sample: INITIAL_ALIGNMENT and RESTORE_PROC_SEQU_IF (the
+            # tracking sequence comes in), then transmit_data(), as Module.step does
+            ins.frontend_initial_alignment(module)
+            utility.restore_proc_sequ_if(module)
+            self._finish_loop(module)
+        elif tracking and mem.flag(StateId.FILTER_RESET_FLAG):
             # the step's loop: STATE_OUTPUT_IF and transmit_data() in Python, as Module.step does
-            clock.now_cycles -= self._costs[9]
             utility.state_output_if(module)
-            clock.now_cycles += self._costs[9]
-            module.usb.transmit()
-            module.bt.transmit()
-            clock.last_loop_cycles = clock.now_cycles - clock.loop_start
-            mem[StateId.GP_DT][...] = clock.last_loop_cycles & _U32
+            self._finish_loop(module)
         self.ticks_quiet += done
         return done
+
+    @staticmethod
+    def _finish_loop(module: Module) -> None:
+        clock = module.clock
+        module.usb.transmit()
+        module.bt.transmit()
+        clock.last_loop_cycles = clock.now_cycles - clock.loop_start
+        module.memory[StateId.GP_DT][...] = clock.last_loop_cycles & _U32

@@ -127,9 +127,8 @@ class Module:
         self._compiled = _want_compiled(config.compiled)
         self._fast: Any = None
         if self._compiled:
-            from .fastpath import TRACKING_SLOTS, FastNav
+            from .fastpath import FastNav
 
-            self._tracking_slots: list[int] = TRACKING_SLOTS
             self._fast_cls: Any = FastNav
         self._interrupt_counter = self.memory[StateId.INTERRUPT_COUNTER]
         self._gp_dt = self.memory[StateId.GP_DT]
@@ -151,9 +150,9 @@ class Module:
         bt.port.advance(now)
         usb.receive()
         bt.receive()
-        if (self._compiled and self.sequence.slots == self._tracking_slots
-                and self._fast_cls.sequence_matches(self)):
-            self._fastnav().sequence_tick(self)
+        kind = self._compiled and self._fast_cls.kind(self)
+        if kind:
+            self._fastnav().sequence_tick(self, kind)
         else:
             self.sequence.run(self)
         usb.transmit()
@@ -181,11 +180,11 @@ class Module:
         """
         if max_ticks < 1:
             return 0
-        if (self._compiled and self.sequence.slots == self._tracking_slots
-                and self._fast_cls.sequence_matches(self)):
+        kind = self._compiled and self._fast_cls.kind(self)
+        if kind:
             fast = self._fastnav()
             if fast.quiet(self):
-                n = fast.run_quiet(self, max_ticks)
+                n = fast.run_quiet(self, max_ticks, kind)
                 if n:
                     return n
         self.step()
