@@ -177,6 +177,10 @@ class Pacer:
                 # sleep until the next deadline, waking early for host bytes
                 wait = t0 + (n + 1) * period - time.perf_counter()
                 if wait > 0:
+                    for ep in self.endpoints:  # what the ticks sent leaves now, not a tick later
+                        ep.pump()
+                    wait = t0 + (n + 1) * period - time.perf_counter()
+                if wait > 0:
                     self._update_fds(sel, registered)
                     if registered:
                         sel.select(wait)
