@@ -1,0 +1,161 @@
+"""`openshoe-bench`: the emulator's performance targets (issue 8), measured as ratios in one run.
+
+Targets (``openshoe-bench [TARGET …]``, all four by default):
+
+* ``batch`` — the full firmware pipeline of step-wise dead reckoning (4 IMUs at 1 kHz:
+  read, front end, detector, INS, step-wise reset, packet assembly, the host's acks)
+  on a simulated walk, compiled and pure Python on the same input, side by side;
+  target 340 000 samples/s on one core. Under a minute.
+* ``realtime`` — ``--modules`` (50) modules at 1 kHz in two ``openshoe-emu serve``
+  processes (one per core), each on its own pty with a host that starts step-wise dead
+  reckoning and acknowledges every step, for ``--minutes`` (10); target: no overrun.
+* ``latency`` — one module served in real time on a pty: time from a command written on
+  the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 2 ms.
+* ``memory`` — a batch run of ``--cycles`` loop cycles (86.4 M = 24 h at 1 kHz) of a
+  repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
+
+Last, one line per target: ``<name>: <figure> <unit> (target <t>, ratio <figure/t>)``; the same
+figures go to ``--json`` (default ``bench.json``) with the machine (cpu, cores, python,
+numpy, numba). Shorter runs of the long targets (``--minutes``, ``--modules``, ``--cycles``)
+are marked "SHORT" in the output and the JSON.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = ["Result", "main", "machine_info"]
+
+TARGETS = ("batch", "realtime", "latency", "memory")
+#: 24 h at 1 kHz.
+FULL_CYCLES = 86_400_000
+
+
+@dataclass
+class Result:
+    """One target's figure against its goal (``higher`` = bigger is better)."""
+
+    name: str
+    figure: float
+    unit: str
+    target: float
+    higher: bool = True
+    passed: bool = False
+    short: bool = False
+    details: dict[str, Any] = field(default_factory=dict)
+
+    note: str = ""
+
+    @property
+    def ratio(self) -> float:
+        """figure / target (≥ 1 meets a higher-is-better target, ≤ 1 a lower-is-better one)."""
+        return self.figure / self.target if self.target else float("inf")
+
+    def line(self) -> str:
+        fig = f"{self.figure:.0f}" if abs(self.figure) >= 100 else f"{self.figure:.3g}"
+        tgt = f"{self.target:.0f}" if abs(self.target) >= 100 else f"{self.target:g}"
+        extra = "" if self.passed else " NOT MET"
+        if self.note:
+            extra += f"; {self.note}"
+        if self.short:
+            extra += "; SHORT run (see --help for the full one)"
+        return f"{self.name}: {fig} {self.unit} (target {tgt}, ratio {self.ratio:.2f}){extra}"
+
+
+def machine_info() -> dict[str, Any]:
+    """CPU model, cores, python, numpy and numba versions."""
+    import numpy as np
+
+    cpu = platform.processor() or ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    try:
+        import numba
+
+        numba_v: str | None = numba.__version__
+    except ImportError:
+        numba_v = None
+    from firmware_sim import fastpath
+
+    return {
+        "cpu": cpu,
+        "cores": os.cpu_count(),
+        "python": platform.python_version(),
+        "implementation": platform.python_implementation(),
+        "numpy": np.__version__,
+        "numba": numba_v,
+        "compiled_path": fastpath.available(),
+        "compiled_unavailable_reason": fastpath.reason_unavailable(),
+        "platform": platform.platform(),
+    }
+
+
+def _say(msg: str) -> None:
+    print(msg, file=sys.stderr, flush=True)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="openshoe-bench", description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("targets", nargs="*", metavar="TARGET",
+                   help=f"targets to run: {', '.join(TARGETS)} (default: all)")
+    p.add_argument("--json", type=Path, default=Path("bench.json"), help="write the figures here")
+    p.add_argument("--walk-s", type=float, default=20.0,
+                   help="batch: seconds of simulated walking after 3 s standing (default 20)")
+    p.add_argument("--modules", type=int, default=50, help="realtime: modules in total (default 50)")
+    p.add_argument("--processes", type=int, default=2, help="realtime: serve processes (default 2)")
+    p.add_argument("--minutes", type=float, default=10.0, help="realtime: wall minutes (default 10)")
+    p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
+    p.add_argument("--cycles", type=float, default=FULL_CYCLES,
+                   help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
+    args = p.parse_args(argv)
+    targets = args.targets or list(TARGETS)
+    bad = [t for t in targets if t not in TARGETS]
+    if bad:
+        p.error(f"unknown target(s) {', '.join(bad)}; choose from {', '.join(TARGETS)}")
+    from . import targets as t
+
+    machine = machine_info()
+    _say(f"machine: {machine['cpu']}, {machine['cores']} cores, python {machine['python']}, "
+         f"numpy {machine['numpy']}, numba {machine['numba']} (compiled path "
+         f"{'on' if machine['compiled_path'] else 'OFF: ' + machine['compiled_unavailable_reason']})")
+    results: list[Result] = []
+    for name in targets:
+        _say(f"--- {name}")
+        t0 = time.monotonic()
+        if name == "batch":
+            r = t.bench_batch(args.walk_s, _say)
+        elif name == "realtime":
+            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say)
+        elif name == "latency":
+            r = t.bench_latency(args.pings, _say)
+        else:
+            r = t.bench_memory(int(args.cycles), _say)
+        r.details["wall_s"] = round(time.monotonic() - t0, 1)
+        results.append(r)
+    report = {"machine": machine, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+              "results": [dict(asdict(r), ratio=r.ratio, line=r.line()) for r in results]}
+    args.json.write_text(json.dumps(report, indent=2, default=str) + "\n")
+    _say(f"figures written to {args.json}")
+    print(f"machine: {machine['cpu']}, {machine['cores']} cores, python {machine['python']}, "
+          f"numpy {machine['numpy']}, numba {machine['numba']}")
+    for r in results:
+        print(r.line())
+    return 0 if all(r.passed for r in results) else 1
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

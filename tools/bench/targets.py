@@ -1,0 +1,317 @@
+"""The four benchmark targets of `openshoe-bench` (see :mod:`tools.bench`)."""
+
+from __future__ import annotations
+
+import os
+import random
+import re
+import resource
+import selectors
+import socket
+import statistics
+import time
+import tty
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from firmware_sim import fastpath
+from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.base import RawSample
+from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
+from protocol.stream import StreamDecoder
+
+from . import Result
+from .driver import START_STEPWISE, run_session
+
+Say = Callable[[str], None]
+
+BATCH_TARGET = 340_000.0
+REALTIME_MINUTES = 10.0
+LATENCY_TARGET_MS = 2.0
+MEMORY_GROWTH_TARGET_MB = 5.0
+#: PING in the current numbering (protocol.md §3) and its ack.
+PING = bytes.fromhex("030003")
+PING_ACK = bytes.fromhex("a00300a3")
+
+
+def _per_call_us(fn: Callable[[], Any], n: int) -> float:
+    t = time.perf_counter()
+    for _ in range(n):
+        fn()
+    return (time.perf_counter() - t) / n * 1e6
+
+
+# ---------------------------------------------------------------------------------------------
+# batch
+
+
+def bench_batch(walk_s: float, say: Say) -> Result:
+    """The step-wise session on a simulated walk, compiled and pure, same input, one core."""
+    recipe = f"stand:3+walk:{walk_s:g}"
+    source = make_source(recipe, seed=0)
+    n = len(source)
+    say(f"batch: {recipe} at 1 kHz, 4 IMUs: {n} samples")
+    details: dict[str, Any] = {"input": recipe, "samples": n}
+    # the frame builder, per 64-byte step packet
+    payload = bytes(range(58))
+    details["state_packet_fast_us"] = round(_per_call_us(lambda: build_state_packet(7, payload), 20000), 2)
+    details["state_packet_construct_us"] = round(
+        _per_call_us(lambda: build_state_packet_declared(7, payload), 2000), 2)
+    t = time.perf_counter()
+    pure = run_session(source, compiled=False)
+    pure_s = time.perf_counter() - t
+    pure_rate = pure.ticks / pure_s
+    details.update(pure_samples_per_s=round(pure_rate), pure_us_per_loop=round(1e6 / pure_rate, 1),
+                   packets=pure.packets)
+    say(f"batch: pure Python {pure_rate:,.0f} samples/s ({1e6 / pure_rate:.0f} µs per loop), "
+        f"{pure.packets} step packets")
+    if not fastpath.available():
+        say(f"batch: compiled path unavailable: {fastpath.reason_unavailable()}")
+        details["compiled"] = False
+        return Result("batch", pure_rate, "samples/s", BATCH_TARGET, passed=pure_rate >= BATCH_TARGET,
+                      details=details)
+    t = time.perf_counter()
+    run_session(make_source("stand:2+walk:1", seed=1), compiled=True)
+    details["jit_or_cache_load_s"] = round(time.perf_counter() - t, 2)
+    rates = []
+    fast = None
+    t_all = time.perf_counter()
+    while len(rates) < 5 or (time.perf_counter() - t_all < 3 and len(rates) < 50):
+        t = time.perf_counter()
+        fast = run_session(source, compiled=True)
+        rates.append(fast.ticks / (time.perf_counter() - t))
+    assert fast is not None
+    rate = statistics.median(rates)
+    identical = fast.wire == pure.wire
+    details.update(compiled=True, runs=len(rates), best_samples_per_s=round(max(rates)),
+                   speedup=round(rate / pure_rate, 1), identical_bytes=identical,
+                   compiled_loop_share=round(fast.ticks_compiled / fast.ticks, 4), wire_bytes=len(fast.wire))
+    say(f"batch: compiled {rate:,.0f} samples/s (median of {len(rates)}; best {max(rates):,.0f}), "
+        f"{rate / pure_rate:.0f}× pure; wire bytes identical: {identical}; "
+        f"JIT/cache load {details['jit_or_cache_load_s']} s")
+    return Result("batch", rate, "samples/s", BATCH_TARGET, passed=rate >= BATCH_TARGET and identical,
+                  details=details)
+
+
+# ---------------------------------------------------------------------------------------------
+# memory
+
+
+class RepeatingWalk:
+    """A simulated walk repeated end to end, *length* samples in all (a long batch input
+    without holding it in memory); ``imu_block`` gives the compiled path views of it."""
+
+    def __init__(self, length: int, recipe: str = "stand:3+walk:57", seed: int = 0):
+        self.base = make_source(recipe, seed=seed)
+        self.rate_hz = self.base.rate_hz
+        self.length = int(length)
+        self._n = len(self.base.imu)
+
+    def __len__(self) -> int:
+        return self.length
+
+    def read(self, index: int) -> RawSample | None:
+        if index >= self.length:
+            return None
+        i = index % self._n
+        b = self.base
+        return RawSample(b.imu[i], b.temp[i], b.mag[i])
+
+    def imu_block(self, start: int, n: int) -> np.ndarray:
+        i = start % self._n
+        n = min(n, self.length - start, self._n - i)
+        return self.base.imu[i:i + max(n, 0)]
+
+    def set_dlpf(self, cfg: int) -> None:
+        pass
+
+
+def _rss_mb() -> float:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
+
+
+def bench_memory(cycles: int, say: Say) -> Result:
+    """A long batch session (compiled when available): RSS along the way, peak and growth."""
+    short = cycles < 86_400_000
+    source = RepeatingWalk(cycles)
+    module = Module(ModuleConfig(rate_hz=1000.0), sensors=source)
+    port = module.bt.port
+    decoder = StreamDecoder()
+    port.host_write(START_STEPWISE)
+    packets = 0
+    wire = 0
+    samples: list[tuple[int, float]] = []
+    every = max(cycles // 200, 10_000)
+    next_sample = 0
+    clock = module.clock
+    t0 = time.perf_counter()
+    say(f"memory: {cycles:,} loop cycles ({cycles / 3.6e6:.2f} h at 1 kHz), compiled={module.compiled}")
+    while clock.ticks < cycles:
+        module.advance(min(cycles - clock.ticks, 1_000_000))
+        data = port.host_read()
+        if data:
+            wire += len(data)
+            for frame in decoder.feed(data):
+                if isinstance(frame, StatePacket):
+                    port.host_write(build_packet_ack(frame.number))
+                    packets += 1
+        if clock.ticks >= next_sample:
+            samples.append((clock.ticks, _rss_mb()))
+            next_sample += every
+            if len(samples) % 20 == 0:
+                el = time.perf_counter() - t0
+                say(f"memory: {clock.ticks:,} cycles, {clock.ticks / el:,.0f}/s, "
+                    f"RSS {samples[-1][1]:.1f} MB, {packets} steps")
+    elapsed = time.perf_counter() - t0
+    samples.append((clock.ticks, _rss_mb()))
+    peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    ref_i = max(1, len(samples) // 10)  # after warm-up (JIT, first allocations)
+    growth = samples[-1][1] - samples[ref_i][1]
+    details = {"cycles": clock.ticks, "steps": packets, "wire_bytes": wire, "elapsed_s": round(elapsed, 1),
+               "cycles_per_s": round(clock.ticks / elapsed), "peak_rss_mb": round(peak, 1),
+               "rss_start_mb": round(samples[ref_i][1], 1), "rss_end_mb": round(samples[-1][1], 1),
+               "compiled": module.compiled, "samples": samples[:: max(1, len(samples) // 20)]}
+    say(f"memory: {clock.ticks:,} cycles in {elapsed:.0f} s, {packets} steps, RSS {samples[ref_i][1]:.1f} → "
+        f"{samples[-1][1]:.1f} MB, peak {peak:.1f} MB")
+    return Result("memory", growth, "MB RSS growth", MEMORY_GROWTH_TARGET_MB, higher=False,
+                  passed=growth <= MEMORY_GROWTH_TARGET_MB, short=short,
+                  details=details, note=f"peak RSS {peak:.0f} MB")
+
+
+# ---------------------------------------------------------------------------------------------
+# real time: serve processes and a host per pty
+
+
+def _open_pty(path: str) -> int:
+    fd = os.open(path, os.O_RDWR | os.O_NOCTTY | os.O_NONBLOCK)
+    tty.setraw(fd)
+    return fd
+
+
+def _control(addr: str, line: str, timeout: float = 10.0) -> str:
+    host, port = addr.rsplit(":", 1)
+    with socket.create_connection((host, int(port)), timeout=timeout) as s:
+        s.sendall(line.encode() + b"\n")
+        buf = b""
+        deadline = time.monotonic() + timeout
+        while not buf.rstrip().endswith(b"OK") and time.monotonic() < deadline:
+            chunk = s.recv(65536)
+            if not chunk:
+                break
+            buf += chunk
+    return buf.decode(errors="replace")
+
+
+def bench_realtime(modules: int, processes: int, minutes: float, say: Say) -> Result:
+    """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
+    from firmware_sim.serve import spawn
+
+    short = minutes < REALTIME_MINUTES or modules < 50
+    per = [modules // processes + (1 if i < modules % processes else 0) for i in range(processes)]
+    walk_s = minutes * 60 + 30
+    scenario = f"stand:3+walk:{walk_s:g}" if walk_s <= 180 else "stand:3+walk:177"
+    say(f"realtime: {modules} modules in {processes} serve processes {per}, {minutes:g} min, "
+        f"scenario {scenario} (after it the last sample is held)")
+    procs = []
+    tag = f"/tmp/openshoe-bench-{os.getpid()}"
+    try:
+        for k, m in enumerate(per):
+            t = time.monotonic()
+            procs.append(spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", scenario,
+                               "--control", "127.0.0.1:0", "--status-interval", "10", timeout=600))
+            say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
+        hosts: dict[int, dict[str, Any]] = {}
+        sel = selectors.DefaultSelector()
+        for k, sp in enumerate(procs):
+            for key, path in sp.ready.items():
+                if key.endswith("bt-pty"):
+                    fd = _open_pty(path)
+                    hosts[fd] = {"proc": k, "name": key, "dec": StreamDecoder(), "steps": 0}
+                    os.write(fd, START_STEPWISE)
+                    sel.register(fd, selectors.EVENT_READ)
+        end = time.monotonic() + minutes * 60
+        last = time.monotonic()
+        while time.monotonic() < end:
+            for key, _ in sel.select(0.5):
+                h = hosts[key.fd]
+                try:
+                    data = os.read(key.fd, 65536)
+                except BlockingIOError:
+                    continue
+                for frame in h["dec"].feed(data):
+                    if isinstance(frame, StatePacket):
+                        os.write(key.fd, build_packet_ack(frame.number))
+                        h["steps"] += 1
+            if time.monotonic() - last > 60:
+                last = time.monotonic()
+                say(f"realtime: {sum(h['steps'] for h in hosts.values())} steps so far")
+        overruns: dict[str, int] = {}
+        loop_us: list[float] = []
+        for k, sp in enumerate(procs):
+            text = _control(sp.ready["control"], "status")
+            for line in text.splitlines():
+                mo = re.match(r"m(\d+) .*loop\s+([\d.]+)/\s*([\d.]+) us overruns (\d+)", line)
+                if mo:
+                    overruns[f"p{k}.m{mo.group(1)}"] = int(mo.group(4))
+                    loop_us.append(float(mo.group(2)))
+        for fd in hosts:
+            os.close(fd)
+    finally:
+        for sp in procs:
+            sp.stop()
+    steps = {f"p{h['proc']}.{h['name']}": h["steps"] for h in hosts.values()}
+    ok = sum(1 for name, n in overruns.items() if n == 0)
+    stepping = sum(1 for n in steps.values() if n > 0)
+    figure = min(ok, stepping)
+    details = {"processes": per, "minutes": minutes, "scenario": scenario,
+               "overruns_total": sum(overruns.values()),
+               "modules_without_overrun": ok, "modules_with_steps": stepping,
+               "steps_total": sum(steps.values()), "loop_us_mean": round(statistics.mean(loop_us), 1)
+               if loop_us else None, "overruns": overruns, "steps": steps}
+    say(f"realtime: {ok}/{modules} modules without overrun, {stepping} sent steps "
+        f"({sum(steps.values())} in all), total overruns {sum(overruns.values())}")
+    return Result("realtime", figure, "modules without overrun", float(modules), passed=figure >= 50,
+                  short=short, details=details)
+
+
+def bench_latency(pings: int, say: Say) -> Result:
+    """PING written on a pty → its ack read back, one module served in real time (ideal link)."""
+    from firmware_sim.serve import spawn
+
+    path = f"/tmp/openshoe-bench-lat-{os.getpid()}"
+    sp = spawn("--pty", path, "--scenario", "stand:5", "--link", "ideal", timeout=120)
+    lat: list[float] = []
+    try:
+        fd = _open_pty(sp.ready["bt-pty"])
+        sel = selectors.DefaultSelector()
+        sel.register(fd, selectors.EVENT_READ)
+        rng = random.Random(1)
+        lost = 0
+        for _ in range(pings):
+            buf = b""
+            t0 = time.perf_counter()
+            os.write(fd, PING)
+            deadline = t0 + 0.5
+            while PING_ACK not in buf and time.perf_counter() < deadline:
+                if sel.select(max(deadline - time.perf_counter(), 0)):
+                    buf += os.read(fd, 4096)
+            if PING_ACK in buf:
+                lat.append((time.perf_counter() - t0) * 1e3)
+            else:
+                lost += 1
+            time.sleep(rng.uniform(0, 0.003))  # arrive at any phase of the 1 ms tick
+        os.close(fd)
+    finally:
+        sp.stop()
+    lat.sort()
+    p99 = lat[min(len(lat) - 1, int(0.99 * len(lat)))] if lat else float("inf")
+    details = {"pings": pings, "acks": len(lat), "lost": lost, "p50_ms": round(statistics.median(lat), 3),
+               "p99_ms": round(p99, 3), "max_ms": round(lat[-1], 3), "link": "ideal",
+               "measured": "host write on the pty → ack read on the pty (includes the pty both ways)"}
+    say(f"latency: {len(lat)} acks, p50 {details['p50_ms']} ms, p99 {p99:.3f} ms, max {lat[-1]:.3f} ms")
+    return Result("latency", p99, "ms p99", LATENCY_TARGET_MS, higher=False,
+                  passed=p99 <= LATENCY_TARGET_MS and lost == 0, details=details)
