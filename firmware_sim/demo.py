@@ -29,10 +29,13 @@ from pathlib import Path
 
 import numpy as np
 
+from hostlib.tracking import StepTracker
+from protocol.ids import StateId
+
 from .link import make_link
 from .module import Module, ModuleConfig
 from .port import IdealPort
-from .serve import HoldLastSource
+from .serve import served_source
 from .transports.pacer import Pacer
 from .transports.pty import PtyEndpoint
 
@@ -127,14 +130,31 @@ def run_demo(args: argparse.Namespace) -> DemoResult:
 
     link = make_link(args.link, seed=args.seed)
     # after the route the walker stands still (the sensors do not go silent)
-    module = Module(ModuleConfig(rate_hz=source.rate_hz), HoldLastSource(source),
+    # and the route starts when the host starts tracking (the first sensor read), so the
+    # result does not depend on how fast the host came
+    played = served_source(source)
+    module = Module(ModuleConfig(rate_hz=source.rate_hz), played,
                     usb_port=IdealPort(connected=False), bt_port=link)
+    # The route's steps are those counted up to TAIL_S after its end: note the module's step
+    # counter at that tick (inside the loop, so it is exact however fast virtual time runs).
+    route_ticks = int(round((route_s + TAIL_S) * source.rate_hz))
+    final: dict[str, int] = {}
+    module_step = module.step
+
+    def step_and_mark_the_end() -> None:
+        module_step()
+        start = played.source.start
+        if "counter" not in final and start is not None and module.clock.ticks >= start + route_ticks:
+            final["counter"] = int(module.memory[StateId.STEP_COUNTER])
+
+    module.step = step_and_mark_the_end  # type: ignore[method-assign]
     tmp = tempfile.TemporaryDirectory(prefix="openshoe-demo-")
     pty_path = Path(tmp.name) / "openshoe0"
     endpoint = PtyEndpoint(link, pty_path)
     pacer = Pacer(module, [endpoint], speed=args.speed)
     pacer.start()
     wall0 = time.monotonic()
+    tracker = StepTracker()
     try:
         _say(quiet, f"[2/4] emulated module on the Bluetooth link, serial device {pty_path}")
         with Device(str(pty_path), ack_timeout=2.0) as dev:
@@ -145,25 +165,26 @@ def run_demo(args: argparse.Namespace) -> DemoResult:
             while True:
                 ev = dev.recv_step(timeout=0.2)
                 now = time.monotonic()
-                st = pacer.status()
                 if pacer.error is not None:
                     raise RuntimeError(f"the emulated module stopped: {pacer.error!r}")
                 if now > deadline:
                     raise TimeoutError(f"demo did not finish within {args.timeout:.0f} s")
-                if ev is not None and not quiet and now - last_report > 1.0:
-                    last_report = now
-                    x, y = ev.pose[0], ev.pose[1]
-                    print(f"      t={st.virtual_s:6.1f} s  step {ev.index:4d}  at ({x:7.2f}, {y:7.2f}) m",
-                          flush=True)
-                if st.virtual_s >= route_s + TAIL_S:
-                    # the walk is over (the wearer now stands still): steps of the route have
-                    # arrived (the link's latency is far below TAIL_S); later stand-still
-                    # steps are not part of the route
-                    break
-            track = dev.track_snapshot()
+                end = final.get("counter")
+                if ev is not None:
+                    if end is not None and ev.step.counter > end:
+                        break  # a stand-still step after the route
+                    tracker.add(ev.step)
+                    if not quiet and now - last_report > 1.0:
+                        last_report = now
+                        x, y = tracker.position[0], tracker.position[1]
+                        print(f"      t={pacer.status().virtual_s:6.1f} s  step {ev.step.counter:4d}  "
+                              f"at ({x:7.2f}, {y:7.2f}) m", flush=True)
+                if end is not None and (tracker.last_counter or 0) >= end:
+                    break  # every step of the route has arrived
+            track = tracker.track
             gaps, missing = len(track.gaps), track.missing
         wall = time.monotonic() - wall0
-        virtual = pacer.status().virtual_s
+        virtual = route_s + TAIL_S
     finally:
         pacer.stop()
         tmp.cleanup()

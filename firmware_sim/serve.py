@@ -309,6 +309,37 @@ class HoldLastSource:
         return f"HoldLastSource({self.source!r}, ended_at={self.ended_at})"
 
 
+class StartOnFirstRead:
+    """A sensor source whose sample 0 is the first one the module reads, not the one at boot.
+
+    Nothing reads the sensors until a host starts a mode (e.g. step-wise dead
+    reckoning); from then on the scenario plays from its beginning — so the
+    initial stand still is there for the alignment however late the host came.
+    ``start`` is the module sample index the scenario began at (None before).
+    """
+
+    def __init__(self, source: SensorSource):
+        self.source = source
+        self.rate_hz = source.rate_hz
+        self.start: int | None = None
+
+    def read(self, index: int) -> RawSample | None:
+        if self.start is None:
+            self.start = index
+        return self.source.read(max(0, index - self.start))
+
+    def set_dlpf(self, cfg: int) -> None:
+        self.source.set_dlpf(cfg)
+
+    def __repr__(self) -> str:
+        return f"StartOnFirstRead({self.source!r}, start={self.start})"
+
+
+def served_source(source: SensorSource) -> HoldLastSource:
+    """A scenario or recording as a served module plays it: from its first read, then standing still."""
+    return HoldLastSource(StartOnFirstRead(source))
+
+
 # --------------------------------------------------------------------------- options
 
 
@@ -357,7 +388,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     m = p.add_argument_group("the module")
     src = m.add_mutually_exclusive_group()
     src.add_argument("--scenario", default="default",
-                     help="motion scenario or recipe (default: the built-in route 'default')")
+                     help="motion scenario or recipe (default: the built-in route 'default'); it starts "
+                     "when the module first reads its sensors (a host starts tracking), then stands still")
     src.add_argument("--replay", metavar="FILE", help="replay a recording (OpenShoe text or CSV) instead")
     m.add_argument("--seed", type=int, default=0, help="seed of the sensors and the link (default 0)")
     m.add_argument("--command-set", choices=["2014", "2015"], default="2015",
@@ -431,7 +463,7 @@ def build_module(args: argparse.Namespace, index: int) -> ServedModule:
     else:
         sensors = make_sensors(args.scenario, seed, rate_hz)
     if sensors is not None:
-        sensors = HoldLastSource(sensors)
+        sensors = served_source(sensors)
     config = ModuleConfig(rate_hz=rate_hz, command_set=args.command_set, trace=bool(args.trace))
     main_kind = args.interface
     other = "usb" if main_kind == "bt" else "bt"

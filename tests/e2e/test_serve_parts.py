@@ -12,7 +12,16 @@ from hypothesis import strategies as st
 from firmware_sim.link import make_link
 from firmware_sim.port import IdealPort
 from firmware_sim.sensors.base import ScriptedSource
-from firmware_sim.serve import ControlServer, HoldLastSource, HostHub, ServedModule, parse_ready, tcp_address
+from firmware_sim.serve import (
+    ControlServer,
+    HoldLastSource,
+    HostHub,
+    ServedModule,
+    StartOnFirstRead,
+    parse_ready,
+    served_source,
+    tcp_address,
+)
 
 
 def test_one_link_fans_out_to_every_connected_host():
@@ -41,6 +50,16 @@ def test_a_finished_source_holds_its_last_sample():
     assert src.read(2) is not None and np.array_equal(src.read(5).imu, last.imu)
     assert src.ended_at == 2
     assert not np.array_equal(first.imu, last.imu)
+
+
+def test_a_served_scenario_starts_at_the_first_read_and_then_stands_still():
+    script = np.arange(3 * 4 * 6, dtype=np.int16).reshape(3, 4, 6)
+    src = served_source(ScriptedSource(script, finite=True))
+    first = src.read(500)  # the host started tracking at tick 500
+    assert np.array_equal(first.imu, script[0])
+    assert np.array_equal(src.read(502).imu, script[2])
+    assert np.array_equal(src.read(900).imu, script[2]), "after its end the wearer stands still"
+    assert isinstance(src.source, StartOnFirstRead) and src.source.start == 500
 
 
 def test_tcp_address_defaults_to_loopback_and_refuses_junk():
