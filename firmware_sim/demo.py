@@ -35,7 +35,7 @@ from protocol.ids import StateId
 from .link import make_link
 from .module import Module, ModuleConfig
 from .port import IdealPort
-from .serve import served_source
+from .sensors.playback import served_source
 from .transports.pacer import Pacer
 from .transports.pty import PtyEndpoint
 

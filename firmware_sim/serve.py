@@ -36,7 +36,7 @@ from typing import Any, TextIO
 from .link import Link, LinkFaults, make_link
 from .module import Module, ModuleConfig
 from .port import IdealPort, Port
-from .sensors.base import RawSample, SensorSource
+from .sensors.playback import served_source
 from .transports.factory import make_sensors
 from .transports.pacer import Pacer
 from .transports.pty import PtyEndpoint
@@ -274,72 +274,6 @@ class Rfc2217Endpoint:
         return f"Rfc2217Endpoint({self.address[0]}:{self.address[1]}, {'host' if self.paired else 'no host'})"
 
 
-# --------------------------------------------------------------------------- sensors
-
-
-class HoldLastSource:
-    """A finite sensor source that, once it has run out, repeats its last sample forever.
-
-    A served module keeps running after its scenario or recording ends; the
-    wearer then stands still where the route ended (every scenario ends at
-    rest), instead of the sensors going silent.
-    """
-
-    def __init__(self, source: SensorSource):
-        self.source = source
-        self.rate_hz = source.rate_hz
-        self._last: RawSample | None = None
-        #: sample index at which the wrapped source ran out (None while it has not)
-        self.ended_at: int | None = None
-
-    def read(self, index: int) -> RawSample | None:
-        if self.ended_at is None or index < self.ended_at:
-            sample = self.source.read(index)
-            if sample is not None:
-                self._last = sample
-                return sample
-            if self.ended_at is None:
-                self.ended_at = index
-        return self._last
-
-    def set_dlpf(self, cfg: int) -> None:
-        self.source.set_dlpf(cfg)
-
-    def __repr__(self) -> str:
-        return f"HoldLastSource({self.source!r}, ended_at={self.ended_at})"
-
-
-class StartOnFirstRead:
-    """A sensor source whose sample 0 is the first one the module reads, not the one at boot.
-
-    Nothing reads the sensors until a host starts a mode (e.g. step-wise dead
-    reckoning); from then on the scenario plays from its beginning — so the
-    initial stand still is there for the alignment however late the host came.
-    ``start`` is the module sample index the scenario began at (None before).
-    """
-
-    def __init__(self, source: SensorSource):
-        self.source = source
-        self.rate_hz = source.rate_hz
-        self.start: int | None = None
-
-    def read(self, index: int) -> RawSample | None:
-        if self.start is None:
-            self.start = index
-        return self.source.read(max(0, index - self.start))
-
-    def set_dlpf(self, cfg: int) -> None:
-        self.source.set_dlpf(cfg)
-
-    def __repr__(self) -> str:
-        return f"StartOnFirstRead({self.source!r}, start={self.start})"
-
-
-def served_source(source: SensorSource) -> HoldLastSource:
-    """A scenario or recording as a served module plays it: from its first read, then standing still."""
-    return HoldLastSource(StartOnFirstRead(source))
-
-
 # --------------------------------------------------------------------------- options
 
 
@@ -453,17 +387,15 @@ def _indexed_port(addr: tuple[str, int] | None, index: int) -> tuple[str, int] |
 def build_module(args: argparse.Namespace, index: int) -> ServedModule:
     """Module *index* of ``serve``: sensors, links, endpoints on its interfaces, and a pacer."""
     seed = args.seed + index
-    sensors = None
     rate_hz = 1000.0
     if args.replay:
         from .sensors.replay import ReplaySource
 
-        sensors = ReplaySource.from_file(args.replay)
-        rate_hz = sensors.rate_hz
+        recording = ReplaySource.from_file(args.replay)
+        rate_hz = recording.rate_hz
+        sensors = served_source(recording)
     else:
         sensors = make_sensors(args.scenario, seed, rate_hz)
-    if sensors is not None:
-        sensors = served_source(sensors)
     config = ModuleConfig(rate_hz=rate_hz, command_set=args.command_set, trace=bool(args.trace))
     main_kind = args.interface
     other = "usb" if main_kind == "bt" else "bt"

@@ -15,7 +15,6 @@ The served interface gets the link; the other one is left unplugged.
 
 from __future__ import annotations
 
-import importlib
 import math
 from dataclasses import dataclass, fields
 from urllib.parse import parse_qs, urlsplit
@@ -23,7 +22,9 @@ from urllib.parse import parse_qs, urlsplit
 from ..link import Link, LinkFaults, make_link
 from ..module import Module, ModuleConfig
 from ..port import IdealPort
+from ..sensors.array import make_source
 from ..sensors.base import SensorSource
+from ..sensors.playback import served_source
 
 
 @dataclass(frozen=True)
@@ -75,25 +76,18 @@ class EmulatorSettings:
         return s
 
 
-def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource | None:
-    """The sensor source of a scenario; None = the module's default (lying still)."""
-    make_source = None
-    for where in ("firmware_sim.sensors", "firmware_sim.sensors.array"):
-        try:
-            make_source = getattr(importlib.import_module(where), "make_source", None)
-        except ImportError:
-            continue
-        if make_source is not None:
-            break
-    if make_source is not None:
-        try:
-            return make_source(scenario, seed=seed, rate_hz=rate_hz)
-        except KeyError as e:  # an unknown scenario name, reported as a bad option
-            raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
-    if scenario in ("default", "still"):
-        return None
-    raise ValueError(f"scenario {scenario!r} needs firmware_sim.sensors.make_source, which is not available; "
-                     "use scenario=default")
+def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource:
+    """The sensor source of a scenario as a served module plays it.
+
+    The scenario starts at the module's first sensor read and the wearer then
+    stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
+    so a host never meets silent sensors after a short scenario.
+    """
+    try:
+        source = make_source(scenario, seed=seed, rate_hz=rate_hz)
+    except KeyError as e:  # an unknown scenario name, reported as a bad option
+        raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
+    return served_source(source)
 
 
 def build(settings: EmulatorSettings) -> tuple[Module, Link]:

@@ -12,16 +12,8 @@ from hypothesis import strategies as st
 from firmware_sim.link import make_link
 from firmware_sim.port import IdealPort
 from firmware_sim.sensors.base import ScriptedSource
-from firmware_sim.serve import (
-    ControlServer,
-    HoldLastSource,
-    HostHub,
-    ServedModule,
-    StartOnFirstRead,
-    parse_ready,
-    served_source,
-    tcp_address,
-)
+from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead, served_source
+from firmware_sim.serve import ControlServer, HostHub, ServedModule, parse_ready, tcp_address
 
 
 def test_one_link_fans_out_to_every_connected_host():

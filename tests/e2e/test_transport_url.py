@@ -103,3 +103,14 @@ def test_closed_port_refuses_io():
     s.close()
     with pytest.raises(serial.PortNotOpenError):
         s.write(PING)
+
+
+def test_url_scenario_holds_its_last_sample_after_the_end():
+    """openshoe:// plays a scenario like serve does: the sensors never go silent after it ends."""
+    from firmware_sim.transports.factory import make_sensors
+
+    source = make_sensors("stand:1", seed=1, rate_hz=1000.0)
+    first = source.read(0)
+    after = source.read(5_000)  # 4 s past the end of a 1 s scenario
+    assert first is not None and after is not None
+    assert (after.imu == source.read(999).imu).all()
