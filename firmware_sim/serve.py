@@ -5,7 +5,7 @@ by :class:`~firmware_sim.transports.pacer.Pacer`; its Bluetooth interface (or
 USB, ``--interface usb``) is reachable on a pty with a stable path (``--pty``)
 and/or a TCP port (``--tcp``); ``--usb-pty``/``--usb-tcp`` also expose the
 other interface. A pty and a TCP port on the same interface share its link
-(:class:`HostHub`): the module's bytes go to every connected host.
+(:class:`~firmware_sim.transports.hub.HostHub`): the module's bytes go to every connected host.
 
 When everything listens, exactly one line goes to stdout::
 
@@ -13,7 +13,7 @@ When everything listens, exactly one line goes to stdout::
 
 (with ``--modules N`` every key gets the module's index: ``m0.bt-pty=…``).
 Then a status line is kept up to date on stderr. ``--control`` opens a line
-protocol on TCP to drive faults at run time (:data:`CONTROL_HELP`). SIGINT and
+protocol on TCP to drive faults at run time (:data:`~firmware_sim.control.CONTROL_HELP`). SIGINT and
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
 exit with status 0.
 """
@@ -24,7 +24,6 @@ import argparse
 import os
 import selectors
 import signal
-import socket
 import subprocess
 import sys
 import threading
@@ -33,246 +32,18 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from .control import ControlServer
 from .link import Link, LinkFaults, make_link
 from .module import Module, ModuleConfig
 from .port import IdealPort, Port
 from .sensors.playback import served_source
+from .trace import TraceWriter
 from .transports.factory import make_sensors
+from .transports.hub import HostHub
 from .transports.pacer import Pacer
 from .transports.pty import PtyEndpoint
+from .transports.rfc2217 import Rfc2217Endpoint
 from .transports.tcp import TcpEndpoint
-
-CONTROL_HELP = """\
-commands (one per line; prefix with @I to address module I only, e.g. "@1 disconnect"):
-  disconnect       the link goes down (bytes in flight are lost); the host stays attached
-  reconnect        the link comes back
-  stall S          deliver nothing for S seconds of module time, both directions
-  corrupt N        corrupt the next N bytes sent to the host
-  drop N           lose the next N bytes sent to the host
-  status           one status line per module
-  help             this text
-  quit             close this control connection"""
-
-
-# --------------------------------------------------------------------------- sharing one link
-
-
-class HostTap:
-    """One endpoint's view of a shared link: the host-facing half of :class:`Port`.
-
-    The module's bytes are copied to every tap whose host is connected; host
-    bytes from any tap go into the link. The link is connected while at least
-    one tap is.
-    """
-
-    def __init__(self, hub: HostHub, name: str):
-        self.hub = hub
-        self.name = name
-        self.connected = False
-        self._buf = bytearray()
-
-    def host_write(self, data: bytes) -> int:
-        return self.hub.port.host_write(data)
-
-    def host_read(self, max_n: int = -1) -> bytes:
-        self.hub.distribute()
-        if max_n < 0 or max_n >= len(self._buf):
-            out = bytes(self._buf)
-            self._buf.clear()
-        else:
-            out = bytes(self._buf[:max_n])
-            del self._buf[:max_n]
-        return out
-
-    def connect(self) -> None:
-        self.hub.distribute()  # bytes sent before this host came belong to the others
-        self.connected = True
-        self._buf.clear()
-        self.hub.update()
-
-    def disconnect(self) -> None:
-        self.connected = False
-        self._buf.clear()
-        self.hub.update()
-
-    def __repr__(self) -> str:
-        return f"HostTap({self.name}, {'connected' if self.connected else 'no host'}, {len(self._buf)} B)"
-
-
-class HostHub:
-    """Fans one link's host side out to several endpoints (a pty and a TCP port)."""
-
-    def __init__(self, port: Port):
-        self.port = port
-        self.taps: list[HostTap] = []
-        if port.connected:
-            port.disconnect()
-
-    def tap(self, name: str) -> HostTap:
-        t = HostTap(self, name)
-        self.taps.append(t)
-        return t
-
-    def distribute(self) -> None:
-        data = self.port.host_read()
-        if data:
-            for t in self.taps:
-                if t.connected:
-                    t._buf += data
-
-    def update(self) -> None:
-        want = any(t.connected for t in self.taps)
-        if want and not self.port.connected:
-            self.port.connect()
-        elif not want and self.port.connected:
-            self.port.disconnect()
-
-
-# --------------------------------------------------------------------------- RFC 2217
-
-
-class _EmulatedLineSettings:
-    """What an RFC 2217 client may read or set on the "serial port": a UART at 115200 8N1.
-
-    The emulated link ignores the settings (its rate is the link model's); CD
-    is the link's connected line.
-    """
-
-    def __init__(self, port: Port):
-        self._port = port
-        self.baudrate = 115200
-        self.bytesize = 8
-        self.parity = "N"
-        self.stopbits = 1
-        self.xonxoff = False
-        self.rtscts = False
-        self.break_condition = False
-        self.dtr = True
-        self.rts = True
-        self.cts = True
-        self.dsr = True
-        self.ri = False
-
-    @property
-    def cd(self) -> bool:
-        return bool(self._port.connected)
-
-    def reset_input_buffer(self) -> None:
-        pass
-
-    def reset_output_buffer(self) -> None:
-        pass
-
-
-class Rfc2217Endpoint:
-    """Serve *port* over RFC 2217 (telnet COM-port control) to one TCP host at a time.
-
-    Hosts open it with pyserial as ``rfc2217://HOST:PORT``. Telnet negotiation
-    and escaping are pyserial's :class:`serial.rfc2217.PortManager`.
-    """
-
-    def __init__(self, port: Port, host: str = "127.0.0.1", tcp_port: int = 0):
-        self.port = port
-        self.server = socket.create_server((host, tcp_port), backlog=4)
-        self.server.setblocking(False)
-        self.address: tuple[str, int] = self.server.getsockname()[:2]
-        self.client: socket.socket | None = None
-        self.manager: Any = None
-        self._out = bytearray()
-        self.connects = 0
-        self.closed = False
-        if port.connected:
-            port.disconnect()
-
-    @property
-    def paired(self) -> bool:
-        return self.client is not None
-
-    @property
-    def fds(self) -> tuple[int, ...]:
-        if self.closed:
-            return ()
-        return (self.server.fileno(),) + ((self.client.fileno(),) if self.client is not None else ())
-
-    def write(self, data: bytes) -> None:
-        """The PortManager's "connection": bytes for the network."""
-        self._out += data
-
-    def pump(self) -> None:
-        if self.closed:
-            return
-        self._accept()
-        c = self.client
-        if c is None:
-            return
-        while True:
-            try:
-                data = c.recv(4096)
-            except (BlockingIOError, InterruptedError):
-                break
-            except OSError:
-                self._hangup()
-                return
-            if not data:
-                self._hangup()
-                return
-            payload = b"".join(self.manager.filter(data))
-            if payload:
-                self.port.host_write(payload)
-        out = self.port.host_read()
-        if out:
-            self._out += b"".join(self.manager.escape(out))
-        if self._out:
-            try:
-                sent = c.send(self._out)
-            except (BlockingIOError, InterruptedError):
-                sent = 0
-            except OSError:
-                self._hangup()
-                return
-            del self._out[:sent]
-
-    def _accept(self) -> None:
-        from serial.rfc2217 import PortManager
-
-        while True:
-            try:
-                sock, _ = self.server.accept()
-            except (BlockingIOError, InterruptedError, OSError):
-                return
-            if self.client is not None:
-                sock.close()
-                continue
-            sock.setblocking(False)
-            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            self.client = sock
-            self._out.clear()
-            self.port.host_read()
-            self.port.connect()
-            self.connects += 1
-            self.manager = PortManager(_EmulatedLineSettings(self.port), self)
-
-    def _hangup(self) -> None:
-        if self.client is not None:
-            self.client.close()
-            self.client = None
-        self._out.clear()
-        self.port.disconnect()
-
-    def close(self) -> None:
-        if self.closed:
-            return
-        self._hangup()
-        self.server.close()
-        self.closed = True
-
-    def status(self) -> dict[str, object]:
-        return {"kind": "rfc2217", "address": f"{self.address[0]}:{self.address[1]}", "paired": self.paired,
-                "connects": self.connects}
-
-    def __repr__(self) -> str:
-        return f"Rfc2217Endpoint({self.address[0]}:{self.address[1]}, {'host' if self.paired else 'no host'})"
-
 
 # --------------------------------------------------------------------------- options
 
@@ -439,162 +210,6 @@ def build_module(args: argparse.Namespace, index: int) -> ServedModule:
         raise
     pacer = Pacer(module, endpoints, speed=args.speed)
     return ServedModule(index, module, links, endpoints, pacer, ready)
-
-
-# --------------------------------------------------------------------------- control channel
-
-
-class ControlServer:
-    """Line commands over TCP that change the running modules' links (:data:`CONTROL_HELP`)."""
-
-    def __init__(self, modules: list[ServedModule], host: str, port: int):
-        self.modules = modules
-        self.server = socket.create_server((host, port), backlog=4)
-        self.server.setblocking(False)
-        self.address = self.server.getsockname()[:2]
-        self.clients: dict[socket.socket, bytearray] = {}
-
-    def register(self, sel: selectors.BaseSelector) -> None:
-        sel.register(self.server, selectors.EVENT_READ, self)
-
-    def handle(self, sel: selectors.BaseSelector, sock: socket.socket) -> None:
-        if sock is self.server:
-            try:
-                c, _ = self.server.accept()
-            except OSError:
-                return
-            c.setblocking(True)
-            self.clients[c] = bytearray()
-            sel.register(c, selectors.EVENT_READ, self)
-            return
-        try:
-            data = sock.recv(4096)
-        except OSError:
-            data = b""
-        if not data:
-            self._close(sel, sock)
-            return
-        buf = self.clients[sock]
-        buf += data
-        while b"\n" in buf:
-            line, _, rest = bytes(buf).partition(b"\n")
-            buf[:] = rest
-            reply = self.execute(line.decode("utf-8", "replace").strip())
-            if reply is None:
-                self._close(sel, sock)
-                return
-            try:
-                sock.sendall((reply + "\n").encode())
-            except OSError:
-                self._close(sel, sock)
-                return
-
-    def _close(self, sel: selectors.BaseSelector, sock: socket.socket) -> None:
-        try:
-            sel.unregister(sock)
-        except (KeyError, ValueError):
-            pass
-        self.clients.pop(sock, None)
-        sock.close()
-
-    def execute(self, line: str) -> str | None:
-        """Run one command line; the reply ("OK …" / "ERR …"), None to close the connection."""
-        if not line:
-            return "ERR empty command; try help"
-        targets = self.modules
-        words = line.split()
-        if words[0].startswith("@"):
-            try:
-                i = int(words[0][1:])
-                targets = [self.modules[i]]
-            except (ValueError, IndexError):
-                return f"ERR no module {words[0]} (0..{len(self.modules) - 1})"
-            words = words[1:]
-            if not words:
-                return "ERR missing command after the module"
-        cmd, rest = words[0].lower(), words[1:]
-        if cmd == "help":
-            return CONTROL_HELP + "\nOK"
-        if cmd == "quit":
-            return None
-        if cmd == "status":
-            return "\n".join(f"m{m.index} {m.status_line()}" for m in targets) + "\nOK"
-        try:
-            action = self._action(cmd, rest)
-        except ValueError as exc:
-            return f"ERR {exc}"
-        for m in targets:
-            for link in m.links.values():
-                m.pacer.call(lambda _mod, link=link: action(link)).result(timeout=5.0)
-        return f"OK {' '.join(words)}"
-
-    @staticmethod
-    def _action(cmd: str, rest: list[str]):
-        def number(kind: type) -> Any:
-            if len(rest) != 1:
-                raise ValueError(f"{cmd} takes one number")
-            try:
-                v = kind(rest[0])
-            except ValueError:
-                raise ValueError(f"{cmd}: {rest[0]!r} is not a number") from None
-            if v < 0:
-                raise ValueError(f"{cmd}: must be >= 0")
-            return v
-
-        if cmd == "disconnect" and not rest:
-            return lambda link: link.disconnect()
-        if cmd == "reconnect" and not rest:
-            return lambda link: link.reconnect()
-        if cmd == "stall":
-            s = number(float)
-            return lambda link: link.stall(s)
-        if cmd == "corrupt":
-            n = number(int)
-            return lambda link: link.corrupt_next(n)
-        if cmd == "drop":
-            n = number(int)
-            return lambda link: link.drop_next(n)
-        raise ValueError(f"unknown command {' '.join([cmd, *rest])!r}; try help")
-
-    def close(self) -> None:
-        for c in list(self.clients):
-            c.close()
-        self.clients.clear()
-        self.server.close()
-
-
-# --------------------------------------------------------------------------- trace
-
-
-class TraceWriter:
-    """Moves each module's frame trace to a text file: ``cycles module interface dir note hex``."""
-
-    def __init__(self, path: str, modules: list[ServedModule]):
-        self.file = open(path, "w", encoding="utf-8")  # noqa: SIM115 - closed in close()
-        self.modules = modules
-        self.file.write("# cycles module interface direction note bytes\n")
-
-    def flush(self, stopped: bool = False) -> None:
-        """Write the frames traced so far; *stopped*: the pacers have ended, take them directly."""
-        for m in self.modules:
-            def swap(mod: Module) -> list:
-                entries, mod.trace = mod.trace or [], []
-                return entries
-
-            if stopped:
-                entries = swap(m.module)
-            else:
-                try:
-                    entries = m.pacer.call(swap).result(timeout=5.0)
-                except Exception:  # noqa: BLE001 - the pacer has stopped: take what is left directly
-                    entries = swap(m.module)
-            for e in entries:
-                self.file.write(f"{e.cycles} m{m.index} {e.interface} {e.direction} {e.note} "
-                                f"{e.data.hex(' ').upper()}\n")
-        self.file.flush()
-
-    def close(self) -> None:
-        self.file.close()
 
 
 # --------------------------------------------------------------------------- running

@@ -9,11 +9,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
+from firmware_sim.control import ControlServer
 from firmware_sim.link import make_link
 from firmware_sim.port import IdealPort
 from firmware_sim.sensors.base import ScriptedSource
 from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead, served_source
-from firmware_sim.serve import ControlServer, HostHub, ServedModule, parse_ready, tcp_address
+from firmware_sim.serve import ServedModule, parse_ready, tcp_address
+from firmware_sim.transports.hub import HostHub
 
 
 def test_one_link_fans_out_to_every_connected_host():

@@ -1,0 +1,141 @@
+"""The runtime control channel of ``openshoe-emu serve``: line commands over TCP that
+disconnect, stall or corrupt the running modules' links on demand."""
+
+from __future__ import annotations
+
+import selectors
+import socket
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .serve import ServedModule
+
+CONTROL_HELP = """\
+commands (one per line; prefix with @I to address module I only, e.g. "@1 disconnect"):
+  disconnect       the link goes down (bytes in flight are lost); the host stays attached
+  reconnect        the link comes back
+  stall S          deliver nothing for S seconds of module time, both directions
+  corrupt N        corrupt the next N bytes sent to the host
+  drop N           lose the next N bytes sent to the host
+  status           one status line per module
+  help             this text
+  quit             close this control connection"""
+
+
+class ControlServer:
+    """Line commands over TCP that change the running modules' links (:data:`CONTROL_HELP`)."""
+
+    def __init__(self, modules: list[ServedModule], host: str, port: int):
+        self.modules = modules
+        self.server = socket.create_server((host, port), backlog=4)
+        self.server.setblocking(False)
+        self.address = self.server.getsockname()[:2]
+        self.clients: dict[socket.socket, bytearray] = {}
+
+    def register(self, sel: selectors.BaseSelector) -> None:
+        sel.register(self.server, selectors.EVENT_READ, self)
+
+    def handle(self, sel: selectors.BaseSelector, sock: socket.socket) -> None:
+        if sock is self.server:
+            try:
+                c, _ = self.server.accept()
+            except OSError:
+                return
+            c.setblocking(True)
+            self.clients[c] = bytearray()
+            sel.register(c, selectors.EVENT_READ, self)
+            return
+        try:
+            data = sock.recv(4096)
+        except OSError:
+            data = b""
+        if not data:
+            self._close(sel, sock)
+            return
+        buf = self.clients[sock]
+        buf += data
+        while b"\n" in buf:
+            line, _, rest = bytes(buf).partition(b"\n")
+            buf[:] = rest
+            reply = self.execute(line.decode("utf-8", "replace").strip())
+            if reply is None:
+                self._close(sel, sock)
+                return
+            try:
+                sock.sendall((reply + "\n").encode())
+            except OSError:
+                self._close(sel, sock)
+                return
+
+    def _close(self, sel: selectors.BaseSelector, sock: socket.socket) -> None:
+        try:
+            sel.unregister(sock)
+        except (KeyError, ValueError):
+            pass
+        self.clients.pop(sock, None)
+        sock.close()
+
+    def execute(self, line: str) -> str | None:
+        """Run one command line; the reply ("OK …" / "ERR …"), None to close the connection."""
+        if not line:
+            return "ERR empty command; try help"
+        targets = self.modules
+        words = line.split()
+        if words[0].startswith("@"):
+            try:
+                i = int(words[0][1:])
+                targets = [self.modules[i]]
+            except (ValueError, IndexError):
+                return f"ERR no module {words[0]} (0..{len(self.modules) - 1})"
+            words = words[1:]
+            if not words:
+                return "ERR missing command after the module"
+        cmd, rest = words[0].lower(), words[1:]
+        if cmd == "help":
+            return CONTROL_HELP + "\nOK"
+        if cmd == "quit":
+            return None
+        if cmd == "status":
+            return "\n".join(f"m{m.index} {m.status_line()}" for m in targets) + "\nOK"
+        try:
+            action = self._action(cmd, rest)
+        except ValueError as exc:
+            return f"ERR {exc}"
+        for m in targets:
+            for link in m.links.values():
+                m.pacer.call(lambda _mod, link=link: action(link)).result(timeout=5.0)
+        return f"OK {' '.join(words)}"
+
+    @staticmethod
+    def _action(cmd: str, rest: list[str]):
+        def number(kind: type) -> Any:
+            if len(rest) != 1:
+                raise ValueError(f"{cmd} takes one number")
+            try:
+                v = kind(rest[0])
+            except ValueError:
+                raise ValueError(f"{cmd}: {rest[0]!r} is not a number") from None
+            if v < 0:
+                raise ValueError(f"{cmd}: must be >= 0")
+            return v
+
+        if cmd == "disconnect" and not rest:
+            return lambda link: link.disconnect()
+        if cmd == "reconnect" and not rest:
+            return lambda link: link.reconnect()
+        if cmd == "stall":
+            s = number(float)
+            return lambda link: link.stall(s)
+        if cmd == "corrupt":
+            n = number(int)
+            return lambda link: link.corrupt_next(n)
+        if cmd == "drop":
+            n = number(int)
+            return lambda link: link.drop_next(n)
+        raise ValueError(f"unknown command {' '.join([cmd, *rest])!r}; try help")
+
+    def close(self) -> None:
+        for c in list(self.clients):
+            c.close()
+        self.clients.clear()
+        self.server.close()
