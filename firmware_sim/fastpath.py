@@ -39,10 +39,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from protocol.ids import NR_IMUS, ProcId, StateId
+from protocol.ids import MAX_IMU_IDS, NR_IMUS, ProcId, StateId
+from protocol.states import STATES
 
 from . import frontend, inertial, ins, utility
 from . import nav_config as cfg
+from .memory import Arena, StateMemory
 from .port import IdealPort
 from .sequence import PROCESSING_FUNCTIONS
 
@@ -158,6 +160,177 @@ _RESET_MASK = np.ascontiguousarray(ins._RESET_MASK, dtype=np.bool_)
 _INT32_MIN = -0x80000000
 _ALIGN_N = cfg.ALIGNMENT_SAMPLES
 
+
+
+# ---------------------------------------------------------------------------------------------
+# one-argument access: the module's state arena and the functions' work arena
+
+#: Byte offsets of the states in every StateMemory's arena (the layout is fixed by the state table).
+_MEM_OFFSETS = StateMemory().offsets
+_MEM_BLOCKS = StateMemory().block_offsets
+#: The per-sample work arrays of READ_INERTIAL, the front end and the INS the kernel uses,
+#: re-homed into one arena per module by FastNav (group, attribute, dtype, shape).
+_WORK_ITEMS = [
+    ("fe", "cal", np.int32, (NR_IMUS, 2, 3, 3)), ("fe", "bias", np.int32, (6,)),
+    ("fe", "buf32", np.int32, (cfg.N, 6)), ("fe", "buf16", np.int16, (cfg.N, 6)),
+    ("fe", "norm", np.uint32, (cfg.N, 2)), ("fe", "ts", np.uint32, (cfg.N,)),
+    ("fe", "newest", np.int32, (1,)), ("fe", "zaru_ab", np.int32, (6,)), ("fe", "zaru_cd", np.uint32, (4,)),
+    ("fe", "zupt_a", np.int32, (3,)), ("fe", "zupt_cd", np.uint32, (4,)),
+    ("fe", "gyro_bias", np.float32, (3,)), ("fe", "bias_p", np.float32, (1,)),
+    ("fe", "t_prev", np.uint32, (1,)),
+    ("ins", "f_n", np.float32, (3,)), ("ins", "t_since_reset", np.float32, (1,)),
+    ("ins", "t_pending", np.float32, (1,)), ("ins", "pending", np.bool_, (1,)),
+    ("ins", "align_sum", np.float32, (3,)), ("ins", "align_count", np.int32, (1,)),
+    ("in", "prev_acc", np.int16, (NR_IMUS, 3)), ("in", "have_prev", np.bool_, (1,)),
+    ("fp", "scratch", np.float32, (27, 9)),
+]
+_WORK_OFFSETS = Arena([((g, a), dt, sh) for g, a, dt, sh in _WORK_ITEMS]).offsets
+_WORK_END = {(g, a): _WORK_OFFSETS[(g, a)] + np.dtype(dt).itemsize * int(np.prod(sh))
+             for g, a, dt, sh in _WORK_ITEMS}
+_O_IMU_RAW = _MEM_BLOCKS["imu_raw"]
+_O_IMU_RAW_END = _O_IMU_RAW + 2 * 6 * MAX_IMU_IDS
+_W_PREV_ACC = _WORK_OFFSETS[("in", "prev_acc")]
+_W_PREV_ACC_END = _WORK_END[("in", "prev_acc")]
+_W_HAVE_PREV = _WORK_OFFSETS[("in", "have_prev")]
+_W_HAVE_PREV_END = _WORK_END[("in", "have_prev")]
+_O_IMU_TS = _MEM_OFFSETS[StateId.IMU_TS]
+_O_IMU_TS_END = _O_IMU_TS + STATES[StateId.IMU_TS].size
+_W_CAL = _WORK_OFFSETS[("fe", "cal")]
+_W_CAL_END = _WORK_END[("fe", "cal")]
+_W_BIAS = _WORK_OFFSETS[("fe", "bias")]
+_W_BIAS_END = _WORK_END[("fe", "bias")]
+_W_BUF32 = _WORK_OFFSETS[("fe", "buf32")]
+_W_BUF32_END = _WORK_END[("fe", "buf32")]
+_W_BUF16 = _WORK_OFFSETS[("fe", "buf16")]
+_W_BUF16_END = _WORK_END[("fe", "buf16")]
+_W_NORM = _WORK_OFFSETS[("fe", "norm")]
+_W_NORM_END = _WORK_END[("fe", "norm")]
+_W_TS = _WORK_OFFSETS[("fe", "ts")]
+_W_TS_END = _WORK_END[("fe", "ts")]
+_W_NEWEST = _WORK_OFFSETS[("fe", "newest")]
+_W_NEWEST_END = _WORK_END[("fe", "newest")]
+_W_ZARU_AB = _WORK_OFFSETS[("fe", "zaru_ab")]
+_W_ZARU_AB_END = _WORK_END[("fe", "zaru_ab")]
+_W_ZARU_CD = _WORK_OFFSETS[("fe", "zaru_cd")]
+_W_ZARU_CD_END = _WORK_END[("fe", "zaru_cd")]
+_W_ZUPT_A = _WORK_OFFSETS[("fe", "zupt_a")]
+_W_ZUPT_A_END = _WORK_END[("fe", "zupt_a")]
+_W_ZUPT_CD = _WORK_OFFSETS[("fe", "zupt_cd")]
+_W_ZUPT_CD_END = _WORK_END[("fe", "zupt_cd")]
+_W_GYRO_BIAS = _WORK_OFFSETS[("fe", "gyro_bias")]
+_W_GYRO_BIAS_END = _WORK_END[("fe", "gyro_bias")]
+_W_BIAS_P = _WORK_OFFSETS[("fe", "bias_p")]
+_W_BIAS_P_END = _WORK_END[("fe", "bias_p")]
+_W_T_PREV = _WORK_OFFSETS[("fe", "t_prev")]
+_W_T_PREV_END = _WORK_END[("fe", "t_prev")]
+_O_U_NEW = _MEM_OFFSETS[StateId.U_NEW]
+_O_U_NEW_END = _O_U_NEW + STATES[StateId.U_NEW].size
+_O_U_K = _MEM_OFFSETS[StateId.U_K]
+_O_U_K_END = _O_U_K + STATES[StateId.U_K].size
+_O_U_INT_K = _MEM_OFFSETS[StateId.U_INT_K]
+_O_U_INT_K_END = _O_U_INT_K + STATES[StateId.U_INT_K].size
+_O_T_INT_K = _MEM_OFFSETS[StateId.T_INT_K]
+_O_T_INT_K_END = _O_T_INT_K + STATES[StateId.T_INT_K].size
+_O_DT_S = _MEM_OFFSETS[StateId.DT]
+_O_DT_S_END = _O_DT_S + STATES[StateId.DT].size
+_O_T1_S = _MEM_OFFSETS[StateId.T1S2F]
+_O_T1_S_END = _O_T1_S + STATES[StateId.T1S2F].size
+_O_T2_S = _MEM_OFFSETS[StateId.T2S2F]
+_O_T2_S_END = _O_T2_S + STATES[StateId.T2S2F].size
+_O_ZUPT_S = _MEM_OFFSETS[StateId.ZUPT]
+_O_ZUPT_S_END = _O_ZUPT_S + STATES[StateId.ZUPT].size
+_O_ZARU_S = _MEM_OFFSETS[StateId.ZARU]
+_O_ZARU_S_END = _O_ZARU_S + STATES[StateId.ZARU].size
+_O_TH_ZUPT = _MEM_OFFSETS[StateId.TH_ZUPT]
+_O_TH_ZUPT_END = _O_TH_ZUPT + STATES[StateId.TH_ZUPT].size
+_O_TH_ZARU = _MEM_OFFSETS[StateId.TH_ZARU]
+_O_TH_ZARU_END = _O_TH_ZARU + STATES[StateId.TH_ZARU].size
+_O_POS = _MEM_OFFSETS[StateId.POSITION]
+_O_POS_END = _O_POS + STATES[StateId.POSITION].size
+_O_VEL = _MEM_OFFSETS[StateId.VELOCITY]
+_O_VEL_END = _O_VEL + STATES[StateId.VELOCITY].size
+_O_QUAT = _MEM_OFFSETS[StateId.QUATERNION]
+_O_QUAT_END = _O_QUAT + STATES[StateId.QUATERNION].size
+_O_P45 = _MEM_OFFSETS[StateId.P]
+_O_P45_END = _O_P45 + STATES[StateId.P].size
+_O_DX_OUT = _MEM_OFFSETS[StateId.DX]
+_O_DX_OUT_END = _O_DX_OUT + STATES[StateId.DX].size
+_O_DP_OUT = _MEM_OFFSETS[StateId.DP]
+_O_DP_OUT_END = _O_DP_OUT + STATES[StateId.DP].size
+_O_STEP_COUNTER = _MEM_OFFSETS[StateId.STEP_COUNTER]
+_O_STEP_COUNTER_END = _O_STEP_COUNTER + STATES[StateId.STEP_COUNTER].size
+_O_RESET_FLAG = _MEM_OFFSETS[StateId.FILTER_RESET_FLAG]
+_O_RESET_FLAG_END = _O_RESET_FLAG + STATES[StateId.FILTER_RESET_FLAG].size
+_W_F_N = _WORK_OFFSETS[("ins", "f_n")]
+_W_F_N_END = _WORK_END[("ins", "f_n")]
+_W_T_SINCE = _WORK_OFFSETS[("ins", "t_since_reset")]
+_W_T_SINCE_END = _WORK_END[("ins", "t_since_reset")]
+_W_T_PENDING = _WORK_OFFSETS[("ins", "t_pending")]
+_W_T_PENDING_END = _WORK_END[("ins", "t_pending")]
+_W_PENDING = _WORK_OFFSETS[("ins", "pending")]
+_W_PENDING_END = _WORK_END[("ins", "pending")]
+_W_ALIGN_SUM = _WORK_OFFSETS[("ins", "align_sum")]
+_W_ALIGN_SUM_END = _WORK_END[("ins", "align_sum")]
+_W_ALIGN_COUNT = _WORK_OFFSETS[("ins", "align_count")]
+_W_ALIGN_COUNT_END = _WORK_END[("ins", "align_count")]
+_W_SCRATCH = _WORK_OFFSETS[("fp", "scratch")]
+_W_SCRATCH_END = _WORK_END[("fp", "scratch")]
+
+
+def _run(n, do_read, mode, imu, start_cycles, period, ts_off, mem, work):
+    """:func:`_run_arrays` on a module's state arena *mem* and work arena *work* (few arguments:
+    a compiled call costs a few µs instead of ~17 with every array passed on its own)."""
+    imu_raw = mem[_O_IMU_RAW:_O_IMU_RAW_END].view(np.int16).reshape((MAX_IMU_IDS, 6))
+    prev_acc = work[_W_PREV_ACC:_W_PREV_ACC_END].view(np.int16).reshape((4, 3))
+    have_prev = work[_W_HAVE_PREV:_W_HAVE_PREV_END].view(np.bool_)
+    imu_ts = mem[_O_IMU_TS:_O_IMU_TS_END].view(np.uint32)
+    cal = work[_W_CAL:_W_CAL_END].view(np.int32).reshape((4, 2, 3, 3))
+    bias = work[_W_BIAS:_W_BIAS_END].view(np.int32)
+    buf32 = work[_W_BUF32:_W_BUF32_END].view(np.int32).reshape((_N, 6))
+    buf16 = work[_W_BUF16:_W_BUF16_END].view(np.int16).reshape((_N, 6))
+    norm = work[_W_NORM:_W_NORM_END].view(np.uint32).reshape((_N, 2))
+    tsbuf = work[_W_TS:_W_TS_END].view(np.uint32)
+    newest = work[_W_NEWEST:_W_NEWEST_END].view(np.int32)
+    zaru_ab = work[_W_ZARU_AB:_W_ZARU_AB_END].view(np.int32)
+    zaru_cd = work[_W_ZARU_CD:_W_ZARU_CD_END].view(np.uint32)
+    zupt_a = work[_W_ZUPT_A:_W_ZUPT_A_END].view(np.int32)
+    zupt_cd = work[_W_ZUPT_CD:_W_ZUPT_CD_END].view(np.uint32)
+    gyro_bias = work[_W_GYRO_BIAS:_W_GYRO_BIAS_END].view(np.float32)
+    bias_p = work[_W_BIAS_P:_W_BIAS_P_END].view(np.float32)
+    t_prev = work[_W_T_PREV:_W_T_PREV_END].view(np.uint32)
+    u_new = mem[_O_U_NEW:_O_U_NEW_END].view(np.int32)
+    u_k = mem[_O_U_K:_O_U_K_END].view(np.float32)
+    u_int_k = mem[_O_U_INT_K:_O_U_INT_K_END].view(np.int32)
+    t_int_k = mem[_O_T_INT_K:_O_T_INT_K_END].view(np.uint32)
+    dt_s = mem[_O_DT_S:_O_DT_S_END].view(np.float32)
+    t1_s = mem[_O_T1_S:_O_T1_S_END].view(np.uint32)
+    t2_s = mem[_O_T2_S:_O_T2_S_END].view(np.uint32)
+    zupt_s = mem[_O_ZUPT_S:_O_ZUPT_S_END].view(np.bool_)
+    zaru_s = mem[_O_ZARU_S:_O_ZARU_S_END].view(np.bool_)
+    th_zupt = mem[_O_TH_ZUPT:_O_TH_ZUPT_END].view(np.uint32)
+    th_zaru = mem[_O_TH_ZARU:_O_TH_ZARU_END].view(np.uint32)
+    pos = mem[_O_POS:_O_POS_END].view(np.float32)
+    vel = mem[_O_VEL:_O_VEL_END].view(np.float32)
+    quat = mem[_O_QUAT:_O_QUAT_END].view(np.float32)
+    p45 = mem[_O_P45:_O_P45_END].view(np.float32)
+    dx_out = mem[_O_DX_OUT:_O_DX_OUT_END].view(np.float32)
+    dp_out = mem[_O_DP_OUT:_O_DP_OUT_END].view(np.float32)
+    step_counter = mem[_O_STEP_COUNTER:_O_STEP_COUNTER_END].view(np.uint16)
+    reset_flag = mem[_O_RESET_FLAG:_O_RESET_FLAG_END].view(np.bool_)
+    f_n = work[_W_F_N:_W_F_N_END].view(np.float32)
+    t_since = work[_W_T_SINCE:_W_T_SINCE_END].view(np.float32)
+    t_pending = work[_W_T_PENDING:_W_T_PENDING_END].view(np.float32)
+    pending = work[_W_PENDING:_W_PENDING_END].view(np.bool_)
+    align_sum = work[_W_ALIGN_SUM:_W_ALIGN_SUM_END].view(np.float32)
+    align_count = work[_W_ALIGN_COUNT:_W_ALIGN_COUNT_END].view(np.int32)
+    scratch = work[_W_SCRATCH:_W_SCRATCH_END].view(np.float32).reshape((27, 9))
+    return _run_arrays(n, do_read, mode, imu, start_cycles, period, ts_off,
+                       imu_raw, prev_acc, have_prev, imu_ts, cal, bias, buf32, buf16,
+                       norm, tsbuf, newest, zaru_ab, zaru_cd, zupt_a, zupt_cd, gyro_bias,
+                       bias_p, t_prev, u_new, u_k, u_int_k, t_int_k, dt_s, t1_s,
+                       t2_s, zupt_s, zaru_s, th_zupt, th_zaru, pos, vel, quat,
+                       p45, dx_out, dp_out, step_counter, reset_flag, f_n, t_since, t_pending,
+                       pending, align_sum, align_count, scratch)
 
 def _i32(x):
     return ((x + 0x80000000) & 0xFFFFFFFF) - 0x80000000
@@ -355,13 +528,13 @@ def _atan2f(y, x):
     return np.float32(math.atan2(np.float64(y), np.float64(x)))
 
 
-def _run(n, do_read, mode, imu, start_cycles, period, ts_off,
-         imu_raw, prev_acc, have_prev, imu_ts,
-         cal, bias, buf32, buf16, norm, tsbuf, newest, zaru_ab, zaru_cd, zupt_a, zupt_cd,
-         gyro_bias, bias_p, t_prev,
-         u_new, u_k, u_int_k, t_int_k, dt_s, t1_s, t2_s, zupt_s, zaru_s, th_zupt, th_zaru,
-         pos, vel, quat, p45, dx_out, dp_out, step_counter, reset_flag,
-         f_n, t_since, t_pending, pending, align_sum, align_count, scratch):
+def _run_arrays(n, do_read, mode, imu, start_cycles, period, ts_off,
+                imu_raw, prev_acc, have_prev, imu_ts,
+                cal, bias, buf32, buf16, norm, tsbuf, newest, zaru_ab, zaru_cd, zupt_a, zupt_cd,
+                gyro_bias, bias_p, t_prev,
+                u_new, u_k, u_int_k, t_int_k, dt_s, t1_s, t2_s, zupt_s, zaru_s, th_zupt, th_zaru,
+                pos, vel, quat, p45, dx_out, dp_out, step_counter, reset_flag,
+                f_n, t_since, t_pending, pending, align_sum, align_count, scratch):
     """Slots 0–8 of the tracking sequence for up to *n* loops; stops after a loop with a reset.
 
     With *do_read* the loop reads ``imu[i]`` (READ_INERTIAL, timestamp
@@ -677,16 +850,12 @@ if numba is not None:
     _sinf = _jit(_sinf)
     _cosf = _jit(_cosf)
     _atan2f = _jit(_atan2f)
+    _run_arrays = _jit(_run_arrays)
     _run = _jit(_run)
 
 
 # ---------------------------------------------------------------------------------------------
 # binding to one module
-
-
-def _one(a: np.ndarray) -> np.ndarray:
-    """A 1-element view of a scalar (0-d) state."""
-    return a.reshape(1)
 
 
 class FastNav:
@@ -698,23 +867,29 @@ class FastNav:
         iw = ins.ins_work(module)
         iwk = module.work("inertial", inertial._work)
         self._empty_imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
-        self._scratch = np.zeros((27, 9), dtype=np.float32)
+        # the kernel's work arrays move into one arena (values kept; the functions look
+        # their arrays up on every call, so they use the new homes from now on)
+        arena = Arena([((g, a), dt, sh) for g, a, dt, sh in _WORK_ITEMS])
+        owners = {"fe": fw, "ins": iw, "in": iwk, "fp": None}
+        for g, a, dt, sh in _WORK_ITEMS:
+            view = arena.views[(g, a)]
+            owner = owners[g]
+            if owner is None:
+                continue
+            old = owner[a] if isinstance(owner, dict) else getattr(owner, a)
+            if old.dtype != np.dtype(dt) or old.shape != sh:
+                raise TypeError(f"work array {g}.{a} is {old.dtype} {old.shape}, "
+                                f"the kernel expects {np.dtype(dt)} {sh}")
+            view[...] = old
+            if isinstance(owner, dict):
+                owner[a] = view
+            else:
+                setattr(owner, a, view)
+        self._scratch = arena.views[("fp", "scratch")]
         self._cond_keys = _WRITTEN
-        #: Arguments after (n, do_read, imu, start, period, ts_off): the module's live arrays.
-        self.arrays: tuple[Any, ...] = (
-            mem.imu_raw, iwk["prev_acc"], iwk["have_prev"], _one(mem[StateId.IMU_TS]),
-            fw.cal, fw.bias, fw.buf32, fw.buf16, fw.norm, fw.ts, fw.newest, fw.zaru_ab, fw.zaru_cd,
-            fw.zupt_a, fw.zupt_cd, fw.gyro_bias, fw.bias_p, fw.t_prev,
-            mem[StateId.U_NEW], mem[StateId.U_K], mem[StateId.U_INT_K], _one(mem[StateId.T_INT_K]),
-            _one(mem[StateId.DT]), _one(mem[StateId.T1S2F]), _one(mem[StateId.T2S2F]),
-            _one(mem[StateId.ZUPT]), _one(mem[StateId.ZARU]), _one(mem[StateId.TH_ZUPT]),
-            _one(mem[StateId.TH_ZARU]),
-            mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
-            mem[StateId.DX], mem[StateId.DP], _one(mem[StateId.STEP_COUNTER]),
-            _one(mem[StateId.FILTER_RESET_FLAG]),
-            iw.f_n, iw.t_since_reset, iw.t_pending, iw.pending, iw.align_sum, iw.align_count,
-            self._scratch,
-        )
+        self.work_arena = arena.buf
+        #: Arguments after (n, do_read, mode, imu, start, period, ts_off): the two arenas.
+        self.arrays: tuple[Any, ...] = (mem.arena, arena.buf)
         self._ids = [p for p in TRACKING_SLOTS if p]
         self._costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call for p in self._ids]
         self.seq_cycles = sum(self._costs)

@@ -36,29 +36,87 @@ MCU_ID_LEN = 15
 DEFAULT_MCU_SERIAL = b"OPENSHOE-EMU-01"
 
 
+class Arena:
+    """Typed arrays carved out of one zeroed byte buffer (8-byte aligned), so a compiled
+    kernel can take a whole set of them as one argument: ``buf[offsets[key]:…].view(dtype)``.
+
+    *items* are ``(key, dtype, shape)``; ``views[key]`` is the array, ``offsets[key]`` its byte offset.
+    """
+
+    def __init__(self, items: list[tuple[object, np.dtype | type, tuple[int, ...]]]):
+        offsets: dict[object, int] = {}
+        total = 0
+        specs = []
+        for key, dtype, shape in items:
+            dt = np.dtype(dtype)
+            nbytes = dt.itemsize * int(np.prod(shape, dtype=np.int64))
+            offsets[key] = total
+            specs.append((key, dt, shape, total, nbytes))
+            total += (nbytes + 7) & ~7
+        self.buf = np.zeros(max(total, 8), dtype=np.uint8)
+        self.offsets = offsets
+        self.views: dict[object, np.ndarray] = {
+            key: self.buf[o:o + n].view(dt).reshape(shape) for key, dt, shape, o, n in specs}
+
+    def __repr__(self) -> str:
+        return f"Arena({len(self.views)} arrays, {len(self.buf)} B)"
+
+
+_BLOCKS = (("imu_raw", np.int16, (MAX_IMU_IDS, 6)), ("imu_temp", np.int16, (MAX_IMU_IDS,)),
+           ("imu_mag", np.int16, (MAX_IMU_IDS, 3)), ("ps_dt", np.uint32, (NR_SLOTS,)))
+
+
+_BLOCK_RANGES = ((IMU_RAW_BASE, MAX_IMU_IDS), (IMU_TEMP_BASE, MAX_IMU_IDS), (IMU_MAG_BASE, MAX_IMU_IDS),
+                 (PS_DT_BASE, NR_SLOTS))
+
+
+def _in_block(sid: int) -> bool:
+    return any(base <= sid < base + n for base, n in _BLOCK_RANGES)
+
+
 class StateMemory:
-    """Live state memory of one module; ``memory[state_id]`` is the array."""
+    """Live state memory of one module; ``memory[state_id]`` is the array.
+
+    Every state lives in one byte arena (``memory.arena``, byte offset of state *id* in
+    ``memory.offsets[id]``, the same layout in every module) so the compiled path
+    reaches all of them through one argument.
+    """
 
     def __init__(self, mcu_serial: bytes = DEFAULT_MCU_SERIAL):
-        self.imu_raw = np.zeros((MAX_IMU_IDS, 6), dtype=np.int16)
-        self.imu_temp = np.zeros(MAX_IMU_IDS, dtype=np.int16)
-        self.imu_mag = np.zeros((MAX_IMU_IDS, 3), dtype=np.int16)
-        self.ps_dt = np.zeros(NR_SLOTS, dtype=np.uint32)
+        arena = Arena([*_BLOCKS, *((sid, spec.native_dtype, spec.shape) for sid, spec in STATES.items()
+                                   if not _in_block(sid))])
+        #: The bytes behind every state (see the class doc).
+        self.arena = arena.buf
+        self.imu_raw = arena.views["imu_raw"]
+        self.imu_temp = arena.views["imu_temp"]
+        self.imu_mag = arena.views["imu_mag"]
+        self.ps_dt = arena.views["ps_dt"]
         arrays: list[np.ndarray | None] = [None] * STATE_ID_LIMIT
+        offsets: dict[int, int] = {}
         for sid, spec in STATES.items():
             if IMU_RAW_BASE <= sid < IMU_RAW_BASE + MAX_IMU_IDS:
                 a = self.imu_raw[sid - IMU_RAW_BASE]
+                off = arena.offsets["imu_raw"] + (sid - IMU_RAW_BASE) * 12
             elif IMU_TEMP_BASE <= sid < IMU_TEMP_BASE + MAX_IMU_IDS:
                 a = self.imu_temp[sid - IMU_TEMP_BASE: sid - IMU_TEMP_BASE + 1].reshape(())
+                off = arena.offsets["imu_temp"] + (sid - IMU_TEMP_BASE) * 2
             elif IMU_MAG_BASE <= sid < IMU_MAG_BASE + MAX_IMU_IDS:
                 a = self.imu_mag[sid - IMU_MAG_BASE]
+                off = arena.offsets["imu_mag"] + (sid - IMU_MAG_BASE) * 6
             elif PS_DT_BASE <= sid < PS_DT_BASE + NR_SLOTS:
                 a = self.ps_dt[sid - PS_DT_BASE: sid - PS_DT_BASE + 1].reshape(())
+                off = arena.offsets["ps_dt"] + (sid - PS_DT_BASE) * 4
             else:
-                a = np.zeros(spec.shape, dtype=spec.native_dtype)
+                a = arena.views[sid]
+                off = arena.offsets[sid]
             assert a.dtype == spec.native_dtype and a.shape == spec.shape, spec
             arrays[sid] = a
+            offsets[sid] = off
         self._arrays = arrays
+        #: Byte offset of every state in :attr:`arena`.
+        self.offsets = offsets
+        #: Byte offsets of the blocks imu_raw, imu_temp, imu_mag, ps_dt in :attr:`arena`.
+        self.block_offsets = {k: arena.offsets[k] for k, _, _ in _BLOCKS}
         self._specs: list[StateSpec | None] = [STATES.get(i) for i in range(STATE_ID_LIMIT)]
         #: Wire size of every id (0 = no state), indexable by any byte value.
         self.sizes: list[int] = [(s.size if s is not None else 0) for s in self._specs] + [0] * (
