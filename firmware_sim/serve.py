@@ -32,6 +32,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from protocol.frames import build_command
+from protocol.ids import Command
+
 from .control import ControlServer
 from .link import Link, LinkFaults, make_link
 from .module import Module, ModuleConfig
@@ -46,6 +49,9 @@ from .transports.rfc2217 import Rfc2217Endpoint
 from .transports.tcp import TcpEndpoint
 
 # --------------------------------------------------------------------------- options
+
+#: Loop cycles of the warm-up: alignment (256 still samples + the detector's delay), then tracking.
+WARM_UP_TICKS = 1000
 
 
 def _host_port(text: str, what: str) -> tuple[str, int]:
@@ -249,6 +255,7 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         except (OSError, ValueError) as exc:
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
+        warm_up()
         for m in modules:
             m.pacer.start()
         fields = [f"{k}={v}" for m in modules for k, v in m.ready]
@@ -298,6 +305,18 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
             signal.signal(sig, h)
     print("\nSTOPPED" if getattr(err, "isatty", lambda: False)() else "STOPPED", file=err, flush=True)
     return status
+
+
+def warm_up() -> None:
+    """Run a scratch module through alignment into step-wise tracking before READY.
+
+    With numba the tracking sequence is compiled on its first use (or loaded from
+    numba's cache); doing that here keeps a several-second compile out of the
+    real-time loop, where it would hold up the first host's commands and acks.
+    """
+    scratch = Module(ModuleConfig())
+    scratch.bt.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
+    scratch.run(WARM_UP_TICKS)
 
 
 def main(args: argparse.Namespace) -> int:
