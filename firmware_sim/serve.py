@@ -1,7 +1,9 @@
 """`openshoe-emu serve`: emulated modules in real time on a pty and/or TCP, for any host app.
 
-One module (or ``--modules N``) runs paced to the wall clock (× ``--speed``)
-by :class:`~firmware_sim.transports.pacer.Pacer`; its Bluetooth interface (or
+One module (or ``--modules N``) runs paced to the wall clock (× ``--speed``):
+each is a :class:`~firmware_sim.transports.pacer.Pacer`, and all of a process's
+modules run in one loop and one thread (a :class:`~firmware_sim.transports.pacer.MultiPacer`,
+so they do not fight over the GIL). Its Bluetooth interface (or
 USB, ``--interface usb``) is reachable on a pty with a stable path (``--pty``)
 and/or a TCP port (``--tcp``); ``--usb-pty``/``--usb-tcp`` also expose the
 other interface. A pty and a TCP port on the same interface share its link
@@ -21,6 +23,7 @@ exit with status 0.
 from __future__ import annotations
 
 import argparse
+import gc
 import os
 import selectors
 import signal
@@ -43,7 +46,7 @@ from .sensors.playback import served_source
 from .trace import TraceWriter
 from .transports.factory import make_sensors
 from .transports.hub import HostHub
-from .transports.pacer import Pacer
+from .transports.pacer import MultiPacer, Pacer
 from .transports.pty import PtyEndpoint
 from .transports.rfc2217 import Rfc2217Endpoint
 from .transports.tcp import TcpEndpoint
@@ -235,6 +238,7 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         return 2
     stop = stop if stop is not None else threading.Event()
     modules: list[ServedModule] = []
+    loop: MultiPacer | None = None
     control: ControlServer | None = None
     trace: TraceWriter | None = None
     old_handlers = {}
@@ -255,9 +259,11 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         except (OSError, ValueError) as exc:
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
+        loop = MultiPacer([m.pacer for m in modules])
         warm_up()
-        for m in modules:
-            m.pacer.start()
+        gc.collect()
+        gc.freeze()  # what exists now is never scanned again: no long collections in the loop
+        loop.start()
         fields = [f"{k}={v}" for m in modules for k, v in m.ready]
         if control is not None:
             fields.append(f"control={control.address[0]}:{control.address[1]}")
@@ -287,12 +293,13 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
             if trace is not None:
                 trace.flush()
     finally:
-        for m in modules:
+        if loop is not None:
             try:
-                m.pacer.stop()
+                loop.stop()
             except RuntimeError as exc:
                 print(f"openshoe-emu serve: {exc}", file=err)
                 status = 1
+        for m in modules:
             for ep in m.endpoints:  # the pacer closes them when its loop ends; never started → here
                 ep.close()
         if control is not None:

@@ -1,20 +1,31 @@
-"""Real-time pacing: run a module's ticks against the wall clock and pump transports.
+"""Real-time pacing: run modules' ticks against the wall clock and pump transports.
 
-One loop (in one thread) owns the module and every endpoint, so nothing needs a
-lock except the control queue (:meth:`Pacer.call`) and the status snapshot.
-Each tick is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
-— never before, so the module is never ahead of real time. A tick that starts
-more than one tick period late counts as an *overrun* (the host machine was
-too slow); the ticks still all run (virtual time never skips), back to back,
-until the loop has caught up. If it falls more than ``max_lag_s`` behind, the
-schedule is moved forward (counted in ``rebases``) instead of racing to catch
-up. ``speed`` = 1 is real time, 10 is ten times faster, 0 (or ``inf``) as fast
-as the CPU allows (endpoints are then pumped every ``asap_pump_ticks`` ticks).
+One loop (in one thread) owns the modules and every endpoint, so nothing needs
+a lock except the control queues (:meth:`Pacer.call`) and the status snapshots.
+A :class:`Pacer` is one module with its endpoints; run alone it has a loop of
+its own, and a :class:`MultiPacer` runs many of them — every module of a
+``serve`` process — in one loop and one thread (one thread per module would
+make them fight over the GIL).
+
+Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
+— never before, so no module is ever ahead of real time; in a multi-pacer the
+modules take their tick one after the other. A module whose tick starts more
+than one tick period after the deadline counts an *overrun* (the host machine
+was too slow); the ticks still all run (virtual time never skips), back to
+back, until the loop has caught up. If it falls more than ``max_lag_s`` behind,
+the schedule is moved forward (counted in ``rebases``) instead of racing to
+catch up. ``speed`` = 1 is real time, 10 is ten times faster, 0 (or ``inf``) as
+fast as the CPU allows (endpoints are then pumped every ``asap_pump_ticks`` ticks).
 
 Endpoints (TCP server, pty, in-process queues) implement ``pump()`` (move bytes
 between the host and their port, connect/disconnect the port as hosts come
 and go; non-blocking), optional ``fds`` (file descriptors worth waking up for)
-and ``close()``.
+and ``close()``. A lone pacer pumps every endpoint on every pass of its loop. A
+multi-pacer pumps an endpoint only when one of its fds is readable, when its
+port has bytes for the host (``port.host_pending()``; a port without it counts
+as always pending), or when ``idle_pump_s`` passed since its last pump (to
+notice a host that comes or goes without a readable fd) — so a quiet module
+costs its tick and nothing else.
 """
 
 from __future__ import annotations
@@ -33,7 +44,7 @@ from ..module import Module
 
 
 class Endpoint(Protocol):
-    """A host-facing transport the pacer pumps once per loop iteration."""
+    """A host-facing transport the pacer pumps."""
 
     def pump(self) -> None: ...
 
@@ -42,7 +53,7 @@ class Endpoint(Protocol):
 
 @dataclass
 class PacerStatus:
-    """A snapshot of the real-time loop, for a live status line."""
+    """A snapshot of one module's real-time loop, for a live status line."""
 
     running: bool
     speed: float
@@ -72,47 +83,50 @@ class PacerStatus:
         return asdict(self)
 
 
+def _check_speed(speed: float) -> None:
+    if speed < 0 or math.isnan(speed):
+        raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {speed}")
+
+
 class Pacer:
-    """Runs *module* paced to the wall clock (× *speed*), pumping *endpoints*."""
+    """Runs *module* paced to the wall clock (× *speed*), pumping *endpoints*.
+
+    Alone (:meth:`start`, :meth:`run`) it has a loop of its own; handed to a
+    :class:`MultiPacer` it is one module of that loop, and keeps its own
+    counters, status and control queue (:meth:`call`)."""
 
     def __init__(self, module: Module, endpoints: Iterable[Endpoint] = (), speed: float = 1.0,
                  max_lag_s: float = 0.25, asap_pump_ticks: int = 10):
-        if speed < 0 or math.isnan(speed):
-            raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {speed}")
+        _check_speed(speed)
         self.module = module
         self.endpoints: list[Endpoint] = list(endpoints)
         self.speed = speed
         self.max_lag_s = max_lag_s
         self.asap_pump_ticks = asap_pump_ticks
         self._controls: queue.SimpleQueue[tuple[Callable[[Module], Any], Future]] = queue.SimpleQueue()
-        self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
         self.ticks = 0
         self.overruns = 0
         self.rebases = 0
         self._lag = 0.0
         self._busy = 0.0
         self._busy_max = 0.0
-        self._t_start = 0.0
-        self._running = False
-        self.error: BaseException | None = None
+        self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
+        self._group = MultiPacer([self], idle_pump_s=0.0)
+
+    @property
+    def group(self) -> MultiPacer:
+        """The loop this module runs in (its own, or a shared :class:`MultiPacer`)."""
+        return self._group
 
     # ------------------------------------------------------------------ control
     def start(self) -> Pacer:
         """Run the loop in a background thread (daemon)."""
-        if self._thread is not None:
-            raise RuntimeError("pacer already started")
-        self._thread = threading.Thread(target=self.run, name="openshoe-pacer", daemon=True)
-        self._thread.start()
+        self._group.start()
         return self
 
     def stop(self, timeout: float = 5.0) -> None:
-        """Stop the loop, close the endpoints, join the thread."""
-        self._stop.set()
-        if self._thread is not None and self._thread is not threading.current_thread():
-            self._thread.join(timeout)
-            if self._thread.is_alive():
-                raise RuntimeError("pacer thread did not stop")
+        """Stop the loop (with every module in it), close the endpoints, join the thread."""
+        self._group.stop(timeout)
 
     def __enter__(self) -> Pacer:
         return self.start()
@@ -128,81 +142,9 @@ class Pacer:
         self._controls.put((fn, fut))
         return fut
 
-    # ------------------------------------------------------------------ the loop
     def run(self, duration_s: float | None = None) -> None:
         """The loop itself (blocks). *duration_s*: stop after that much wall time."""
-        step = self.module.step
-        asap = self.speed == 0 or math.isinf(self.speed)
-        period = 0.0 if asap else 1.0 / (self.module.clock.rate_hz * self.speed)
-        sel = selectors.DefaultSelector()
-        registered: set[int] = set()
-        t0 = self._t_start = time.perf_counter()
-        end = None if duration_s is None else t0 + duration_s
-        n = 0  # ticks since t0
-        self._running = True
-        try:
-            while not self._stop.is_set():
-                self._run_controls()
-                for ep in self.endpoints:
-                    ep.pump()
-                now = time.perf_counter()
-                if end is not None and now >= end:
-                    break
-                if period == 0.0:
-                    for _ in range(self.asap_pump_ticks):
-                        s = time.perf_counter()
-                        step()
-                        self._account(time.perf_counter() - s)
-                    continue
-                # run every tick whose deadline has passed
-                while True:
-                    deadline = t0 + (n + 1) * period
-                    if now < deadline:
-                        break
-                    late = now - deadline
-                    if late > self.max_lag_s:
-                        self.rebases += 1
-                        t0 = now - (n + 1) * period
-                        late = 0.0
-                    elif late > period:
-                        self.overruns += 1
-                    self._lag = late
-                    s = time.perf_counter()
-                    step()
-                    n += 1
-                    now = time.perf_counter()
-                    self._account(now - s)
-                    if n % 8 == 0:
-                        break  # pump the endpoints now and then while catching up
-                # sleep until the next deadline, waking early for host bytes
-                wait = t0 + (n + 1) * period - time.perf_counter()
-                if wait > 0:
-                    for ep in self.endpoints:  # what the ticks sent leaves now, not a tick later
-                        ep.pump()
-                    wait = t0 + (n + 1) * period - time.perf_counter()
-                if wait > 0:
-                    self._update_fds(sel, registered)
-                    if registered:
-                        sel.select(wait)
-                    else:
-                        self._stop.wait(wait)
-        except BaseException as e:  # surfaced through status/error, never silently lost
-            self.error = e
-            raise
-        finally:
-            self._running = False
-            sel.close()
-            for ep in self.endpoints:
-                try:
-                    ep.close()
-                except Exception:  # noqa: BLE001 - closing must go on for the others
-                    pass
-
-    def _account(self, dt: float) -> None:
-        self.ticks += 1
-        self._busy += dt
-        if dt > self._busy_max:
-            self._busy_max = dt
+        self._group.run(duration_s)
 
     def _run_controls(self) -> None:
         while True:
@@ -216,38 +158,22 @@ class Pacer:
                 except Exception as e:  # noqa: BLE001 - handed to the caller
                     fut.set_exception(e)
 
-    def _update_fds(self, sel: selectors.BaseSelector, registered: set[int]) -> None:
-        want: set[int] = set()
-        for ep in self.endpoints:
-            want.update(getattr(ep, "fds", ()))
-        for fd in registered - want:
-            try:
-                sel.unregister(fd)
-            except (KeyError, ValueError, OSError):
-                pass
-        for fd in want - registered:
-            try:
-                sel.register(fd, selectors.EVENT_READ)
-            except (KeyError, ValueError, OSError):
-                continue
-        registered.clear()
-        registered.update(k.fd for k in sel.get_map().values())
-
     # ------------------------------------------------------------------ status
     def status(self) -> PacerStatus:
         """A snapshot (read without stopping the loop; numbers may be one tick apart)."""
         m = self.module
+        g = self._group
         ticks = self.ticks
         eps = []
         for ep in self.endpoints:
             st = getattr(ep, "status", None)
             eps.append(st() if callable(st) else {"kind": type(ep).__name__})
         return PacerStatus(
-            running=self._running,
+            running=g.running,
             speed=self.speed,
             ticks=ticks,
             virtual_s=m.clock.now_cycles / m.clock.cpu_hz,
-            wall_s=(time.perf_counter() - self._t_start) if self._t_start else 0.0,
+            wall_s=(time.perf_counter() - g.t_start) if g.t_start else 0.0,
             loop_us_mean=(self._busy / ticks * 1e6) if ticks else 0.0,
             loop_us_max=self._busy_max * 1e6,
             overruns=self.overruns,
@@ -260,4 +186,226 @@ class Pacer:
 
     def __repr__(self) -> str:
         return (f"Pacer(speed={self.speed}, ticks={self.ticks}, overruns={self.overruns}, "
-                f"running={self._running})")
+                f"running={self._group.running})")
+
+
+class MultiPacer:
+    """Runs several modules (each a :class:`Pacer` with its endpoints) in one loop and one thread.
+
+    All modules share one schedule: the same tick rate and speed (and ``max_lag_s``,
+    ``asap_pump_ticks`` of the first). Each still counts its own ticks, overruns and
+    step time, and takes its own controls (``pacers[i].call(fn)``). *idle_pump_s*: at
+    most this long between two pumps of a quiet endpoint (0 = pump every endpoint on
+    every pass, as a lone pacer does).
+    """
+
+    def __init__(self, pacers: Iterable[Pacer], idle_pump_s: float = 0.005):
+        self.pacers: list[Pacer] = list(pacers)
+        if not self.pacers:
+            raise ValueError("a MultiPacer needs at least one module")
+        if idle_pump_s < 0:
+            raise ValueError(f"idle_pump_s must be >= 0, got {idle_pump_s}")
+        first = self.pacers[0]
+        for p in self.pacers:
+            if p.speed != first.speed and not (math.isinf(p.speed) and math.isinf(first.speed)):
+                raise ValueError(f"all modules of a MultiPacer run at one speed: {p.speed} != {first.speed}")
+            if p.module.clock.rate_hz != first.module.clock.rate_hz:
+                raise ValueError("all modules of a MultiPacer tick at one rate: "
+                                 f"{p.module.clock.rate_hz} != {first.module.clock.rate_hz} Hz")
+            old = getattr(p, "_group", None)
+            if old is not None and old is not self and (old._thread is not None or len(old.pacers) > 1):
+                raise ValueError(f"{p!r} already runs in another loop")
+        for p in self.pacers:
+            p._group = self
+        self.speed = first.speed
+        self.max_lag_s = first.max_lag_s
+        self.asap_pump_ticks = first.asap_pump_ticks
+        self.idle_pump_s = idle_pump_s
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self.running = False
+        self.t_start = 0.0
+        self.error: BaseException | None = None  #: what stopped the loop
+
+    @classmethod
+    def of(cls, modules: Iterable[tuple[Module, Iterable[Endpoint]]], speed: float = 1.0,
+           max_lag_s: float = 0.25, idle_pump_s: float = 0.005) -> MultiPacer:
+        """A multi-pacer over ``(module, endpoints)`` pairs."""
+        return cls([Pacer(m, eps, speed=speed, max_lag_s=max_lag_s) for m, eps in modules],
+                   idle_pump_s=idle_pump_s)
+
+    # ------------------------------------------------------------------ control
+    def start(self) -> MultiPacer:
+        """Run the loop in a background thread (daemon)."""
+        if self._thread is not None:
+            raise RuntimeError("pacer already started")
+        self._thread = threading.Thread(target=self.run, name="openshoe-pacer", daemon=True)
+        self._thread.start()
+        return self
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the loop, close the endpoints, join the thread."""
+        self._stop.set()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+            if self._thread.is_alive():
+                raise RuntimeError("pacer thread did not stop")
+
+    def __enter__(self) -> MultiPacer:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
+
+    def call(self, index: int, fn: Callable[[Module], Any]) -> Future:
+        """``fn(module)`` for module *index*, between two ticks (see :meth:`Pacer.call`)."""
+        return self.pacers[index].call(fn)
+
+    def status(self) -> list[PacerStatus]:
+        """One snapshot per module."""
+        return [p.status() for p in self.pacers]
+
+    # ------------------------------------------------------------------ the loop
+    def run(self, duration_s: float | None = None) -> None:
+        """The loop itself (blocks). *duration_s*: stop after that much wall time."""
+        pacers = self.pacers
+        steps = [(p, p.module.step) for p in pacers]
+        eps: list[Endpoint] = [ep for p in pacers for ep in p.endpoints]
+        owner: list[Pacer] = [p for p in pacers for _ in p.endpoints]
+        pending: list[Callable[[], int] | None] = [None if self.idle_pump_s == 0 else
+                                                   getattr(getattr(ep, "port", None), "host_pending", None)
+                                                   for ep in eps]
+        registered: list[tuple[int, ...]] = [() for _ in eps]
+        speed = self.speed
+        asap = speed == 0 or math.isinf(speed)
+        period = 0.0 if asap else 1.0 / (pacers[0].module.clock.rate_hz * speed)
+        max_lag = self.max_lag_s
+        poll = 0 if self.idle_pump_s == 0 or asap else max(1, round(self.idle_pump_s / period))
+        last = [-(i % poll) if poll else 0 for i in range(len(eps))]  # staggered idle pumps
+        # select(2) sleeps to the microsecond; epoll and poll round a timeout up to a millisecond
+        sel: selectors.BaseSelector = selectors.SelectSelector()
+        stop = self._stop
+        perf = time.perf_counter
+        t0 = self.t_start = perf()
+        end = None if duration_s is None else t0 + duration_s
+        n = 0  # ticks since t0
+        self.running = True
+
+        def pump(i: int) -> None:
+            ep = eps[i]
+            try:
+                ep.pump()
+            except BaseException as e:
+                owner[i].error = owner[i].error or e
+                raise
+            last[i] = n
+            fds = getattr(ep, "fds", ())
+            old = registered[i]
+            if fds != old:
+                for fd in old:
+                    if fd not in fds:
+                        try:
+                            sel.unregister(fd)
+                        except (KeyError, ValueError, OSError):
+                            pass
+                ok = []
+                for fd in fds:
+                    if fd in old:
+                        ok.append(fd)
+                        continue
+                    try:
+                        sel.register(fd, selectors.EVENT_READ, i)
+                        ok.append(fd)
+                    except (KeyError, ValueError, OSError):
+                        continue
+                registered[i] = tuple(ok)
+
+        try:
+            for i in range(len(eps)):
+                pump(i)
+            while not stop.is_set():
+                for p in pacers:
+                    if not p._controls.empty():
+                        p._run_controls()
+                now = perf()
+                if end is not None and now >= end:
+                    break
+                if asap:
+                    for _ in range(self.asap_pump_ticks):
+                        for p, step in steps:
+                            s = perf()
+                            try:
+                                step()
+                            except BaseException as e:
+                                p.error = p.error or e
+                                raise
+                            dt = perf() - s
+                            p.ticks += 1
+                            p._busy += dt
+                            if dt > p._busy_max:
+                                p._busy_max = dt
+                    n += self.asap_pump_ticks
+                    for i in range(len(eps)):
+                        pump(i)
+                    continue
+                # run every tick whose deadline has passed, module after module
+                ran = 0
+                while True:
+                    deadline = t0 + (n + 1) * period
+                    if now < deadline:
+                        break
+                    if now - deadline > max_lag:
+                        for p in pacers:
+                            p.rebases += 1
+                        t0 = now - (n + 1) * period
+                        deadline = now
+                    for p, step in steps:
+                        late = now - deadline
+                        if late > period:
+                            p.overruns += 1
+                        p._lag = late
+                        try:
+                            step()
+                        except BaseException as e:
+                            p.error = p.error or e
+                            raise
+                        t = perf()
+                        dt = t - now
+                        now = t
+                        p.ticks += 1
+                        p._busy += dt
+                        if dt > p._busy_max:
+                            p._busy_max = dt
+                    n += 1
+                    ran += 1
+                    if ran == 8:
+                        break  # pump the endpoints now and then while catching up
+                # what the ticks sent leaves now, not a tick later
+                for i, has in enumerate(pending):
+                    if has is None or has() or n - last[i] >= poll:
+                        pump(i)
+                wait = t0 + (n + 1) * period - perf()
+                if sel.get_map():
+                    for key, _ in sel.select(max(wait, 0.0)):
+                        pump(key.data)
+                elif wait > 0:
+                    stop.wait(wait)
+        except BaseException as e:  # surfaced through status/error, never silently lost
+            self.error = e
+            if not any(p.error is not None for p in pacers):
+                for p in pacers:
+                    p.error = e
+            raise
+        finally:
+            self.running = False
+            sel.close()
+            for ep in eps:
+                try:
+                    ep.close()
+                except Exception:  # noqa: BLE001 - closing must go on for the others
+                    pass
+
+    def __repr__(self) -> str:
+        return (f"MultiPacer({len(self.pacers)} modules, speed={self.speed}, "
+                f"overruns={sum(p.overruns for p in self.pacers)}, running={self.running})")
+
