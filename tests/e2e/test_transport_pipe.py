@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
 
 from firmware_sim.link import make_link
-from firmware_sim.module import Module
-from firmware_sim.transports.pacer import Pacer
+from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.transports.pacer import MultiPacer, Pacer
 from firmware_sim.transports.pipe import QueueEndpoint, VirtualPipe
 
 PING = bytes.fromhex("030003")
@@ -143,3 +144,116 @@ def test_pacer_speed_10_runs_ten_times_faster_than_the_wall_clock():
         pacer.stop()
     assert m.clock.ticks >= 1000
     assert elapsed >= 0.095  # 1 s of module time, not sooner than 0.1 s of wall time
+
+
+# --------------------------------------------------------------------------- many modules, one loop
+
+
+def _wait_ticks(pacer: Pacer, ticks: int, timeout: float = 10.0) -> int:
+    """Module ticks once they reached *ticks* (asked inside the loop, bounded by *timeout*)."""
+    t0 = time.monotonic()
+    while True:
+        now = pacer.call(lambda mod: mod.clock.ticks).result(5)
+        if now >= ticks or time.monotonic() - t0 > timeout:
+            return now
+
+
+def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
+    modules = [Module(bt_port=make_link("bt", seed=i)) for i in range(3)]
+    eps = [QueueEndpoint(m.bt.port) for m in modules]
+    loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules, eps, strict=True)], speed=1.0)
+    with loop:
+        for ep in eps:
+            ep.write(PING)  # no fd: picked up by the idle pump (every 5 ms), the ack as soon as it arrives
+        for ep in eps:
+            assert ep.read(4, timeout=5) == PING_ACK
+        threads = {loop.call(i, lambda mod: threading.get_ident()).result(5) for i in range(3)}
+        assert loop.call(1, lambda mod: mod).result(5) is modules[1]  # controls reach their own module
+        _wait_ticks(loop.pacers[0], 100)
+        st = loop.status()
+    assert len(threads) == 1 and threads != {threading.get_ident()}
+    assert all(s.running for s in st)
+    assert len({p.ticks for p in loop.pacers}) == 1 and loop.pacers[0].ticks >= 100  # stopped between ticks
+    assert all(s.virtual_s <= s.wall_s + 0.002 for s in st)  # never ahead of the wall clock
+    assert all(not m.bt.port.connected for m in modules) and all(ep.closed for ep in eps)
+    assert not any(p.status().running for p in loop.pacers)
+
+
+class _CountingEndpoint:
+    """An endpoint whose port never has bytes for the host; counts its pumps."""
+
+    fds: tuple[int, ...] = ()
+
+    def __init__(self) -> None:
+        self.pumps = 0
+        self.port = self
+
+    def host_pending(self) -> int:
+        return 0
+
+    def pump(self) -> None:
+        self.pumps += 1
+
+    def close(self) -> None:
+        pass
+
+
+def test_multipacer_pumps_a_quiet_endpoint_only_every_idle_interval():
+    quiet = _CountingEndpoint()
+    lone = _CountingEndpoint()
+    loop = MultiPacer([Pacer(Module(), [quiet])], idle_pump_s=0.01).start()
+    solo = Pacer(Module(), [lone]).start()  # a lone pacer pumps on every pass
+    try:
+        ticks = _wait_ticks(loop.pacers[0], 200)
+        _wait_ticks(solo, 200)
+    finally:
+        loop.stop()
+        solo.stop()
+    assert ticks >= 200
+    assert quiet.pumps <= loop.pacers[0].ticks / 10 + 2
+    assert lone.pumps >= solo.ticks / 8  # (it runs at most 8 ticks between two passes)
+
+
+def test_multipacer_counts_overruns_per_module_and_keeps_virtual_time_whole():
+    fast, slow = Module(), Module()
+    real_step = slow.step
+
+    def slow_step():
+        real_step()
+        end = time.perf_counter() + 0.003  # a 3 ms loop at 1 kHz
+        while time.perf_counter() < end:
+            pass
+    slow.step = slow_step
+    loop = MultiPacer([Pacer(fast, speed=1.0, max_lag_s=0.05), Pacer(slow, speed=1.0, max_lag_s=0.05)])
+    with loop:
+        _wait_ticks(loop.pacers[1], 60)
+    a, b = loop.status()
+    assert b.loop_us_mean > 2000 > a.loop_us_mean  # each module's own step time
+    assert a.overruns > 0 and b.overruns > 0 and a.rebases == b.rebases > 0
+    assert a.ticks == fast.clock.ticks and b.ticks == slow.clock.ticks and a.ticks == b.ticks
+
+
+def test_multipacer_blames_the_module_that_raised():
+    good, bad = Module(), Module()
+
+    def broken():
+        raise RuntimeError("sensor bus hung")
+    bad.step = broken
+    loop = MultiPacer([Pacer(good, speed=0), Pacer(bad, speed=0)])
+    with pytest.raises(RuntimeError, match="sensor bus"):
+        loop.run(duration_s=5)
+    assert isinstance(loop.pacers[1].error, RuntimeError) and loop.pacers[0].error is None
+    assert loop.error is loop.pacers[1].error and not loop.running
+
+
+def test_multipacer_refuses_modules_it_cannot_pace_together():
+    with pytest.raises(ValueError, match="one rate"):
+        MultiPacer([Pacer(Module()), Pacer(Module(ModuleConfig(rate_hz=500.0)))])
+    with pytest.raises(ValueError, match="one speed"):
+        MultiPacer([Pacer(Module(), speed=1.0), Pacer(Module(), speed=2.0)])
+    with pytest.raises(ValueError, match="at least one"):
+        MultiPacer([])
+    p = Pacer(Module())
+    MultiPacer([p, Pacer(Module())])
+    with pytest.raises(ValueError, match="another loop"):
+        MultiPacer([p])
