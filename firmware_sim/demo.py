@@ -223,7 +223,7 @@ def run_demo(args: argparse.Namespace) -> DemoResult:
         from hostlib.plot import plot_track
 
         result.png = plot_track(
-            track, out / "track.png",
+            track, out / "track.png", reference=stances,
             title=f"OpenShoe demo: {args.scenario} route, {result.steps} steps, {result.distance_m:.0f} m, "
                   f"end error {result.closure_error_m:.2f} m",
         )

@@ -54,8 +54,14 @@ def plot_track(
     n_sigma: float = 1.0,
     title: str | None = None,
     dpi: int = 120,
+    reference: np.ndarray | None = None,
+    reference_label: str = "ground truth",
 ) -> Path:
-    """Draw *track* (east right, north up) with n-σ ellipses every *every* steps and at the end."""
+    """Draw *track* (east right, north up) with n-σ ellipses every *every* steps and at the end.
+
+    *reference*: optional known path to draw beneath the track, rows of (north, east[, …]) metres
+    in the track's frame (e.g. a simulation's ground truth or surveyed points).
+    """
     if every < 1:
         raise ValueError(f"every must be >= 1, got {every}")
     Figure, FigureCanvasAgg, Ellipse = _matplotlib()
@@ -64,6 +70,11 @@ def plot_track(
     fig = Figure(figsize=(7, 7))
     FigureCanvasAgg(fig)
     ax = fig.add_subplot(1, 1, 1)
+    if reference is not None:
+        ref = np.asarray(reference, dtype=float)
+        if ref.ndim != 2 or ref.shape[1] < 2:
+            raise ValueError(f"reference must be rows of (north, east), got shape {ref.shape}")
+        ax.plot(ref[:, 1], ref[:, 0], "--", color="0.55", lw=1.0, label=reference_label)
     ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label="track")
     ax.plot(pos[0, 1], pos[0, 0], "o", color="tab:green", label="start")
     ax.plot(pos[-1, 1], pos[-1, 0], "s", color="tab:red", label="end")

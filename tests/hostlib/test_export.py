@@ -103,3 +103,13 @@ def test_png_is_written(tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     with pytest.raises(ValueError, match="every"):
         plot_track(walk(2).track, tmp_path / "u.png", every=0)
+
+
+def test_png_can_draw_a_reference_path_and_refuses_a_malformed_one(tmp_path):
+    pytest.importorskip("matplotlib")
+    track = walk(10).track
+    truth = track.positions[:, :2] + 0.05  # rows of (north, east)
+    out = plot_track(track, tmp_path / "ref.png", reference=truth, reference_label="survey")
+    assert out.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+    with pytest.raises(ValueError, match="north, east"):
+        plot_track(track, tmp_path / "bad.png", reference=np.zeros(5))
