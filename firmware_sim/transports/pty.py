@@ -33,17 +33,17 @@ import errno
 import os
 import select
 import termios
-import threading
 import tty
 import weakref
 from pathlib import Path
 
 from ..port import Port
+from .pairing import PairingEvents
 
 _READ = 65536
 
 
-class PtyEndpoint:
+class PtyEndpoint(PairingEvents):
     """Serve *port* on a pty reachable at *link_path*."""
 
     def __init__(self, port: Port, link_path: str | os.PathLike[str]):
@@ -69,7 +69,7 @@ class PtyEndpoint:
         self.dropped = 0  #: module bytes the pty did not take (host not reading)
         self.refused = 0  #: host bytes the link did not accept
         self.closed = False
-        self._changed = threading.Condition()
+        self._init_pairing()
         if port.connected:
             port.disconnect()
         # remove the symlink even if the program ends without close() (not on SIGKILL)
@@ -163,16 +163,6 @@ class PtyEndpoint:
         self.disconnects += 1
         self.port.disconnect()
         self._notify()
-
-    def wait_paired(self, paired: bool = True, timeout: float | None = None) -> bool:
-        """Block until a host is (``paired=True``) or is no longer (False) connected;
-        False on timeout. Thread-safe: the pacer's loop notifies every change."""
-        with self._changed:
-            return self._changed.wait_for(lambda: self.paired == paired, timeout)
-
-    def _notify(self) -> None:
-        with self._changed:
-            self._changed.notify_all()
 
     def close(self) -> None:
         """Unpair, remove the symlink (if still ours), close the master."""

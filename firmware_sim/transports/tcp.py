@@ -12,14 +12,14 @@ from __future__ import annotations
 
 import errno
 import socket
-import threading
 
 from ..port import Port
+from .pairing import PairingEvents
 
 _RECV = 65536
 
 
-class TcpEndpoint:
+class TcpEndpoint(PairingEvents):
     """Serve *port* to one TCP host at a time."""
 
     def __init__(self, port: Port, host: str = "127.0.0.1", tcp_port: int = 0, out_buffer: int = 256 * 1024):
@@ -37,7 +37,7 @@ class TcpEndpoint:
         self.dropped = 0  #: module bytes dropped because the host did not read them
         self.refused = 0  #: host bytes the link did not accept
         self.closed = False
-        self._changed = threading.Condition()
+        self._init_pairing()
         if port.connected:
             port.disconnect()
 
@@ -71,9 +71,12 @@ class TcpEndpoint:
             if not data:
                 self._hangup()
                 return
+            data = self._from_host(data)
             n = self.port.host_write(data)
             self.refused += len(data) - n
-        self._out += self.port.host_read()
+        out = self.port.host_read()
+        if out:
+            self._out += self._to_host(out)
         if self._out:
             try:
                 sent = c.send(self._out)
@@ -105,10 +108,23 @@ class TcpEndpoint:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             self.client, self.peer = sock, peer
             self._out.clear()
+            self._on_pair()
             self.port.host_read()  # stale bytes from before this host are not its business
             self.port.connect()
             self.connects += 1
             self._notify()
+
+    # hooks for protocols layered on the byte stream (RFC 2217): identity for plain TCP
+    def _on_pair(self) -> None:
+        """A new host was accepted (before the link connects)."""
+
+    def _from_host(self, data: bytes) -> bytes:
+        """Host bytes → module bytes."""
+        return data
+
+    def _to_host(self, data: bytes) -> bytes:
+        """Module bytes → host bytes."""
+        return data
 
     def _hangup(self) -> None:
         if self.client is not None:
@@ -122,16 +138,6 @@ class TcpEndpoint:
         self.disconnects += 1
         self._notify()
 
-    def wait_paired(self, paired: bool = True, timeout: float | None = None) -> bool:
-        """Block until a host is (``paired=True``) or is no longer (False) connected;
-        False on timeout. Thread-safe: the pacer's loop notifies every change."""
-        with self._changed:
-            return self._changed.wait_for(lambda: self.paired == paired, timeout)
-
-    def _notify(self) -> None:
-        with self._changed:
-            self._changed.notify_all()
-
     def close(self) -> None:
         if self.closed:
             return
@@ -140,10 +146,12 @@ class TcpEndpoint:
         self.server.close()
         self.closed = True
 
+    kind = "tcp"
+
     def status(self) -> dict[str, object]:
-        return {"kind": "tcp", "address": f"{self.address[0]}:{self.address[1]}", "paired": self.paired,
+        return {"kind": self.kind, "address": f"{self.address[0]}:{self.address[1]}", "paired": self.paired,
                 "connects": self.connects, "dropped": self.dropped, "refused_hosts": self.refused_hosts}
 
     def __repr__(self) -> str:
-        return (f"TcpEndpoint({self.address[0]}:{self.address[1]}, "
+        return (f"{type(self).__name__}({self.address[0]}:{self.address[1]}, "
                 f"{'host ' + str(self.peer) if self.paired else 'no host'})")
