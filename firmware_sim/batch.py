@@ -53,6 +53,7 @@ class ReplayResult(bytes):
     ticks: int = 0
     packets: int = 0
     samples: int = 0
+    module: Module | None = None  #: the module after the run (its counters, clock and states)
 
 
 def _source_length(source: SensorSource) -> int | None:
@@ -82,15 +83,10 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     packets = 0
     ticks = 0
 
-    advance = getattr(module, "advance", None)  # runs quiet stretches compiled, when available
-
     def loop_once(max_ticks: int = 1) -> int:
+        """Run up to *max_ticks* loops (quiet stretches compiled, when available), then be the host."""
         nonlocal packets, ticks
-        if advance is not None and max_ticks > 1:
-            ticks += advance(max_ticks)
-        else:
-            module.step()
-            ticks += 1
+        ticks += module.advance(max_ticks) if max_ticks > 1 else _step(module)
         data = port.host_read()
         if not data:
             return 0
@@ -115,9 +111,9 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     module.sequence.empty()
     quiet = 0
     for _ in range(DRAIN_TICKS):
-        if loop_once() == 0 and getattr(port, "rx_pending", lambda: 0)() == 0:
+        if loop_once() == 0 and port.rx_pending() == 0:
             quiet += 1
-            if quiet > 2 and not _queue_busy(module):
+            if quiet > 2 and len(module.bt.queue) == 0:
                 break
         else:
             quiet = 0
@@ -125,17 +121,13 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     result.ticks = ticks
     result.packets = packets
     result.samples = ticks if total is None else min(total, ticks)
+    result.module = module
     return result
 
 
-def _queue_busy(module: Module) -> bool:
-    queue = getattr(module.bt, "queue", None)
-    if queue is None:
-        return False
-    try:
-        return len(queue) > 0
-    except TypeError:
-        return False
+def _step(module: Module) -> int:
+    module.step()
+    return 1
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ Targets (``openshoe-bench [TARGET …]``, all four by default):
   repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
 
 Last, one line per target: ``<name>: <figure> <unit> (target <t>, ratio <figure/t>)``; the same
-figures go to ``--json`` (default ``bench.json``) with the machine (cpu, cores, python,
+figures go to ``--json`` (default ``out/bench.json``) with the machine (cpu, cores, python,
 numpy, numba). Shorter runs of the long targets (``--minutes``, ``--modules``, ``--cycles``)
 are marked "SHORT" in the output and the JSON.
 """
@@ -112,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("targets", nargs="*", metavar="TARGET",
                    help=f"targets to run: {', '.join(TARGETS)} (default: all)")
-    p.add_argument("--json", type=Path, default=Path("bench.json"), help="write the figures here")
+    p.add_argument("--json", type=Path, default=Path("out/bench.json"), help="write the figures here")
     p.add_argument("--walk-s", type=float, default=20.0,
                    help="batch: seconds of simulated walking after 3 s standing (default 20)")
     p.add_argument("--modules", type=int, default=50, help="realtime: modules in total (default 50)")
@@ -148,6 +148,7 @@ def main(argv: list[str] | None = None) -> int:
         results.append(r)
     report = {"machine": machine, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
               "results": [dict(asdict(r), ratio=r.ratio, line=r.line()) for r in results]}
+    args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=2, default=str) + "\n")
     _say(f"figures written to {args.json}")
     print(f"machine: {machine['cpu']}, {machine['cores']} cores, python {machine['python']}, "
