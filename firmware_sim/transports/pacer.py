@@ -8,10 +8,14 @@ its own, and a :class:`MultiPacer` runs many of them — every module of a
 make them fight over the GIL).
 
 Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
-— never before, so no module is ever ahead of real time; in a multi-pacer the
-modules take their tick one after the other. A module whose tick starts more
-than one tick period after the deadline counts an *overrun* (the host machine
-was too slow); the ticks still all run (virtual time never skips), back to
+— never before, so no module is ever ahead of real time. In a multi-pacer each
+module has a *phase*: ``phases`` groups (default: one per module) due evenly
+spread over the period, at ``t0 + (n + k / phases) / (rate · speed)`` for group
+*k* — like real modules, whose timers were started at different moments. So the
+work is spread over the period instead of a burst at its start, and a module's
+lateness is its own, not the sum of the modules stepped before it. A module
+whose tick starts more than one tick period after its deadline counts an
+*overrun* (the host machine was too slow); the ticks still all run (virtual time never skips), back to
 back, until the loop has caught up. If it falls more than ``max_lag_s`` behind,
 the schedule is moved forward (counted in ``rebases``) instead of racing to
 catch up. ``speed`` = 1 is real time, 10 is ten times faster, 0 (or ``inf``) as
@@ -25,7 +29,11 @@ multi-pacer pumps an endpoint only when one of its fds is readable, when its
 port has bytes for the host (``port.host_pending()``; a port without it counts
 as always pending), or when ``idle_pump_s`` passed since its last pump (to
 notice a host that comes or goes without a readable fd) — so a quiet module
-costs its tick and nothing else.
+costs its tick and nothing else. When the modules' steps take more than
+``spin_load`` of the period, a multi-pacer polls (``select`` with timeout 0)
+instead of sleeping between deadlines: a thread that sleeps wakes up late and
+with cold caches (measured: a step costs ~30 % more), which a loaded loop
+cannot afford. A lone pacer always sleeps.
 """
 
 from __future__ import annotations
@@ -111,7 +119,7 @@ class Pacer:
         self._busy = 0.0
         self._busy_max = 0.0
         self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
-        self._group = MultiPacer([self], idle_pump_s=0.0)
+        self._group = MultiPacer([self], idle_pump_s=0.0, spin_load=None)
 
     @property
     def group(self) -> MultiPacer:
@@ -195,11 +203,15 @@ class MultiPacer:
     All modules share one schedule: the same tick rate and speed (and ``max_lag_s``,
     ``asap_pump_ticks`` of the first). Each still counts its own ticks, overruns and
     step time, and takes its own controls (``pacers[i].call(fn)``). *idle_pump_s*: at
-    most this long between two pumps of a quiet endpoint (0 = pump every endpoint on
-    every pass, as a lone pacer does).
+    most this long between two pumps of a quiet endpoint (0 = pump every endpoint after
+    every tick, as a lone pacer does). *spin_load*: poll instead of sleeping while a
+    tick's steps take more than this fraction of the period (None = always sleep).
+    *phases*: how many evenly spaced deadlines the modules are spread over (None = one
+    per module; 1 = all at the start of the period).
     """
 
-    def __init__(self, pacers: Iterable[Pacer], idle_pump_s: float = 0.005):
+    def __init__(self, pacers: Iterable[Pacer], idle_pump_s: float = 0.005, spin_load: float | None = 0.5,
+                 phases: int | None = None):
         self.pacers: list[Pacer] = list(pacers)
         if not self.pacers:
             raise ValueError("a MultiPacer needs at least one module")
@@ -221,6 +233,8 @@ class MultiPacer:
         self.max_lag_s = first.max_lag_s
         self.asap_pump_ticks = first.asap_pump_ticks
         self.idle_pump_s = idle_pump_s
+        self.spin_load = spin_load
+        self.phases = phases
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.running = False
@@ -281,7 +295,21 @@ class MultiPacer:
         period = 0.0 if asap else 1.0 / (pacers[0].module.clock.rate_hz * speed)
         max_lag = self.max_lag_s
         poll = 0 if self.idle_pump_s == 0 or asap else max(1, round(self.idle_pump_s / period))
-        last = [-(i % poll) if poll else 0 for i in range(len(eps))]  # staggered idle pumps
+        spin_busy = None if self.spin_load is None or asap else self.spin_load * period
+        spinning = False
+        tick_busy = 0.0
+        ran = 0  # whole ticks run back to back
+        last = [0 for _ in eps]
+        n_mod = len(pacers)
+        # module j's tick n is due at t0 + (n + 1 + phase_j) · period (see the doc)
+        phases = max(1, min(self.phases or n_mod, n_mod))
+        offs = [(j * phases // n_mod) * period / phases for j in range(n_mod)]
+        ep_lo: list[int] = []
+        ep_hi: list[int] = []
+        for p in pacers:
+            ep_lo.append(ep_hi[-1] if ep_hi else 0)
+            ep_hi.append(ep_lo[-1] + len(p.endpoints))
+        j = 0  # the next module to step (of tick n)
         # select(2) sleeps to the microsecond; epoll and poll round a timeout up to a millisecond
         sel: selectors.BaseSelector = selectors.SelectSelector()
         stop = self._stop
@@ -348,43 +376,60 @@ class MultiPacer:
                     for i in range(len(eps)):
                         pump(i)
                     continue
-                # run every tick whose deadline has passed, module after module
-                ran = 0
+                # run every module whose deadline has passed, in turn
+                stepped = False
                 while True:
-                    deadline = t0 + (n + 1) * period
+                    deadline = t0 + (n + 1) * period + offs[j]
                     if now < deadline:
                         break
                     if now - deadline > max_lag:
                         for p in pacers:
                             p.rebases += 1
-                        t0 = now - (n + 1) * period
+                        t0 = now - (n + 1) * period - offs[j]
                         deadline = now
-                    for p, step in steps:
-                        late = now - deadline
-                        if late > period:
-                            p.overruns += 1
-                        p._lag = late
-                        try:
-                            step()
-                        except BaseException as e:
-                            p.error = p.error or e
-                            raise
-                        t = perf()
-                        dt = t - now
-                        now = t
-                        p.ticks += 1
-                        p._busy += dt
-                        if dt > p._busy_max:
-                            p._busy_max = dt
-                    n += 1
-                    ran += 1
-                    if ran == 8:
-                        break  # pump the endpoints now and then while catching up
-                # what the ticks sent leaves now, not a tick later
-                for i, has in enumerate(pending):
-                    if has is None or has() or n - last[i] >= poll:
-                        pump(i)
-                wait = t0 + (n + 1) * period - perf()
+                    p, step = steps[j]
+                    late = now - deadline
+                    if late > period:
+                        p.overruns += 1
+                    p._lag = late
+                    try:
+                        step()
+                    except BaseException as e:
+                        p.error = p.error or e
+                        raise
+                    t = perf()
+                    dt = t - now
+                    now = t
+                    p.ticks += 1
+                    p._busy += dt
+                    if dt > p._busy_max:
+                        p._busy_max = dt
+                    tick_busy += dt
+                    # what the tick sent leaves now, not a tick later
+                    for i in range(ep_lo[j], ep_hi[j]):
+                        has = pending[i]
+                        if has is None or has() or n - last[i] >= poll:
+                            pump(i)
+                            now = perf()
+                    stepped = True
+                    j += 1
+                    if j == n_mod:
+                        j = 0
+                        n += 1
+                        # spin through the idle time if the ticks take most of the period (see the doc)
+                        spinning = spin_busy is not None and tick_busy > spin_busy
+                        tick_busy = 0.0
+                        ran += 1
+                        if ran >= 8:
+                            ran = 0
+                            break  # look at the hosts now and then while catching up
+                if not stepped:
+                    ran = 0
+                wait = t0 + (n + 1) * period + offs[j] - perf()
+                if spinning and wait > 0:
+                    wait = 0.0
+                    if not sel.get_map():
+                        time.sleep(0)  # let other threads have the interpreter
                 if sel.get_map():
                     for key, _ in sel.select(max(wait, 0.0)):
                         pump(key.data)
