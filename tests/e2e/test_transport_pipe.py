@@ -260,7 +260,8 @@ def test_multipacer_refuses_modules_it_cannot_pace_together():
         MultiPacer([p])
 
 
-def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early():
+@pytest.mark.parametrize("spin_load", [None, 0.0])  # sleeping between deadlines, or polling
+def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early(spin_load):
     modules = [Module(), Module()]
     times: list[list[float]] = [[], []]
     for m, log in zip(modules, times, strict=True):
@@ -270,7 +271,7 @@ def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early():
             log.append(time.perf_counter())
             real()
         m.step = step
-    loop = MultiPacer([Pacer(m) for m in modules])
+    loop = MultiPacer([Pacer(m) for m in modules], spin_load=spin_load)
     loop.run(duration_s=0.1)
     period = 1e-3
     for phase, log in zip((0.0, 0.5), times, strict=True):
