@@ -332,23 +332,9 @@ def _run(n, do_read, mode, imu, start_cycles, period, ts_off, mem, work):
                        p45, dx_out, dp_out, step_counter, reset_flag, f_n, t_since, t_pending,
                        pending, align_sum, align_count, scratch)
 
-def _i32(x):
-    return ((x + 0x80000000) & 0xFFFFFFFF) - 0x80000000
-
-
-def _isqrt64(x):
-    res = 0
-    bit = 1 << 62
-    while bit > x:
-        bit >>= 2
-    while bit:
-        if x >= res + bit:
-            x -= res + bit
-            res = (res >> 1) + bit
-        else:
-            res >>= 1
-        bit >>= 2
-    return res
+# the integer helpers are the reference's own (plain ints: compiled as they are)
+_i32 = frontend._i32
+_isqrt64 = frontend.isqrt64
 
 
 def _sat_u32(x):
