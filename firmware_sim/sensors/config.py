@@ -118,6 +118,11 @@ class MagConfig:
     indoor_radius_m: float = 0.0  #: 0: the whole walk is indoors
 
 
+#: Every error switch of :class:`SensorConfig`, off (the DLPF is switched separately).
+_ERRORS_OFF = dict(offsets=False, scale_errors=False, noise=False, drift=False,
+                   temperature_effects=False, mag_disturbance=False)
+
+
 @dataclass(frozen=True)
 class SensorConfig:
     """The whole sensor model: four MPU9150 chips sampled at the same instant."""
@@ -152,28 +157,11 @@ class SensorConfig:
         ``keep_delays=True`` keeps the datasheet delays (without smoothing) so
         that an INS fed through that pipeline sees aligned signals.
         """
-        return cls(
-            dlpf=DlpfConfig(enabled=keep_delays, delays_only=True),
-            offsets=False,
-            scale_errors=False,
-            noise=False,
-            drift=False,
-            temperature_effects=False,
-            mag_disturbance=False,
-        )
+        return cls(dlpf=DlpfConfig(enabled=keep_delays, delays_only=True), **_ERRORS_OFF)
 
     def without_errors(self) -> SensorConfig:
         """This configuration with every sensor error switched off."""
-        return replace(
-            self,
-            dlpf=replace(self.dlpf, enabled=False),
-            offsets=False,
-            scale_errors=False,
-            noise=False,
-            drift=False,
-            temperature_effects=False,
-            mag_disturbance=False,
-        )
+        return replace(self, dlpf=replace(self.dlpf, enabled=False), **_ERRORS_OFF)
 
 
 DEFAULT_CONFIG = SensorConfig()
