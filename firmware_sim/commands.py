@@ -262,24 +262,25 @@ def _mimu_frontend(module: Module, iface: ExternalInterface, f: Any, raw: bytes)
     seq.set_slots(FRONTEND_SEQUENCE)
 
 
-@handles(Command.NORMAL_IMU)
-def _normal_imu(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
+def _plain_imu_mode(module: Module, iface: ExternalInterface, mode: int, slots: tuple[int, ...]) -> None:
+    """What both plain IMU modes do first: outputs off, lossless flag from *mode*, sequence = *slots*."""
     all_outputs_off(module, iface)
-    iface.set_lossless(f.mode & _LOSSLESS)
+    iface.set_lossless(mode & _LOSSLESS)
     seq = module.sequence
     seq.empty()
-    seq.set_slots((P.READ_INERTIAL, P.FRONTEND_PREPROC))
+    seq.set_slots(slots)
+
+
+@handles(Command.NORMAL_IMU)
+def _normal_imu(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
+    _plain_imu_mode(module, iface, f.mode, (P.READ_INERTIAL, P.FRONTEND_PREPROC))
     iface.output(StateId.IMU_TS, f.mode)
     iface.output(StateId.U_K, f.mode)
 
 
 @handles(Command.NORMAL_IMU_WITH_BIAS_EST)
 def _normal_imu_with_bias_est(module: Module, iface: ExternalInterface, f: Any, raw: bytes) -> None:
-    all_outputs_off(module, iface)
-    iface.set_lossless(f.mode & _LOSSLESS)
-    seq = module.sequence
-    seq.empty()
-    seq.set_slots(FRONTEND_SEQUENCE + (P.STATE_OUTPUT_IF_COUNTER,))
+    _plain_imu_mode(module, iface, f.mode, FRONTEND_SEQUENCE + (P.STATE_OUTPUT_IF_COUNTER,))
     module.cond_output.setup(0, iface.mask, f.mode, [StateId.IMU_TS, StateId.U_K],
                              module.clock.interrupts, BIAS_EST_OUTPUT_DELAY)
 
