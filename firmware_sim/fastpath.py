@@ -22,7 +22,8 @@ registered:
   READ_INERTIAL and STATE_OUTPUT_IF run in Python (any sensor source, the
   conditional output), the eight numeric slots compiled.
 * :meth:`FastNav.run_quiet` — whole loops while nothing but the sequence
-  happens (ideal ports, nothing received, no output due, queues empty): up to
+  happens (ports idle: nothing received or in flight on an ideal port or a link
+  model, no output due, queues empty; :meth:`FastNav.quiet_ticks`): up to
   the loop of the next step reset, reading the sensor block directly; the
   clock, interrupt counter, GP_DT and PS_DT advance exactly as loop by loop.
 
@@ -45,7 +46,7 @@ from protocol.states import STATES
 from . import frontend, inertial, ins, utility
 from . import nav_config as cfg
 from .memory import Arena, StateMemory
-from .port import IdealPort
+from .sensors.base import imu_block
 from .sequence import PROCESSING_FUNCTIONS
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -944,48 +945,41 @@ class FastNav:
         self.ticks_single += 1
 
     # ------------------------------------------------------------------ quiet runs
-    @staticmethod
-    def _block(module: Module, start: int, n: int) -> np.ndarray | None:
-        """Up to *n* int16 (chips, 6) register samples from *start* as one array view, or None.
+    def quiet_ticks(self, module: Module, max_ticks: int) -> int:
+        """How many of the next loops (at most *max_ticks*) run with nothing but the sequence
+        happening (see the module doc); 0 = the next loop is not quiet.
 
-        From the source's ``imu_block(start, n)`` if it has one, else from a whole-record
-        ``imu`` array (simulated and replay sources) when it also has a length.
-        """
-        src = module.sensors
-        block = getattr(src, "imu_block", None)
-        if block is not None:
-            imu = block(start, n)
-        else:
-            imu = getattr(src, "imu", None)
-            if not hasattr(src, "__len__") or not isinstance(imu, np.ndarray):
-                return None
-            imu = imu[start:start + n]
-        if imu.dtype != np.int16 or imu.ndim != 3 or imu.shape[1:] != (NR_IMUS, 6) or not len(imu):
-            return None
-        return imu
-
-    def quiet(self, module: Module) -> bool:
-        """Nothing but the sequence happens in the next loops (see the module doc)."""
+        Every port must be idle (:meth:`~firmware_sim.port.IdealPort.idle_until`): nothing
+        received or in flight; a link model with a stall, disconnect or reconnect scheduled
+        bounds the run to the loops before it, which then run loop by loop as usual."""
         src = module.sensors
         if module.sensors_exhausted or not (hasattr(src, "imu_block") or hasattr(src, "imu")):
-            return False
+            return 0  # (whether it has a block now, run_quiet asks)
         clock = module.clock
-        if clock.now_cycles > clock._next_interrupt:
-            return False
+        first = clock._next_interrupt
+        if clock.now_cycles > first:
+            return 0
         c = module.costs
         if c.loop_overhead + 2 * c.rx_poll + self.seq_cycles > clock.cycles_per_tick:
-            return False
+            return 0
+        n = max_ticks
         for iface in module.interface_list:
-            port = iface.port
-            if type(port) is not IdealPort or port._rx:
-                return False
             if iface._need or iface._periodic or iface._pulled or iface.queue.frames:
-                return False
+                return 0
+            idle = getattr(iface.port, "idle_until", None)
+            if idle is None:
+                return 0
+            until = idle()
+            if until is not None:
+                # loop i advances its ports at first + i·period + loop_overhead: all before `until`
+                n = min(n, (until - first - c.loop_overhead - 1) // clock.cycles_per_tick + 1)
+                if n < 1:
+                    return 0
         cond = module.cond_output
         if cond.from_mask and cond.flag_id != StateId.FILTER_RESET_FLAG and (
                 cond.flag_id in self._cond_keys or module.memory.flag(cond.flag_id)):
-            return False
-        return True
+            return 0
+        return n
 
     def run_quiet(self, module: Module, max_ticks: int, kind: int = TRACKING) -> int:
         """Run up to *max_ticks* quiet loops of a known sequence (*kind*); returns loops run.
@@ -996,7 +990,7 @@ class FastNav:
         """
         clock = module.clock
         start = clock.ticks  # sample index of the first loop
-        imu = self._block(module, start, max_ticks)
+        imu = imu_block(module.sensors, start, max_ticks)
         if imu is None:
             return 0
         n = len(imu)

@@ -387,6 +387,18 @@ class Link:
             "to_host": len(self._tx) + self._air_h_bytes,
         }
 
+    def idle_until(self) -> int | None:
+        """Up to which cycle :meth:`advance` would change nothing, if the host writes nothing
+        (see :meth:`firmware_sim.port.IdealPort.idle_until`): None = for ever; the current
+        time = not idle (bytes in flight either way, or the first advance not yet made);
+        otherwise the next scheduled stall, disconnect or reconnect."""
+        if (not self._started or self._tx or self._air_h or self._air_m or self._radio_m
+                or self._rx):
+            return self.now_cycles
+        due = [t for t in (self._next_stall["to_module"], self._next_stall["to_host"],
+                           self._next_disconnect, self._reconnect_at) if t is not None]
+        return min(due) if due else None
+
     def connect(self) -> None:
         """The host pairs / the cable is plugged in."""
         self._reconnect_at = None

@@ -173,8 +173,8 @@ class Module:
         """Run between 1 and *max_ticks* main loops, as many as run unobserved; returns how many.
 
         One loop in pure Python. With the compiled path, a *quiet* stretch (the
-        tracking sequence running, ideal ports, nothing received or due for
-        output) runs in one compiled call up to and including the next step
+        tracking sequence running, ports idle — nothing received or in flight —,
+        nothing due for output) runs in one compiled call up to and including the next step
         reset's loop, whose packet is then on the port: a batch driver reads and
         acknowledges after each call and gets the same bytes as loop by loop.
         """
@@ -183,8 +183,9 @@ class Module:
         kind = self._compiled and self._fast_cls.kind(self)
         if kind:
             fast = self._fastnav()
-            if fast.quiet(self):
-                n = fast.run_quiet(self, max_ticks, kind)
+            quiet = fast.quiet_ticks(self, max_ticks)
+            if quiet:
+                n = fast.run_quiet(self, quiet, kind)
                 if n:
                     return n
         self.step()

@@ -53,6 +53,9 @@ class Port(Protocol):
 
     def disconnect(self) -> None: ...
 
+    # optional: ``idle_until() -> int | None`` (see IdealPort.idle_until). A port that has
+    # it lets the compiled path run quiet stretches of loops in one call.
+
 
 class IdealPort:
     """An unbounded, instantaneous, lossless link (connected at start by default).
@@ -73,6 +76,13 @@ class IdealPort:
     # module side ------------------------------------------------------------
     def advance(self, now_cycles: int) -> None:
         self.now_cycles = now_cycles
+
+    def idle_until(self) -> int | None:
+        """Up to which cycle :meth:`advance` would change nothing the module sees, if the host
+        writes nothing: None = for ever; the current time or earlier = not idle now.
+
+        An ideal port is idle while its receive ring is empty."""
+        return self.now_cycles if self._rx else None
 
     def rx_read(self, max_n: int) -> bytes:
         if not self._rx:

@@ -39,6 +39,27 @@ class SensorSource(Protocol):
         ...
 
 
+def imu_block(source: object, start: int, n: int) -> np.ndarray | None:
+    """Samples *start* … *start* + k − 1 (1 ≤ k ≤ *n*) of *source*'s IMU registers as one
+    int16 (k, NR_IMUS, 6) array view, exactly what ``read`` gives for them; or None
+    when the source cannot hand out a block (read it sample by sample then).
+
+    From the source's own ``imu_block(start, n)`` if it has one, else from a whole-record
+    ``imu`` array (simulated and replay sources) when the source also has a length.
+    """
+    block = getattr(source, "imu_block", None)
+    if block is not None:
+        imu = block(start, n)
+    else:
+        imu = getattr(source, "imu", None)
+        if not hasattr(source, "__len__") or not isinstance(imu, np.ndarray):
+            return None
+        imu = imu[start:start + n]
+    if imu is None or imu.dtype != np.int16 or imu.ndim != 3 or imu.shape[1:] != (NR_IMUS, 6) or not len(imu):
+        return None
+    return imu
+
+
 class ScriptedSource:
     """Fixed raw register values, optionally a per-sample script (for tests).
 

@@ -7,7 +7,12 @@ these wrappers make that well defined for every transport (``serve``, the
 
 from __future__ import annotations
 
-from .base import RawSample, SensorSource
+import numpy as np
+
+from .base import RawSample, SensorSource, imu_block
+
+#: Samples of the held last sample handed out at once (HoldLastSource.imu_block).
+_HELD_BLOCK = 256
 
 
 class HoldLastSource:
@@ -24,6 +29,7 @@ class HoldLastSource:
         self._last: RawSample | None = None
         #: sample index at which the wrapped source ran out (None while it has not)
         self.ended_at: int | None = None
+        self._held: np.ndarray | None = None
 
     def read(self, index: int) -> RawSample | None:
         if self.ended_at is None or index < self.ended_at:
@@ -34,6 +40,19 @@ class HoldLastSource:
             if self.ended_at is None:
                 self.ended_at = index
         return self._last
+
+    def imu_block(self, start: int, n: int) -> np.ndarray | None:
+        """Samples from *start* as one block (see :func:`~firmware_sim.sensors.base.imu_block`):
+        the wrapped source's until it ends, then the held last sample repeated."""
+        if self.ended_at is None or start < self.ended_at:
+            return imu_block(self.source, start, n)
+        last = self._last
+        if last is None:
+            return None
+        held = self._held
+        if held is None or not np.array_equal(held[0], last.imu):
+            held = self._held = np.repeat(last.imu[None], _HELD_BLOCK, axis=0)
+        return held[:n]
 
     def set_dlpf(self, cfg: int) -> None:
         self.source.set_dlpf(cfg)
@@ -60,6 +79,13 @@ class StartOnFirstRead:
         if self.start is None:
             self.start = index
         return self.source.read(max(0, index - self.start))
+
+    def imu_block(self, start: int, n: int) -> np.ndarray | None:
+        """Samples from *start* as one block (see :func:`~firmware_sim.sensors.base.imu_block`);
+        None before the first read (that read fixes where the source starts)."""
+        if self.start is None or start < self.start:
+            return None
+        return imu_block(self.source, start - self.start, n)
 
     def set_dlpf(self, cfg: int) -> None:
         self.source.set_dlpf(cfg)

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from firmware_sim.control import ControlServer
 from firmware_sim.link import make_link
 from firmware_sim.port import IdealPort
-from firmware_sim.sensors.base import ScriptedSource
+from firmware_sim.sensors.base import RawSample, ScriptedSource
 from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead, served_source
 from firmware_sim.serve import ServedModule, parse_ready, tcp_address
 from firmware_sim.transports.hub import HostHub
@@ -54,6 +54,44 @@ def test_a_served_scenario_starts_at_the_first_read_and_then_stands_still():
     assert np.array_equal(src.read(502).imu, script[2])
     assert np.array_equal(src.read(900).imu, script[2]), "after its end the wearer stands still"
     assert isinstance(src.source, StartOnFirstRead) and src.source.start == 500
+
+
+class _Record:
+    """A finite recording with a whole-record ``imu`` array (like the replay and simulated sources)."""
+
+    rate_hz = 1000.0
+
+    def __init__(self, n: int):
+        self.imu = np.arange(n * 4 * 6, dtype=np.int16).reshape(n, 4, 6)
+
+    def __len__(self) -> int:
+        return len(self.imu)
+
+    def read(self, index: int):
+        if index >= len(self):
+            return None
+        return RawSample(self.imu[index], np.zeros(4, np.int16), np.zeros((4, 3), np.int16))
+
+    def set_dlpf(self, cfg: int) -> None:
+        pass
+
+
+@given(st.integers(0, 40), st.integers(1, 300), st.integers(1, 40))
+def test_a_served_source_block_is_what_reads_give(first: int, n: int, length: int):
+    """The compiled path reads a served source in blocks: each block is exactly the samples
+    ``read`` gives one by one, the held last sample included; none before the first read."""
+    src = served_source(_Record(length))
+    assert src.imu_block(first, n) is None, "before the first read the start is not known"
+    src.read(first)
+    for start in range(first, first + length + 5, 3):
+        block = src.imu_block(start, n)
+        if block is None:  # the end not yet seen: read one by one until it is
+            assert start >= first + length and src.ended_at is None
+            src.read(start)
+            continue
+        assert 1 <= len(block) <= n
+        for k in range(len(block)):
+            assert np.array_equal(block[k], src.read(start + k).imu)
 
 
 def test_tcp_address_defaults_to_loopback_and_refuses_junk():

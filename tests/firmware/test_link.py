@@ -398,3 +398,31 @@ def test_a_stall_towards_the_module_holds_commands_without_loss():
     clk.step(2)
     assert link.rx_read(10) == b"\x03\x00\x03"
     assert link.counters.to_module.lost == 0
+
+
+def test_idle_until_says_when_advancing_would_change_nothing():
+    """The compiled path may skip a link's per-tick advance only while it is idle: nothing in
+    flight either way, and only up to the next scheduled stall, disconnect or reconnect."""
+    link = make_link("bt", seed=1)
+    assert link.idle_until() == 0, "not started: the first advance schedules the faults"
+    clk = Clock(link)
+    assert link.idle_until() is None, "no faults, nothing in flight: idle for ever"
+    link.tx_write(b"\xaa" * 10)
+    assert link.idle_until() == link.now_cycles
+    clk.step(60)  # on the wire, then 20–40 ms in the air
+    assert link.host_read() == b"\xaa" * 10 and link.idle_until() is None
+    link.host_write(b"\x03\x00\x03")
+    assert link.idle_until() == link.now_cycles
+    clk.step(60)
+    assert link.rx_read(10) == b"\x03\x00\x03" and link.idle_until() is None
+    faulty = make_link("bt", seed=1, faults=LinkFaults(disconnect_rate_hz=2.0, reconnect_s=(0.1, 0.1)))
+    Clock(faulty)
+    until = faulty.idle_until()
+    assert until is not None and until > 0
+    clk = Clock.__new__(Clock)
+    clk.link, clk.tick = faulty, 0
+    while faulty.connected:
+        assert faulty.now_cycles < until
+        clk.step()
+    assert faulty.now_cycles >= until, "the link went down at the time it announced"
+    assert faulty.idle_until() > faulty.now_cycles, "next: the reconnect"

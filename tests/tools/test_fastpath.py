@@ -17,11 +17,14 @@ import pytest
 
 from firmware_sim import fastpath
 from firmware_sim.batch import run_replay
-from firmware_sim.link import make_link
+from firmware_sim.link import LinkFaults, make_link
 from firmware_sim.module import Module, ModuleConfig
 from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.replay import ReplaySource
+from protocol.frames import StatePacket, build_packet_ack
 from protocol.states import STATES
+from protocol.stream import StreamDecoder
 from tests.conftest import WALK_IDS, walk_path
 from tools.bench.driver import START_STEPWISE, run_session
 
@@ -86,6 +89,50 @@ def test_loop_by_loop_on_a_bluetooth_link_matches() -> None:
     assert mods[1]._fast is not None and mods[1]._fast.ticks_single > 1000
     assert out[0] == out[1] and len(out[0]) > 4
     _assert_same_module(*mods)
+
+
+def _acking_host(module: Module, decoder: StreamDecoder, wire: bytearray) -> None:
+    """A host that reads the module's Bluetooth link and acknowledges every state packet at once."""
+    data = module.bt.port.host_read()
+    wire += data
+    for frame in decoder.feed(data):
+        if isinstance(frame, StatePacket):
+            module.bt.port.host_write(build_packet_ack(frame.number))
+
+
+@needs_numba
+@pytest.mark.parametrize("link", ["bt", "usb", "ideal", "bt-faults"])
+def test_quiet_stretches_on_a_link_model_match_loop_by_loop(link: str) -> None:
+    """Module.advance on a link model with an acking host (a served module: scenario played from
+    the first read, then its last sample held) sends the bytes of the pure loop-by-loop run.
+    Quiet stretches (link idle both ways) run compiled in one call; with seeded stalls and
+    disconnects they stop short of each scheduled event."""
+    faults = LinkFaults.both(stall_rate_hz=0.5, disconnect_rate_hz=0.2, reconnect_s=(0.2, 0.5)) \
+        if link == "bt-faults" else None
+    profile = link.split("-")[0]
+    source = make_source("stand:2+walk:3", seed=4)
+    ticks = len(source) + 1500  # on past the end of the scenario (held still)
+    mods, wires = [], []
+    for compiled in (False, True):
+        m = Module(ModuleConfig(compiled=compiled), sensors=served_source(source),
+                   bt_port=make_link(profile, seed=2, faults=faults))
+        m.step()  # the module runs before the host starts the mode
+        m.bt.port.host_write(START_STEPWISE)
+        dec, wire = StreamDecoder(), bytearray()
+        while m.clock.ticks < ticks:
+            if compiled:
+                m.advance(ticks - m.clock.ticks)
+            else:
+                m.step()
+            _acking_host(m, dec, wire)
+        mods.append(m)
+        wires.append(bytes(wire))
+    assert wires[0] == wires[1] and wires[0].count(b"\xaa") >= 5
+    _assert_same_module(*mods)
+    assert mods[1].bt.port.stats() == mods[0].bt.port.stats()
+    fast = mods[1]._fast
+    # (with faults, packets wait in the queue through each disconnect: fewer quiet loops)
+    assert fast is not None and fast.ticks_quiet > (0.2 if faults else 0.5) * ticks
 
 
 @needs_numba
