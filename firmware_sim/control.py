@@ -3,6 +3,7 @@ disconnect, stall or corrupt the running modules' links on demand."""
 
 from __future__ import annotations
 
+import json
 import selectors
 import socket
 from typing import TYPE_CHECKING, Any
@@ -18,6 +19,7 @@ commands (one per line; prefix with @I to address module I only, e.g. "@1 discon
   corrupt N        corrupt the next N bytes sent to the host
   drop N           lose the next N bytes sent to the host
   status           one status line per module
+  status json      the same as one JSON object per line (every counter, lateness classes included)
   help             this text
   quit             close this control connection"""
 
@@ -95,6 +97,9 @@ class ControlServer:
             return CONTROL_HELP + "\nOK"
         if cmd == "quit":
             return None
+        if cmd == "status" and rest == ["json"]:
+            return "\n".join(json.dumps({"module": m.index, **m.pacer.status().as_dict()})
+                             for m in targets) + "\nOK"
         if cmd == "status":
             return "\n".join(f"m{m.index} {m.status_line()}" for m in targets) + "\nOK"
         try:

@@ -22,8 +22,8 @@ registered:
   READ_INERTIAL and STATE_OUTPUT_IF run in Python (any sensor source, the
   conditional output), the eight numeric slots compiled.
 * :meth:`FastNav.run_quiet` — whole loops while nothing but the sequence
-  happens (ports idle: nothing received or in flight on an ideal port or a link
-  model, no output due, queues empty; :meth:`FastNav.quiet_ticks`): up to
+  happens (nothing received, no output due, a waiting packet not due for a
+  resend, no byte in flight reaching the µC or the host; :meth:`FastNav.quiet_ticks`): up to
   the loop of the next step reset, reading the sensor block directly; the
   clock, interrupt counter, GP_DT and PS_DT advance exactly as loop by loop.
 
@@ -949,9 +949,12 @@ class FastNav:
         """How many of the next loops (at most *max_ticks*) run with nothing but the sequence
         happening (see the module doc); 0 = the next loop is not quiet.
 
-        Every port must be idle (:meth:`~firmware_sim.port.IdealPort.idle_until`): nothing
-        received or in flight; a link model with a stall, disconnect or reconnect scheduled
-        bounds the run to the loops before it, which then run loop by loop as usual."""
+        Nothing may be received, pending or due for output, and a lossless packet waiting for
+        its ACK must not be due for a resend. The ports bound the run
+        (:meth:`~firmware_sim.port.IdealPort.quiet_until`): a link model with bytes in flight
+        is quiet until the first of them could reach the µC or the host, and a scheduled
+        disconnect or reconnect ends the run before it; the loop of such an event then runs
+        loop by loop as usual."""
         src = module.sensors
         if module.sensors_exhausted or not (hasattr(src, "imu_block") or hasattr(src, "imu")):
             return 0  # (whether it has a block now, run_quiet asks)
@@ -964,12 +967,20 @@ class FastNav:
             return 0
         n = max_ticks
         for iface in module.interface_list:
-            if iface._need or iface._periodic or iface._pulled or iface.queue.frames:
+            if iface._need or iface._periodic or iface._pulled:
                 return 0
-            idle = getattr(iface.port, "idle_until", None)
-            if idle is None:
+            port = iface.port
+            queue = iface.queue
+            if queue.frames and port.connected:
+                # a lossless packet waiting for its ACK: every loop counts the resend delay
+                # down, and the loop that resends it is not quiet
+                if not iface.lossless or queue.frames[0].single or queue.delay_counter == 0:
+                    return 0
+                n = min(n, queue.resend_cycles - queue.delay_counter)
+            quiet_until = getattr(port, "quiet_until", None)
+            if quiet_until is None:
                 return 0
-            until = idle()
+            until = quiet_until()
             if until is not None:
                 # loop i advances its ports at first + i·period + loop_overhead: all before `until`
                 n = min(n, (until - first - c.loop_overhead - 1) // clock.cycles_per_tick + 1)
@@ -1026,15 +1037,28 @@ class FastNav:
         if sample is not None:
             mem.imu_temp[:NR_IMUS] = sample.temp
             mem.imu_mag[:NR_IMUS] = sample.mag
+        step_end = completing or (tracking and mem.flag(StateId.FILTER_RESET_FLAG))
         for iface in module.interface_list:
-            iface.port.advance(last_start + c.loop_overhead)
+            port = iface.port
+            if not port.idle():
+                # bytes in flight: the link moves tick by tick, as between loops (same chunks)
+                advance = port.advance
+                for i in range(done - 1):
+                    advance(first + i * period + c.loop_overhead)
+            port.advance(last_start + c.loop_overhead)
+            queue = iface.queue
+            if queue.frames and port.connected:
+                # each loop's send_lossless() counted the resend delay (the last loop's
+                # transmit_data() runs below when it is a step's)
+                counted = done - 1 if step_end else done
+                queue.delay_counter = (queue.delay_counter + counted) % queue.resend_cycles
         if completing:
             # the alignment's last sample: INITIAL_ALIGNMENT and RESTORE_PROC_SEQU_IF (the
             # tracking sequence comes in), then transmit_data(), as Module.step does
             ins.frontend_initial_alignment(module)
             utility.restore_proc_sequ_if(module)
             self._finish_loop(module)
-        elif tracking and mem.flag(StateId.FILTER_RESET_FLAG):
+        elif step_end:
             # the step's loop: STATE_OUTPUT_IF and transmit_data() in Python, as Module.step does
             utility.state_output_if(module)
             self._finish_loop(module)

@@ -387,17 +387,42 @@ class Link:
             "to_host": len(self._tx) + self._air_h_bytes,
         }
 
-    def idle_until(self) -> int | None:
-        """Up to which cycle :meth:`advance` would change nothing, if the host writes nothing
-        (see :meth:`firmware_sim.port.IdealPort.idle_until`): None = for ever; the current
-        time = not idle (bytes in flight either way, or the first advance not yet made);
-        otherwise the next scheduled stall, disconnect or reconnect."""
-        if (not self._started or self._tx or self._air_h or self._air_m or self._radio_m
-                or self._rx):
-            return self.now_cycles
-        due = [t for t in (self._next_stall["to_module"], self._next_stall["to_host"],
-                           self._next_disconnect, self._reconnect_at) if t is not None]
+    def quiet_until(self) -> int | None:
+        """A lower bound of the first cycle at which :meth:`advance` changes what the module
+        or the host sees — bytes reaching the µC's receive ring or the host's buffer, the
+        connection going down or up — if the host writes nothing; None = never.
+
+        The current time (or earlier) = not quiet now. Before that bound the link may be
+        advanced after the module's loops instead of between them (see :meth:`idle`)."""
+        now = self.now_cycles
+        if not self._started or self._rx:
+            return now
+        due = [t for t in (self._next_disconnect, self._reconnect_at) if t is not None]
+        if self.connected:
+            if self._air_h:
+                due.append(self._stall["to_host"].hold(self._air_h[0].at))
+            if self._tx:
+                if self._rate is None:
+                    return now
+                # the next byte off the wire, then at least the latency in the air
+                due.append(-(-(self._tx_wire_u + CLOCK_HZ) // self._rate) + self._latency)
+            if self._air_m:
+                due.append(self._stall["to_module"].hold(self._air_m[0].at))
+            if self._radio_m:
+                if self._rate is None:
+                    return now
+                start = max(self._rx_wire_u, self._radio_m[0].at * self._rate)
+                due.append(-(-(start + CLOCK_HZ) // self._rate))
         return min(due) if due else None
+
+    def idle(self) -> bool:
+        """Nothing in flight and no stall, disconnect or reconnect scheduled: advancing once
+        to a later time equals advancing tick by tick to it (while :meth:`quiet_until` allows).
+        A busy link must still be advanced tick by tick, for the same chunks on the air."""
+        return not (self._tx or self._air_h or self._air_m or self._radio_m or self._rx
+                    or self._next_stall["to_module"] is not None or self._next_stall["to_host"] is not None
+                    or self._next_disconnect is not None or self._reconnect_at is not None
+                    or not self._started)
 
     def connect(self) -> None:
         """The host pairs / the cable is plugged in."""

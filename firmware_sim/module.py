@@ -180,7 +180,7 @@ class Module:
         """
         if max_ticks < 1:
             return 0
-        kind = self._compiled and self._fast_cls.kind(self)
+        kind = max_ticks > 1 and self._compiled and self._fast_cls.kind(self)
         if kind:
             fast = self._fastnav()
             quiet = fast.quiet_ticks(self, max_ticks)

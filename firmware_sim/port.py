@@ -53,8 +53,8 @@ class Port(Protocol):
 
     def disconnect(self) -> None: ...
 
-    # optional: ``idle_until() -> int | None`` (see IdealPort.idle_until). A port that has
-    # it lets the compiled path run quiet stretches of loops in one call.
+    # optional: ``quiet_until() -> int | None`` and ``idle() -> bool`` (see IdealPort). A
+    # port that has them lets the compiled path run quiet stretches of loops in one call.
 
 
 class IdealPort:
@@ -77,12 +77,15 @@ class IdealPort:
     def advance(self, now_cycles: int) -> None:
         self.now_cycles = now_cycles
 
-    def idle_until(self) -> int | None:
-        """Up to which cycle :meth:`advance` would change nothing the module sees, if the host
-        writes nothing: None = for ever; the current time or earlier = not idle now.
-
-        An ideal port is idle while its receive ring is empty."""
+    def quiet_until(self) -> int | None:
+        """A lower bound of the first cycle at which :meth:`advance` changes what the module
+        or the host sees, if the host writes nothing: None = never; the current time or
+        earlier = not quiet now. An ideal port is quiet while its receive ring is empty."""
         return self.now_cycles if self._rx else None
+
+    def idle(self) -> bool:
+        """Whether advancing once to a later time equals advancing tick by tick (always)."""
+        return True
 
     def rx_read(self, max_n: int) -> bytes:
         if not self._rx:

@@ -126,6 +126,24 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     o.add_argument("--duration", type=float, metavar="S", help="stop after S wall-clock seconds")
     o.add_argument("--status-interval", type=float, default=1.0, metavar="S",
                    help="seconds between status lines on stderr (0 = none; default 1)")
+    o.add_argument("--frame-ms", type=float, metavar="MS",
+                   help="module time each module runs per wake-up, back to back (default: one tick "
+                        f"for one module, {MANY_MODULES_FRAME_MS:g} ms for several); output leaves "
+                        "at most one frame later, commands are answered at once")
+    o.add_argument("--overrun-ms", type=float, metavar="MS",
+                   help="a frame starting later than this counts an overrun (default: one frame)")
+
+
+#: The default frame of a process with several modules (see --frame-ms, docs/design.md).
+MANY_MODULES_FRAME_MS = 4.0
+
+
+def frame_ticks(args: argparse.Namespace, rate_hz: float) -> int:
+    """Ticks per frame from ``--frame-ms`` (at least one tick)."""
+    ms = args.frame_ms
+    if ms is None:
+        ms = MANY_MODULES_FRAME_MS if args.modules > 1 else 0.0
+    return max(1, round(ms * rate_hz / 1000.0))
 
 
 # --------------------------------------------------------------------------- building
@@ -236,6 +254,11 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
     if args.speed < 0:
         print("openshoe-emu serve: --speed must be >= 0", file=err)
         return 2
+    for name in ("frame_ms", "overrun_ms"):
+        value = getattr(args, name)
+        if value is not None and not value >= 0:
+            print(f"openshoe-emu serve: --{name.replace('_', '-')} must be >= 0", file=err)
+            return 2
     stop = stop if stop is not None else threading.Event()
     modules: list[ServedModule] = []
     loop: MultiPacer | None = None
@@ -259,7 +282,9 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         except (OSError, ValueError) as exc:
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
-        loop = MultiPacer([m.pacer for m in modules])
+        rate_hz = modules[0].module.clock.rate_hz
+        loop = MultiPacer([m.pacer for m in modules], frame_ticks=frame_ticks(args, rate_hz),
+                          overrun_s=None if args.overrun_ms is None else args.overrun_ms / 1000.0)
         warm_up()
         gc.collect()
         gc.freeze()  # what exists now is never scanned again: no long collections in the loop

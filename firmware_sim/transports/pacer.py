@@ -8,14 +8,24 @@ its own, and a :class:`MultiPacer` runs many of them — every module of a
 make them fight over the GIL).
 
 Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
-— never before, so no module is ever ahead of real time. In a multi-pacer each
-module has a *phase*: ``phases`` groups (default: one per module) due evenly
-spread over the period, at ``t0 + (n + k / phases) / (rate · speed)`` for group
-*k* — like real modules, whose timers were started at different moments. So the
-work is spread over the period instead of a burst at its start, and a module's
-lateness is its own, not the sum of the modules stepped before it. A module
-whose tick starts more than one tick period after its deadline counts an
-*overrun* (the host machine was too slow); the ticks still all run (virtual time never skips), back to
+— never before, so no module is ever ahead of real time. A multi-pacer wakes a
+module once per *frame* of ``frame_ticks`` ticks (default 1) and runs the
+frame's ticks back to back with :meth:`Module.advance
+<firmware_sim.module.Module.advance>` — so the compiled path runs a quiet frame
+in one call — at the deadline of its last tick; what they sent goes to the
+hosts then. So a frame of F ticks lets output leave up to F − 1 ticks later
+than tick by tick (a few ms, inside the Bluetooth link's own 0–20 ms jitter),
+for a fraction of the CPU. A host's bytes do not wait for the frame: when an
+endpoint's fd turns readable, its module at once runs the ticks already due, so
+a command is answered as soon as tick by tick. In a multi-pacer each module
+has a *phase*: ``phases`` groups (default: one per module) due evenly spread
+over the frame, at ``t0 + (f + 1) · F · period + k · F · period / phases`` for
+group *k* — like real modules, whose timers were started at different moments.
+So the work is spread over the frame instead of a burst at its start, and a
+module's lateness is its own, not the sum of the modules run before it. A
+frame that starts more than ``overrun_s`` (default: one frame) after its
+deadline counts an *overrun* for its module (the host machine was too slow, or
+did not run the loop in time); the ticks still all run (virtual time never skips), back to
 back, until the loop has caught up. If it falls more than ``max_lag_s`` behind,
 the schedule is moved forward (counted in ``rebases``) instead of racing to
 catch up. ``speed`` = 1 is real time, 10 is ten times faster, 0 (or ``inf``) as
@@ -51,6 +61,10 @@ from typing import Any, Protocol
 
 from ..module import Module
 
+#: Upper bounds [ms of module time] of the lateness classes counted per frame (PacerStatus.lag_frames).
+LAG_BOUNDS_MS = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, math.inf)
+LAG_LABELS = tuple(f"<{b:g}ms" for b in LAG_BOUNDS_MS[:-1]) + (f">={LAG_BOUNDS_MS[-2]:g}ms",)
+
 
 class Endpoint(Protocol):
     """A host-facing transport the pacer pumps."""
@@ -70,10 +84,14 @@ class PacerStatus:
     virtual_s: float  #: the module's clock
     wall_s: float  #: wall time since start
     loop_us_mean: float  #: mean wall time of one tick (module.step)
-    loop_us_max: float
-    overruns: int  #: ticks that started more than one tick period late
+    loop_us_max: float  #: longest wall time of one frame's ticks
+    overruns: int  #: frames that started more than the overrun limit (default: one frame) late
     rebases: int  #: times the schedule was moved forward after falling far behind
-    lag_ms: float  #: how far the last tick ran behind its deadline
+    lag_ms: float  #: how far the last frame ran behind its deadline
+    lag_max_ms: float  #: the most a frame ran behind its deadline
+    frame_ms: float  #: wall time of one frame (the ticks run back to back per wake-up)
+    #: frames by how late they started, e.g. {"<1ms": 9000, "<2ms": 40, …, ">=50ms": 0}
+    lag_frames: dict[str, int] = field(default_factory=dict)
     packets: dict[str, int] = field(default_factory=dict)  #: packets assembled per interface
     queue: dict[str, int] = field(default_factory=dict)  #: frames in each interface's queue
     endpoints: list[dict[str, Any]] = field(default_factory=list)
@@ -86,7 +104,8 @@ class PacerStatus:
         hosts = " ".join(f"{e.get('kind', '?')}={'on' if e.get('paired') else 'off'}" for e in self.endpoints)
         return (f"t={self.virtual_s:9.3f}s x{ratio:5.2f} "
                 f"loop {self.loop_us_mean:6.1f}/{self.loop_us_max:6.1f} us "
-                f"overruns {self.overruns} lag {self.lag_ms:5.1f} ms | packets {pk} | queue {q} | {hosts}")
+                f"overruns {self.overruns} lag {self.lag_ms:5.1f}/{self.lag_max_ms:5.1f} ms "
+                f"| packets {pk} | queue {q} | {hosts}")
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -117,6 +136,8 @@ class Pacer:
         self.overruns = 0
         self.rebases = 0
         self._lag = 0.0
+        self._lag_max = 0.0
+        self._lag_counts = [0] * len(LAG_BOUNDS_MS)
         self._busy = 0.0
         self._busy_max = 0.0
         self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
@@ -188,6 +209,10 @@ class Pacer:
             overruns=self.overruns,
             rebases=self.rebases,
             lag_ms=self._lag * 1e3,
+            lag_max_ms=self._lag_max * 1e3,
+            lag_frames=dict(zip(LAG_LABELS, self._lag_counts, strict=True)),
+            frame_ms=0.0 if g.speed == 0 or math.isinf(g.speed)
+            else g.frame_ticks * 1e3 / (m.clock.rate_hz * g.speed),
             packets={i.name: i.packets_assembled for i in m.interface_list},
             queue={i.name: len(i.queue) for i in m.interface_list},
             endpoints=eps,
@@ -206,18 +231,24 @@ class MultiPacer:
     step time, and takes its own controls (``pacers[i].call(fn)``). *idle_pump_s*: at
     most this long between two pumps of a quiet endpoint (0 = pump every endpoint after
     every tick, as a lone pacer does). *spin_load*: poll instead of sleeping while a
-    tick's steps take more than this fraction of the period (None, the default: always sleep).
+    round of frames takes more than this fraction of a frame (None, the default: always sleep).
     *phases*: how many evenly spaced deadlines the modules are spread over (None = one
-    per module; 1 = all at the start of the period).
+    per module; 1 = all at the start of the frame). *frame_ticks*: ticks a module runs per
+    wake-up (see the module doc). *overrun_s*: a frame later than this (in module time;
+    None = one frame) counts an overrun.
     """
 
     def __init__(self, pacers: Iterable[Pacer], idle_pump_s: float = 0.005, spin_load: float | None = None,
-                 phases: int | None = None):
+                 phases: int | None = None, frame_ticks: int = 1, overrun_s: float | None = None):
         self.pacers: list[Pacer] = list(pacers)
         if not self.pacers:
             raise ValueError("a MultiPacer needs at least one module")
         if idle_pump_s < 0:
             raise ValueError(f"idle_pump_s must be >= 0, got {idle_pump_s}")
+        if frame_ticks < 1:
+            raise ValueError(f"frame_ticks must be >= 1, got {frame_ticks}")
+        if overrun_s is not None and not overrun_s >= 0:
+            raise ValueError(f"overrun_s must be >= 0, got {overrun_s}")
         first = self.pacers[0]
         for p in self.pacers:
             if p.speed != first.speed and not (math.isinf(p.speed) and math.isinf(first.speed)):
@@ -236,6 +267,8 @@ class MultiPacer:
         self.idle_pump_s = idle_pump_s
         self.spin_load = spin_load
         self.phases = phases
+        self.frame_ticks = int(frame_ticks)
+        self.overrun_s = overrun_s
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self.running = False
@@ -244,10 +277,10 @@ class MultiPacer:
 
     @classmethod
     def of(cls, modules: Iterable[tuple[Module, Iterable[Endpoint]]], speed: float = 1.0,
-           max_lag_s: float = 0.25, idle_pump_s: float = 0.005) -> MultiPacer:
+           max_lag_s: float = 0.25, idle_pump_s: float = 0.005, frame_ticks: int = 1) -> MultiPacer:
         """A multi-pacer over ``(module, endpoints)`` pairs."""
         return cls([Pacer(m, eps, speed=speed, max_lag_s=max_lag_s) for m, eps in modules],
-                   idle_pump_s=idle_pump_s)
+                   idle_pump_s=idle_pump_s, frame_ticks=frame_ticks)
 
     # ------------------------------------------------------------------ control
     def start(self) -> MultiPacer:
@@ -284,41 +317,48 @@ class MultiPacer:
     def run(self, duration_s: float | None = None) -> None:
         """The loop itself (blocks). *duration_s*: stop after that much wall time."""
         pacers = self.pacers
-        steps = [(p, p.module.step) for p in pacers]
+        n_mod = len(pacers)
+        advances = [p.module.advance for p in pacers]
         eps: list[Endpoint] = [ep for p in pacers for ep in p.endpoints]
-        owner: list[Pacer] = [p for p in pacers for _ in p.endpoints]
+        owner: list[int] = [j for j, p in enumerate(pacers) for _ in p.endpoints]
         pending: list[Callable[[], int] | None] = [None if self.idle_pump_s == 0 else
                                                    getattr(getattr(ep, "port", None), "host_pending", None)
                                                    for ep in eps]
         registered: list[tuple[int, ...]] = [() for _ in eps]
         speed = self.speed
         asap = speed == 0 or math.isinf(speed)
+        F = self.frame_ticks
         period = 0.0 if asap else 1.0 / (pacers[0].module.clock.rate_hz * speed)
+        frame = F * period
+        bounds = [ms / 1000.0 / (1.0 if asap else speed) for ms in LAG_BOUNDS_MS[:-1]]
+        n_bounds = len(bounds)
+        late_limit = frame if self.overrun_s is None or asap else self.overrun_s / speed
         max_lag = self.max_lag_s
-        poll = 0 if self.idle_pump_s == 0 or asap else max(1, round(self.idle_pump_s / period))
-        spin_busy = None if self.spin_load is None or asap else self.spin_load * period
+        poll = 0 if self.idle_pump_s == 0 or asap else max(1, math.ceil(self.idle_pump_s / frame - 1e-9))
+        spin_busy = None if self.spin_load is None or asap else self.spin_load * frame
         spinning = False
-        polled = -1  # the tick whose hosts a spinning loop looked at last
-        tick_busy = 0.0
-        ran = 0  # whole ticks run back to back
+        polled = -1  # the frame whose hosts a spinning loop looked at last
+        round_busy = 0.0
+        ran = 0  # whole rounds of frames run back to back
         last = [0 for _ in eps]
-        n_mod = len(pacers)
-        # module j's tick n is due at t0 + (n + 1 + phase_j) · period (see the doc)
+        done = [0] * n_mod  # ticks each module ran since t0
+        # module j's frame f (its ticks f·F+1 … (f+1)·F) is due at t0 + (f + 1)·F·period + phase_j,
+        # its tick m at t0 + m·period + phase_j (see the doc)
         phases = max(1, min(self.phases or n_mod, n_mod))
-        offs = [(j * phases // n_mod) * period / phases for j in range(n_mod)]
+        offs = [(j * phases // n_mod) * frame / phases for j in range(n_mod)]
         ep_lo: list[int] = []
         ep_hi: list[int] = []
         for p in pacers:
             ep_lo.append(ep_hi[-1] if ep_hi else 0)
             ep_hi.append(ep_lo[-1] + len(p.endpoints))
-        j = 0  # the next module to step (of tick n)
+        j = 0  # the next module to run (of frame f)
         # select(2) sleeps to the microsecond; epoll and poll round a timeout up to a millisecond
         sel: selectors.BaseSelector = selectors.SelectSelector()
         stop = self._stop
         perf = time.perf_counter
         t0 = self.t_start = perf()
         end = None if duration_s is None else t0 + duration_s
-        n = 0  # ticks since t0
+        f = 0  # the frame being run
         self.running = True
 
         def pump(i: int) -> None:
@@ -326,9 +366,10 @@ class MultiPacer:
             try:
                 ep.pump()
             except BaseException as e:
-                owner[i].error = owner[i].error or e
+                p = pacers[owner[i]]
+                p.error = p.error or e
                 raise
-            last[i] = n
+            last[i] = f
             fds = getattr(ep, "fds", ())
             old = registered[i]
             if fds != old:
@@ -350,6 +391,33 @@ class MultiPacer:
                         continue
                 registered[i] = tuple(ok)
 
+        def run_to(k: int, target: int) -> float:
+            """Run module k until it has run *target* ticks; returns the wall time it took."""
+            p = pacers[k]
+            adv = advances[k]
+            s = perf()
+            d = done[k]
+            try:
+                while d < target:
+                    d += adv(target - d)
+            except BaseException as e:
+                p.error = p.error or e
+                raise
+            finally:
+                p.ticks += d - done[k]
+                done[k] = d
+            dt = perf() - s
+            p._busy += dt
+            if dt > p._busy_max:
+                p._busy_max = dt
+            return dt
+
+        def pump_owned(k: int, force: bool) -> None:
+            for i in range(ep_lo[k], ep_hi[k]):
+                has = pending[i]
+                if force or has is None or has() or f - last[i] >= poll:
+                    pump(i)
+
         try:
             for i in range(len(eps)):
                 pump(i)
@@ -361,89 +429,80 @@ class MultiPacer:
                 if end is not None and now >= end:
                     break
                 if asap:
-                    for _ in range(self.asap_pump_ticks):
-                        for p, step in steps:
-                            s = perf()
-                            try:
-                                step()
-                            except BaseException as e:
-                                p.error = p.error or e
-                                raise
-                            dt = perf() - s
-                            p.ticks += 1
-                            p._busy += dt
-                            if dt > p._busy_max:
-                                p._busy_max = dt
-                    n += self.asap_pump_ticks
+                    for k in range(n_mod):
+                        run_to(k, done[k] + self.asap_pump_ticks)
+                    f += 1
                     for i in range(len(eps)):
                         pump(i)
                     continue
-                # run every module whose deadline has passed, in turn
+                # run every module whose frame is due, in turn
                 stepped = False
                 while True:
-                    deadline = t0 + (n + 1) * period + offs[j]
+                    deadline = t0 + (f + 1) * frame + offs[j]
                     if now < deadline:
                         break
                     if now - deadline > max_lag:
                         for p in pacers:
                             p.rebases += 1
-                        t0 = now - (n + 1) * period - offs[j]
+                        t0 = now - (f + 1) * frame - offs[j]
                         deadline = now
-                    p, step = steps[j]
+                    p = pacers[j]
                     late = now - deadline
-                    if late > period:
+                    if late > late_limit:
                         p.overruns += 1
+                    if late > p._lag_max:
+                        p._lag_max = late
+                    b = 0
+                    while b < n_bounds and late >= bounds[b]:
+                        b += 1
+                    p._lag_counts[b] += 1
                     p._lag = late
-                    try:
-                        step()
-                    except BaseException as e:
-                        p.error = p.error or e
-                        raise
-                    t = perf()
-                    dt = t - now
-                    now = t
-                    p.ticks += 1
-                    p._busy += dt
-                    if dt > p._busy_max:
-                        p._busy_max = dt
-                    tick_busy += dt
-                    # what the tick sent leaves now, not a tick later
-                    for i in range(ep_lo[j], ep_hi[j]):
-                        has = pending[i]
-                        if has is None or has() or n - last[i] >= poll:
-                            pump(i)
-                            now = perf()
+                    round_busy += run_to(j, (f + 1) * F)
+                    # what the frame sent leaves now, not a frame later
+                    pump_owned(j, False)
+                    now = perf()
                     stepped = True
                     j += 1
                     if j == n_mod:
                         j = 0
-                        n += 1
-                        # spin through the idle time if the ticks take most of the period (see the doc)
-                        spinning = spin_busy is not None and tick_busy > spin_busy
-                        tick_busy = 0.0
+                        f += 1
+                        # spin through the idle time if the frames take most of the period (see the doc)
+                        spinning = spin_busy is not None and round_busy > spin_busy
+                        round_busy = 0.0
                         ran += 1
                         if ran >= 8:
                             ran = 0
                             break  # look at the hosts now and then while catching up
                 if not stepped:
                     ran = 0
-                wait = t0 + (n + 1) * period + offs[j] - perf()
+                wait = t0 + (f + 1) * frame + offs[j] - perf()
                 if spinning and wait > 0:
                     # busy-wait without system calls (a kernel entry leaves the next step with
-                    # cold caches and branch predictors); look at the hosts once per tick
+                    # cold caches and branch predictors); look at the hosts once per frame
                     target = perf() + wait
-                    if n != polled:
-                        polled = n
+                    if f != polled:
+                        polled = f
                         if sel.get_map():
                             for key, _ in sel.select(0):
                                 pump(key.data)
                     while perf() < target:
                         pass
                     continue
-                if sel.get_map():
-                    for key, _ in sel.select(max(wait, 0.0)):
-                        pump(key.data)
-                elif wait > 0:
+                ready = sel.select(max(wait, 0.0)) if sel.get_map() else None
+                if ready:
+                    now = perf()
+                    for key, _ in ready:
+                        i = key.data
+                        pump(i)
+                        if F > 1:
+                            # a host wrote: its module catches up with the wall clock now (the
+                            # ticks already due), so the command is not held to the frame's end
+                            k = owner[i]
+                            due = min(int((now - t0 - offs[k]) / period), (f + (1 if k >= j else 2)) * F)
+                            if due > done[k]:
+                                run_to(k, due)
+                                pump_owned(k, True)
+                elif ready is None and wait > 0:
                     stop.wait(wait)
         except BaseException as e:  # surfaced through status/error, never silently lost
             self.error = e

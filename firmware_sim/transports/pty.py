@@ -92,23 +92,27 @@ class PtyEndpoint(PairingEvents):
     def fds(self) -> tuple[int, ...]:
         return (self.master,) if self.paired and not self.closed else ()
 
-    def _slave_held(self) -> bool:
+    def _poll_master(self) -> tuple[bool, bool]:
+        """(a host holds the slave open, the master has bytes to read)."""
+        held, readable = True, False
         for _fd, ev in self._poll.poll(0):
             if ev & (select.POLLHUP | select.POLLERR):
-                return False
-        return True
+                held = False
+            if ev & select.POLLIN:
+                readable = True
+        return held, readable
 
     def pump(self) -> None:
         if self.closed:
             return
-        held = self._slave_held()
+        held, readable = self._poll_master()
         if held and not self.paired:
             self._connect()
         elif not held and self.paired:
             self._hangup()
         if not self.paired:
             return
-        while True:
+        while readable:
             try:
                 data = os.read(self.master, _READ)
             except BlockingIOError:
@@ -122,6 +126,7 @@ class PtyEndpoint(PairingEvents):
                 break
             n = self.port.host_write(data)
             self.refused += len(data) - n
+            readable = len(data) == _READ
         out = self.port.host_read()
         if out:
             try:

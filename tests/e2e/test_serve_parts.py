@@ -120,6 +120,9 @@ class _FakePacer:
             def line(self):
                 return "t=1.000s"
 
+            def as_dict(self):
+                return {"overruns": 0, "lag_frames": {"<1ms": 9}}
+
         return S()
 
 
@@ -133,6 +136,7 @@ def test_control_commands_drive_the_link():
     assert ctl.execute("stall 0.5") == "OK stall 0.5" and link.counters.stalls == 1
     assert ctl.execute("@0 corrupt 3") == "OK corrupt 3"
     assert ctl.execute("status") == "m0 t=1.000s\nOK"
+    assert ctl.execute("status json") == '{"module": 0, "overruns": 0, "lag_frames": {"<1ms": 9}}\nOK'
     assert ctl.execute("stall -1").startswith("ERR stall: must be >= 0")
     assert ctl.execute("corrupt x").startswith("ERR corrupt: 'x' is not a number")
     assert ctl.execute("@3 stall 1").startswith("ERR no module @3")

@@ -400,29 +400,74 @@ def test_a_stall_towards_the_module_holds_commands_without_loss():
     assert link.counters.to_module.lost == 0
 
 
-def test_idle_until_says_when_advancing_would_change_nothing():
-    """The compiled path may skip a link's per-tick advance only while it is idle: nothing in
-    flight either way, and only up to the next scheduled stall, disconnect or reconnect."""
+def test_quiet_until_bounds_when_the_module_or_the_host_sees_something():
+    """The compiled path runs a module's loops ahead of its link only up to quiet_until():
+    a lower bound of the first delivery to the µC or the host or the next scheduled
+    disconnect or reconnect; idle() says whether the link may then skip the ticks between."""
     link = make_link("bt", seed=1)
-    assert link.idle_until() == 0, "not started: the first advance schedules the faults"
+    assert link.quiet_until() == 0 and not link.idle(), "not started: the first advance schedules faults"
     clk = Clock(link)
-    assert link.idle_until() is None, "no faults, nothing in flight: idle for ever"
+    assert link.quiet_until() is None and link.idle(), "nothing in flight, no faults"
     link.tx_write(b"\xaa" * 10)
-    assert link.idle_until() == link.now_cycles
-    clk.step(60)  # on the wire, then 20–40 ms in the air
-    assert link.host_read() == b"\xaa" * 10 and link.idle_until() is None
+    until = link.quiet_until()
+    assert until >= link.now_cycles + 20 * TICK and not link.idle(), "on the wire, then ≥ 20 ms in the air"
+    seen = 0
+    while not link.host_pending():
+        clk.step()
+        seen += 1
+    assert link.now_cycles >= until, "nothing reached the host before the bound"
+    assert link.host_read() == b"\xaa" * 10 and 20 <= seen <= 50
+    clk.step(30)
+    assert link.quiet_until() is None and link.idle()
     link.host_write(b"\x03\x00\x03")
-    assert link.idle_until() == link.now_cycles
-    clk.step(60)
-    assert link.rx_read(10) == b"\x03\x00\x03" and link.idle_until() is None
+    until = link.quiet_until()
+    assert until >= link.now_cycles + 20 * TICK
+    while not link.rx_pending():
+        clk.step()
+    assert link.now_cycles >= until, "nothing reached the µC before the bound"
+    assert link.quiet_until() == link.now_cycles, "bytes in the receive ring: not quiet"
+    assert link.rx_read(10) == b"\x03\x00\x03"
     faulty = make_link("bt", seed=1, faults=LinkFaults(disconnect_rate_hz=2.0, reconnect_s=(0.1, 0.1)))
-    Clock(faulty)
-    until = faulty.idle_until()
-    assert until is not None and until > 0
-    clk = Clock.__new__(Clock)
-    clk.link, clk.tick = faulty, 0
+    clk = Clock(faulty)
+    until = faulty.quiet_until()
+    assert until is not None and until > 0 and not faulty.idle()
     while faulty.connected:
         assert faulty.now_cycles < until
         clk.step()
     assert faulty.now_cycles >= until, "the link went down at the time it announced"
-    assert faulty.idle_until() > faulty.now_cycles, "next: the reconnect"
+    assert faulty.quiet_until() > faulty.now_cycles, "next: the reconnect"
+
+
+@settings(max_examples=80, deadline=None)
+@given(ops=ops, profile=st.sampled_from(["bt", "usb", "ideal"]), seed=st.integers(0, 3),
+       faulty=st.booleans())
+def test_quiet_until_is_a_lower_bound(ops, profile, seed, faulty):
+    """Whatever is in flight, stalled or scheduled: stepping the link tick by tick, nothing
+    reaches the µC's receive ring or the host and the connection does not change while the
+    time is before quiet_until() (the compiled path relies on it to run loops ahead)."""
+    faults = LinkFaults(to_host=DirectionFaults(stall_rate_hz=2.0), disconnect_rate_hz=1.0,
+                        reconnect_s=(0.05, 0.1)) if faulty else None
+    link = make_link(profile, seed=seed, faults=faults)
+    clk = Clock(link)
+
+    def step_checked(ticks: int) -> None:
+        for _ in range(ticks):
+            until = link.quiet_until()
+            state = (link.rx_pending(), link.host_pending(), link.connected)
+            clk.step()
+            if until is None or link.now_cycles < until:
+                assert (link.rx_pending(), link.host_pending(), link.connected) == state, (
+                    f"a change at {link.now_cycles} before the bound {until}")
+
+    for op, n in ops:
+        if op == "host_write":
+            link.host_write(bytes(n))
+        elif op == "tx_write":
+            link.tx_write(bytes(min(n, link.tx_free())))
+        elif op == "stall":
+            link.stall(n / 1000)
+        elif op in ("rx_read", "host_read"):
+            link.rx_read(n) if op == "rx_read" else link.host_read(n)
+        else:
+            step_checked(n // 10 + 1)
+    step_checked(150)  # everything in flight lands (or is held by a stall)

@@ -91,10 +91,14 @@ def test_loop_by_loop_on_a_bluetooth_link_matches() -> None:
     _assert_same_module(*mods)
 
 
-def _acking_host(module: Module, decoder: StreamDecoder, wire: bytearray) -> None:
-    """A host that reads the module's Bluetooth link and acknowledges every state packet at once."""
+def _acking_host(module: Module, decoder: StreamDecoder, wire: bytearray,
+                 arrivals: list[tuple[int, int]] | None = None) -> None:
+    """A host that reads the module's Bluetooth link and acknowledges every state packet at once
+    (*arrivals*: the loop after which each piece arrived, and its length)."""
     data = module.bt.port.host_read()
     wire += data
+    if data and arrivals is not None:
+        arrivals.append((module.clock.ticks, len(data)))
     for frame in decoder.feed(data):
         if isinstance(frame, StatePacket):
             module.bt.port.host_write(build_packet_ack(frame.number))
@@ -105,33 +109,37 @@ def _acking_host(module: Module, decoder: StreamDecoder, wire: bytearray) -> Non
 def test_quiet_stretches_on_a_link_model_match_loop_by_loop(link: str) -> None:
     """Module.advance on a link model with an acking host (a served module: scenario played from
     the first read, then its last sample held) sends the bytes of the pure loop-by-loop run.
-    Quiet stretches (link idle both ways) run compiled in one call; with seeded stalls and
-    disconnects they stop short of each scheduled event."""
+    Quiet stretches run compiled in one call, also while bytes are in flight (the link then
+    moves tick by tick after them); they stop before the loop in which bytes reach the µC or
+    the host, before a resend, and short of each seeded disconnect or reconnect."""
     faults = LinkFaults.both(stall_rate_hz=0.5, disconnect_rate_hz=0.2, reconnect_s=(0.2, 0.5)) \
         if link == "bt-faults" else None
     profile = link.split("-")[0]
     source = make_source("stand:2+walk:3", seed=4)
     ticks = len(source) + 1500  # on past the end of the scenario (held still)
-    mods, wires = [], []
+    mods, wires, timing = [], [], []
     for compiled in (False, True):
         m = Module(ModuleConfig(compiled=compiled), sensors=served_source(source),
                    bt_port=make_link(profile, seed=2, faults=faults))
         m.step()  # the module runs before the host starts the mode
         m.bt.port.host_write(START_STEPWISE)
-        dec, wire = StreamDecoder(), bytearray()
+        dec, wire, arrivals = StreamDecoder(), bytearray(), []
         while m.clock.ticks < ticks:
             if compiled:
                 m.advance(ticks - m.clock.ticks)
             else:
                 m.step()
-            _acking_host(m, dec, wire)
+            _acking_host(m, dec, wire, arrivals)
         mods.append(m)
         wires.append(bytes(wire))
+        timing.append(arrivals)
     assert wires[0] == wires[1] and wires[0].count(b"\xaa") >= 5
+    assert timing[0] == timing[1], "every piece reached the host after the same loop"
     _assert_same_module(*mods)
     assert mods[1].bt.port.stats() == mods[0].bt.port.stats()
     fast = mods[1]._fast
     # (with faults, packets wait in the queue through each disconnect: fewer quiet loops)
+    print("QUIET", link, fast.ticks_quiet / ticks, fast.ticks_single / ticks)
     assert fast is not None and fast.ticks_quiet > (0.2 if faults else 0.5) * ticks
 
 

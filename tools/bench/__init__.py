@@ -118,6 +118,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--modules", type=int, default=50, help="realtime: modules in total (default 50)")
     p.add_argument("--processes", type=int, default=2, help="realtime: serve processes (default 2)")
     p.add_argument("--minutes", type=float, default=10.0, help="realtime: wall minutes (default 10)")
+    p.add_argument("--frame-ms", type=float,
+                   help="realtime: serve's --frame-ms (default: serve's own default for several modules)")
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
     p.add_argument("--cycles", type=float, default=FULL_CYCLES,
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
@@ -139,7 +141,7 @@ def main(argv: list[str] | None = None) -> int:
         if name == "batch":
             r = t.bench_batch(args.walk_s, _say)
         elif name == "realtime":
-            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say)
+            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms)
         elif name == "latency":
             r = t.bench_latency(args.pings, _say)
         else:

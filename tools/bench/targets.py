@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
 import random
-import re
 import resource
 import selectors
 import socket
@@ -234,23 +234,27 @@ def single_loop_cost_us(modules: int = 10, ticks: int = 2000) -> float:
     return (time.perf_counter() - t) / ticks / modules * 1e6
 
 
-def bench_realtime(modules: int, processes: int, minutes: float, say: Say) -> Result:
+def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
+                   frame_ms: float | None = None) -> Result:
     """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
-    from firmware_sim.serve import spawn
+    from firmware_sim.serve import MANY_MODULES_FRAME_MS, spawn
+
+    frame_len = frame_ms if frame_ms is not None else (MANY_MODULES_FRAME_MS if modules > processes else 1.0)
 
     short = minutes < REALTIME_MINUTES or modules < 50
     per = [modules // processes + (1 if i < modules % processes else 0) for i in range(processes)]
     walk_s = minutes * 60 + 30
     scenario = f"stand:3+walk:{walk_s:g}" if walk_s <= 180 else "stand:3+walk:177"
     say(f"realtime: {modules} modules in {processes} serve processes {per}, {minutes:g} min, "
-        f"scenario {scenario} (after it the last sample is held)")
+        f"frames of {frame_len:g} ms, scenario {scenario} (after it the last sample is held)")
     procs = []
     tag = f"/tmp/openshoe-bench-{os.getpid()}"
     try:
         for k, m in enumerate(per):
             t = time.monotonic()
             procs.append(spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", scenario,
-                               "--control", "127.0.0.1:0", "--status-interval", "10", timeout=600))
+                               "--control", "127.0.0.1:0", "--status-interval", "10",
+                               "--frame-ms", f"{frame_len:g}", timeout=600))
             say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
         hosts: dict[int, dict[str, Any]] = {}
         sel = selectors.DefaultSelector()
@@ -278,14 +282,20 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say) -> Re
                 last = time.monotonic()
                 say(f"realtime: {sum(h['steps'] for h in hosts.values())} steps so far")
         overruns: dict[str, int] = {}
+        lag_max: dict[str, float] = {}
+        lag_frames: dict[str, int] = {}
         loop_us: list[float] = []
         for k, sp in enumerate(procs):
-            text = _control(sp.ready["control"], "status")
-            for line in text.splitlines():
-                mo = re.match(r"m(\d+) .*loop\s+([\d.]+)/\s*([\d.]+) us overruns (\d+)", line)
-                if mo:
-                    overruns[f"p{k}.m{mo.group(1)}"] = int(mo.group(4))
-                    loop_us.append(float(mo.group(2)))
+            for line in _control(sp.ready["control"], "status json").splitlines():
+                if not line.startswith("{"):
+                    continue
+                st = json.loads(line)
+                name = f"p{k}.m{st['module']}"
+                overruns[name] = st["overruns"]
+                lag_max[name] = st["lag_max_ms"]
+                loop_us.append(st["loop_us_mean"])
+                for cls, n in st["lag_frames"].items():
+                    lag_frames[cls] = lag_frames.get(cls, 0) + n
         for fd in hosts:
             os.close(fd)
     finally:
@@ -298,14 +308,20 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say) -> Re
     ok = sum(1 for name, n in overruns.items() if n == 0)
     stepping = sum(1 for n in steps.values() if n > 0)
     figure = min(ok, stepping)
-    details = {"processes": per, "minutes": minutes, "scenario": scenario,
+    worst = max(lag_max.values(), default=float("nan"))
+    details = {"processes": per, "minutes": minutes, "scenario": scenario, "frame_ms": frame_len,
+               "overrun_means": f"a frame (the {frame_len:g} ms of ticks a module runs per wake-up) starting "
+                                f"more than one frame ({frame_len:g} ms) after its deadline",
+               "lag_max_ms": worst, "lag_max_ms_per_module": lag_max, "frames_by_lateness": lag_frames,
                "overruns_total": sum(overruns.values()),
                "modules_without_overrun": ok, "modules_with_steps": stepping,
                "steps_total": sum(steps.values()), "single_loop_us_per_module_tick": round(per_tick, 1),
                "loop_us_mean": round(statistics.mean(loop_us), 1)
                if loop_us else None, "overruns": overruns, "steps": steps}
     say(f"realtime: {ok}/{modules} modules without overrun, {stepping} sent steps "
-        f"({sum(steps.values())} in all), total overruns {sum(overruns.values())}")
+        f"({sum(steps.values())} in all), total overruns {sum(overruns.values())}, "
+        f"worst frame lateness {worst:.1f} ms (overrun: more than {frame_len:g} ms)")
+    say(f"realtime: frames by lateness: {' '.join(f'{k} {v}' for k, v in lag_frames.items())}")
     return Result("realtime", figure, "modules without overrun", float(modules), passed=figure >= 50,
                   short=short, details=details)
 
