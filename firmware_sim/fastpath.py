@@ -1024,8 +1024,8 @@ class FastNav:
         clock.now_cycles = last_start + loop_cycles
         clock.last_loop_cycles = loop_cycles
         mem = module.memory
-        mem[StateId.INTERRUPT_COUNTER][...] = clock.interrupts & _U32
-        mem[StateId.GP_DT][...] = loop_cycles & _U32
+        module._interrupt_counter[...] = clock.interrupts & _U32
+        module._gp_dt[...] = loop_cycles & _U32
         if tracking:
             mem.ps_dt[:10] = self._ps_dt
         else:

@@ -115,6 +115,8 @@ class StateMemory:
         self._arrays = arrays
         #: Byte offset of every state in :attr:`arena`.
         self.offsets = offsets
+        self._bytes = memoryview(self.arena)  # byte access without numpy scalars (flag())
+        self._first_byte: list[int | None] = [offsets.get(i) for i in range(STATE_ID_LIMIT)]
         #: Byte offsets of the blocks imu_raw, imu_temp, imu_mag, ps_dt in :attr:`arena`.
         self.block_offsets = {k: arena.offsets[k] for k, _, _ in _BLOCKS}
         self._specs: list[StateSpec | None] = [STATES.get(i) for i in range(STATE_ID_LIMIT)]
@@ -168,10 +170,10 @@ class StateMemory:
 
     def flag(self, state_id: int) -> bool:
         """A state read as a C bool: true if its first byte is non-zero (false for no state)."""
-        a = self._arrays[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
-        if a is None:
+        off = self._first_byte[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
+        if off is None:
             return False
-        return bool(a.reshape(-1).view(np.uint8)[0])
+        return self._bytes[off] != 0
 
     def clear_flag(self, state_id: int) -> None:
         """Write 0 to a state's first byte (``*flag = false``)."""
