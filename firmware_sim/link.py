@@ -28,6 +28,16 @@ USB (profile ``"usb"``): 1 ms latency, 1 MB/s, and flow control: a full receive
 ring holds bytes back instead of losing them, so USB is lossless unless faults
 are asked for. ``"ideal"``: no rate, no latency, unbounded buffers.
 
+In real time a pacer may run the module ahead of the wall clock, by less than
+the link's latency (:meth:`Link.lookahead_cycles`), and hands the link a *host
+clock* (:attr:`Link.host_clock`, the host's present in module cycles): bytes
+then reach the host when the host's clock passes their arrival time, whatever
+the module's clock says, and the host's bytes leave at the host's present. So
+the module may be early or late by up to the latency without a host seeing a
+difference; a byte reaching the host after its arrival time is counted in
+``late`` with the largest lateness in ``late_max_cycles``. Without a host clock
+(the default, virtual time) the host lives on the module's clock, as before.
+
 Fault injection (:class:`LinkFaults`, per direction) adds seeded byte loss,
 corruption, stalls and disconnects on top; runtime controls
 (:meth:`Link.disconnect`, :meth:`Link.reconnect`, :meth:`Link.stall`,
@@ -38,6 +48,7 @@ them. Every lost or corrupted byte is counted in :attr:`Link.counters`.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
 from typing import Literal
 
@@ -177,6 +188,10 @@ class DirectionCounters:
     lost_fault: int = 0  #: dropped by injected byte loss
     lost_disconnect: int = 0  #: in flight when the link went down
     corrupted: int = 0  #: delivered with injected corruption
+    #: real time only: bytes that reached the far end more than ``late_tolerance_cycles`` after
+    #: their arrival time, and the largest lateness seen [cycles] (0 in virtual time)
+    late: int = 0
+    late_max_cycles: int = 0
 
     @property
     def lost(self) -> int:
@@ -249,6 +264,12 @@ class Link:
         self.connected = connected
         self.counters = LinkCounters()
         self.now_cycles = 0
+        #: The host's present in module cycles, in real time (set by the pacer); None = the
+        #: module's clock (virtual time): see the module doc.
+        self.host_clock: Callable[[], int] | None = None
+        #: Lateness [cycles] of a delivery that still counts as on time (the pacer's
+        #: granularity: bytes reach a host when its endpoint is next pumped).
+        self.late_tolerance_cycles = 0
         self._started = False
         p = profile
         self._rate = p.rate_bps
@@ -356,7 +377,14 @@ class Link:
             return 0
         c.sent += n
         now = self.now_cycles
-        self._air_m.append(_Chunk(self._arrival("to_module", now), bytearray(data[:n])))
+        sent_at = now if self.host_clock is None else self.host_clock()  # the host's present
+        at = self._arrival("to_module", sent_at)
+        if at < now:
+            # the module ran past the moment these bytes arrive (ahead of the host by more
+            # than the latency): they reach it at its next loop, late
+            c.late += n
+            c.late_max_cycles = max(c.late_max_cycles, now - at)
+        self._air_m.append(_Chunk(at, bytearray(data[:n])))
         self._air_m_bytes += n
         if self.profile.latency_s == 0:
             self._pump_to_module(now)
@@ -364,8 +392,7 @@ class Link:
 
     def host_read(self, max_n: int = -1) -> bytes:
         """Bytes the module sent that have reached the host (all of them with -1)."""
-        if self.profile.latency_s == 0:
-            self._pump_to_host(self.now_cycles)
+        self._reach_host()
         if max_n < 0 or max_n >= len(self._host):
             data = bytes(self._host)
             self._host.clear()
@@ -376,9 +403,20 @@ class Link:
 
     def host_pending(self) -> int:
         """Bytes the host can read now."""
+        self._reach_host()
+        return len(self._host)
+
+    def _reach_host(self) -> None:
+        """Before the host looks: what has arrived by its present (see the module doc)."""
         if self.profile.latency_s == 0:
             self._pump_to_host(self.now_cycles)
-        return len(self._host)
+        elif self.host_clock is not None and self._air_h and self.connected:
+            self._deliver_to_host(self.now_cycles)
+
+    def lookahead_cycles(self) -> int:
+        """How far the module's clock may run ahead of the host's without any host byte
+        arriving in the module's past: the one-way latency (jitter only adds to it)."""
+        return self._latency
 
     def in_flight(self) -> dict[str, int]:
         """Bytes on the way in each direction (rings, wire queue, radio, air)."""
@@ -399,7 +437,8 @@ class Link:
             return now
         due = [t for t in (self._next_disconnect, self._reconnect_at) if t is not None]
         if self.connected:
-            if self._air_h:
+            if self._air_h and self.host_clock is None:
+                # (with a host clock the host takes what reached it when it looks: _reach_host)
                 due.append(self._stall["to_host"].hold(self._air_h[0].at))
             if self._tx:
                 if self._rate is None:
@@ -600,13 +639,28 @@ class Link:
                 if chunk:
                     self._air_h.append(_Chunk(self._arrival("to_host", done), chunk))
                     self._air_h_bytes += len(chunk)
+        self._deliver_to_host(now)
+
+    def _deliver_to_host(self, now: int) -> None:
+        """air → host buffer: the chunks that arrived by *now* (module cycles) and, with a
+        host clock, by the host's present (the stall windows are known up to *now* only)."""
+        c = self.counters.to_host
+        p = self.profile
+        host_now = None if self.host_clock is None else self.host_clock()
+        until = now if host_now is None else min(now, host_now)
         stall = self._stall["to_host"]
         while self._air_h:
             ch = self._air_h[0]
             at = stall.hold(ch.at)
-            if at > now:
+            if at > until:
                 ch.at = at
                 break
+            if host_now is not None:
+                late = host_now - at
+                if late > self.late_tolerance_cycles:
+                    c.late += len(ch.data)
+                if late > c.late_max_cycles:
+                    c.late_max_cycles = late
             self._air_h.popleft()
             self._air_h_bytes -= len(ch.data)
             data = self._apply_faults("to_host", ch.data)

@@ -471,3 +471,95 @@ def test_quiet_until_is_a_lower_bound(ops, profile, seed, faulty):
         else:
             step_checked(n // 10 + 1)
     step_checked(150)  # everything in flight lands (or is held by a stall)
+
+
+# --------------------------------------------------------------------------- real time: the host's clock
+
+
+class HostClock:
+    """A host clock a test sets by hand (module cycles)."""
+
+    def __init__(self, now: int = 0):
+        self.now = now
+
+    def __call__(self) -> int:
+        return self.now
+
+
+def _arrival_of_one_byte(seed: int) -> int:
+    """Cycle at which a byte sent at cycle 0 reaches the host, in virtual time."""
+    link = make_link("bt", seed=seed)
+    link.advance(0)
+    link.tx_write(b"\xaa")
+    t = 0
+    while not link.host_pending():
+        t += TICK // 8
+        link.advance(t)
+    return link.counters.to_host.delivered and t
+
+
+def test_module_ahead_of_the_host_its_bytes_reach_the_host_at_the_hosts_time_not_earlier():
+    link = make_link("bt", seed=3)
+    host = HostClock(0)
+    link.host_clock = host
+    link.late_tolerance_cycles = TICK  # the host looks once a tick
+    link.advance(0)
+    link.tx_write(b"\xa0\x03\x00\xa3")
+    link.advance(45 * TICK)  # the module ran 45 ms: the ack has arrived on the module's clock
+    assert link.host_pending() == 0 and link.in_flight()["to_host"] == 4  # the host is still at 0
+    got = b""
+    for ms in range(1, 46):  # the host looks every millisecond
+        host.now = ms * TICK
+        got += link.host_read()
+        if got:
+            break
+    assert got == b"\xa0\x03\x00\xa3" and 20 <= ms <= 41  # at the host's 20–40 ms (+ UART), not at 0
+    c = link.counters.to_host
+    assert c.delivered == 4 and c.late == 0 and c.late_max_cycles < TICK
+
+
+def test_host_bytes_leave_at_the_hosts_present_and_arrive_after_the_latency():
+    link = make_link("bt", seed=1)
+    host = HostClock(100 * TICK)
+    link.advance(110 * TICK)  # the module runs 10 ms ahead of the host
+    link.host_clock = host
+    link.host_write(b"\x03\x00\x03")
+    t = 110
+    while not link.rx_pending():
+        t += 1
+        link.advance(t * TICK)
+    assert 120 <= t <= 142  # 20–40 ms after the host's 100 ms (+ UART), not after the module's 110
+    assert link.counters.to_module.late == 0
+
+
+def test_bytes_that_reach_the_host_after_their_time_are_counted_late():
+    link = make_link("bt", seed=2)
+    host = HostClock(0)
+    link.host_clock = host
+    link.late_tolerance_cycles = 4 * TICK
+    link.advance(0)
+    link.tx_write(b"\x01\x02")
+    link.advance(45 * TICK)
+    host.now = 100 * TICK  # the host looks only 100 ms later (its endpoint was not pumped)
+    assert link.host_read() == b"\x01\x02"
+    c = link.counters.to_host
+    assert c.late == 2 and 60 * TICK <= c.late_max_cycles <= 80 * TICK
+
+
+def test_a_module_ahead_by_more_than_the_latency_counts_the_host_bytes_late():
+    link = make_link("bt", seed=0)
+    link.advance(100 * TICK)
+    link.host_clock = HostClock(0)  # 100 ms ahead: more than the 20 ms the link allows
+    link.host_write(b"\x03\x00\x03")
+    assert link.counters.to_module.late == 3
+    assert link.lookahead_cycles() == 20 * TICK
+    assert make_link("usb").lookahead_cycles() == TICK and make_link("ideal").lookahead_cycles() == 0
+
+
+def test_without_a_host_clock_the_host_lives_on_the_modules_clock():
+    assert all(_arrival_of_one_byte(s) for s in range(5))  # (the virtual-time behaviour above)
+    link = make_link("bt", seed=3)
+    link.advance(0)
+    link.tx_write(b"\xa0")
+    link.advance(45 * TICK)
+    assert link.host_read() == b"\xa0" and link.counters.to_host.late == 0
