@@ -8,7 +8,8 @@ its own, and a :class:`MultiPacer` runs many of them — every module of a
 make them fight over the GIL).
 
 Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
-— never before, so no module is ever ahead of real time. A multi-pacer wakes a
+— never before, so no module is ever ahead of real time, except by the
+*lookahead* of its links (below), which no host can see. A multi-pacer wakes a
 module once per *frame* of ``frame_ticks`` ticks (default 1) and runs the
 frame's ticks back to back with :meth:`Module.advance
 <firmware_sim.module.Module.advance>` — so the compiled path runs a quiet frame
@@ -22,14 +23,30 @@ has a *phase*: ``phases`` groups (default: one per module) due evenly spread
 over the frame, at ``t0 + (f + 1) · F · period + k · F · period / phases`` for
 group *k* — like real modules, whose timers were started at different moments.
 So the work is spread over the frame instead of a burst at its start, and a
-module's lateness is its own, not the sum of the modules run before it. A
-frame that starts more than ``overrun_s`` (default: one frame) after its
-deadline counts an *overrun* for its module (the host machine was too slow, or
-did not run the loop in time); the ticks still all run (virtual time never skips), back to
-back, until the loop has caught up. If it falls more than ``max_lag_s`` behind,
-the schedule is moved forward (counted in ``rebases``) instead of racing to
-catch up. ``speed`` = 1 is real time, 10 is ten times faster, 0 (or ``inf``) as
-fast as the CPU allows (endpoints are then pumped every ``asap_pump_ticks`` ticks).
+module's lateness is its own, not the sum of the modules run before it.
+
+In real time a module behind link models (:class:`~firmware_sim.link.Link`)
+runs *ahead* of the wall clock by its *lookahead*: the links' one-way latency
+less one tick (19 ms behind Bluetooth, 0 behind USB or an ideal port). The
+pacer gives those links a host clock (the wall clock in module cycles, on the
+module's own phase), so a host's bytes leave at the host's present and the
+module's bytes reach the host when the wall clock passes their arrival time —
+not earlier because the module is ahead, not later because it is late. No
+host byte can arrive in the module's past while it is at most one latency
+ahead. So a host sees the link model's timing exactly as long as every frame is
+computed before its first tick's output is due at the host: a frame may start
+up to lookahead + latency − one frame after its (early) deadline — 35 ms with
+4-ms frames behind Bluetooth — and the machine's own hiccups (this VM stops a
+process for 5–15 ms now and then) are absorbed. A frame that starts later than
+that (``overrun_s``, if given; at least one frame) counts an *overrun* for its
+module: a host could have seen the lateness. The links count what did reach a
+host late (``late`` bytes and ``late_max_cycles`` in their counters; a delivery
+up to one frame after its time is on time, the pacer's granularity). The ticks
+still all run (virtual time never skips), back to back, until the loop has
+caught up. If it falls more than ``max_lag_s`` behind, the schedule is moved
+forward (counted in ``rebases``) instead of racing to catch up. ``speed`` = 1
+is real time, 10 is ten times faster, 0 (or ``inf``) as fast as the CPU allows
+(endpoints are then pumped every ``asap_pump_ticks`` ticks).
 
 Endpoints (TCP server, pty, in-process queues) implement ``pump()`` (move bytes
 between the host and their port, connect/disconnect the port as hosts come
@@ -85,11 +102,15 @@ class PacerStatus:
     wall_s: float  #: wall time since start
     loop_us_mean: float  #: mean wall time of one tick (module.step)
     loop_us_max: float  #: longest wall time of one frame's ticks
-    overruns: int  #: frames that started more than the overrun limit (default: one frame) late
+    overruns: int  #: frames that started later than the overrun limit (see the module doc)
     rebases: int  #: times the schedule was moved forward after falling far behind
     lag_ms: float  #: how far the last frame ran behind its deadline
     lag_max_ms: float  #: the most a frame ran behind its deadline
     frame_ms: float  #: wall time of one frame (the ticks run back to back per wake-up)
+    lookahead_ms: float = 0.0  #: how far ahead of the wall clock the module runs (its links' latency)
+    overrun_limit_ms: float = 0.0  #: a frame starting later than this after its deadline is an overrun
+    late_bytes: int = 0  #: bytes that reached a host or the module later than the link model says
+    late_max_ms: float = 0.0  #: the largest such lateness (deliveries within one frame are on time)
     #: frames by how late they started, e.g. {"<1ms": 9000, "<2ms": 40, …, ">=50ms": 0}
     lag_frames: dict[str, int] = field(default_factory=dict)
     packets: dict[str, int] = field(default_factory=dict)  #: packets assembled per interface
@@ -105,15 +126,53 @@ class PacerStatus:
         return (f"t={self.virtual_s:9.3f}s x{ratio:5.2f} "
                 f"loop {self.loop_us_mean:6.1f}/{self.loop_us_max:6.1f} us "
                 f"overruns {self.overruns} lag {self.lag_ms:5.1f}/{self.lag_max_ms:5.1f} ms "
+                f"late {self.late_bytes} B "
                 f"| packets {pk} | queue {q} | {hosts}")
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
 
 
+def links_of(endpoints: Iterable[Endpoint]) -> list[Any]:
+    """The link models behind *endpoints* (ports with a host clock; a hub's link once)."""
+    out: list[Any] = []
+    for ep in endpoints:
+        port = getattr(ep, "port", None)
+        hub = getattr(port, "hub", None)
+        if hub is not None:
+            port = hub.port
+        if hasattr(port, "host_clock") and all(port is not o for o in out):
+            out.append(port)
+    return out
+
+
+def _lookahead_cycles(module: Module, endpoints: list[Endpoint]) -> int:
+    """Cycles a module may run ahead of its hosts: the least one-way latency of the ports
+    behind its endpoints, less one tick (0 for a port without latency, or with no host)."""
+    if not endpoints:
+        return 0
+    least = None
+    for ep in endpoints:
+        port = getattr(ep, "port", None)
+        hub = getattr(port, "hub", None)
+        port = hub.port if hub is not None else port
+        fn = getattr(port, "lookahead_cycles", None)
+        c = fn() if callable(fn) else 0
+        least = c if least is None else min(least, c)
+    return max(0, (least or 0) - module.clock.cycles_per_tick)
+
+
 def _check_speed(speed: float) -> None:
     if speed < 0 or math.isnan(speed):
         raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {speed}")
+
+
+def _host_clock(c0: int, cycles_per_s: float, phase: float, sched: list[float],
+                perf: Callable[[], float]) -> Callable[[], int]:
+    """The wall clock in a module's cycles: tick *m* (cycle c0 + m·period) is at sched[0] + m/rate + phase."""
+    def now() -> int:
+        return c0 + int((perf() - sched[0] - phase) * cycles_per_s)
+    return now
 
 
 class Pacer:
@@ -140,6 +199,8 @@ class Pacer:
         self._lag_counts = [0] * len(LAG_BOUNDS_MS)
         self._busy = 0.0
         self._busy_max = 0.0
+        self.lookahead_s = 0.0  #: wall seconds the module runs ahead (set when its loop starts)
+        self.overrun_limit_s = 0.0  #: wall seconds of lateness that count an overrun (likewise)
         self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
         self._group = MultiPacer([self], idle_pump_s=0.0, spin_load=None)
 
@@ -198,6 +259,9 @@ class Pacer:
         for ep in self.endpoints:
             st = getattr(ep, "status", None)
             eps.append(st() if callable(st) else {"kind": type(ep).__name__})
+        late = [link.counters.direction(d) for link in links_of(self.endpoints)
+                for d in ("to_host", "to_module")]
+        ms_per_s = 1e3 * (g.speed if g.speed and not math.isinf(g.speed) else 1.0)
         return PacerStatus(
             running=g.running,
             speed=self.speed,
@@ -213,6 +277,10 @@ class Pacer:
             lag_frames=dict(zip(LAG_LABELS, self._lag_counts, strict=True)),
             frame_ms=0.0 if g.speed == 0 or math.isinf(g.speed)
             else g.frame_ticks * 1e3 / (m.clock.rate_hz * g.speed),
+            lookahead_ms=self.lookahead_s * ms_per_s,
+            overrun_limit_ms=self.overrun_limit_s * ms_per_s,
+            late_bytes=sum(c.late for c in late),
+            late_max_ms=max((c.late_max_cycles for c in late), default=0) * 1e3 / m.clock.cpu_hz,
             packets={i.name: i.packets_assembled for i in m.interface_list},
             queue={i.name: len(i.queue) for i in m.interface_list},
             endpoints=eps,
@@ -332,7 +400,15 @@ class MultiPacer:
         frame = F * period
         bounds = [ms / 1000.0 / (1.0 if asap else speed) for ms in LAG_BOUNDS_MS[:-1]]
         n_bounds = len(bounds)
-        late_limit = frame if self.overrun_s is None or asap else self.overrun_s / speed
+        # real time: each module runs ahead by its lookahead, its links on the host's clock
+        # (see the module doc); as fast as possible, the host lives on the module's clock
+        ahead = [0.0 if asap else
+                 _lookahead_cycles(p.module, p.endpoints) / p.module.clock.cycles_per_tick * period
+                 for p in pacers]
+        limits = [frame if asap else (self.overrun_s / speed if self.overrun_s is not None
+                                      else max(frame, 2 * a + period - frame)) for a in ahead]
+        for p, a, lim in zip(pacers, ahead, limits, strict=True):
+            p.lookahead_s, p.overrun_limit_s = a, lim
         max_lag = self.max_lag_s
         poll = 0 if self.idle_pump_s == 0 or asap else max(1, math.ceil(self.idle_pump_s / frame - 1e-9))
         spin_busy = None if self.spin_load is None or asap else self.spin_load * frame
@@ -346,6 +422,7 @@ class MultiPacer:
         # its tick m at t0 + m·period + phase_j (see the doc)
         phases = max(1, min(self.phases or n_mod, n_mod))
         offs = [(j * phases // n_mod) * frame / phases for j in range(n_mod)]
+        due_offs = [o - a for o, a in zip(offs, ahead, strict=True)]  # deadlines, the lookahead early
         ep_lo: list[int] = []
         ep_hi: list[int] = []
         for p in pacers:
@@ -360,6 +437,17 @@ class MultiPacer:
         end = None if duration_s is None else t0 + duration_s
         f = 0  # the frame being run
         self.running = True
+        sched = [t0]  # t0 for the host clocks (moved by rebases)
+        clocked: list[Any] = []
+        if not asap:
+            for k, p in enumerate(pacers):
+                clk = p.module.clock
+                cpt = clk.cycles_per_tick
+                c0 = clk.now_cycles + clk.cycles_until_next_tick() - cpt  # the cycle of tick 0
+                for link in links_of(p.endpoints):
+                    link.host_clock = _host_clock(c0, cpt / period, offs[k], sched, perf)
+                    link.late_tolerance_cycles = F * cpt
+                    clocked.append(link)
 
         def pump(i: int) -> None:
             ep = eps[i]
@@ -438,17 +526,17 @@ class MultiPacer:
                 # run every module whose frame is due, in turn
                 stepped = False
                 while True:
-                    deadline = t0 + (f + 1) * frame + offs[j]
+                    deadline = t0 + (f + 1) * frame + due_offs[j]
                     if now < deadline:
                         break
                     if now - deadline > max_lag:
                         for p in pacers:
                             p.rebases += 1
-                        t0 = now - (f + 1) * frame - offs[j]
+                        t0 = sched[0] = now - (f + 1) * frame - due_offs[j]
                         deadline = now
                     p = pacers[j]
                     late = now - deadline
-                    if late > late_limit:
+                    if late > limits[j]:
                         p.overruns += 1
                     if late > p._lag_max:
                         p._lag_max = late
@@ -475,7 +563,7 @@ class MultiPacer:
                             break  # look at the hosts now and then while catching up
                 if not stepped:
                     ran = 0
-                wait = t0 + (f + 1) * frame + offs[j] - perf()
+                wait = t0 + (f + 1) * frame + due_offs[j] - perf()
                 if spinning and wait > 0:
                     # busy-wait without system calls (a kernel entry leaves the next step with
                     # cold caches and branch predictors); look at the hosts once per frame
@@ -496,9 +584,11 @@ class MultiPacer:
                         pump(i)
                         if F > 1:
                             # a host wrote: its module catches up with the wall clock now (the
-                            # ticks already due), so the command is not held to the frame's end
+                            # ticks already due and the one under way, which reads the bytes
+                            # when they arrive now), so the command is not held to the frame's end
                             k = owner[i]
-                            due = min(int((now - t0 - offs[k]) / period), (f + (1 if k >= j else 2)) * F)
+                            due = min(int((now - t0 - due_offs[k]) / period) + 1,
+                                      (f + (1 if k >= j else 2)) * F)
                             if due > done[k]:
                                 run_to(k, due)
                                 pump_owned(k, True)
@@ -512,6 +602,8 @@ class MultiPacer:
             raise
         finally:
             self.running = False
+            for link in clocked:
+                link.host_clock = None  # back on the module's clock
             sel.close()
             for ep in eps:
                 try:

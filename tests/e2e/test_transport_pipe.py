@@ -175,9 +175,32 @@ def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
     assert all(s.running for s in st)
     ticks = [p.ticks for p in loop.pacers]
     assert max(ticks) - min(ticks) <= 1 and min(ticks) >= 99  # modules take their ticks in turn
-    assert all(s.virtual_s <= s.wall_s + 0.002 for s in st)  # never ahead of the wall clock
+    # never ahead of the wall clock by more than the Bluetooth link's latency less a tick
+    assert all(s.lookahead_ms == pytest.approx(19.0) for s in st)
+    assert all(s.virtual_s <= s.wall_s + s.lookahead_ms / 1e3 + 0.002 for s in st)
     assert all(not m.bt.port.connected for m in modules) and all(ep.closed for ep in eps)
     assert not any(p.status().running for p in loop.pacers)
+
+
+def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing():
+    modules = [Module(bt_port=make_link("bt", seed=i)) for i in range(2)] + [Module()]  # last: ideal port
+    eps = [QueueEndpoint(m.bt.port) for m in modules]
+    loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules, eps, strict=True)], speed=1.0, frame_ticks=4)
+    with loop:
+        _wait_ticks(loop.pacers[0], 50)
+        rtt = []
+        for ep in eps:
+            t0 = time.monotonic()
+            ep.write(PING)
+            assert ep.read(4, timeout=5) == PING_ACK
+            rtt.append(time.monotonic() - t0)
+        st = loop.status()
+    # Bluetooth: 19 ms ahead (latency less a tick); an overrun only past 19 + 20 - 4 ms of lateness
+    assert [s.lookahead_ms for s in st] == pytest.approx([19.0, 19.0, 0.0])
+    assert [s.overrun_limit_ms for s in st] == pytest.approx([35.0, 35.0, 4.0])
+    # running ahead never brings the ack sooner than 20 ms there and 20 ms back on the air
+    assert min(rtt[:2]) >= 0.040
+    assert all(m.bt.port.host_clock is None for m in modules[:2])  # back on the module's clock
 
 
 class _CountingEndpoint:
