@@ -413,6 +413,15 @@ class Link:
         elif self.host_clock is not None and self._air_h and self.connected:
             self._deliver_to_host(self.now_cycles)
 
+    def next_host_arrival(self) -> int | None:
+        """With a host clock: the cycle at which the next bytes on the air reach the host, if
+        the module's clock has passed it (None: nothing known to arrive by the module's
+        present, or no host clock), so a pacer can wake for it."""
+        if self.host_clock is None or not self._air_h or not self.connected:
+            return None
+        at = self._stall["to_host"].hold(self._air_h[0].at)
+        return at if at <= self.now_cycles else None
+
     def lookahead_cycles(self) -> int:
         """How far the module's clock may run ahead of the host's without any host byte
         arriving in the module's past: the one-way latency (jitter only adds to it)."""

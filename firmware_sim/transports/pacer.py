@@ -439,15 +439,32 @@ class MultiPacer:
         self.running = True
         sched = [t0]  # t0 for the host clocks (moved by rebases)
         clocked: list[Any] = []
+        mod_links: list[list[Any]] = [[] for _ in pacers]
+        c0s = [0] * n_mod
+        cps = [1.0] * n_mod
+        # wall time at which module k's links next have bytes reaching a host (inf: none)
+        release_at = [math.inf] * n_mod
         if not asap:
             for k, p in enumerate(pacers):
                 clk = p.module.clock
                 cpt = clk.cycles_per_tick
-                c0 = clk.now_cycles + clk.cycles_until_next_tick() - cpt  # the cycle of tick 0
-                for link in links_of(p.endpoints):
-                    link.host_clock = _host_clock(c0, cpt / period, offs[k], sched, perf)
+                c0s[k] = c0 = clk.now_cycles + clk.cycles_until_next_tick() - cpt  # the cycle of tick 0
+                cps[k] = cpt / period
+                mod_links[k] = links_of(p.endpoints)
+                for link in mod_links[k]:
+                    link.host_clock = _host_clock(c0, cps[k], offs[k], sched, perf)
                     link.late_tolerance_cycles = F * cpt
                     clocked.append(link)
+
+        def update_release(k: int) -> None:
+            best = math.inf
+            for link in mod_links[k]:
+                t = link.next_host_arrival()
+                if t is not None:
+                    w = sched[0] + offs[k] + (t - c0s[k]) / cps[k]
+                    if w < best:
+                        best = w
+            release_at[k] = best
 
         def pump(i: int) -> None:
             ep = eps[i]
@@ -505,6 +522,8 @@ class MultiPacer:
                 has = pending[i]
                 if force or has is None or has() or f - last[i] >= poll:
                     pump(i)
+            if mod_links[k]:
+                update_release(k)
 
         try:
             for i in range(len(eps)):
@@ -516,6 +535,11 @@ class MultiPacer:
                 now = perf()
                 if end is not None and now >= end:
                     break
+                if min(release_at) <= now:
+                    # bytes reach a host now on the link model's clock: hand them over at once
+                    for k in range(n_mod):
+                        if release_at[k] <= now:
+                            pump_owned(k, True)
                 if asap:
                     for k in range(n_mod):
                         run_to(k, done[k] + self.asap_pump_ticks)
@@ -563,7 +587,7 @@ class MultiPacer:
                             break  # look at the hosts now and then while catching up
                 if not stepped:
                     ran = 0
-                wait = t0 + (f + 1) * frame + due_offs[j] - perf()
+                wait = min(t0 + (f + 1) * frame + due_offs[j], min(release_at)) - perf()
                 if spinning and wait > 0:
                     # busy-wait without system calls (a kernel entry leaves the next step with
                     # cold caches and branch predictors); look at the hosts once per frame
@@ -582,6 +606,8 @@ class MultiPacer:
                     for key, _ in ready:
                         i = key.data
                         pump(i)
+                        if mod_links[owner[i]]:
+                            update_release(owner[i])
                         if F > 1:
                             # a host wrote: its module catches up with the wall clock now (the
                             # ticks already due and the one under way, which reads the bytes

@@ -563,3 +563,21 @@ def test_without_a_host_clock_the_host_lives_on_the_modules_clock():
     link.tx_write(b"\xa0")
     link.advance(45 * TICK)
     assert link.host_read() == b"\xa0" and link.counters.to_host.late == 0
+
+
+def test_next_host_arrival_is_known_once_the_module_passed_it():
+    link = make_link("bt", seed=4)
+    link.advance(0)
+    assert link.next_host_arrival() is None  # no host clock: the module's clock delivers
+    host = HostClock(0)
+    link.host_clock = host
+    link.tx_write(b"\xa0\x03\x00\xa3")
+    link.advance(10 * TICK)
+    assert link.next_host_arrival() is None  # on the air, arriving after the module's present
+    link.advance(45 * TICK)
+    at = link.next_host_arrival()
+    assert at is not None and 20 * TICK <= at <= 41 * TICK
+    host.now = at - 1
+    assert link.host_read() == b""
+    host.now = at
+    assert link.host_read() == b"\xa0\x03\x00\xa3" and link.next_host_arrival() is None
