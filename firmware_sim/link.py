@@ -653,6 +653,8 @@ class Link:
     def _deliver_to_host(self, now: int) -> None:
         """air → host buffer: the chunks that arrived by *now* (module cycles) and, with a
         host clock, by the host's present (the stall windows are known up to *now* only)."""
+        if not self._air_h:
+            return
         c = self.counters.to_host
         p = self.profile
         host_now = None if self.host_clock is None else self.host_clock()

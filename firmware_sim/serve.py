@@ -131,7 +131,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         f"for one module, {MANY_MODULES_FRAME_MS:g} ms for several); output leaves "
                         "at most one frame later, commands are answered at once")
     o.add_argument("--overrun-ms", type=float, metavar="MS",
-                   help="a frame starting later than this counts an overrun (default: one frame)")
+                   help="a frame starting later than this counts an overrun (default: so late that a "
+                        "host could see it: the link's lookahead + latency - one frame, 35 ms on "
+                        "Bluetooth with 4-ms frames; one frame on USB or an ideal link)")
 
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).

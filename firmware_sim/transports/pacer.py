@@ -133,14 +133,17 @@ class PacerStatus:
         return asdict(self)
 
 
+def _port_behind(endpoint: Endpoint) -> Any:
+    """The module's port an endpoint reaches (through a hub's tap: the hub's shared port)."""
+    port = getattr(endpoint, "port", None)
+    hub = getattr(port, "hub", None)
+    return hub.port if hub is not None else port
+
+
 def links_of(endpoints: Iterable[Endpoint]) -> list[Any]:
     """The link models behind *endpoints* (ports with a host clock; a hub's link once)."""
     out: list[Any] = []
-    for ep in endpoints:
-        port = getattr(ep, "port", None)
-        hub = getattr(port, "hub", None)
-        if hub is not None:
-            port = hub.port
+    for port in map(_port_behind, endpoints):
         if hasattr(port, "host_clock") and all(port is not o for o in out):
             out.append(port)
     return out
@@ -149,17 +152,9 @@ def links_of(endpoints: Iterable[Endpoint]) -> list[Any]:
 def _lookahead_cycles(module: Module, endpoints: list[Endpoint]) -> int:
     """Cycles a module may run ahead of its hosts: the least one-way latency of the ports
     behind its endpoints, less one tick (0 for a port without latency, or with no host)."""
-    if not endpoints:
-        return 0
-    least = None
-    for ep in endpoints:
-        port = getattr(ep, "port", None)
-        hub = getattr(port, "hub", None)
-        port = hub.port if hub is not None else port
-        fn = getattr(port, "lookahead_cycles", None)
-        c = fn() if callable(fn) else 0
-        least = c if least is None else min(least, c)
-    return max(0, (least or 0) - module.clock.cycles_per_tick)
+    least = min((port.lookahead_cycles() if callable(getattr(port, "lookahead_cycles", None)) else 0
+                 for port in map(_port_behind, endpoints)), default=0)
+    return max(0, least - module.clock.cycles_per_tick)
 
 
 def _check_speed(speed: float) -> None:
@@ -302,8 +297,8 @@ class MultiPacer:
     round of frames takes more than this fraction of a frame (None, the default: always sleep).
     *phases*: how many evenly spaced deadlines the modules are spread over (None = one
     per module; 1 = all at the start of the frame). *frame_ticks*: ticks a module runs per
-    wake-up (see the module doc). *overrun_s*: a frame later than this (in module time;
-    None = one frame) counts an overrun.
+    wake-up (see the module doc). *overrun_s*: a frame later than this (in module time)
+    counts an overrun; None = later than a host could see (the module doc; at least one frame).
     """
 
     def __init__(self, pacers: Iterable[Pacer], idle_pump_s: float = 0.005, spin_load: float | None = None,
@@ -525,6 +520,13 @@ class MultiPacer:
             if mod_links[k]:
                 update_release(k)
 
+        def release_due(now: float) -> None:
+            """Hand over the bytes that reach a host by *now* on their link model's clock."""
+            if min(release_at) <= now:
+                for k in range(n_mod):
+                    if release_at[k] <= now:
+                        pump_owned(k, True)
+
         try:
             for i in range(len(eps)):
                 pump(i)
@@ -535,11 +537,7 @@ class MultiPacer:
                 now = perf()
                 if end is not None and now >= end:
                     break
-                if min(release_at) <= now:
-                    # bytes reach a host now on the link model's clock: hand them over at once
-                    for k in range(n_mod):
-                        if release_at[k] <= now:
-                            pump_owned(k, True)
+                release_due(now)
                 if asap:
                     for k in range(n_mod):
                         run_to(k, done[k] + self.asap_pump_ticks)
@@ -550,6 +548,8 @@ class MultiPacer:
                 # run every module whose frame is due, in turn
                 stepped = False
                 while True:
+                    # bytes due at a host go first: they have no slack, a frame has its lookahead
+                    release_due(now)
                     deadline = t0 + (f + 1) * frame + due_offs[j]
                     if now < deadline:
                         break

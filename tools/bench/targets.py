@@ -333,7 +333,7 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
                "modules_without_overrun": ok, "modules_with_steps": stepping,
                "steps_total": sum(steps.values()), "single_loop_us_per_module_tick": round(per_tick, 1),
                "loop_us_mean": round(statistics.mean(loop_us), 1)
-               if loop_us else None, "overruns": overruns, "steps": steps}
+               if loop_us else None, "overruns": overruns, "late_bytes": late_bytes, "steps": steps}
     say(f"realtime: {ok}/{modules} modules without overrun, {stepping} sent steps "
         f"({sum(steps.values())} in all), total overruns {sum(overruns.values())}, "
         f"worst frame lateness {worst:.1f} ms (modules {ahead:g} ms ahead; overrun: more than {limit:g} ms)")
