@@ -267,8 +267,8 @@ class Link:
         #: The host's present in module cycles, in real time (set by the pacer); None = the
         #: module's clock (virtual time): see the module doc.
         self.host_clock: Callable[[], int] | None = None
-        #: Lateness [cycles] of a delivery that still counts as on time (the pacer's
-        #: granularity: bytes reach a host when its endpoint is next pumped).
+        #: Lateness [cycles] of a delivery that still counts as on time (the pacer sets one
+        #: frame: the loop hands bytes over when they are due, give or take its wake-ups).
         self.late_tolerance_cycles = 0
         self._started = False
         p = profile

@@ -27,9 +27,10 @@ module's lateness is its own, not the sum of the modules run before it.
 
 In real time a module behind link models (:class:`~firmware_sim.link.Link`)
 runs *ahead* of the wall clock by its *lookahead*: the links' one-way latency
-less one tick (19 ms behind Bluetooth, 0 behind USB or an ideal port). The
-pacer gives those links a host clock (the wall clock in module cycles, on the
-module's own phase), so a host's bytes leave at the host's present and the
+less one tick (19 ms behind Bluetooth, 0 behind USB or an ideal port, whose
+links then stay on the module's clock as in virtual time). The pacer gives the
+links of a module that runs ahead a host clock (the wall clock in module
+cycles, on the module's own phase), so a host's bytes leave at the host's present and the
 module's bytes reach the host when the wall clock passes their arrival time —
 not earlier because the module is ahead, not later because it is late. No
 host byte can arrive in the module's past while it is at most one latency
@@ -41,7 +42,7 @@ process for 5–15 ms now and then) are absorbed. A frame that starts later than
 that (``overrun_s``, if given; at least one frame) counts an *overrun* for its
 module: a host could have seen the lateness. The links count what did reach a
 host late (``late`` bytes and ``late_max_cycles`` in their counters; a delivery
-up to one frame after its time is on time, the pacer's granularity). The ticks
+up to one frame after its time still counts as on time). The ticks
 still all run (virtual time never skips), back to back, until the loop has
 caught up. If it falls more than ``max_lag_s`` behind, the schedule is moved
 forward (counted in ``rebases``) instead of racing to catch up. ``speed`` = 1
@@ -441,6 +442,10 @@ class MultiPacer:
         release_at = [math.inf] * n_mod
         if not asap:
             for k, p in enumerate(pacers):
+                if ahead[k] <= 0:
+                    # never ahead: its links stay on its clock, and a host's bytes reach it at its
+                    # next loop, however late that loop runs (the fastest answer to a command)
+                    continue
                 clk = p.module.clock
                 cpt = clk.cycles_per_tick
                 c0s[k] = c0 = clk.now_cycles + clk.cycles_until_next_tick() - cpt  # the cycle of tick 0
@@ -610,11 +615,9 @@ class MultiPacer:
                             update_release(owner[i])
                         if F > 1:
                             # a host wrote: its module catches up with the wall clock now (the
-                            # ticks already due and the one under way, which reads the bytes
-                            # when they arrive now), so the command is not held to the frame's end
+                            # ticks already due), so the command is not held to the frame's end
                             k = owner[i]
-                            due = min(int((now - t0 - due_offs[k]) / period) + 1,
-                                      (f + (1 if k >= j else 2)) * F)
+                            due = min(int((now - t0 - due_offs[k]) / period), (f + (1 if k >= j else 2)) * F)
                             if due > done[k]:
                                 run_to(k, due)
                                 pump_owned(k, True)

@@ -184,10 +184,16 @@ def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
 
 def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing():
     modules = [Module(bt_port=make_link("bt", seed=i)) for i in range(2)] + [Module()]  # last: ideal port
-    eps = [QueueEndpoint(m.bt.port) for m in modules]
-    loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules, eps, strict=True)], speed=1.0, frame_ticks=4)
+    usb = Module(bt_port=make_link("usb"))
+    eps = [QueueEndpoint(m.bt.port) for m in modules + [usb]]
+    loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules + [usb], eps, strict=True)], speed=1.0,
+                         frame_ticks=4)
     with loop:
         _wait_ticks(loop.pacers[0], 50)
+        # running ahead, a module's links are on the host's clock; never ahead (USB), on its own
+        clocks = [loop.call(k, lambda mod: mod.bt.port.host_clock is not None).result(5) for k in (0, 1, 3)]
+        assert clocks == [True, True, False]
+        eps = eps[:3]
         rtt = []
         for ep in eps:
             t0 = time.monotonic()
@@ -196,8 +202,8 @@ def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing(
             rtt.append(time.monotonic() - t0)
         st = loop.status()
     # Bluetooth: 19 ms ahead (latency less a tick); an overrun only past 19 + 20 - 4 ms of lateness
-    assert [s.lookahead_ms for s in st] == pytest.approx([19.0, 19.0, 0.0])
-    assert [s.overrun_limit_ms for s in st] == pytest.approx([35.0, 35.0, 4.0])
+    assert [s.lookahead_ms for s in st] == pytest.approx([19.0, 19.0, 0.0, 0.0])
+    assert [s.overrun_limit_ms for s in st] == pytest.approx([35.0, 35.0, 4.0, 4.0])
     # running ahead never brings the ack sooner than 20 ms there and 20 ms back on the air
     assert min(rtt[:2]) >= 0.040
     assert all(m.bt.port.host_clock is None for m in modules[:2])  # back on the module's clock
