@@ -382,7 +382,8 @@ class Link:
         if at < now:
             # the module ran past the moment these bytes arrive (ahead of the host by more
             # than the latency): they reach it at its next loop, late
-            c.late += n
+            if now - at > self.late_tolerance_cycles:
+                c.late += n
             c.late_max_cycles = max(c.late_max_cycles, now - at)
         self._air_m.append(_Chunk(at, bytearray(data[:n])))
         self._air_m_bytes += n

@@ -531,6 +531,10 @@ class MultiPacer:
                 for k in range(n_mod):
                     if release_at[k] <= now:
                         pump_owned(k, True)
+                        if release_at[k] <= now:
+                            # no endpoint took them (no host on it yet): look again after the
+                            # module's next frame instead of spinning on them
+                            release_at[k] = math.inf
 
         try:
             for i in range(len(eps)):

@@ -209,6 +209,35 @@ def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing(
     assert all(m.bt.port.host_clock is None for m in modules[:2])  # back on the module's clock
 
 
+class _DeafEndpoint:
+    """An endpoint on a link that never reads what reaches its host (a pty nobody opened)."""
+
+    fds: tuple[int, ...] = ()
+
+    def __init__(self, port) -> None:
+        self.port = port
+        self.pumps = 0
+
+    def pump(self) -> None:
+        self.pumps += 1
+
+    def close(self) -> None:
+        pass
+
+
+def test_bytes_due_at_a_host_nobody_reads_do_not_make_the_loop_spin():
+    link = make_link("bt", seed=0)
+    m = Module(bt_port=link)
+    ep = _DeafEndpoint(link)
+    link.host_write(PING)  # its ack reaches the host side ~40-80 ms in, and stays there unread
+    loop = MultiPacer.of([(m, [ep])], speed=1.0, frame_ticks=4)
+    with loop:
+        ticks = _wait_ticks(loop.pacers[0], 200)
+    assert link.counters.to_host.sent == 4  # the ack was sent, and is due at the host
+    # at most two pumps per 4-tick frame (its own, one release), not a busy loop on bytes nobody takes
+    assert ep.pumps <= ticks // 2
+
+
 class _CountingEndpoint:
     """An endpoint whose port never has bytes for the host; counts its pumps."""
 
