@@ -379,12 +379,9 @@ class Link:
         now = self.now_cycles
         sent_at = now if self.host_clock is None else self.host_clock()  # the host's present
         at = self._arrival("to_module", sent_at)
-        if at < now:
-            # the module ran past the moment these bytes arrive (ahead of the host by more
-            # than the latency): they reach it at its next loop, late
-            if now - at > self.late_tolerance_cycles:
-                c.late += n
-            c.late_max_cycles = max(c.late_max_cycles, now - at)
+        # (if the module already ran past that moment — ahead of the host by more than the
+        # latency — the bytes reach it at its next loop, late)
+        self._note_lateness(c, now - at, n)
         self._air_m.append(_Chunk(at, bytearray(data[:n])))
         self._air_m_bytes += n
         if self.profile.latency_s == 0:
@@ -651,6 +648,13 @@ class Link:
                     self._air_h_bytes += len(chunk)
         self._deliver_to_host(now)
 
+    def _note_lateness(self, c: DirectionCounters, late: int, n: int) -> None:
+        """*n* bytes reached their far end *late* cycles after their arrival time (≤ 0: on time)."""
+        if late > self.late_tolerance_cycles:
+            c.late += n
+        if late > c.late_max_cycles:
+            c.late_max_cycles = late
+
     def _deliver_to_host(self, now: int) -> None:
         """air → host buffer: the chunks that arrived by *now* (module cycles) and, with a
         host clock, by the host's present (the stall windows are known up to *now* only)."""
@@ -668,11 +672,7 @@ class Link:
                 ch.at = at
                 break
             if host_now is not None:
-                late = host_now - at
-                if late > self.late_tolerance_cycles:
-                    c.late += len(ch.data)
-                if late > c.late_max_cycles:
-                    c.late_max_cycles = late
+                self._note_lateness(c, host_now - at, len(ch.data))
             self._air_h.popleft()
             self._air_h_bytes -= len(ch.data)
             data = self._apply_faults("to_host", ch.data)
