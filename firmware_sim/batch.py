@@ -33,7 +33,9 @@ from protocol.ids import Command
 from protocol.stream import StreamDecoder
 
 from .module import Module, ModuleConfig
+from .progress import progress_bar, say
 from .sensors.base import SensorSource
+from .warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 
 __all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "main"]
 
@@ -65,16 +67,18 @@ def _source_length(source: SensorSource) -> int | None:
 
 def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                progress: Callable[[int, int | None], None] | None = None,
-               progress_every: int = 5000) -> ReplayResult:
+               progress_every: int = 5000, announce: Announce | None = to_stderr) -> ReplayResult:
     """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
 
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
     *progress(samples_done, samples_total_or_None)* is called every
-    *progress_every* loops.
+    *progress_every* loops. *announce* hears about a slow first start (the compiled
+    path being prepared, :mod:`firmware_sim.warmup`) or a fallback to the pure path.
     """
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
     module = Module(config, sensors=source)
+    prepare_module(module, announce)
     port = module.bt.port
     decoder = StreamDecoder()
     out = bytearray()
@@ -145,7 +149,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
     p.add_argument("--rate", type=float, default=1000.0,
                    help="loop/sample rate of a simulated scenario [Hz] (default 1000)")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -165,21 +169,17 @@ def main(args: argparse.Namespace) -> int:
     except (OSError, RecordingFormatError, KeyError, ValueError) as e:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2
+    announce = None if args.quiet else say
+    prepare_compiled_path(announce)  # before the clock: the time below is the replay's own
     t0 = time.monotonic()
-
-    def progress(done: int, total: int | None) -> None:
-        if args.quiet:
-            return
-        rate = done / max(time.monotonic() - t0, 1e-9)
-        of = f"/{total}" if total else ""
-        print(f"\r{name}: {done}{of} samples, {rate:,.0f} samples/s", end="", file=sys.stderr, flush=True)
-
-    data = run_replay(source, progress=progress)
+    with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
+                      unit_scale=True) as bar:
+        data = run_replay(source, progress=lambda done, _total: bar.update(done - bar.n), announce=announce)
     args.wire.write_bytes(data)
     if truth is not None:
         truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
     if not args.quiet:
         elapsed = time.monotonic() - t0
-        print(f"\r{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "
+        print(f"{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "
               f"{len(data)} bytes → {args.wire}", file=sys.stderr)
     return 0

@@ -28,16 +28,21 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
-from hostlib.tracking import StepTracker
+from hostlib.tracking import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
 from .link import make_link
 from .module import Module, ModuleConfig
 from .port import IdealPort
+from .progress import progress_bar
+from .sensors.base import SensorSource
 from .sensors.playback import served_source
+from .sensors.truth import GroundTruth
 from .transports.pacer import Pacer
 from .transports.pty import PtyEndpoint
+from .warmup import prepare_compiled_path
 
 #: Virtual seconds the module keeps running after the route ends (the last step's reset).
 TAIL_S = 1.5
@@ -47,12 +52,14 @@ TAIL_S = 1.5
 class DemoResult:
     """What the demo measured."""
 
-    steps: int
-    true_steps: int
+    step_packets: int  #: step packets summed: one per INS reset, standing still included
+    motion_steps: int  #: of those, the steps that moved the foot (hostlib.tracking.is_motion_step)
+    true_motion_steps: int  #: the walker's steps, counted by the same rule on the ground truth
     distance_m: float
     true_distance_m: float
     closure_error_m: float  #: final position vs the true final position, horizontal
     loop_closure_m: float  #: final position vs the start (the route is a closed loop)
+    height_error_m: float  #: final height vs the true final height (up positive)
     sigma_m: float  #: 1σ of the final horizontal position, worst direction
     heading_sigma_deg: float
     virtual_s: float
@@ -66,13 +73,18 @@ class DemoResult:
     def summary(self) -> str:
         ratio = self.virtual_s / self.wall_s if self.wall_s else 0.0
         rel = 100.0 * self.closure_error_m / self.true_distance_m if self.true_distance_m else math.nan
+        standing = self.step_packets - self.motion_steps
         lines = [
             "",
             "OpenShoe demo — summary",
-            f"  steps tracked          {self.steps}   (the walker took {self.true_steps})",
+            f"  steps with motion      {self.motion_steps:5d}      "
+            f"(the walker took {self.true_motion_steps})",
+            f"  step packets           {self.step_packets:5d}      (one per INS reset; {standing} of them "
+            f"while standing still)",
             f"  distance               {self.distance_m:8.2f} m   (true {self.true_distance_m:.2f} m)",
             f"  error at the end       {self.closure_error_m:8.2f} m   ({rel:.2f} % of the distance; "
             f"vs ground truth, horizontal)",
+            f"  height error           {self.height_error_m:+8.2f} m   (end, vs ground truth)",
         ]
         if self.closed_loop:
             lines.append(f"  loop closure           {self.loop_closure_m:8.2f} m   "
@@ -106,127 +118,192 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def _say(quiet: bool, *parts: object) -> None:
-    if not quiet:
-        print(*parts, flush=True)
+class _Say:
+    """The demo's narration on stdout (nothing with --quiet); safe beside a progress bar."""
+
+    def __init__(self, quiet: bool):
+        self.quiet = quiet
+
+    def __call__(self, *parts: object) -> None:
+        if not self.quiet:
+            tqdm.write(" ".join(str(p) for p in parts), file=sys.stdout)
 
 
-def run_demo(args: argparse.Namespace) -> DemoResult:
-    """Run the demo as *args* say; returns the measurements (raises on failure)."""
-    from hostlib import Device
+@dataclass
+class _Route:
+    """The simulated walk: its sensor source, ground truth and length in time."""
 
+    source: SensorSource
+    truth: GroundTruth
+    seconds: float
+
+    @property
+    def ticks(self) -> int:
+        """Loop cycles from the route's start to its last step's reset (TAIL_S after its end)."""
+        return int(round((self.seconds + TAIL_S) * self.source.rate_hz))
+
+
+def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
     from .sensors import make_source
 
-    quiet = args.quiet
-    t_start = time.monotonic()
-    _say(quiet, f"[1/4] simulating the sensors of a foot walking the {args.scenario!r} route "
-         f"(seed {args.seed}) …")
+    t0 = time.monotonic()
+    say(f"[1/4] simulating the sensors of a foot walking the {args.scenario!r} route "
+        f"(seed {args.seed}) …")
     source = make_source(args.scenario, seed=args.seed)
-    truth = source.truth
-    route_s = len(source) / source.rate_hz
-    stances = truth.stance_positions
-    _say(quiet, f"      {route_s:.0f} s of walking, {truth.distance_m():.1f} m, {len(stances) - 1} steps; "
-         f"built in {time.monotonic() - t_start:.1f} s")
+    route = _Route(source, source.truth, len(source) / source.rate_hz)
+    say(f"      {route.seconds:.0f} s of walking, {route.truth.distance_m():.1f} m, "
+        f"{true_motion_steps(route.truth)} steps; built in {time.monotonic() - t0:.1f} s")
+    return route
 
-    link = make_link(args.link, seed=args.seed)
-    # after the route the walker stands still (the sensors do not go silent)
-    # and the route starts when the host starts tracking (the first sensor read), so the
-    # result does not depend on how fast the host came
-    played = served_source(source)
-    module = Module(ModuleConfig(rate_hz=source.rate_hz), played,
-                    usb_port=IdealPort(connected=False), bt_port=link)
-    # The route's steps are those counted up to TAIL_S after its end: note the module's step
-    # counter at that tick (inside the loop, so it is exact however fast virtual time runs).
-    route_ticks = int(round((route_s + TAIL_S) * source.rate_hz))
-    final: dict[str, int] = {}
-    module_step = module.step
 
-    def step_and_mark_the_end() -> None:
-        module_step()
-        start = played.source.start
-        if "counter" not in final and start is not None and module.clock.ticks >= start + route_ticks:
-            final["counter"] = int(module.memory[StateId.STEP_COUNTER])
+class _EmulatedModule:
+    """The module on a Bluetooth link model behind a pty, run by a pacer; a context manager.
 
-    module.step = step_and_mark_the_end  # type: ignore[method-assign]
-    tmp = tempfile.TemporaryDirectory(prefix="openshoe-demo-")
-    pty_path = Path(tmp.name) / "openshoe0"
-    endpoint = PtyEndpoint(link, pty_path)
-    pacer = Pacer(module, [endpoint], speed=args.speed)
-    pacer.start()
-    wall0 = time.monotonic()
+    The route starts when the host starts tracking (the module's first sensor read), and
+    after it the walker stands still. :attr:`last_step` is the module's step counter
+    :data:`TAIL_S` after the route's end — noted inside the loop, so it is exact however
+    fast virtual time runs.
+    """
+
+    def __init__(self, route: _Route, args: argparse.Namespace):
+        self.played = served_source(route.source)
+        self.link = make_link(args.link, seed=args.seed)
+        self.module = Module(ModuleConfig(rate_hz=route.source.rate_hz), self.played,
+                             usb_port=IdealPort(connected=False), bt_port=self.link)
+        self.route_ticks = route.ticks
+        self.last_step: int | None = None
+        self._tmp = tempfile.TemporaryDirectory(prefix="openshoe-demo-")
+        self.pty_path = Path(self._tmp.name) / "openshoe0"
+        self.pacer = Pacer(self.module, [PtyEndpoint(self.link, self.pty_path)], speed=args.speed)
+        self._step = self.module.step
+        self.module.step = self._step_and_note_the_end  # type: ignore[method-assign]
+
+    def _step_and_note_the_end(self) -> None:
+        self._step()
+        start = self.played.source.start
+        ticks = self.module.clock.ticks
+        if self.last_step is None and start is not None and ticks >= start + self.route_ticks:
+            self.last_step = int(self.module.memory[StateId.STEP_COUNTER])
+
+    def route_seconds(self) -> float:
+        """Virtual seconds since the route started (0 before the host started tracking)."""
+        start = self.played.source.start
+        clock = self.module.clock
+        return 0.0 if start is None else max(0.0, (clock.ticks - start) / clock.rate_hz)
+
+    def __enter__(self) -> _EmulatedModule:
+        self.pacer.start(announce=None)  # prepared before (run_demo), with the demo's own narration
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        try:
+            self.pacer.stop()
+        finally:
+            self._tmp.cleanup()
+
+
+def _track(emu: _EmulatedModule, route: _Route, args: argparse.Namespace, say: _Say) -> Track:
+    """Be the host: start step-wise dead reckoning, sum every step of the route; returns the track."""
+    from hostlib import Device
+
     tracker = StepTracker()
-    try:
-        _say(quiet, f"[2/4] emulated module on the Bluetooth link, serial device {pty_path}")
-        with Device(str(pty_path), ack_timeout=2.0) as dev:
-            _say(quiet, "[3/4] host: step-wise dead reckoning (command 0x34), acking every step packet …")
-            dev.start_stepwise_dead_reckoning()
-            deadline = wall0 + args.timeout
-            last_report = 0.0
-            while True:
-                ev = dev.recv_step(timeout=0.2)
-                now = time.monotonic()
-                if pacer.error is not None:
-                    raise RuntimeError(f"the emulated module stopped: {pacer.error!r}")
-                if now > deadline:
-                    raise TimeoutError(f"demo did not finish within {args.timeout:.0f} s")
-                end = final.get("counter")
-                if ev is not None:
-                    if end is not None and ev.step.counter > end:
-                        break  # a stand-still step after the route
-                    tracker.add(ev.step)
-                    if not quiet and now - last_report > 1.0:
-                        last_report = now
-                        x, y = tracker.position[0], tracker.position[1]
-                        print(f"      t={pacer.status().virtual_s:6.1f} s  step {ev.step.counter:4d}  "
-                              f"at ({x:7.2f}, {y:7.2f}) m", flush=True)
-                if end is not None and (tracker.last_counter or 0) >= end:
-                    break  # every step of the route has arrived
-            track = tracker.track
-            gaps, missing = len(track.gaps), track.missing
-        wall = time.monotonic() - wall0
-        virtual = route_s + TAIL_S
-    finally:
-        pacer.stop()
-        tmp.cleanup()
+    deadline = time.monotonic() + args.timeout
+    say(f"[2/4] emulated module on the Bluetooth link, serial device {emu.pty_path}")
+    with Device(str(emu.pty_path), ack_timeout=2.0) as dev, \
+            progress_bar(round(route.seconds, 1), "      walking", "s", quiet=args.quiet,
+                         bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s of the route "
+                                    "[{elapsed}<{remaining}, {rate_fmt}]") as bar:
+        say("[3/4] host: step-wise dead reckoning (command 0x34), acking every step packet …")
+        dev.start_stepwise_dead_reckoning()
+        while True:
+            ev = dev.recv_step(timeout=0.2)
+            if emu.pacer.error is not None:
+                raise RuntimeError(f"the emulated module stopped: {emu.pacer.error!r}")
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"demo did not finish within {args.timeout:.0f} s")
+            bar.update(min(emu.route_seconds(), route.seconds) - bar.n)
+            end = emu.last_step
+            if ev is not None:
+                if end is not None and ev.step.counter > end:
+                    break  # a stand-still step after the route
+                tracker.add(ev.step)
+            if end is not None and (tracker.last_counter or 0) >= end:
+                break  # every step of the route has arrived
+    return tracker.track
 
-    # ground truth in the track's frame: origin at the first rest, x along the initial heading
+
+def true_motion_steps(truth: GroundTruth) -> int:
+    """The walker's steps counted by the host's rule (:func:`hostlib.tracking.is_motion_step`):
+    from each rest of the foot to the next."""
+    poses = truth.stance_poses
+    moves = np.hstack([np.diff(poses[:, :3], axis=0), np.diff(poses[:, 5:6], axis=0)])
+    return sum(is_motion_step(m) for m in moves)
+
+
+def _truth_in_track_frame(truth: GroundTruth) -> np.ndarray:
+    """The rests of the foot in the track's frame: origin at the first rest, x along the
+    initial heading (the module's yaw is 0 at its alignment)."""
+    stances = truth.stance_positions
     psi0 = float(truth.euler[0, 2])
     c, s = math.cos(-psi0), math.sin(-psi0)
-    rot = np.array([[c, -s], [s, c]])
-    true_end = rot @ (stances[-1, :2] - stances[0, :2])
+    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    return (stances - stances[0]) @ rot.T
+
+
+def _measure(track: Track, route: _Route, wall_s: float) -> DemoResult:
+    truth = route.truth
+    ref = _truth_in_track_frame(truth)
     cov = track.final_covariance
-    result = DemoResult(
-        steps=len(track),
-        true_steps=len(stances) - 1,
+    return DemoResult(
+        step_packets=len(track),
+        motion_steps=track.motion_steps,
+        true_motion_steps=true_motion_steps(truth),
         distance_m=float(track.distance),
         true_distance_m=truth.distance_m(),
-        closure_error_m=track.error_to(true_end),
+        closure_error_m=track.error_to(ref[-1, :2]),
         loop_closure_m=track.closure_error(),
+        height_error_m=-(float(track.final_pose[2]) - float(ref[-1, 2])),
         sigma_m=track.closure_sigma(),
         heading_sigma_deg=math.degrees(math.sqrt(max(0.0, float(cov[3, 3])))),
-        virtual_s=virtual,
-        wall_s=wall,
-        gaps=gaps,
-        missing=missing,
+        virtual_s=route.seconds + TAIL_S,
+        wall_s=wall_s,
+        gaps=len(track.gaps),
+        missing=track.missing,
         png=None,
         csv=None,
-        closed_loop=bool(np.linalg.norm(stances[-1, :2] - stances[0, :2]) < 1.0),
+        closed_loop=bool(np.linalg.norm(ref[-1, :2]) < 1.0),
     )
-    _say(quiet, "[4/4] writing the track …")
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+
+
+def _write(result: DemoResult, track: Track, route: _Route, args: argparse.Namespace) -> None:
     from hostlib.export import write_csv
 
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
     result.csv = out / "track.csv"
     write_csv(track, result.csv)
     if not args.no_plot:
         from hostlib.plot import plot_track
 
         result.png = plot_track(
-            track, out / "track.png", reference=stances,
-            title=f"OpenShoe demo: {args.scenario} route, {result.steps} steps, {result.distance_m:.0f} m, "
-                  f"end error {result.closure_error_m:.2f} m",
+            track, out / "track.png", reference=_truth_in_track_frame(route.truth),
+            title=f"OpenShoe demo: {args.scenario} route, {result.motion_steps} steps, "
+                  f"{result.distance_m:.0f} m, end error {result.closure_error_m:.2f} m",
         )
+
+
+def run_demo(args: argparse.Namespace) -> DemoResult:
+    """Run the demo as *args* say; returns the measurements (raises on failure)."""
+    say = _Say(args.quiet)
+    route = _simulate(args, say)
+    prepare_compiled_path(announce=say)  # before the module's clock starts: no host waits on it
+    with _EmulatedModule(route, args) as emu:
+        wall0 = time.monotonic()
+        track = _track(emu, route, args, say)
+        wall = time.monotonic() - wall0
+    result = _measure(track, route, wall)
+    say("[4/4] writing the track …")
+    _write(result, track, route, args)
     return result
 
 

@@ -89,8 +89,14 @@ _WRITTEN = {StateId.IMU_TS, StateId.U_NEW, StateId.U_K, StateId.U_INT_K, StateId
 
 _U32 = 0xFFFFFFFF
 
+
+def pure_requested() -> bool:
+    """Whether the user asked for the pure-Python path (``OPENSHOE_PURE=1``)."""
+    return os.environ.get("OPENSHOE_PURE", "") == "1"
+
+
 try:  # numba is optional (the `fast` extra)
-    if os.environ.get("OPENSHOE_PURE", "") == "1":
+    if pure_requested():
         raise ImportError("OPENSHOE_PURE=1")
     import numba
     from numba import njit
@@ -108,12 +114,21 @@ if numba is not None and not all(hasattr(ins, h) for h in ("_mv", "_mm", "_sinf"
 
 
 def available() -> bool:
-    """Whether the compiled path can be used (numba importable, OPENSHOE_PURE not 1)."""
-    return numba is not None
+    """Whether the compiled path can be used (numba importable, OPENSHOE_PURE not 1, not disabled)."""
+    return numba is not None and not _disabled
 
 
 def reason_unavailable() -> str:
-    return "" if numba is not None else _NUMBA_ERROR
+    return "" if available() else (_disabled or _NUMBA_ERROR)
+
+
+_disabled = ""  #: why the compiled path was switched off in this process ("" = it was not)
+
+
+def disable(reason: str) -> None:
+    """Stop offering the compiled path in this process (e.g. its compile failed)."""
+    global _disabled
+    _disabled = reason or "disabled"
 
 
 def numba_version() -> str | None:

@@ -196,6 +196,14 @@ class Module:
         """Whether this module runs the tracking sequence compiled (firmware_sim.fastpath)."""
         return self._compiled
 
+    def use_pure_path(self) -> None:
+        """Run the pure-Python reference from now on (e.g. the compiled path could not be had).
+
+        The bytes are the same either way; only the speed changes.
+        """
+        self._compiled = False
+        self._fast = None
+
     def _fastnav(self) -> Any:
         fast = self._fast
         if fast is None:

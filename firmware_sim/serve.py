@@ -35,9 +35,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
-from protocol.frames import build_command
-from protocol.ids import Command
-
 from .control import ControlServer
 from .link import Link, LinkFaults, make_link
 from .module import Module, ModuleConfig
@@ -52,10 +49,6 @@ from .transports.rfc2217 import Rfc2217Endpoint
 from .transports.tcp import TcpEndpoint
 
 # --------------------------------------------------------------------------- options
-
-#: Loop cycles of the warm-up: alignment (256 still samples + the detector's delay), then tracking.
-WARM_UP_TICKS = 1000
-
 
 def _host_port(text: str, what: str) -> tuple[str, int]:
     """``PORT`` or ``HOST:PORT`` (127.0.0.1 by default; port 0 = pick a free one)."""
@@ -287,7 +280,7 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
         rate_hz = modules[0].module.clock.rate_hz
         loop = MultiPacer([m.pacer for m in modules], frame_ticks=frame_ticks(args, rate_hz),
                           overrun_s=None if args.overrun_ms is None else args.overrun_ms / 1000.0)
-        warm_up()
+        loop.prepare(announce=lambda text: print(text, file=err, flush=True))
         gc.collect()
         gc.freeze()  # what exists now is never scanned again: no long collections in the loop
         # the status line and the control channel run in this thread: hand the interpreter
@@ -344,18 +337,6 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
     return status
 
 
-def warm_up() -> None:
-    """Run a scratch module through alignment into step-wise tracking before READY.
-
-    With numba the tracking sequence is compiled on its first use (or loaded from
-    numba's cache); doing that here keeps a several-second compile out of the
-    real-time loop, where it would hold up the first host's commands and acks.
-    """
-    scratch = Module(ModuleConfig())
-    scratch.bt.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
-    scratch.run(WARM_UP_TICKS)
-
-
 def main(args: argparse.Namespace) -> int:
     """Entry point of the ``serve`` subcommand (argparse namespace from :func:`add_arguments`)."""
     return serve(args)
@@ -406,10 +387,12 @@ def parse_ready(line: str) -> dict[str, str]:
 
 
 def spawn(*serve_args: str, timeout: float = 20.0, stderr: Any = subprocess.DEVNULL,
-          python: str = sys.executable) -> ServeProcess:
-    """Start ``openshoe-emu serve *serve_args*`` and wait (at most *timeout* s) for its READY line."""
+          python: str = sys.executable, env: dict[str, str] | None = None) -> ServeProcess:
+    """Start ``openshoe-emu serve *serve_args*`` and wait (at most *timeout* s) for its READY line.
+
+    *env*: the process's environment (default: this one's)."""
     proc = subprocess.Popen([python, "-m", "firmware_sim.cli", "serve", *serve_args],
-                            stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL)
+                            stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL, env=env)
     assert proc.stdout is not None
     fd = proc.stdout.fileno()
     os.set_blocking(fd, False)

@@ -24,7 +24,10 @@ from .device import Device
 from .errors import HostError
 from .tracking import StepTracker
 
-__all__ = ["main", "summary_line"]
+__all__ = ["heading_deg", "main", "summary_line"]
+
+#: `log` to a file or pipe: one status line this often [s] (on a terminal the line is live).
+LOG_LINE_EVERY_S = 5.0
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -73,16 +76,58 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def heading_deg(chi: float) -> float:
+    """A heading [rad] as shown: degrees in [0, 360), rounded to 0.1° first so that −0.0 and
+    359.96° both read 0.0, never 360.0."""
+    return (round(math.degrees(chi), 1) % 360.0) + 0.0
+
+
 def summary_line(dev: Device) -> str:
-    """One line: steps, distance, position, 1σ (horizontal, worst direction), gaps."""
+    """One line: step packets, steps with motion, distance, position, heading, 1σ, gaps.
+
+    The module sends a step packet at every INS reset, also while the wearer stands
+    still; "steps" counts only those that moved the foot (hostlib.tracking.is_motion_step).
+    """
     tr = dev.track_snapshot()
     x, y, z, chi = tr.final_pose
     st = dev.stats
     return (
-        f"steps {len(tr):5d} | {tr.distance:8.2f} m | x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m "
-        f"| heading {math.degrees(chi) % 360:5.1f}° | 1σ {tr.closure_sigma():6.3f} m "
-        f"| gaps {len(tr.gaps)} (missing {tr.missing}) | garbage {st['garbage_bytes']}"
+        f"packets {len(tr):5d} | steps {tr.motion_steps:5d} | {tr.distance:8.2f} m "
+        f"| x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m | heading {heading_deg(chi):5.1f}° "
+        f"| 1σ {tr.closure_sigma():6.3f} m | gaps {len(tr.gaps)} (missing {tr.missing}) "
+        f"| garbage {st['garbage_bytes']}"
     )
+
+
+def _is_terminal(out: TextIO) -> bool:
+    return bool(getattr(out, "isatty", lambda: False)())
+
+
+class _LiveLine:
+    """A status line kept up to date with ``\\r`` on a terminal; elsewhere (a log file, a pipe)
+    one line each time *key* changes (a new step), or every *every_s* seconds."""
+
+    def __init__(self, out: TextIO, every_s: float | None = None):
+        self.out = out
+        self.tty = _is_terminal(out)
+        self.every_s = every_s
+        self._key: object = None
+        self._next = time.monotonic() + (every_s or 0.0)
+
+    def show(self, text: str, key: object = None) -> None:
+        if self.tty:
+            self.out.write("\r" + text)
+        elif key != self._key or (self.every_s is not None and time.monotonic() >= self._next):
+            self._key = key
+            self._next = time.monotonic() + (self.every_s or 0.0)
+            self.out.write(text + "\n")
+        else:
+            return
+        self.out.flush()
+
+    def close(self) -> None:
+        if self.tty:
+            self.out.write("\n")
 
 
 def _open(args: argparse.Namespace, **kw: Any) -> Device:
@@ -108,14 +153,15 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
             dev.start_stepwise_dead_reckoning()
         print(f"tracking on {dev.name} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
         deadline = _deadline(args.duration)
+        live = _LiveLine(out)
+        live.show(summary_line(dev), key=len(tracker))
         try:
             while deadline is None or time.monotonic() < deadline:
                 dev.recv_step(timeout=_remaining(deadline))
-                out.write("\r" + summary_line(dev))
-                out.flush()
+                live.show(summary_line(dev), key=len(tracker))
         except KeyboardInterrupt:
             pass
-        out.write("\n")
+        live.close()
         if not args.leave_running:
             try:
                 dev.output_all_off()
@@ -147,16 +193,16 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
         if args.start:
             dev.start_stepwise_dead_reckoning()
         deadline = _deadline(args.duration)
+        live = _LiveLine(out, every_s=LOG_LINE_EVERY_S)
         try:
             while deadline is None or time.monotonic() < deadline:
                 dev.recv(timeout=_remaining(deadline))
                 st = dev.stats
-                out.write(f"\rbytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
-                          f"steps {st['steps']:5d} | garbage {st['garbage_bytes']}")
-                out.flush()
+                live.show(f"bytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
+                          f"step packets {st['steps']:5d} | garbage {st['garbage_bytes']}")
         except KeyboardInterrupt:
             pass
-        out.write("\n")
+        live.close()
     return 0
 
 

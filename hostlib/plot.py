@@ -1,4 +1,4 @@
-"""A PNG of a track seen from above, with 1σ position ellipses every few steps.
+"""A PNG of a track: seen from above with enlarged 1σ ellipses every few steps, and its height.
 
 matplotlib is optional (the ``plot`` extra: ``pip install openshoe-emulator[plot]``)
 and imported only when a plot is made. No pyplot and no global backend change:
@@ -18,7 +18,7 @@ import numpy as np
 
 from .tracking import Track
 
-__all__ = ["ellipse_params", "plot_track"]
+__all__ = ["along_track", "ellipse_params", "ellipse_scale", "plot_track"]
 
 
 def _matplotlib() -> tuple[Any, Any, Any]:
@@ -46,6 +46,32 @@ def ellipse_params(cov_xy: np.ndarray, n_sigma: float = 1.0) -> tuple[float, flo
     return 2 * n_sigma * math.sqrt(vals[1]), 2 * n_sigma * math.sqrt(vals[0]), angle
 
 
+#: "Nice" enlargement factors for the ellipses (the smallest that makes them visible is used).
+_NICE_SCALES = (1, 2, 5, 10, 20, 50, 100, 200, 500, 1000)
+#: An enlarged ellipse's major axis should span about this fraction of the plan view's extent.
+_VISIBLE_FRACTION = 0.04
+
+
+def ellipse_scale(track_extent_m: float, largest_axis_m: float) -> float:
+    """The enlargement that makes the largest ellipse span about 4 % of the plot (a nice number).
+
+    1 when the ellipses are already that large; never below 1.
+    """
+    if largest_axis_m <= 0.0 or track_extent_m <= 0.0:
+        return 1.0
+    wanted = _VISIBLE_FRACTION * track_extent_m / largest_axis_m
+    for k in _NICE_SCALES:
+        if k >= wanted:
+            return float(k)
+    return float(_NICE_SCALES[-1])
+
+
+def along_track(positions: np.ndarray) -> np.ndarray:
+    """Cumulative horizontal distance [m] at each row of (north, east[, …]) positions."""
+    steps = np.linalg.norm(np.diff(np.asarray(positions, dtype=float)[:, :2], axis=0), axis=1)
+    return np.concatenate([[0.0], np.cumsum(steps)])
+
+
 def plot_track(
     track: Track,
     path: str | Path,
@@ -56,41 +82,73 @@ def plot_track(
     dpi: int = 120,
     reference: np.ndarray | None = None,
     reference_label: str = "ground truth",
+    scale: float | None = None,
+    height_profile: bool = True,
 ) -> Path:
-    """Draw *track* (east right, north up) with n-σ ellipses every *every* steps and at the end.
+    """Draw *track* seen from above (east right, north up), and its height along the way.
 
-    *reference*: optional known path to draw beneath the track, rows of (north, east[, …]) metres
-    in the track's frame (e.g. a simulation's ground truth or surveyed points).
+    Every *every*-th step (and the last) gets its n-σ position ellipse, enlarged
+    *scale* times so that it can be seen at the plan's scale (None: chosen so the
+    largest spans about 4 % of the plot; the legend states the factor).
+    *reference*: optional known path to draw beneath the track, rows of
+    (north, east[, down]) metres in the track's frame (e.g. a simulation's ground
+    truth or surveyed points). *height_profile*: a panel under the plan with the
+    height (up) over the distance walked, the track's and the reference's.
     """
     if every < 1:
         raise ValueError(f"every must be >= 1, got {every}")
     Figure, FigureCanvasAgg, Ellipse = _matplotlib()
     pos = track.positions
     covs = track.covariances
-    fig = Figure(figsize=(7, 7))
-    FigureCanvasAgg(fig)
-    ax = fig.add_subplot(1, 1, 1)
+    ref = None
     if reference is not None:
         ref = np.asarray(reference, dtype=float)
         if ref.ndim != 2 or ref.shape[1] < 2:
             raise ValueError(f"reference must be rows of (north, east), got shape {ref.shape}")
+    fig = Figure(figsize=(7, 9.5) if height_profile else (7, 7))
+    FigureCanvasAgg(fig)
+    if height_profile:
+        grid = fig.add_gridspec(2, 1, height_ratios=(3.2, 1))
+        ax, axz = fig.add_subplot(grid[0]), fig.add_subplot(grid[1])
+    else:
+        ax, axz = fig.add_subplot(1, 1, 1), None
+    if ref is not None:
         ax.plot(ref[:, 1], ref[:, 0], "--", color="0.55", lw=1.0, label=reference_label)
     ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label="track")
     ax.plot(pos[0, 1], pos[0, 0], "o", color="tab:green", label="start")
     ax.plot(pos[-1, 1], pos[-1, 0], "s", color="tab:red", label="end")
     marks = sorted(set(range(0, len(pos), every)) | {len(pos) - 1})
-    for k in marks:
-        w, h, ang = ellipse_params(covs[k][:2, :2], n_sigma)
+    shapes = [ellipse_params(covs[k][:2, :2], n_sigma) for k in marks]
+    extent = float(np.ptp(pos[:, :2], axis=0).max()) if len(pos) > 1 else 0.0
+    if scale is None:
+        scale = ellipse_scale(extent, max((w for w, _h, _a in shapes), default=0.0))
+    label = f"{n_sigma:g}σ ellipse" + (f" ×{scale:g}" if scale != 1 else "") + f", every {every} steps"
+    for k, (w, h, ang) in zip(marks, shapes, strict=True):
         if w > 0:
-            ax.add_patch(Ellipse((pos[k, 1], pos[k, 0]), w, h, angle=ang, fill=False,
-                                 color="tab:orange", lw=0.8))
+            ax.add_patch(Ellipse((pos[k, 1], pos[k, 0]), w * scale, h * scale, angle=ang, fill=False,
+                                 color="tab:orange", lw=1.0, label=label))
+            label = None
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.3)
     ax.legend(loc="best", fontsize="small")
     ax.set_title(title or f"{len(track)} steps, {track.distance:.1f} m, "
-                 f"{n_sigma:g}σ every {every} steps, closure {track.closure_error():.2f} m")
+                          f"closure {track.closure_error():.2f} m")
+    if axz is not None:
+        _draw_height_profile(axz, pos, ref, reference_label)
+    fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=dpi, format="png")
     return out
+
+
+def _draw_height_profile(ax: Any, pos: np.ndarray, ref: np.ndarray | None, reference_label: str) -> None:
+    """Height (up = −z) over the horizontal distance walked, track and reference."""
+    if ref is not None and ref.shape[1] >= 3:
+        ax.plot(along_track(ref), -ref[:, 2], "--", color="0.55", lw=1.0, label=reference_label)
+    ax.plot(along_track(pos), -pos[:, 2], "-", color="tab:blue", lw=1.2, label="track")
+    ax.set_xlabel("distance walked [m]")
+    ax.set_ylabel("height [m]")
+    ax.grid(True, lw=0.3)
+    ax.legend(loc="best", fontsize="small")

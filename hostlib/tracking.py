@@ -40,12 +40,15 @@ import numpy as np
 
 __all__ = [
     "COUNTER_MODULUS",
+    "MOTION_MIN_HEADING_RAD",
+    "MOTION_MIN_LENGTH_M",
     "GapEvent",
     "StepLike",
     "StepOutcome",
     "StepTracker",
     "Track",
     "counter_delta",
+    "is_motion_step",
     "propagate",
     "rotation_z",
 ]
@@ -103,6 +106,23 @@ def propagate(
     new_cov = f @ cov @ f.T + g @ dp @ g.T
     new_cov = 0.5 * (new_cov + new_cov.T)  # keep it exactly symmetric
     return new, new_cov
+
+
+#: A step moved the foot if it carried it at least this far [m]. The module also resets
+#: while the wearer stands still (every ~0.75–1 s); such a step moves a few millimetres at
+#: most (ZUPT residuals), while the shortest real step — a stair tread, a side step — is
+#: 0.25–0.3 m. 0.1 m lies far from both.
+MOTION_MIN_LENGTH_M = 0.10
+#: … or turned it at least this much [rad] (a turn on the spot: 30–45° a step; at rest the
+#: heading is held by the detector's ZARU, hundredths of a degree).
+MOTION_MIN_HEADING_RAD = math.radians(10.0)
+
+
+def is_motion_step(dx: Iterable[float]) -> bool:
+    """Whether a step ``[dx, dy, dz, dψ]`` moved the foot (see :data:`MOTION_MIN_LENGTH_M`),
+    rather than being one of the module's resets while the wearer stands still."""
+    d = np.asarray(list(dx), dtype=np.float64)
+    return bool(np.linalg.norm(d[:3]) >= MOTION_MIN_LENGTH_M or abs(d[3]) >= MOTION_MIN_HEADING_RAD)
 
 
 def counter_delta(previous: int, counter: int) -> int:
@@ -245,6 +265,12 @@ class Track:
     def counters(self) -> np.ndarray:
         """(n,) uint16: the summed steps' counters."""
         return np.array(self._counters, dtype=np.uint16)
+
+    @property
+    def motion_steps(self) -> int:
+        """How many summed steps moved the foot (:func:`is_motion_step`); the rest are the
+        module's resets while the wearer stood still."""
+        return sum(is_motion_step(dx) for dx in self._steps)
 
     @property
     def sigmas(self) -> np.ndarray:

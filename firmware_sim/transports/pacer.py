@@ -78,6 +78,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
 from ..module import Module
+from ..warmup import Announce, prepare_module, to_stderr
 
 #: Upper bounds [ms of module time] of the lateness classes counted per frame (PacerStatus.lag_frames).
 LAG_BOUNDS_MS = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, math.inf)
@@ -206,9 +207,11 @@ class Pacer:
         return self._group
 
     # ------------------------------------------------------------------ control
-    def start(self) -> Pacer:
-        """Run the loop in a background thread (daemon)."""
-        self._group.start()
+    def start(self, announce: Announce | None = to_stderr) -> Pacer:
+        """Prepare the module (:func:`~firmware_sim.warmup.prepare_module`: no compile once the
+        clock runs; *announce* hears about a slow first start), then run the loop in a
+        background thread (daemon)."""
+        self._group.start(announce)
         return self
 
     def stop(self, timeout: float = 5.0) -> None:
@@ -335,6 +338,7 @@ class MultiPacer:
         self.overrun_s = overrun_s
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        self._prepared = False
         self.running = False
         self.t_start = 0.0
         self.error: BaseException | None = None  #: what stopped the loop
@@ -347,10 +351,12 @@ class MultiPacer:
                    idle_pump_s=idle_pump_s, frame_ticks=frame_ticks)
 
     # ------------------------------------------------------------------ control
-    def start(self) -> MultiPacer:
-        """Run the loop in a background thread (daemon)."""
+    def start(self, announce: Announce | None = to_stderr) -> MultiPacer:
+        """Prepare the modules (see :meth:`Pacer.start`), then run the loop in a background
+        thread (daemon)."""
         if self._thread is not None:
             raise RuntimeError("pacer already started")
+        self.prepare(announce)
         self._thread = threading.Thread(target=self.run, name="openshoe-pacer", daemon=True)
         self._thread.start()
         return self
@@ -377,9 +383,18 @@ class MultiPacer:
         """One snapshot per module."""
         return [p.status() for p in self.pacers]
 
+    def prepare(self, announce: Announce | None = to_stderr) -> None:
+        """Compile or load the modules' kernels now, before the clock starts (once per loop)."""
+        if not self._prepared:
+            for p in self.pacers:
+                prepare_module(p.module, announce)
+            self._prepared = True
+
     # ------------------------------------------------------------------ the loop
     def run(self, duration_s: float | None = None) -> None:
-        """The loop itself (blocks). *duration_s*: stop after that much wall time."""
+        """The loop itself (blocks; prepares the modules first, unless :meth:`start` did).
+        *duration_s*: stop after that much wall time."""
+        self.prepare()
         pacers = self.pacers
         n_mod = len(pacers)
         advances = [p.module.advance for p in pacers]

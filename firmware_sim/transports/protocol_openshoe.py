@@ -14,9 +14,10 @@ runs ticks until the bytes came or ``timeout`` seconds of *virtual* time
 passed; ``in_waiting`` runs one tick when nothing is waiting, so a host
 polling it sees time pass. Deterministic and fast. With ``speed=s > 0`` a
 :class:`~firmware_sim.transports.pacer.Pacer` runs the module in a thread at
-``s`` × real time and ``timeout`` is wall time. ``cd`` (carrier detect) is the
-link's connected line. The module is at ``.module`` (touch it only with
-speed=0, or through ``.pacer.call``).
+``s`` × real time and ``timeout`` is wall time. Either way the compiled path is
+prepared when the port opens (:mod:`firmware_sim.warmup`), so no read waits on a
+compile. ``cd`` (carrier detect) is the link's connected line. The module is at
+``.module`` (touch it only with speed=0, or through ``.pacer.call``).
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_
 
 from ..link import Link
 from ..module import Module
+from ..warmup import prepare_module
 from .factory import EmulatorSettings, build
 from .pacer import Pacer
 from .pipe import QueueEndpoint, VirtualPipe
@@ -55,6 +57,7 @@ class Serial(SerialBase):
             raise SerialException(f"bad openshoe URL {self._port!r}: {e}") from e
         iface = s.served_interface
         if s.speed == 0:
+            prepare_module(self.module)  # reads run the clock: no compile may happen inside one
             self._pipe = VirtualPipe(self.module, iface)
         else:
             port = self.module.usb.port if iface == "usb" else self.module.bt.port

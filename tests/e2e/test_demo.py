@@ -28,7 +28,11 @@ def test_demo_tracks_a_short_walk_and_draws_it(tmp_path):
     assert r.returncode == 0, r.stdout + r.stderr
     text = r.stdout
     assert "OpenShoe demo — summary" in text
-    steps = int(re.search(r"steps tracked\s+(\d+)", text).group(1))
+    steps = int(re.search(r"step packets\s+(\d+)", text).group(1))
+    moved = int(re.search(r"steps with motion\s+(\d+)", text).group(1))
+    walker = int(re.search(r"the walker took (\d+)", text).group(1))
+    assert moved == walker, "the host counts the walker's steps by the same rule as the ground truth"
+    assert steps >= moved
     distance = float(re.search(r"distance\s+([\d.]+) m", text).group(1))
     error = float(re.search(r"error at the end\s+([\d.]+) m", text).group(1))
     sigma = float(re.search(r"final 1σ\s+([\d.]+) m", text).group(1))

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import io
+import math
 
 import pytest
 import serial
 
-from hostlib.cli import main
+from hostlib.cli import heading_deg, main
 from hostlib.export import read_csv
 
 
@@ -25,7 +26,7 @@ def test_track_sums_steps_and_writes_files(tmp_path):
                "--geojson", str(tmp_path / "w.geojson")], out)
     assert rc == 0
     text = out.getvalue()
-    assert "steps     5" in text and "5.00 m" in text
+    assert "packets     5 | steps     5" in text and "5.00 m" in text
     track = read_csv(csv_path)
     assert len(track) == 5 and track.final_pose[0] == pytest.approx(5.0)
     assert (tmp_path / "w.geojson").exists()
@@ -89,3 +90,21 @@ def test_a_capture_replays_into_the_same_track(tmp_path):
     assert len(track) == 4 and track.final_pose[0] == pytest.approx(4.0)
     assert "gaps 0" in out.getvalue()
     assert main(["replay", str(tmp_path / "nope.bin")], io.StringIO()) == 1
+
+
+def test_track_to_a_file_writes_a_line_per_new_step_and_no_carriage_return():
+    out = io.StringIO()  # not a terminal, like a log file
+    assert main(["track", "fakeshoe://4", "--duration", "1.0"], out) == 0
+    text = out.getvalue()
+    assert "\r" not in text
+    counts = [int(ln.split()[1]) for ln in text.splitlines() if ln.startswith("packets")]
+    assert counts and counts[-1] == 4
+    assert counts == sorted(set(counts)), "a new line only when the count changed"
+
+
+def test_heading_is_shown_in_0_to_360_and_never_as_360():
+    assert heading_deg(-0.0) == 0.0 and str(heading_deg(-0.0)) == "0.0"
+    assert heading_deg(math.radians(359.96)) == 0.0
+    assert heading_deg(-1e-9) == 0.0
+    assert heading_deg(math.radians(-90.0)) == pytest.approx(270.0)
+    assert f"{heading_deg(math.radians(-0.06)):5.1f}" == "359.9"

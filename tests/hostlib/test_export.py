@@ -17,7 +17,7 @@ from hostlib.export import (
     write_csv,
     write_geojson,
 )
-from hostlib.plot import ellipse_params, plot_track
+from hostlib.plot import along_track, ellipse_params, ellipse_scale, plot_track
 from hostlib.tracking import StepTracker
 
 
@@ -113,3 +113,27 @@ def test_png_can_draw_a_reference_path_and_refuses_a_malformed_one(tmp_path):
     assert out.read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
     with pytest.raises(ValueError, match="north, east"):
         plot_track(track, tmp_path / "bad.png", reference=np.zeros(5))
+
+
+def test_ellipses_are_enlarged_by_a_round_factor_until_visible():
+    assert ellipse_scale(100.0, 0.5) == 10.0  # 0.5 m on a 100 m plot: ×10 makes 5 m (5 %)
+    assert ellipse_scale(100.0, 0.04) == 100.0
+    assert ellipse_scale(10.0, 2.0) == 1.0, "already visible: drawn true to size"
+    assert ellipse_scale(0.0, 0.0) == 1.0
+
+
+def test_distance_along_the_track_is_horizontal():
+    pts = np.array([[0.0, 0.0, 0.0], [3.0, 4.0, -1.0], [3.0, 4.0, -3.0]])
+    np.testing.assert_allclose(along_track(pts), [0.0, 5.0, 5.0])
+
+
+def _png_size(data: bytes) -> tuple[int, int]:
+    return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
+
+
+def test_png_has_a_height_profile_under_the_plan(tmp_path):
+    pytest.importorskip("matplotlib")
+    track = walk(10).track
+    with_profile = _png_size(plot_track(track, tmp_path / "a.png").read_bytes())
+    plan_only = _png_size(plot_track(track, tmp_path / "b.png", height_profile=False).read_bytes())
+    assert with_profile[0] == plan_only[0] and with_profile[1] > 1.3 * plan_only[1]

@@ -15,6 +15,7 @@ from hostlib.tracking import (
     StepOutcome,
     StepTracker,
     counter_delta,
+    is_motion_step,
     propagate,
     rotation_z,
 )
@@ -261,3 +262,16 @@ def test_track_copy_is_independent():
     t.add(step([1.0, 0, 0, 0], 3))
     assert len(snap) == 1 and snap.distance == pytest.approx(1.0) and snap.gaps == []
     np.testing.assert_array_equal(snap.poses, t.track.poses[:2])
+
+
+# -- steps with motion ----------------------------------------------------------------------
+
+
+def test_a_reset_while_standing_is_not_a_step_with_motion():
+    assert not is_motion_step([0.004, -0.002, 0.001, 0.0003])
+    assert is_motion_step([0.28, 0.0, -0.17, 0.0]), "a stair tread"
+    assert is_motion_step([0.0, 0.0, 0.0, math.radians(-40.0)]), "a turn on the spot"
+    t = StepTracker()
+    for k, dx in enumerate([[1.2, 0, 0, 0], [0.003, 0, 0, 0], [1.1, 0.1, 0, 0.2]], start=1):
+        t.add(step(dx, k))
+    assert len(t) == 3 and t.track.motion_steps == 2

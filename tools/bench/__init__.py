@@ -104,7 +104,9 @@ def machine_info() -> dict[str, Any]:
 
 
 def _say(msg: str) -> None:
-    print(msg, file=sys.stderr, flush=True)
+    from firmware_sim.progress import say
+
+    say(msg)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -123,6 +125,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
     p.add_argument("--cycles", type=float, default=FULL_CYCLES,
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
     targets = args.targets or list(TARGETS)
     bad = [t for t in targets if t not in TARGETS]
@@ -141,11 +144,12 @@ def main(argv: list[str] | None = None) -> int:
         if name == "batch":
             r = t.bench_batch(args.walk_s, _say)
         elif name == "realtime":
-            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms)
+            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms,
+                                 quiet=args.quiet)
         elif name == "latency":
-            r = t.bench_latency(args.pings, _say)
+            r = t.bench_latency(args.pings, _say, quiet=args.quiet)
         else:
-            r = t.bench_memory(int(args.cycles), _say)
+            r = t.bench_memory(int(args.cycles), _say, quiet=args.quiet)
         r.details["wall_s"] = round(time.monotonic() - t0, 1)
         results.append(r)
     report = {"machine": machine, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),

@@ -18,8 +18,10 @@ import numpy as np
 
 from firmware_sim import fastpath
 from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.progress import progress_bar
 from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.base import RawSample
+from firmware_sim.warmup import prepare_module
 from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
 from protocol.stream import StreamDecoder
 
@@ -134,11 +136,12 @@ def _rss_mb() -> float:
         return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE") / 2**20
 
 
-def bench_memory(cycles: int, say: Say) -> Result:
+def bench_memory(cycles: int, say: Say, quiet: bool = False) -> Result:
     """A long batch session (compiled when available): RSS along the way, peak and growth."""
     short = cycles < 86_400_000
     source = RepeatingWalk(cycles)
     module = Module(ModuleConfig(rate_hz=1000.0), sensors=source)
+    prepare_module(module, say)  # the compile (or cache load) is not part of the run
     port = module.bt.port
     decoder = StreamDecoder()
     port.host_write(START_STEPWISE)
@@ -150,8 +153,9 @@ def bench_memory(cycles: int, say: Say) -> Result:
     clock = module.clock
     t0 = time.perf_counter()
     say(f"memory: {cycles:,} loop cycles ({cycles / 3.6e6:.2f} h at 1 kHz), compiled={module.compiled}")
+    bar = progress_bar(cycles, "memory", "cycles", quiet=quiet, unit_scale=True)
     while clock.ticks < cycles:
-        module.advance(min(cycles - clock.ticks, 1_000_000))
+        bar.update(module.advance(min(cycles - clock.ticks, 1_000_000)))
         data = port.host_read()
         if data:
             wire += len(data)
@@ -166,6 +170,7 @@ def bench_memory(cycles: int, say: Say) -> Result:
                 el = time.perf_counter() - t0
                 say(f"memory: {clock.ticks:,} cycles, {clock.ticks / el:,.0f}/s, "
                     f"RSS {samples[-1][1]:.1f} MB, {packets} steps")
+    bar.close()
     elapsed = time.perf_counter() - t0
     samples.append((clock.ticks, _rss_mb()))
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
@@ -235,7 +240,7 @@ def single_loop_cost_us(modules: int = 10, ticks: int = 2000) -> float:
 
 
 def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
-                   frame_ms: float | None = None) -> Result:
+                   frame_ms: float | None = None, quiet: bool = False) -> Result:
     """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
     from firmware_sim.serve import MANY_MODULES_FRAME_MS, spawn
 
@@ -267,7 +272,11 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
                     sel.register(fd, selectors.EVENT_READ)
         end = time.monotonic() + minutes * 60
         last = time.monotonic()
+        bar = progress_bar(round(minutes * 60), "realtime", "s", quiet=quiet,
+                           bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s "
+                                      "[{elapsed}<{remaining}]")
         while time.monotonic() < end:
+            bar.update(min(minutes * 60, minutes * 60 - (end - time.monotonic())) - bar.n)
             for key, _ in sel.select(0.5):
                 h = hosts[key.fd]
                 try:
@@ -281,6 +290,7 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
             if time.monotonic() - last > 60:
                 last = time.monotonic()
                 say(f"realtime: {sum(h['steps'] for h in hosts.values())} steps so far")
+        bar.close()
         overruns: dict[str, int] = {}
         late_bytes: dict[str, int] = {}
         late_max: dict[str, float] = {}
@@ -344,7 +354,7 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
                   short=short, details=details)
 
 
-def bench_latency(pings: int, say: Say) -> Result:
+def bench_latency(pings: int, say: Say, quiet: bool = False) -> Result:
     """PING written on a pty → its ack read back, one module served in real time (ideal link)."""
     from firmware_sim.serve import spawn
 
@@ -357,7 +367,9 @@ def bench_latency(pings: int, say: Say) -> Result:
         sel.register(fd, selectors.EVENT_READ)
         rng = random.Random(1)
         lost = 0
+        bar = progress_bar(pings, "latency", "pings", quiet=quiet)
         for _ in range(pings):
+            bar.update(1)
             buf = b""
             t0 = time.perf_counter()
             os.write(fd, PING)
@@ -370,6 +382,7 @@ def bench_latency(pings: int, say: Say) -> Result:
             else:
                 lost += 1
             time.sleep(rng.uniform(0, 0.003))  # arrive at any phase of the 1 ms tick
+        bar.close()
         os.close(fd)
     finally:
         sp.stop()

@@ -1,0 +1,93 @@
+"""A new user's first run: an empty compiled-kernel cache must never make a host wait.
+
+numba compiles the tracking kernels on first use (about 10 s on a 2-core machine)
+unless its on-disk cache has them. Each test here runs in a fresh process whose
+``NUMBA_CACHE_DIR`` is an empty folder — exactly what a fresh clone looks like —
+and drives the module as a host would, with ack timeouts far shorter than a
+compile: the demo, ``serve`` with a host on its pty, and the ``openshoe://`` URL
+handler in virtual time and in real time.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from urllib.parse import quote
+
+import pytest
+
+from firmware_sim import fastpath
+from firmware_sim.serve import spawn
+from firmware_sim.warmup import FIRST_RUN_NOTICE
+
+pytestmark = [
+    pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux"),
+    pytest.mark.slow,
+]
+
+#: A short walk: alignment, a few steps, rest.
+SHORT_WALK = "stand:3+walk:6+stand:2"
+
+
+def cold_env(tmp_path) -> dict[str, str]:
+    """This environment with an empty numba cache (as in a fresh clone)."""
+    cache = tmp_path / "numba-cache"
+    cache.mkdir()
+    return {**os.environ, "NUMBA_CACHE_DIR": str(cache)}
+
+
+def expect_notice(text: str) -> None:
+    """With numba the user is told why the first start is slow; without it, nothing compiles."""
+    if fastpath.available():
+        assert FIRST_RUN_NOTICE in text
+
+
+def test_demo_succeeds_on_the_first_try_with_an_empty_kernel_cache(tmp_path):
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.demo", "--scenario", SHORT_WALK,
+                        "--out", str(tmp_path / "out")],
+                       capture_output=True, text=True, timeout=600, env=cold_env(tmp_path))
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert "OpenShoe demo — summary" in r.stdout
+    expect_notice(r.stdout)
+    if fastpath.available():  # said before the module starts, not after a failure
+        assert r.stdout.index(FIRST_RUN_NOTICE) < r.stdout.index("[2/4]")
+    moved = int(re.search(r"steps with motion\s+(\d+)", r.stdout).group(1))
+    walker = int(re.search(r"the walker took (\d+)", r.stdout).group(1))
+    assert moved == walker > 0
+
+
+def test_serve_answers_its_first_host_at_once_with_an_empty_kernel_cache(tmp_path):
+    from hostlib import Device
+
+    err = tmp_path / "serve.err"
+    with open(err, "w") as err_file, spawn("--pty", str(tmp_path / "shoe"), "--scenario", SHORT_WALK,
+                                           "--status-interval", "0", timeout=600, stderr=err_file,
+                                           env=cold_env(tmp_path)) as served:
+        with Device(served.ready["bt-pty"], ack_timeout=1.0, retries=1) as dev:
+            dev.start_stepwise_dead_reckoning()  # AckTimeout if the module were compiling
+            step = dev.recv_step(timeout=30.0)
+    assert step is not None and step.step.counter >= 1
+    expect_notice(err.read_text())
+
+
+URL_HOST = textwrap.dedent("""
+    import sys
+    from hostlib import Device
+    with Device(sys.argv[1], ack_timeout=1.0, retries=1) as dev:
+        dev.start_stepwise_dead_reckoning()
+        ev = dev.recv_step(timeout=30.0)
+        print("STEP", ev.step.counter if ev else None)
+""")
+
+
+@pytest.mark.parametrize("speed", [0, 4])
+def test_url_handler_answers_at_once_with_an_empty_kernel_cache(tmp_path, speed):
+    url = f"openshoe://?scenario={quote(SHORT_WALK, safe=':')}&speed={speed}"  # '+' is %2B in a query
+    r = subprocess.run([sys.executable, "-c", URL_HOST, url], capture_output=True, text=True,
+                       timeout=600, env=cold_env(tmp_path))
+    assert r.returncode == 0, r.stdout + r.stderr
+    assert re.search(r"STEP \d+", r.stdout), r.stdout + r.stderr
+    expect_notice(r.stderr)
