@@ -1,0 +1,58 @@
+"""The wire bytes of batch replays, pinned: refactoring must not change one byte.
+
+SHA-256 of what ``openshoe-emu replay --scenario default --wire OUT`` and
+``openshoe-emu replay WALK --wire OUT`` write, recorded from the emulator as it
+was before the packages were reorganised into layers. Each is checked through
+the compiled path and through the pure-Python reference.
+
+A change that is *meant* to change the module's bytes (new navigation, new
+sensor errors) updates these figures in the same commit and says why.
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+import pytest
+
+from firmware_sim import fastpath
+from firmware_sim.batch import run_replay
+from firmware_sim.module import ModuleConfig
+from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.replay import ReplaySource
+from tests.conftest import WALK_IDS, requires_walks, walk_path
+
+DEFAULT_SCENARIO_SHA256 = "bd98290896fea2e374be1570b56d85d45f9e498c9a088c33da657e13fab0f0af"
+WALK_SHA256 = {
+    "2": "e93cfeec7b704ced10a66d544fda952f4b2aeedd17ee0cc0160ba80496bef639",
+    "3": "6e030a8f55d207e746abe3e088bec036a7e9d4a6c42253c18045236786b98f55",
+    "30": "33e952e3974746fd038b1d72e92b5e17e757074ca72bd956a08397b09013b343",
+    "31": "79dc939dbe4a3a952a74d1abe327261083d29551346b835d06dc82b4b18e6801",
+    "32": "9156dd3dfe0c6de776670d3dd5deb7aeaf7f7b1e9638adb1104843c723423655",
+    "33": "6e2a1ef470bd96d3ef0f4d51d81f744c6555a58b04467f713c376b0f8146b855",
+}
+
+PATHS = [
+    pytest.param(False, id="pure"),
+    pytest.param(True, id="compiled", marks=pytest.mark.skipif(
+        not fastpath.available(), reason=f"compiled path unavailable: {fastpath.reason_unavailable()}")),
+]
+
+
+def sha256_of_replay(source, compiled: bool) -> str:
+    config = ModuleConfig(rate_hz=float(source.rate_hz), compiled=compiled)
+    return hashlib.sha256(run_replay(source, config=config, announce=None)).hexdigest()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("compiled", PATHS)
+def test_default_scenario_replay_is_byte_identical(compiled):
+    assert sha256_of_replay(make_source("default", seed=0, rate_hz=1000.0), compiled) == DEFAULT_SCENARIO_SHA256
+
+
+@requires_walks
+@pytest.mark.slow
+@pytest.mark.parametrize("compiled", PATHS)
+@pytest.mark.parametrize("walk", WALK_IDS)
+def test_walk_replay_is_byte_identical(walk, compiled):
+    assert sha256_of_replay(ReplaySource.from_file(walk_path(walk)), compiled) == WALK_SHA256[walk]
