@@ -26,8 +26,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..board import MIMU22BT, BoardGeometry
-from .base import RawSample
+from firmware_sim.board import MIMU22BT, BoardGeometry
+from firmware_sim.mcu.imu_bus import RawSample
+
 from .config import DEFAULT_CONFIG, G0, SensorConfig
 from .gait import WALKING, GaitParams, Trajectory
 from .magnetic import MagneticWorld

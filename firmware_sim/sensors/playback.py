@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import RawSample, SensorSource, imu_block
+from firmware_sim.mcu.imu_bus import RawSample, SensorSource, imu_block
 
 #: Samples of the held last sample handed out at once (HoldLastSource.imu_block).
 _HELD_BLOCK = 256
@@ -42,7 +42,7 @@ class HoldLastSource:
         return self._last
 
     def imu_block(self, start: int, n: int) -> np.ndarray | None:
-        """Samples from *start* as one block (see :func:`~firmware_sim.sensors.base.imu_block`):
+        """Samples from *start* as one block (see :func:`~firmware_sim.mcu.imu_bus.imu_block`):
         the wrapped source's until it ends, then the held last sample repeated."""
         if self.ended_at is None or start < self.ended_at:
             return imu_block(self.source, start, n)
@@ -81,7 +81,7 @@ class StartOnFirstRead:
         return self.source.read(max(0, index - self.start))
 
     def imu_block(self, start: int, n: int) -> np.ndarray | None:
-        """Samples from *start* as one block (see :func:`~firmware_sim.sensors.base.imu_block`);
+        """Samples from *start* as one block (see :func:`~firmware_sim.mcu.imu_bus.imu_block`);
         None before the first read (that read fixes where the source starts)."""
         if self.start is None or start < self.start:
             return None

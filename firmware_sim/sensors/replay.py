@@ -60,8 +60,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..board import MIMU22BT, BoardGeometry
-from .base import RawSample
+from firmware_sim.board import MIMU22BT, BoardGeometry
+from firmware_sim.mcu.imu_bus import RawSample
+
 from .config import DEFAULT_CONFIG, SensorConfig
 from .registers import accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 
@@ -378,7 +379,7 @@ class ReplaySource:
 
     ``read(index)`` returns sample *index* of the recording (a view into
     precomputed arrays) and None past its end. Satisfies
-    :class:`firmware_sim.sensors.base.SensorSource`.
+    :class:`firmware_sim.mcu.imu_bus.SensorSource`.
     """
 
     def __init__(self, recording: Recording, config: SensorConfig = DEFAULT_CONFIG,

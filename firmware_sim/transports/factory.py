@@ -4,7 +4,7 @@ The settings are those of the ``openshoe://`` URL (and fit a CLI's options)::
 
     scenario     sensor scenario name (firmware_sim.sensors.make_source), "default"
     seed         seed of the sensors and the link's jitter/faults, 0
-    link         "ideal", "bt" or "usb" (firmware_sim.link profiles), "ideal"
+    link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
     speed        0 = virtual time as the host waits; s > 0 = real time × s, 0
@@ -19,12 +19,13 @@ import math
 from dataclasses import dataclass, fields
 from urllib.parse import parse_qs, urlsplit
 
-from ..link import Link, LinkFaults, make_link
-from ..module import Module, ModuleConfig
-from ..port import IdealPort
-from ..sensors.array import make_source
-from ..sensors.base import SensorSource
-from ..sensors.playback import served_source
+from firmware_sim.links.link import Link, LinkFaults, make_link
+from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.port import IdealPort
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.playback import served_source
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ def build(settings: EmulatorSettings) -> tuple[Module, Link]:
     sensors = make_sensors(settings.scenario, settings.seed, config.rate_hz)
     unplugged = IdealPort(connected=False)
     if settings.served_interface == "usb":
-        module = Module(config, sensors, usb_port=link, bt_port=unplugged)
+        module = build_module(config, sensors, usb_port=link, bt_port=unplugged)
     else:
-        module = Module(config, sensors, usb_port=unplugged, bt_port=link)
+        module = build_module(config, sensors, usb_port=unplugged, bt_port=link)
     return module, link

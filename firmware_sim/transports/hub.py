@@ -6,7 +6,7 @@ module; the link counts as connected while at least one host is attached.
 
 from __future__ import annotations
 
-from ..port import Port
+from firmware_sim.mcu.port import Port
 
 
 class HostTap:

@@ -12,7 +12,7 @@ Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
 *lookahead* of its links (below), which no host can see. A multi-pacer wakes a
 module once per *frame* of ``frame_ticks`` ticks (default 1) and runs the
 frame's ticks back to back with :meth:`Module.advance
-<firmware_sim.module.Module.advance>` — so the compiled path runs a quiet frame
+<firmware_sim.mcu.module.Module.advance>` — so the compiled path runs a quiet frame
 in one call — at the deadline of its last tick; what they sent goes to the
 hosts then. So a frame of F ticks lets output leave up to F − 1 ticks later
 than tick by tick (a few ms, inside the Bluetooth link's own 0–20 ms jitter),
@@ -25,7 +25,7 @@ group *k* — like real modules, whose timers were started at different moments.
 So the work is spread over the frame instead of a burst at its start, and a
 module's lateness is its own, not the sum of the modules run before it.
 
-In real time a module behind link models (:class:`~firmware_sim.link.Link`)
+In real time a module behind link models (:class:`~firmware_sim.links.link.Link`)
 runs *ahead* of the wall clock by its *lookahead*: the links' one-way latency
 less one tick (19 ms behind Bluetooth, 0 behind USB or an ideal port, whose
 links then stay on the module's clock as in virtual time). The pacer gives the
@@ -77,8 +77,8 @@ from concurrent.futures import Future
 from dataclasses import asdict, dataclass, field
 from typing import Any, Protocol
 
-from ..module import Module
-from ..warmup import Announce, prepare_module, to_stderr
+from firmware_sim.mcu.module import Module
+from firmware_sim.nav.warmup import Announce, prepare_module, to_stderr
 
 #: Upper bounds [ms of module time] of the lateness classes counted per frame (PacerStatus.lag_frames).
 LAG_BOUNDS_MS = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, math.inf)
@@ -208,7 +208,7 @@ class Pacer:
 
     # ------------------------------------------------------------------ control
     def start(self, announce: Announce | None = to_stderr) -> Pacer:
-        """Prepare the module (:func:`~firmware_sim.warmup.prepare_module`: no compile once the
+        """Prepare the module (:func:`~firmware_sim.nav.warmup.prepare_module`: no compile once the
         clock runs; *announce* hears about a slow first start), then run the loop in a
         background thread (daemon)."""
         self._group.start(announce)

@@ -4,7 +4,7 @@
 ``read`` runs the module's ticks in virtual time while the host "waits". The
 same host calls give the same bytes, as fast as the CPU allows::
 
-    pipe = VirtualPipe(Module(), "usb")
+    pipe = VirtualPipe(build_module(), "usb")
     pipe.write(bytes.fromhex("030003"))     # PING
     pipe.read(4, timeout=0.1)                # b'\\xa0\\x03\\x00\\xa3' after a tick or two
 
@@ -19,10 +19,9 @@ from __future__ import annotations
 import threading
 import time
 
+from firmware_sim.mcu.module import Module
+from firmware_sim.mcu.port import Port
 from protocol.ids import Interface
-
-from ..module import Module
-from ..port import Port
 
 #: A blocking read (timeout None) in virtual time gives up after this much virtual time.
 MAX_VIRTUAL_WAIT_S = 600.0

@@ -15,7 +15,7 @@ passed; ``in_waiting`` runs one tick when nothing is waiting, so a host
 polling it sees time pass. Deterministic and fast. With ``speed=s > 0`` a
 :class:`~firmware_sim.transports.pacer.Pacer` runs the module in a thread at
 ``s`` × real time and ``timeout`` is wall time. Either way the compiled path is
-prepared when the port opens (:mod:`firmware_sim.warmup`), so no read waits on a
+prepared when the port opens (:mod:`firmware_sim.nav.warmup`), so no read waits on a
 compile. ``cd`` (carrier detect) is the link's connected line. The module is at
 ``.module`` (touch it only with speed=0, or through ``.pacer.call``).
 """
@@ -24,9 +24,10 @@ from __future__ import annotations
 
 from serial.serialutil import PortNotOpenError, SerialBase, SerialException, to_bytes
 
-from ..link import Link
-from ..module import Module
-from ..warmup import prepare_module
+from firmware_sim.links.link import Link
+from firmware_sim.mcu.module import Module
+from firmware_sim.nav.warmup import prepare_module
+
 from .factory import EmulatorSettings, build
 from .pacer import Pacer
 from .pipe import QueueEndpoint, VirtualPipe

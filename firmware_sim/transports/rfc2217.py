@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..port import Port
+from firmware_sim.mcu.port import Port
+
 from .tcp import TcpEndpoint
 
 

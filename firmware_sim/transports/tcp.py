@@ -13,7 +13,8 @@ from __future__ import annotations
 import errno
 import socket
 
-from ..port import Port
+from firmware_sim.mcu.port import Port
+
 from .pairing import PairingEvents
 
 _RECV = 65536

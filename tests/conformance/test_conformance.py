@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pipe import VirtualPipe
 from protocol.commands import command_set
 from protocol.frames import build_command_ack
@@ -33,7 +34,7 @@ def _verdicts(driver: DeviceDriver, names: list[str] | None = None) -> dict[str,
 
 @pytest.mark.parametrize("cs", ["2015", "2014"])
 def test_our_emulator_conforms(cs):
-    module = Module(ModuleConfig(command_set=cs))
+    module = build_module(ModuleConfig(command_set=cs))
     report = run(_driver(module, cs))
     failed = {r.name: r.message for r in report.results if r.failed}
     assert not failed, failed
@@ -48,7 +49,7 @@ def test_our_emulator_conforms(cs):
 
 
 def test_every_check_proves_its_verdict_with_bytes():
-    module = Module()
+    module = build_module()
     report = run(_driver(module), ["ping", "set-state", "lossless"])
     for r in report.results:
         assert r.status is Status.PASS
@@ -74,12 +75,12 @@ class SwappedChecksumSerial(VirtualPipe):
 
 
 def test_checksum_byte_order_is_caught():
-    v = _verdicts(_driver(Module(), serial_cls=SwappedChecksumSerial), ["ping", "garbage"])
+    v = _verdicts(_driver(build_module(), serial_cls=SwappedChecksumSerial), ["ping", "garbage"])
     assert v == {"ping": Status.FAIL, "garbage": Status.FAIL}
 
 
 def test_acking_the_ack_is_caught():
-    module = Module()
+    module = build_module()
     iface = module.usb
     original = iface._execute
 
@@ -99,9 +100,9 @@ class _NoSort(list):
 
 
 def test_states_in_request_order_are_caught(monkeypatch):
-    import firmware_sim.interface as interface_mod
+    import firmware_sim.mcu.interface as interface_mod
 
-    module = Module()
+    module = build_module()
     iface = module.usb
     requested: list[int] = []
     original_output = iface.output
@@ -122,14 +123,14 @@ def test_states_in_request_order_are_caught(monkeypatch):
 
 
 def test_no_resend_in_lossless_mode_is_caught():
-    module = Module()
+    module = build_module()
     module.usb.queue.resend_cycles = 10**9
     v = _verdicts(_driver(module), ["lossy", "lossless", "resend-interval"])
     assert v == {"lossy": Status.PASS, "lossless": Status.FAIL, "resend-interval": Status.FAIL}
 
 
 def test_resend_every_64_cycles_is_caught():
-    module = Module()
+    module = build_module()
     module.usb.queue.resend_cycles = 64
     driver = _driver(module)
     report = run(driver, ["lossless", "resend-interval"])
@@ -140,7 +141,7 @@ def test_resend_every_64_cycles_is_caught():
 
 def test_phase_out_of_step_is_caught():
     """A device that starts every new output at counter 0 (ignoring §5's rule) fails phase-sync."""
-    module = Module()
+    module = build_module()
     iface = module.usb
     original = iface.set_state_output
 
@@ -156,7 +157,7 @@ def test_phase_out_of_step_is_caught():
 
 def test_unacked_output_all_off_fails_fast_with_error_not_hang():
     """A silent device: every check fails (no ack), none hangs, the run ends."""
-    module = Module()
+    module = build_module()
     module.usb.port.disconnect()
     report = run(_driver(module), ["ping", "acks"])
     assert [r.status for r in report.results] == [Status.FAIL, Status.FAIL]
@@ -190,7 +191,7 @@ def test_cli_against_a_silent_port_fails(capsys):
 
 def test_lossless_flag_stuck_on_is_caught():
     """A device where a lossy request does not turn lossless mode off (protocol.md §9) fails lossless-flag."""
-    module = Module()
+    module = build_module()
     iface = module.usb
     original = iface.set_lossless
 
@@ -207,7 +208,7 @@ def test_run_proc_slot_out_of_range_not_ignored_is_caught():
     """A device that wraps RUN_PROC's slot (12 → 0) instead of ignoring it fails run-proc."""
     from protocol.frames import build_command
 
-    module = Module()
+    module = build_module()
     iface = module.usb
     original = iface._execute
 

@@ -21,8 +21,8 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pt
 def test_demo_tracks_a_short_walk_and_draws_it(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run(
-        [sys.executable, "-m", "firmware_sim.demo", "--scenario", "stand:3+walk:12+arc:2:90+walk:4+stand:2",
-         "--out", str(out)],
+        [sys.executable, "-m", "firmware_sim.app.demo",
+         "--scenario", "stand:3+walk:12+arc:2:90+walk:4+stand:2", "--out", str(out)],
         capture_output=True, text=True, timeout=240,
     )
     assert r.returncode == 0, r.stdout + r.stderr
@@ -48,7 +48,7 @@ def test_demo_tracks_a_short_walk_and_draws_it(tmp_path):
 
 
 def test_demo_reports_a_bad_scenario_in_one_line(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.demo", "--scenario", "moonwalk:3", "--out",
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.demo", "--scenario", "moonwalk:3", "--out",
                         str(tmp_path)], capture_output=True, text=True, timeout=60)
     assert r.returncode == 1
     assert r.stderr.startswith("demo failed:") and "moonwalk" in r.stderr
@@ -58,7 +58,7 @@ def test_demo_reports_a_bad_scenario_in_one_line(tmp_path):
 @pytest.mark.slow
 def test_make_demo_walks_the_default_route_faster_than_real_time(tmp_path):
     """What `make demo` runs: the 235 m built-in route, closed loop, no shared data needed."""
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.demo", "-q", "--out", str(tmp_path)],
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.demo", "-q", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=600,
                        env={**os.environ, "OPENSHOE_WALKS": str(tmp_path / "no-walks")})
     assert r.returncode == 0, r.stdout + r.stderr

@@ -19,9 +19,9 @@ from urllib.parse import quote
 
 import pytest
 
-from firmware_sim import fastpath
-from firmware_sim.serve import spawn
-from firmware_sim.warmup import FIRST_RUN_NOTICE
+from firmware_sim.app.serve import spawn
+from firmware_sim.nav import fastpath
+from firmware_sim.nav.warmup import FIRST_RUN_NOTICE
 
 pytestmark = [
     pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux"),
@@ -46,7 +46,7 @@ def expect_notice(text: str) -> None:
 
 
 def test_demo_succeeds_on_the_first_try_with_an_empty_kernel_cache(tmp_path):
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.demo", "--scenario", SHORT_WALK,
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.demo", "--scenario", SHORT_WALK,
                         "--out", str(tmp_path / "out")],
                        capture_output=True, text=True, timeout=600, env=cold_env(tmp_path))
     assert r.returncode == 0, r.stdout + r.stderr

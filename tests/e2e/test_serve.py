@@ -14,7 +14,7 @@ import sys
 import pytest
 import serial
 
-from firmware_sim.serve import parse_ready, spawn
+from firmware_sim.app.serve import parse_ready, spawn
 from protocol.frames import build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
@@ -131,10 +131,10 @@ def test_sigint_stops_cleanly_and_bad_usage_is_refused(tmp_path):
     srv.proc.send_signal(__import__("signal").SIGINT)
     assert srv.proc.wait(10) == 0
     srv.stop()
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.cli", "serve"], capture_output=True, text=True,
-                       timeout=30)
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.cli", "serve"],
+                       capture_output=True, text=True, timeout=30)
     assert r.returncode == 2 and "--pty" in r.stderr
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.cli", "serve", "--tcp", "x:y"],
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.cli", "serve", "--tcp", "x:y"],
                        capture_output=True, text=True, timeout=30)
     assert r.returncode == 2 and "[HOST:]PORT" in r.stderr
 
@@ -190,7 +190,7 @@ def test_serve_replays_a_recording_at_its_own_rate(tmp_path, walks_dir):
 def test_serve_refuses_a_bad_recording_with_its_line(tmp_path):
     bad = tmp_path / "bad.txt"
     bad.write_text("junk line\n1 2 3\n")
-    r = subprocess.run([sys.executable, "-m", "firmware_sim.cli", "serve", "--pty", str(tmp_path / "x"),
+    r = subprocess.run([sys.executable, "-m", "firmware_sim.app.cli", "serve", "--pty", str(tmp_path / "x"),
                         "--replay", str(bad)], capture_output=True, text=True, timeout=30)
     assert r.returncode == 1
     assert "bad.txt, line 2" in r.stderr and "READY" not in r.stdout

@@ -9,12 +9,12 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from firmware_sim.control import ControlServer
-from firmware_sim.link import make_link
-from firmware_sim.port import IdealPort
-from firmware_sim.sensors.base import RawSample, ScriptedSource
+from firmware_sim.app.control import ControlServer
+from firmware_sim.app.serve import ServedModule, parse_ready, tcp_address
+from firmware_sim.links.link import make_link
+from firmware_sim.mcu.imu_bus import RawSample, ScriptedSource
+from firmware_sim.mcu.port import IdealPort
 from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead, served_source
-from firmware_sim.serve import ServedModule, parse_ready, tcp_address
 from firmware_sim.transports.hub import HostHub
 
 

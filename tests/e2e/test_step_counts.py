@@ -3,7 +3,7 @@
 The module also sends a step packet at every INS reset while the wearer stands
 still; :func:`hostlib.tracking.is_motion_step` leaves those out. Summed from the
 wire of a batch replay, the count must equal the ground truth's count of moves
-from one rest of the foot to the next (:func:`firmware_sim.demo.true_motion_steps`),
+from one rest of the foot to the next (:func:`firmware_sim.app.demo.true_motion_steps`),
 for plain walking, turns on the spot, side steps and stairs. Running is the
 exception the firmware makes: a reset needs 0.75 s since the last one, and a
 runner's strides are shorter, so two strides share one step packet.
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import pytest
 
-from firmware_sim.batch import run_replay
-from firmware_sim.demo import true_motion_steps
+from firmware_sim.app.batch import run_replay
+from firmware_sim.app.demo import true_motion_steps
 from firmware_sim.sensors.array import make_source
 from hostlib.replay import replay_capture
 

@@ -7,8 +7,9 @@ import time
 
 import pytest
 
-from firmware_sim.link import make_link
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.links.link import make_link
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 from firmware_sim.transports.pipe import QueueEndpoint, VirtualPipe
 
@@ -18,7 +19,7 @@ INTERRUPT_COUNTER_1KHZ = bytes.fromhex("20 02 01 00 23")
 
 
 def test_pipe_runs_ticks_only_while_the_host_waits():
-    m = Module()
+    m = build_module()
     pipe = VirtualPipe(m, "usb")
     pipe.write(PING)
     assert m.clock.ticks == 0
@@ -32,7 +33,7 @@ def test_pipe_runs_ticks_only_while_the_host_waits():
 
 def test_pipe_over_bluetooth_is_deterministic():
     def run(seed):
-        pipe = VirtualPipe(Module(bt_port=make_link("bt", seed=seed)), "bt")
+        pipe = VirtualPipe(build_module(bt_port=make_link("bt", seed=seed)), "bt")
         pipe.write(PING)
         pipe.write(INTERRUPT_COUNTER_1KHZ)
         data = pipe.read(2000, timeout=2.0)
@@ -43,7 +44,7 @@ def test_pipe_over_bluetooth_is_deterministic():
 
 
 def test_bluetooth_pipe_is_limited_to_the_uart_rate():
-    pipe = VirtualPipe(Module(bt_port=make_link("bt", seed=2)), "bt")
+    pipe = VirtualPipe(build_module(bt_port=make_link("bt", seed=2)), "bt")
     pipe.write(bytes.fromhex("20 02 01 00 23"))  # 10-byte packets at 1 kHz = 10 kB/s: fits 11.52 kB/s
     pipe.write(bytes.fromhex("20 03 01 00 24"))  # + GP_DT: 14-byte packets = 14 kB/s: does not fit
     pipe.read(1, timeout=0.5)
@@ -56,11 +57,11 @@ def test_bluetooth_pipe_is_limited_to_the_uart_rate():
 
 def test_unknown_interface_is_refused():
     with pytest.raises(ValueError, match="unknown interface"):
-        VirtualPipe(Module(), "wifi")
+        VirtualPipe(build_module(), "wifi")
 
 
 def test_pacer_as_fast_as_possible_runs_and_stops_cleanly():
-    m = Module()
+    m = build_module()
     ep = QueueEndpoint(m.usb.port)
     pacer = Pacer(m, [ep], speed=0).start()
     ep.write(PING)
@@ -74,7 +75,7 @@ def test_pacer_as_fast_as_possible_runs_and_stops_cleanly():
 
 
 def test_pacer_keeps_real_time_and_reports_status():
-    m = Module()
+    m = build_module()
     pacer = Pacer(m, speed=1.0).start()
     try:
         t0 = time.monotonic()
@@ -95,7 +96,7 @@ def test_pacer_keeps_real_time_and_reports_status():
 
 
 def test_pacer_counts_overruns_when_the_machine_is_too_slow():
-    m = Module()
+    m = build_module()
     real_step = m.step
 
     def slow_step():
@@ -116,7 +117,7 @@ def test_pacer_counts_overruns_when_the_machine_is_too_slow():
 
 
 def test_pacer_control_channel_reports_errors():
-    m = Module(bt_port=make_link("bt"))
+    m = build_module(bt_port=make_link("bt"))
     pacer = Pacer(m, speed=0).start()
     try:
         pacer.call(lambda mod: mod.bt.port.stall(0.5)).result(5)
@@ -129,11 +130,11 @@ def test_pacer_control_channel_reports_errors():
 
 def test_bad_speed_is_refused():
     with pytest.raises(ValueError, match="speed"):
-        Pacer(Module(), speed=-1)
+        Pacer(build_module(), speed=-1)
 
 
 def test_pacer_speed_10_runs_ten_times_faster_than_the_wall_clock():
-    m = Module()
+    m = build_module()
     pacer = Pacer(m, speed=10.0).start()
     try:
         t0 = time.monotonic()
@@ -159,7 +160,7 @@ def _wait_ticks(pacer: Pacer, ticks: int, timeout: float = 10.0) -> int:
 
 
 def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
-    modules = [Module(bt_port=make_link("bt", seed=i)) for i in range(3)]
+    modules = [build_module(bt_port=make_link("bt", seed=i)) for i in range(3)]
     eps = [QueueEndpoint(m.bt.port) for m in modules]
     loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules, eps, strict=True)], speed=1.0)
     with loop:
@@ -183,8 +184,9 @@ def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
 
 
 def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing():
-    modules = [Module(bt_port=make_link("bt", seed=i)) for i in range(2)] + [Module()]  # last: ideal port
-    usb = Module(bt_port=make_link("usb"))
+    # the last one on an ideal port
+    modules = [build_module(bt_port=make_link("bt", seed=i)) for i in range(2)] + [build_module()]
+    usb = build_module(bt_port=make_link("usb"))
     eps = [QueueEndpoint(m.bt.port) for m in modules + [usb]]
     loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules + [usb], eps, strict=True)], speed=1.0,
                          frame_ticks=4)
@@ -227,7 +229,7 @@ class _DeafEndpoint:
 
 def test_bytes_due_at_a_host_nobody_reads_do_not_make_the_loop_spin():
     link = make_link("bt", seed=0)
-    m = Module(bt_port=link)
+    m = build_module(bt_port=link)
     ep = _DeafEndpoint(link)
     link.host_write(PING)  # its ack reaches the host side ~40-80 ms in, and stays there unread
     loop = MultiPacer.of([(m, [ep])], speed=1.0, frame_ticks=4)
@@ -260,8 +262,8 @@ class _CountingEndpoint:
 def test_multipacer_pumps_a_quiet_endpoint_only_every_idle_interval():
     quiet = _CountingEndpoint()
     lone = _CountingEndpoint()
-    loop = MultiPacer([Pacer(Module(), [quiet])], idle_pump_s=0.01).start()
-    solo = Pacer(Module(), [lone]).start()  # a lone pacer pumps on every pass
+    loop = MultiPacer([Pacer(build_module(), [quiet])], idle_pump_s=0.01).start()
+    solo = Pacer(build_module(), [lone]).start()  # a lone pacer pumps on every pass
     try:
         ticks = _wait_ticks(loop.pacers[0], 200)
         _wait_ticks(solo, 200)
@@ -274,7 +276,7 @@ def test_multipacer_pumps_a_quiet_endpoint_only_every_idle_interval():
 
 
 def test_multipacer_counts_overruns_per_module_and_keeps_virtual_time_whole():
-    fast, slow = Module(), Module()
+    fast, slow = build_module(), build_module()
     real_step = slow.step
 
     def slow_step():
@@ -293,7 +295,7 @@ def test_multipacer_counts_overruns_per_module_and_keeps_virtual_time_whole():
 
 
 def test_multipacer_blames_the_module_that_raised():
-    good, bad = Module(), Module()
+    good, bad = build_module(), build_module()
 
     def broken():
         raise RuntimeError("sensor bus hung")
@@ -307,20 +309,20 @@ def test_multipacer_blames_the_module_that_raised():
 
 def test_multipacer_refuses_modules_it_cannot_pace_together():
     with pytest.raises(ValueError, match="one rate"):
-        MultiPacer([Pacer(Module()), Pacer(Module(ModuleConfig(rate_hz=500.0)))])
+        MultiPacer([Pacer(build_module()), Pacer(build_module(ModuleConfig(rate_hz=500.0)))])
     with pytest.raises(ValueError, match="one speed"):
-        MultiPacer([Pacer(Module(), speed=1.0), Pacer(Module(), speed=2.0)])
+        MultiPacer([Pacer(build_module(), speed=1.0), Pacer(build_module(), speed=2.0)])
     with pytest.raises(ValueError, match="at least one"):
         MultiPacer([])
-    p = Pacer(Module())
-    MultiPacer([p, Pacer(Module())])
+    p = Pacer(build_module())
+    MultiPacer([p, Pacer(build_module())])
     with pytest.raises(ValueError, match="another loop"):
         MultiPacer([p])
 
 
 @pytest.mark.parametrize("spin_load", [None, 0.0])  # sleeping between deadlines, or polling
 def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early(spin_load):
-    modules = [Module(), Module()]
+    modules = [build_module(), build_module()]
     times: list[list[float]] = [[], []]
     for m, log in zip(modules, times, strict=True):
         real = m.step

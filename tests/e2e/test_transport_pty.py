@@ -9,10 +9,10 @@ import time
 import pytest
 import serial
 
-from firmware_sim.link import make_link
-from firmware_sim.module import Module
+from firmware_sim.links.link import make_link
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pacer import Pacer
-from firmware_sim.transports.pty import PtyEndpoint
+from firmware_sim.transports.pty_endpoint import PtyEndpoint
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="pty pairing detection relies on Linux POLLHUP")
@@ -32,7 +32,7 @@ def read_exact(ser: serial.Serial, n: int, deadline_s: float = 5.0) -> bytes:
 
 @pytest.fixture
 def served(tmp_path):
-    module = Module(usb_port=make_link("usb", seed=1))
+    module = build_module(usb_port=make_link("usb", seed=1))
     ep = PtyEndpoint(module.usb.port, tmp_path / "openshoe0")
     pacer = Pacer(module, [ep], speed=1.0).start()
     yield ep, pacer
@@ -94,7 +94,7 @@ def test_symlink_replaced_atomically_and_removed_on_close(tmp_path):
     path = tmp_path / "dev" / "shoe"
     path.parent.mkdir()
     os.symlink("/nonexistent/old", path)  # a stale link from a crashed run
-    module = Module()
+    module = build_module()
     ep = PtyEndpoint(module.usb.port, path)
     assert os.readlink(path) == ep.slave_name
     assert [p.name for p in path.parent.iterdir()] == ["shoe"]  # no temp names left behind
@@ -121,9 +121,9 @@ def test_symlink_removed_when_the_program_exits_without_close(tmp_path):
     import subprocess
 
     path = tmp_path / "shoe"
-    code = ("from firmware_sim.module import Module\n"
-            "from firmware_sim.transports.pty import PtyEndpoint\n"
-            f"ep = PtyEndpoint(Module().usb.port, {str(path)!r})\n"
+    code = ("from firmware_sim.nav.firmware import build_module\n"
+            "from firmware_sim.transports.pty_endpoint import PtyEndpoint\n"
+            f"ep = PtyEndpoint(build_module().usb.port, {str(path)!r})\n"
             "import os; print(os.readlink(ep.link_path))\n")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
                          cwd=os.path.dirname(os.path.dirname(os.path.dirname(__file__))))

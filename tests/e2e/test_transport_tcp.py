@@ -7,8 +7,8 @@ import time
 
 import pytest
 
-from firmware_sim.link import make_link
-from firmware_sim.module import Module
+from firmware_sim.links.link import make_link
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pacer import Pacer
 from firmware_sim.transports.tcp import TcpEndpoint
 
@@ -33,7 +33,7 @@ def recv_exact(sock: socket.socket, n: int, deadline_s: float = 5.0) -> bytes:
 
 @pytest.fixture
 def served():
-    module = Module(bt_port=make_link("bt", seed=3))
+    module = build_module(bt_port=make_link("bt", seed=3))
     ep = TcpEndpoint(module.bt.port)  # 127.0.0.1, a free port
     pacer = Pacer(module, [ep], speed=1.0).start()
     yield ep, pacer

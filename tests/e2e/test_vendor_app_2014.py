@@ -17,7 +17,7 @@ import sys
 import pytest
 import serial
 
-from firmware_sim.serve import spawn
+from firmware_sim.app.serve import spawn
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux")
 

@@ -15,9 +15,9 @@ import hashlib
 
 import pytest
 
-from firmware_sim import fastpath
-from firmware_sim.batch import run_replay
-from firmware_sim.module import ModuleConfig
+from firmware_sim.app.batch import run_replay
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import fastpath
 from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.replay import ReplaySource
 from tests.conftest import WALK_IDS, requires_walks, walk_path
@@ -47,7 +47,8 @@ def sha256_of_replay(source, compiled: bool) -> str:
 @pytest.mark.slow
 @pytest.mark.parametrize("compiled", PATHS)
 def test_default_scenario_replay_is_byte_identical(compiled):
-    assert sha256_of_replay(make_source("default", seed=0, rate_hz=1000.0), compiled) == DEFAULT_SCENARIO_SHA256
+    source = make_source("default", seed=0, rate_hz=1000.0)
+    assert sha256_of_replay(source, compiled) == DEFAULT_SCENARIO_SHA256
 
 
 @requires_walks

@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from protocol.frames import build_command, build_packet_ack, checksum
 from protocol.ids import Command, Interface
 
@@ -39,7 +40,7 @@ class Host:
     """A host on one interface of a module (USB by default)."""
 
     def __init__(self, module: Module | None = None, interface: Interface = Interface.USB, **config):
-        self.module = module if module is not None else Module(ModuleConfig(**config))
+        self.module = module if module is not None else build_module(ModuleConfig(**config))
         self.iface = self.module.interfaces[interface]
         self.port = self.iface.port
 

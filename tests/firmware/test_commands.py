@@ -5,15 +5,15 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.commands import (
+from firmware_sim.mcu.command_handlers import (
     ALIGNMENT_SEQUENCE,
     FRONTEND_SEQUENCE,
     STEPWISE_SEQUENCE,
     ZUPT_INS_SEQUENCE,
 )
-from firmware_sim.module import Module
-from firmware_sim.sensors.base import ScriptedSource
-from firmware_sim.sequence import PROCESSING_FUNCTIONS
+from firmware_sim.mcu.imu_bus import ScriptedSource
+from firmware_sim.mcu.module import Module
+from firmware_sim.nav.firmware import OPENSHOE, build_module
 from protocol.frames import build_command_ack, checksum
 from protocol.ids import NR_SLOTS, Command, ProcId, StateId
 
@@ -22,7 +22,7 @@ from .emu import Host, cmd, split_frames, with_checksum
 
 def registered(ids) -> list[int]:
     """What the slots hold after writing *ids*: unregistered ids are empty slots."""
-    out = [p if p in PROCESSING_FUNCTIONS else 0 for p in ids]
+    out = [p if p in OPENSHOE.functions else 0 for p in ids]
     return out + [0] * (NR_SLOTS - len(out))
 
 
@@ -167,7 +167,7 @@ def test_output_imu_rd_only_inertial_sets_lossless_from_mode():
 
 def test_set_imu_bandwidth_reaches_the_sensors_values_above_6_ignored():
     src = ScriptedSource()
-    m = Module(sensors=src)
+    m = build_module(sensors=src)
     h = Host(m)
     h.command(Command.SET_IMU_BANDWIDTH, dlpf_cfg=4)
     assert h.step() == ack(Command.SET_IMU_BANDWIDTH)
@@ -380,7 +380,7 @@ def test_hil_processing_functions_run_once_per_input(temp_functions):
 
 
 def test_hil_output_goes_to_the_named_interface():
-    m = Module()
+    m = build_module()
     usb, bt = Host(m), Host(m, interface=2)
     usb.command(Command.SETUP_DEBUG_PROC, proc_ids=[0] * 10, state_ids=[1] + [0] * 9, interface=2)
     m.step()
@@ -446,7 +446,7 @@ def test_hil_values_are_copied_at_transmission_after_processing(temp_functions):
 
 def test_hil_with_read_inertial_in_the_list_overwrites_the_input():
     src = ScriptedSource(np.full((1, 4, 6), 9, dtype=np.int16))
-    h = Host(Module(sensors=src))
+    h = Host(build_module(sensors=src))
     h.command(Command.SETUP_DEBUG_PROC, proc_ids=[ProcId.READ_INERTIAL] + [0] * 9,
               state_ids=[0x40] + [0] * 9, interface=1)
     h.step()

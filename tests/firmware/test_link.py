@@ -1,4 +1,4 @@
-"""Link models in virtual time: rates, latency, rings, faults (firmware_sim.link)."""
+"""Link models in virtual time: rates, latency, rings, faults (firmware_sim.links.link)."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.link import (
+from firmware_sim.links.link import (
     CLOCK_HZ,
     BluetoothLink,
     DirectionFaults,
@@ -15,7 +15,7 @@ from firmware_sim.link import (
     UsbLink,
     make_link,
 )
-from firmware_sim.port import Port
+from firmware_sim.mcu.port import Port
 
 TICK = CLOCK_HZ // 1000  # one 1 kHz module tick
 

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from protocol.ids import Command, StateId
 
 from .emu import Host, cmd
@@ -38,7 +39,7 @@ def test_set_th_zupt_golden_frame():
 
 
 def test_loop_counts_interrupts_and_gp_dt():
-    m = Module()
+    m = build_module()
     m.run(5)
     assert m.clock.ticks == 5 and m.clock.interrupts == 5
     assert int(m.memory[StateId.INTERRUPT_COUNTER]) == 5
@@ -75,7 +76,7 @@ def test_mcu_serial_is_configurable_and_output_once():
 
 
 def test_memory_states_are_live_arrays():
-    m = Module(ModuleConfig(initial_states={StateId.TH_ZARU: 1234}))
+    m = build_module(ModuleConfig(initial_states={StateId.TH_ZARU: 1234}))
     assert m.memory[StateId.TH_ZARU].shape == ()
     assert m.memory.read_wire(StateId.TH_ZARU) == (1234).to_bytes(4, "big")
     m.memory[0x41][...] = np.arange(6)

@@ -1,6 +1,6 @@
-"""Issue 3 "Must show", end to end through the link model in virtual time.
+"""Lossless transmission under link faults, end to end through the link model in virtual time.
 
-A module on a Bluetooth link (firmware_sim.link) with seeded faults, and a host
+A module on a Bluetooth link (firmware_sim.links.link) with seeded faults, and a host
 that decodes what reaches it with protocol.stream.StreamDecoder and acks every
 packet it receives (duplicates too), as a lossless host must. No wall clock:
 the test drives module ticks and reads the host side after each one.
@@ -27,8 +27,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.link import LinkFaults, make_link
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.links.link import LinkFaults, make_link
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, OutputMode, StateId
 from protocol.stream import StreamDecoder
@@ -100,7 +101,7 @@ class LosslessHost:
 
 def faulty_module(seed: int, loss: float, corrupt: float, trace: bool = False) -> Module:
     link = make_link("bt", seed=seed, faults=LinkFaults.both(byte_loss=loss, corrupt=corrupt))
-    return Module(ModuleConfig(trace=trace), bt_port=link)
+    return build_module(ModuleConfig(trace=trace), bt_port=link)
 
 
 ON = build_command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER, mode=OutputMode.LOSSLESS | 7)
@@ -213,7 +214,7 @@ def test_lossless_queue_that_fills_over_a_faulty_link_drops_new_packets_and_coun
 
 def _lossy_p_at_1khz(seed: int) -> tuple[bytes, Module]:
     """P (180-byte payload) every loop, lossy, over the default Bluetooth link, 3 s, then off."""
-    module = Module(bt_port=make_link("bt", seed=seed))
+    module = build_module(bt_port=make_link("bt", seed=seed))
     port = module.bt.port
     port.host_write(build_command(Command.OUTPUT_STATE, state_id=StateId.P, mode=1))
     raw = bytearray()

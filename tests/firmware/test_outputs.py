@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from firmware_sim.port import IdealPort
+from firmware_sim.mcu.port import IdealPort
 from protocol.frames import parse_state_packet
 from protocol.ids import Command, ProcId, StateId
 

@@ -8,8 +8,9 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.interface import MAX_RX_BYTES_PER_CYCLE, RX_TIMEOUT_CYCLES
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.mcu.interface import MAX_RX_BYTES_PER_CYCLE, RX_TIMEOUT_CYCLES
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from protocol.commands import CURRENT, LEGACY_2014
 from protocol.frames import checksum
 
@@ -116,7 +117,7 @@ def executed_frames_are_valid(module: Module) -> list[bytes]:
 @settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(parts=streams, chunk=st.integers(1, 64), command_set=st.sampled_from(["2015", "2014"]))
 def test_any_stream_never_raises_and_never_executes_a_bad_checksum(parts, chunk, command_set):
-    m = Module(ModuleConfig(trace=True, command_set=command_set))
+    m = build_module(ModuleConfig(trace=True, command_set=command_set))
     data = b"".join(parts)
     for i in range(0, len(data), chunk):
         m.usb.port.host_write(data[i:i + chunk])
@@ -133,7 +134,7 @@ def test_any_stream_never_raises_and_never_executes_a_bad_checksum(parts, chunk,
 @settings(max_examples=150, deadline=None)
 @given(garbage=st.binary(max_size=300))
 def test_a_valid_command_after_garbage_is_executed_once_the_garbage_is_discarded(garbage):
-    m = Module(ModuleConfig(trace=True))
+    m = build_module(ModuleConfig(trace=True))
     m.usb.port.host_write(garbage)
     m.run(2)
     m.usb.reset_parser()  # what ~3 s of silence does (timeout tested above)
@@ -166,7 +167,7 @@ def test_2014_set_has_its_own_header_bytes():
 def test_1e5_random_streams_through_one_parser():
     """10^5 random streams (raw bytes, valid frames, corrupted frames), then a PING each time."""
     rng = np.random.default_rng(20150115)
-    m = Module(ModuleConfig(trace=True))
+    m = build_module(ModuleConfig(trace=True))
     usb = m.usb
     specs = [s for s in CURRENT.values() if s.payload_len <= 60]
     pool = rng.integers(0, 256, 1 << 22, dtype=np.uint8).tobytes()
@@ -202,7 +203,7 @@ def test_1e5_random_streams_through_one_parser():
 @given(parts=streams, chunk=st.integers(1, 64))
 def test_same_random_inputs_twice_give_identical_bytes_and_traces(parts, chunk):
     def run() -> tuple[bytes, list]:
-        m = Module(ModuleConfig(trace=True))
+        m = build_module(ModuleConfig(trace=True))
         data = b"".join(parts)
         out = bytearray()
         for i in range(0, len(data), chunk):

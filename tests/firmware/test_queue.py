@@ -5,8 +5,8 @@ from __future__ import annotations
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.port import IdealPort
-from firmware_sim.queue import QUEUE_BYTES, PackageQueue
+from firmware_sim.mcu.packet_queue import QUEUE_BYTES, PackageQueue
+from firmware_sim.mcu.port import IdealPort
 from protocol.ids import Command, StateId
 
 from .emu import Host, split_frames

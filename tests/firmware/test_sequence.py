@@ -5,17 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.clock import Clock
-from firmware_sim.inertial import READ_INERTIAL_CYCLES
-from firmware_sim.module import Module, ModuleConfig, still_source
-from firmware_sim.sensors.base import ScriptedSource
-from firmware_sim.sequence import (
-    PROCESSING_FUNCTIONS,
-    ProcessSequence,
-    cost_table,
-    processing_function,
-    sequence_budget,
-)
+from firmware_sim.mcu.clock import Clock
+from firmware_sim.mcu.firmware import RUNTIME_ONLY
+from firmware_sim.mcu.imu_bus import ScriptedSource, still_board
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.sequence import FunctionTable, ProcessSequence, processing_function
+from firmware_sim.nav.firmware import OPENSHOE, build_module
+from firmware_sim.nav.inertial import READ_INERTIAL_CYCLES
 from protocol.ids import NR_IMUS, ProcId, StateId
 
 from .emu import Host
@@ -23,7 +19,7 @@ from .emu import Host
 
 # ------------------------------------------------------------------ sequence
 def test_unknown_id_empties_the_slot():
-    seq = ProcessSequence()
+    seq = ProcessSequence(OPENSHOE.functions)
     seq.set_slot(0, ProcId.READ_INERTIAL)
     seq.set_slot(0, 0x2F)
     assert seq.slots[0] == 0
@@ -41,7 +37,7 @@ def test_function_replacing_the_sequence_mid_run_follows_the_live_slots(temp_fun
     temp_functions(0x2A, replace)
     temp_functions(0x2B, lambda m: log.append("B"))
     temp_functions(0x2C, lambda m: log.append("C"))
-    m = Module()
+    m = build_module()
     m.sequence.set_slot(2, 0x2A)
     m.sequence.set_slot(7, 0x2B)
     m.step()
@@ -54,7 +50,7 @@ def test_function_replacing_the_sequence_mid_run_follows_the_live_slots(temp_fun
 def test_store_and_empty_stops_the_rest_of_the_sequence(temp_functions):
     log = []
     temp_functions(0x2A, lambda m: log.append(1))
-    m = Module()
+    m = build_module()
     m.sequence.set_slots([0x2A, ProcId.STORE_AND_EMPTY_PROC_SEQU, 0x2A])
     m.step()
     assert log == [1] and m.sequence.slots == [0] * 12
@@ -63,37 +59,53 @@ def test_store_and_empty_stops_the_rest_of_the_sequence(temp_functions):
 
 def test_ps_dt_holds_the_modelled_cost_of_each_slot(temp_functions):
     temp_functions(0x2A, lambda m: None, cycles=1234)
-    m = Module()
+    m = build_module()
     m.sequence.set_slots([0x2A, 0, ProcId.READ_INERTIAL])
     m.step()
     call = m.costs.slot_call
     assert int(m.memory[0x80]) == 1234 + call
     assert int(m.memory[0x81]) == 0
     assert int(m.memory[0x82]) == READ_INERTIAL_CYCLES + call
-    assert sequence_budget(m.sequence.slots, call) == 1234 + READ_INERTIAL_CYCLES + 2 * call
+    assert m.firmware.functions.budget(m.sequence.slots, call) == 1234 + READ_INERTIAL_CYCLES + 2 * call
     # the loop's GP_DT includes them
     assert int(m.memory[StateId.GP_DT]) > 1234 + READ_INERTIAL_CYCLES
 
 
-def test_cost_table_lists_every_registered_function():
-    table = cost_table()
-    assert [pid for pid, _, _ in table] == sorted(PROCESSING_FUNCTIONS)
+def test_cost_table_lists_every_function_of_the_firmware():
+    table = OPENSHOE.functions.cost_table()
+    assert [pid for pid, _, _ in table] == sorted(OPENSHOE.functions)
     assert (0x13, "READ_INERTIAL", READ_INERTIAL_CYCLES) in table
 
 
-def test_registering_an_id_twice_with_a_different_function_is_refused(temp_functions):
-    temp_functions(0x2A, lambda m: None)
+def test_a_table_refuses_two_functions_with_one_id():
+    def one(m: Module) -> None:
+        pass
+
     def another(m: Module) -> None:
         pass
 
-    with pytest.raises(ValueError, match="already registered"):
-        processing_function(0x2A, cycles=1)(another)
+    processing_function(0x2A, cycles=1)(one)
+    processing_function(0x2A, cycles=1)(another)
+    with pytest.raises(ValueError, match="declared twice"):
+        FunctionTable.of(one, another)
+    assert FunctionTable.of(one).with_functions(another)[0x2A].fn is another, "linking in replaces"
     with pytest.raises(ValueError):
         processing_function(0x30, cycles=1)
+    with pytest.raises(TypeError, match="not declared"):
+        FunctionTable.of(lambda m: None)
+
+
+def test_the_runtime_alone_knows_no_navigation():
+    """Without the navigation firmware the tracking commands leave the slots empty (unknown ids)."""
+    m = Module(firmware=RUNTIME_ONLY)
+    m.usb.port.host_write(bytes.fromhex("34 00 34"))
+    m.run(3)
+    assert m.usb.port.host_read() == bytes.fromhex("A0 34 00 D4")
+    assert m.sequence.slots[:6] == [0] * 6 and m.sequence.slots[11] == ProcId.RESTORE_PROC_SEQU_IF
 
 
 def test_work_state_is_created_once_per_module():
-    m1, m2 = Module(), Module()
+    m1, m2 = build_module(), build_module()
     a = m1.work("x", lambda: np.zeros(3))
     a[0] = 5
     assert m1.work("x", lambda: np.ones(3))[0] == 5
@@ -102,7 +114,7 @@ def test_work_state_is_created_once_per_module():
 
 # ----------------------------------------------------------- utility functions
 def test_empty_and_restore_functions():
-    m = Module()
+    m = build_module()
     m.sequence.storage[:2] = [ProcId.STATE_OUTPUT_IF, ProcId.STATE_OUTPUT_IF]
     m.sequence.set_slot(4, ProcId.RESTORE_PROC_SEQU)
     m.step()
@@ -152,7 +164,7 @@ def script(n: int) -> np.ndarray:
 
 def test_read_inertial_delays_the_accelerometer_by_one_sample():
     s = script(4)
-    m = Module(sensors=ScriptedSource(s, temp=-40, mag=(1, 2, 3)))
+    m = build_module(sensors=ScriptedSource(s, temp=-40, mag=(1, 2, 3)))
     m.sequence.set_slot(0, ProcId.READ_INERTIAL)
     for k in range(4):
         m.step()
@@ -166,7 +178,7 @@ def test_read_inertial_delays_the_accelerometer_by_one_sample():
 
 def test_imu_timestamp_is_the_cycle_counter_at_the_read_and_wraps():
     start = 2**32 - 3 * 64_000
-    m = Module(ModuleConfig(start_cycles=start))
+    m = build_module(ModuleConfig(start_cycles=start))
     m.sequence.set_slot(0, ProcId.READ_INERTIAL)
     stamps = []
     for _ in range(5):
@@ -179,7 +191,7 @@ def test_imu_timestamp_is_the_cycle_counter_at_the_read_and_wraps():
 
 
 def test_exhausted_source_sets_the_flag_and_writes_nothing():
-    m = Module(sensors=ScriptedSource(script(2), finite=True))
+    m = build_module(sensors=ScriptedSource(script(2), finite=True))
     m.sequence.set_slot(0, ProcId.READ_INERTIAL)
     m.run(2)
     assert not m.sensors_exhausted
@@ -190,13 +202,13 @@ def test_exhausted_source_sets_the_flag_and_writes_nothing():
 
 def test_empty_sequence_reads_nothing():
     src = ScriptedSource(script(3))
-    m = Module(sensors=src)
+    m = build_module(sensors=src)
     m.run(3)
     assert (m.memory.imu_raw == 0).all()
 
 
 def test_default_source_is_a_board_at_rest():
-    s = still_source().read(0)
+    s = still_board().read(0)
     assert s.imu[0].tolist() == [0, 0, -2048, 0, 0, 0]
     assert s.imu[2].tolist() == [0, 0, 2048, 0, 0, 0]  # bottom chips are upside down
 
@@ -211,7 +223,7 @@ def test_clock_rates_and_tick_lengths():
 
 def test_overrun_starts_the_next_loop_at_once_and_counts_missed_ticks(temp_functions):
     temp_functions(0x2A, lambda m: None, cycles=150_000)
-    m = Module()
+    m = build_module()
     m.sequence.set_slot(0, 0x2A)
     m.step()  # 64 000 .. > 214 000
     assert m.clock.overruns == 0
@@ -225,7 +237,7 @@ def test_overrun_starts_the_next_loop_at_once_and_counts_missed_ticks(temp_funct
 
 
 def test_loops_fit_a_tick_without_overrun_in_normal_use():
-    m = Module()
+    m = build_module()
     m.sequence.set_slot(0, ProcId.READ_INERTIAL)
     m.run(100)
     assert m.clock.overruns == 0
@@ -233,37 +245,29 @@ def test_loops_fit_a_tick_without_overrun_in_normal_use():
 
 
 def test_boot_hooks_run_before_initial_states():
-    from firmware_sim.sequence import BOOT_HOOKS, on_boot
-
     def hook(m: Module) -> None:
         m.memory[StateId.GP_ID][...] = 7
         m.memory[StateId.TH_ZARU][...] = 99
 
-    on_boot(hook)
-    try:
-        m = Module(ModuleConfig(initial_states={StateId.TH_ZARU: 5}))
-        assert int(m.memory[StateId.GP_ID]) == 7 and int(m.memory[StateId.TH_ZARU]) == 5
-    finally:
-        BOOT_HOOKS.remove(hook)
+    m = build_module(ModuleConfig(initial_states={StateId.TH_ZARU: 5}),
+                     firmware=OPENSHOE.with_boot_hooks(hook))
+    assert int(m.memory[StateId.GP_ID]) == 7 and int(m.memory[StateId.TH_ZARU]) == 5
 
 
 def test_the_tracking_sequences_fit_one_tick_at_1khz():
     """With the documented costs, step-wise tracking must not overrun (DT would jitter)."""
-    from firmware_sim.commands import ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE
+    from firmware_sim.mcu.command_handlers import ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE
 
-    missing = [hex(p) for p in STEPWISE_SEQUENCE if p not in PROCESSING_FUNCTIONS]
-    if missing:
-        pytest.skip(f"navigation functions {missing} not registered yet")
-    m = Module()
+    m = build_module()
     c = m.costs
     fixed = c.loop_overhead + 2 * c.rx_poll + c.tx_scan + 64 * (c.tx_per_byte + c.tx_write_per_byte)
     for seq in (ALIGNMENT_SEQUENCE, STEPWISE_SEQUENCE, ZUPT_INS_SEQUENCE):
-        assert sequence_budget(seq, c.slot_call) + fixed < m.clock.cycles_per_tick
+        assert m.firmware.functions.budget(seq, c.slot_call) + fixed < m.clock.cycles_per_tick
 
 
 def test_module_budget_shows_whether_the_running_sequence_fits(temp_functions):
     temp_functions(0x2A, lambda m: None, cycles=70_000)
-    m = Module()
+    m = build_module()
     m.sequence.set_slot(0, ProcId.READ_INERTIAL)
     b = m.budget()
     assert b["tick"] == 64_000 and b["slots"] == READ_INERTIAL_CYCLES + m.costs.slot_call

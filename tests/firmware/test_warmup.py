@@ -10,9 +10,10 @@ import threading
 
 import pytest
 
-from firmware_sim import fastpath, warmup
-from firmware_sim.batch import run_replay
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.app.batch import run_replay
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import fastpath, warmup
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.array import make_source
 
 
@@ -58,7 +59,7 @@ def test_a_quick_preparation_says_nothing_and_happens_once(fresh):
 def test_a_failing_compile_falls_back_to_the_pure_path_and_says_so(fresh):
     if not fastpath.available():
         pytest.skip(f"compiled path unavailable here: {fastpath.reason_unavailable()}")
-    module = Module(ModuleConfig(compiled=True))
+    module = build_module(ModuleConfig(compiled=True))
     said: list[str] = []
 
     def broken() -> None:
@@ -67,15 +68,15 @@ def test_a_failing_compile_falls_back_to_the_pure_path_and_says_so(fresh):
     found = warmup.prepare_compiled_path(said.append, warm_up=broken)
     assert not found.compiled and "no LLVM today" in found.reason
     warmup.prepare_module(module, said.append)
-    warmup.prepare_module(Module(ModuleConfig()), said.append)
+    warmup.prepare_module(build_module(ModuleConfig()), said.append)
     assert not module.compiled, "the module runs the pure reference instead"
-    assert not Module(ModuleConfig()).compiled, "and so do later modules of this process"
+    assert not build_module(ModuleConfig()).compiled, "and so do later modules of this process"
     assert len(said) == 1 and "pure-Python reference" in said[0] and "no LLVM today" in said[0]
 
 
 def test_a_module_that_runs_pure_by_request_is_not_prepared(fresh):
     said: list[str] = []
-    assert warmup.prepare_module(Module(ModuleConfig(compiled=False)), said.append) is None
+    assert warmup.prepare_module(build_module(ModuleConfig(compiled=False)), said.append) is None
     assert said == []
 
 

@@ -10,10 +10,10 @@ import pytest
 
 pytest.importorskip("firmware_sim.transports.tcp")
 
-from firmware_sim.link import make_link  # noqa: E402
-from firmware_sim.module import Module  # noqa: E402
+from firmware_sim.links.link import make_link  # noqa: E402
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pacer import Pacer  # noqa: E402
-from firmware_sim.transports.pty import PtyEndpoint  # noqa: E402
+from firmware_sim.transports.pty_endpoint import PtyEndpoint  # noqa: E402
 from firmware_sim.transports.tcp import TcpEndpoint  # noqa: E402
 from hostlib.device import Device  # noqa: E402
 from protocol.ids import OutputMode, StateId  # noqa: E402
@@ -30,7 +30,7 @@ def collect(dev: Device, n: int, timeout: float = 10.0) -> list:
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pty pairing relies on Linux")
 def test_device_over_a_pty_path(tmp_path):
-    module = Module(usb_port=make_link("usb", seed=1))
+    module = build_module(usb_port=make_link("usb", seed=1))
     ep = PtyEndpoint(module.usb.port, tmp_path / "rfcomm0")
     with Pacer(module, [ep], speed=1.0):
         with Device(str(ep.link_path), ack_timeout=2.0) as dev:
@@ -45,7 +45,7 @@ def test_device_over_a_pty_path(tmp_path):
 
 
 def test_device_over_tcp_survives_a_dropped_link():
-    module = Module(bt_port=make_link("bt", seed=4))
+    module = build_module(bt_port=make_link("bt", seed=4))
     ep = TcpEndpoint(module.bt.port)
     url = f"socket://{ep.address[0]}:{ep.address[1]}"
     with Pacer(module, [ep], speed=1.0) as pacer:
@@ -77,12 +77,13 @@ def test_steps_missed_while_the_link_is_down_are_reported_as_a_gap():
     comes (protocol.md §9): the host reports the missing steps instead of hiding them."""
     import serial
 
-    from firmware_sim.module import ModuleConfig
-    from firmware_sim.port import IdealPort
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.mcu.port import IdealPort
 
     src = _walking_source()
     link = make_link("bt", seed=1)
-    module = Module(ModuleConfig(rate_hz=src.rate_hz), src, usb_port=IdealPort(connected=False), bt_port=link)
+    module = build_module(ModuleConfig(rate_hz=src.rate_hz), src, usb_port=IdealPort(connected=False),
+                          bt_port=link)
     ep = TcpEndpoint(link)
     url = f"socket://{ep.address[0]}:{ep.address[1]}"
     allow = threading.Event()

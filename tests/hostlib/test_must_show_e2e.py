@@ -1,4 +1,4 @@
-"""Issue 6 "Must show", end to end: the host SDK against `openshoe-emu serve` walking a known scenario.
+"""The host SDK tracking a served module end to end: the host SDK against `openshoe-emu serve` walking a known scenario.
 
 * over a real pty and over socket://: the tracked end position lies within 3σ (of the
   track's own covariance) of the scenario's ground truth, and the track equals what an
@@ -22,8 +22,8 @@ import threading
 import numpy as np
 import pytest
 
+from firmware_sim.app.serve import spawn
 from firmware_sim.sensors import make_source
-from firmware_sim.serve import spawn
 from hostlib.device import Device
 from hostlib.tracking import StepOutcome, StepTracker
 from protocol.codec import decode_step

@@ -6,8 +6,8 @@ import dataclasses
 
 import numpy as np
 
-from firmware_sim.batch import run_replay
-from firmware_sim.module import ModuleConfig
+from firmware_sim.app.batch import run_replay
+from firmware_sim.mcu.module import ModuleConfig
 from hostlib.tracking import StepTracker
 from protocol.codec import decode_step
 from protocol.frames import CommandAck, StatePacket

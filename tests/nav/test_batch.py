@@ -1,13 +1,13 @@
-"""Batch replay (issue 5 contract): a source → exactly the bytes the module sent over Bluetooth."""
+"""Batch replay (the `openshoe-emu replay` contract): a source → exactly the bytes the module sent over Bluetooth."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from firmware_sim import cli
-from firmware_sim.batch import START_STEPWISE, run_replay
-from firmware_sim.module import Module
+from firmware_sim.app import cli
+from firmware_sim.app.batch import START_STEPWISE, run_replay
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.replay import Recording, ReplaySource, save_csv
 from protocol.codec import decode_states
@@ -86,7 +86,7 @@ def test_hil_gives_the_same_states_as_the_batch_run(short_walk):
              ProcId.FRONTEND_CONVCOMP]
     n = 120
     # the batch module: the front end reading the sensors itself
-    batch = Module(reference_config(RATE), sensors=short_walk)
+    batch = build_module(reference_config(RATE), sensors=short_walk)
     batch.sequence.set_slots([ProcId.READ_INERTIAL, *procs])
     raw, ts, expect = [], [], []
     for _ in range(n):
@@ -95,7 +95,7 @@ def test_hil_gives_the_same_states_as_the_batch_run(short_walk):
         ts.append(int(batch.memory[StateId.IMU_TS]))
         expect.append({sid: batch.memory[sid].copy() for sid in ids})
     # the HIL module: the host feeds those registers
-    hil = Module(reference_config(RATE))
+    hil = build_module(reference_config(RATE))
     port = hil.usb.port
     port.host_write(build_command(Command.SETUP_DEBUG_PROC, proc_ids=list(procs) + [0] * 6,
                                   state_ids=list(ids) + [0] * 2, interface=int(Interface.USB)))

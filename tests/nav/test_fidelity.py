@@ -10,7 +10,7 @@ step lengths). The OpenShoe MATLAB implementation (GLRT detector, W = 3,
 σ_gyro = 0.5 °/s, σ_vel = 0.01 m/s; full-rate INS) gets the figures of
 ``REFERENCE``. Ours must be within 0.05 percentage points of their mean and
 ≤ 0.95 % on every walk, with one set of constants for all walks (no per-walk
-tuning). Measured with the constants of firmware_sim.nav_config (pure-Python
+tuning). Measured with the constants of firmware_sim.nav.config (pure-Python
 reference path):
 
     walk   ref %   ours %
@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.module import Module
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.replay import ReplaySource
 from protocol.ids import StateId
@@ -99,7 +99,7 @@ def test_stepwise_sum_reproduces_the_full_rate_ins():
     """Steps summed on the host end where the full-rate INS (0x33) ends, to 1 cm after 100 m."""
     src = make_source("walk", seed=1, rate_hz=250.0)
     _, tracker = replay_track(src)
-    full = Module(reference_config(250.0), sensors=src)
+    full = build_module(reference_config(250.0), sensors=src)
     full.usb.port.host_write(bytes.fromhex("330033"))
     full.run(len(src))
     pos = full.memory[StateId.POSITION]

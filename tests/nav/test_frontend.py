@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim import frontend as fe
-from firmware_sim import nav_config as cfg
 from firmware_sim.board import MIMU22BT, Q14_ONE
+from firmware_sim.nav import config as cfg
+from firmware_sim.nav import frontend as fe
 from protocol.ids import NR_IMUS
 
 G_LSB = 2048  # raw accelerometer LSB per g

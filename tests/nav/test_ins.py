@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from firmware_sim import ins
-from firmware_sim import nav_config as cfg
+from firmware_sim.nav import config as cfg
+from firmware_sim.nav import ins
 from protocol.states import DP_INDEX, P_INDEX
 
 F32 = np.float32

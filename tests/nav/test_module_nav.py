@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from firmware_sim import nav_config as cfg
-from firmware_sim.module import Module
+from firmware_sim.nav import config as cfg
+from firmware_sim.nav.firmware import build_module
 from protocol.frames import build_command
 from protocol.ids import Command, StateId
 
@@ -13,13 +13,13 @@ from .helpers import reference_config
 
 
 def test_thresholds_have_their_power_on_defaults():
-    m = Module(reference_config(1000.0))
+    m = build_module(reference_config(1000.0))
     assert int(m.memory[StateId.TH_ZUPT]) == cfg.TH_ZUPT_DEFAULT == 16000
     assert int(m.memory[StateId.TH_ZARU]) == cfg.TH_ZARU_DEFAULT == 16
 
 
 def test_still_board_aligns_level_after_256_stationary_samples():
-    m = Module(reference_config(1000.0))  # default sensors: a board lying still and level
+    m = build_module(reference_config(1000.0))  # default sensors: a board lying still and level
     m.usb.port.host_write(bytes.fromhex("330033"))
     n = m.run_until(lambda mod: bool(mod.memory[StateId.INIT_DONE]), max_ticks=2000)
     # N samples fill the buffer before the first ZUPT, then 256 stationary samples
@@ -33,7 +33,7 @@ def test_still_board_aligns_level_after_256_stationary_samples():
 
 
 def test_host_set_threshold_switches_detection_off():
-    m = Module(reference_config(1000.0))
+    m = build_module(reference_config(1000.0))
     port = m.usb.port
     port.host_write(build_command(Command.SET_STATE_4, state_id=StateId.TH_ZUPT, data=(0).to_bytes(4, "big")))
     port.host_write(bytes.fromhex("330033"))

@@ -1,4 +1,4 @@
-"""Noise statistics of the simulated MPU9150s by Allan deviation (issue 4 "Must show").
+"""Noise statistics of the simulated MPU9150s by Allan deviation: white noise and bias instability as the datasheet and the configuration say.
 
 White noise of one-sided density N [unit/√Hz] has the Allan deviation
 σ(τ) = N / √(2τ): a slope of −1/2 on a log-log plot at short τ, where the bias

@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_sim.board import MIMU22BT
+from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.sensors.array import SimulatedSource, list_scenarios, make_source
-from firmware_sim.sensors.base import SensorSource
 from firmware_sim.sensors.config import DEFAULT_CONFIG, G0, IDEAL_CONFIG, SensorConfig
 from firmware_sim.sensors.magnetic import earth_field_ned
 from firmware_sim.sensors.mpu9150 import dlpf_filter, one_pole_alpha

@@ -11,7 +11,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from firmware_sim.board import MIMU22BT
-from firmware_sim.sensors.base import SensorSource
+from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.sensors.registers import lsb_to_accel, lsb_to_gyro
 from firmware_sim.sensors.replay import (
     CSV_HEADER,

@@ -1,5 +1,5 @@
-"""The compiled tracking sequence (firmware_sim.fastpath, numba) sends the same bytes as the
-pure-Python reference, and leaves the module in the same state (issue 8).
+"""The compiled tracking sequence (firmware_sim.nav.fastpath, numba) sends the same bytes as the
+pure-Python reference, and leaves the module in the same state.
 
 The compiled tests skip with a reason when numba is not importable (it is the optional
 ``fast`` extra); the first run compiles the kernels (≈ 20 s, then cached on disk).
@@ -15,10 +15,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from firmware_sim import fastpath
-from firmware_sim.batch import run_replay
-from firmware_sim.link import LinkFaults, make_link
-from firmware_sim.module import Module, ModuleConfig
+from firmware_sim.app.batch import run_replay
+from firmware_sim.links.link import LinkFaults, make_link
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav import fastpath
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.replay import ReplaySource
@@ -65,7 +66,7 @@ def test_synthetic_walk_same_wire_bytes_and_state() -> None:
 
 
 def test_session_driver_is_the_replay_session() -> None:
-    """The benchmark's driver sends and acknowledges exactly like firmware_sim.batch.run_replay."""
+    """The benchmark's driver sends and acknowledges exactly like firmware_sim.app.batch.run_replay."""
     source = make_source("stand:2+walk:2", seed=5)
     reference = run_replay(source, config=ModuleConfig(rate_hz=source.rate_hz, compiled=False))
     assert run_session(source, compiled=False).wire == bytes(reference)
@@ -75,7 +76,7 @@ def test_session_driver_is_the_replay_session() -> None:
 def test_loop_by_loop_on_a_bluetooth_link_matches() -> None:
     """Module.step with the compiled sequence (a real link model: never a quiet stretch)."""
     source = make_source("stand:2+walk:2", seed=7)
-    mods = [Module(ModuleConfig(compiled=c), sensors=source, bt_port=make_link("bt", seed=1))
+    mods = [build_module(ModuleConfig(compiled=c), sensors=source, bt_port=make_link("bt", seed=1))
             for c in (False, True)]
     out = [bytearray(), bytearray()]
     for m in mods:
@@ -119,7 +120,7 @@ def test_quiet_stretches_on_a_link_model_match_loop_by_loop(link: str) -> None:
     ticks = len(source) + 1500  # on past the end of the scenario (held still)
     mods, wires, timing = [], [], []
     for compiled in (False, True):
-        m = Module(ModuleConfig(compiled=compiled), sensors=served_source(source),
+        m = build_module(ModuleConfig(compiled=compiled), sensors=served_source(source),
                    bt_port=make_link(profile, seed=2, faults=faults))
         m.step()  # the module runs before the host starts the mode
         m.bt.port.host_write(START_STEPWISE)
@@ -146,30 +147,31 @@ def test_quiet_stretches_on_a_link_model_match_loop_by_loop(link: str) -> None:
 @needs_numba
 def test_host_thresholds_and_custom_functions_respected() -> None:
     """Thresholds written by the host reach the kernel; a re-registered function id turns it off."""
-    from firmware_sim.sequence import PROCESSING_FUNCTIONS
+    from firmware_sim.mcu.sequence import processing_function
+    from firmware_sim.nav.firmware import OPENSHOE
 
     source = make_source("stand:2+walk:2", seed=2)
     cfg = {"initial_states": {0x19: 3000, 0x1A: 8}}
     results = []
     for c in (False, True):
-        m = Module(ModuleConfig(compiled=c, **cfg), sensors=source)
+        m = build_module(ModuleConfig(compiled=c, **cfg), sensors=source)
         m.bt.port.host_write(START_STEPWISE)
         m.run(len(source))
         results.append(m)
     _assert_same_module(*results)
     assert fastpath.FastNav.sequence_matches(results[1])
-    saved = PROCESSING_FUNCTIONS[0x22]
-    try:
-        PROCESSING_FUNCTIONS[0x22] = saved.__class__(0x22, lambda module: None, saved.cycles, saved.name)
-        assert not fastpath.FastNav.sequence_matches(results[1])
-    finally:
-        PROCESSING_FUNCTIONS[0x22] = saved
+    no_zupt = processing_function(0x22, cycles=OPENSHOE.functions[0x22].cycles)(lambda module: None)
+    other = build_module(ModuleConfig(compiled=True), sensors=source,
+                         firmware=OPENSHOE.with_functions(no_zupt))
+    other.bt.port.host_write(START_STEPWISE)
+    other.run(len(source))
+    assert not fastpath.FastNav.sequence_matches(other)
 
 
 def test_pure_path_selected_by_environment() -> None:
     """OPENSHOE_PURE=1 selects the reference even when numba is installed."""
-    code = ("from firmware_sim import fastpath; from firmware_sim.module import Module; "
-            "print(fastpath.available(), Module().compiled)")
+    code = ("from firmware_sim.nav import fastpath; from firmware_sim.nav.firmware import build_module; "
+            "print(fastpath.available(), build_module().compiled)")
     env = {**os.environ, "OPENSHOE_PURE": "1", "PYTHONPATH": str(REPO)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                          cwd=REPO, timeout=120, check=True).stdout.split()
@@ -177,12 +179,10 @@ def test_pure_path_selected_by_environment() -> None:
 
 
 def test_compiled_request_without_numba_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
-    from firmware_sim import module as module_mod
-
-    monkeypatch.setattr(module_mod, "_compiled_available", lambda: (False, "numba is not installed"))
+    monkeypatch.setattr(fastpath, "_disabled", "numba is not installed")
     with pytest.raises(ImportError, match="fast"):
-        Module(ModuleConfig(compiled=True))
-    assert Module(ModuleConfig(compiled=None)).compiled is False
+        build_module(ModuleConfig(compiled=True))
+    assert build_module(ModuleConfig(compiled=None)).compiled is False
 
 
 @needs_numba

@@ -1,4 +1,4 @@
-"""`openshoe-bench`: the emulator's performance targets (issue 8), measured as ratios in one run.
+"""`openshoe-bench`: the emulator's performance targets, measured as ratios in one run.
 
 Targets (``openshoe-bench [TARGET …]``, all four by default):
 
@@ -88,7 +88,7 @@ def machine_info() -> dict[str, Any]:
         numba_v: str | None = numba.__version__
     except ImportError:
         numba_v = None
-    from firmware_sim import fastpath
+    from firmware_sim.nav import fastpath
 
     return {
         "cpu": cpu,
@@ -104,7 +104,7 @@ def machine_info() -> dict[str, Any]:
 
 
 def _say(msg: str) -> None:
-    from firmware_sim.progress import say
+    from firmware_sim.app.progress import say
 
     say(msg)
 

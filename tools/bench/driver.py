@@ -1,7 +1,7 @@
 """The batch session the benchmark (and the identity tests) run: a host on Bluetooth that
 starts step-wise dead reckoning and acknowledges every packet at once.
 
-It is :func:`firmware_sim.batch.run_replay` (``34 00 34`` at power-on, each state packet
+It is :func:`firmware_sim.app.batch.run_replay` (``34 00 34`` at power-on, each state packet
 acknowledged in the next loop, the sequence emptied when the source ends and the queue
 drained) with the path chosen explicitly, plus how many loops ran compiled.
 """
@@ -10,9 +10,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from firmware_sim.batch import START_STEPWISE, run_replay
-from firmware_sim.module import Module, ModuleConfig
-from firmware_sim.sensors.base import SensorSource
+from firmware_sim.app.batch import START_STEPWISE, run_replay
+from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.module import Module, ModuleConfig
 
 __all__ = ["START_STEPWISE", "SessionResult", "run_session"]
 

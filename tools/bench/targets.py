@@ -16,12 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from firmware_sim import fastpath
-from firmware_sim.module import Module, ModuleConfig
-from firmware_sim.progress import progress_bar
+from firmware_sim.app.progress import progress_bar
+from firmware_sim.mcu.imu_bus import RawSample
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import fastpath
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.warmup import prepare_module
 from firmware_sim.sensors.array import make_source
-from firmware_sim.sensors.base import RawSample
-from firmware_sim.warmup import prepare_module
 from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
 from protocol.stream import StreamDecoder
 
@@ -140,7 +141,7 @@ def bench_memory(cycles: int, say: Say, quiet: bool = False) -> Result:
     """A long batch session (compiled when available): RSS along the way, peak and growth."""
     short = cycles < 86_400_000
     source = RepeatingWalk(cycles)
-    module = Module(ModuleConfig(rate_hz=1000.0), sensors=source)
+    module = build_module(ModuleConfig(rate_hz=1000.0), sensors=source)
     prepare_module(module, say)  # the compile (or cache load) is not part of the run
     port = module.bt.port
     decoder = StreamDecoder()
@@ -214,10 +215,11 @@ def _control(addr: str, line: str, timeout: float = 10.0) -> str:
 def single_loop_cost_us(modules: int = 10, ticks: int = 2000) -> float:
     """µs of one module's loop when one thread steps *modules* walking modules on Bluetooth
     links and acks their steps (the CPU a real-time process needs per module and tick)."""
-    from firmware_sim.link import make_link
+    from firmware_sim.links.link import make_link
 
     src = make_source("stand:3+walk:5", seed=0)
-    mods = [Module(ModuleConfig(), sensors=src, bt_port=make_link("bt", seed=i)) for i in range(modules)]
+    mods = [build_module(ModuleConfig(), sensors=src, bt_port=make_link("bt", seed=i))
+            for i in range(modules)]
     decs = [StreamDecoder() for _ in mods]
     for m in mods:
         m.bt.port.host_write(START_STEPWISE)
@@ -242,7 +244,7 @@ def single_loop_cost_us(modules: int = 10, ticks: int = 2000) -> float:
 def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
                    frame_ms: float | None = None, quiet: bool = False) -> Result:
     """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
-    from firmware_sim.serve import MANY_MODULES_FRAME_MS, spawn
+    from firmware_sim.app.serve import MANY_MODULES_FRAME_MS, spawn
 
     frame_len = frame_ms if frame_ms is not None else (MANY_MODULES_FRAME_MS if modules > processes else 1.0)
 
@@ -356,7 +358,7 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
 
 def bench_latency(pings: int, say: Say, quiet: bool = False) -> Result:
     """PING written on a pty → its ack read back, one module served in real time (ideal link)."""
-    from firmware_sim.serve import spawn
+    from firmware_sim.app.serve import spawn
 
     path = f"/tmp/openshoe-bench-lat-{os.getpid()}"
     sp = spawn("--pty", path, "--scenario", "stand:5", "--link", "ideal", timeout=120)

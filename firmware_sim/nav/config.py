@@ -54,9 +54,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from firmware_sim.board import MIMU22BT, Q14_ONE
 from protocol.ids import NR_IMUS
-
-from .board import MIMU22BT, Q14_ONE
 
 # ---------------------------------------------------------------------------------------------
 # front end: fixed point

@@ -1,7 +1,7 @@
 """Batch replay: a sensor source through the emulated module → the bytes it transmitted.
 
 ``openshoe-emu replay FILE --wire OUT`` (and :func:`run_replay`) run one
-:class:`~firmware_sim.module.Module` in batch mode (virtual time, as fast as
+:class:`~firmware_sim.mcu.module.Module` in batch mode (virtual time, as fast as
 the host machine goes) with the recording as its sensors, its main loop at the
 recording's own rate (250 Hz for the OpenShoe walks). The session is the one a
 host app runs over Bluetooth:
@@ -28,14 +28,15 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
+from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 from protocol.frames import StatePacket, build_packet_ack
 from protocol.ids import Command
 from protocol.stream import StreamDecoder
 
-from .module import Module, ModuleConfig
 from .progress import progress_bar, say
-from .sensors.base import SensorSource
-from .warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 
 __all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "main"]
 
@@ -73,11 +74,11 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
     *progress(samples_done, samples_total_or_None)* is called every
     *progress_every* loops. *announce* hears about a slow first start (the compiled
-    path being prepared, :mod:`firmware_sim.warmup`) or a fallback to the pure path.
+    path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
     """
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
-    module = Module(config, sensors=source)
+    module = build_module(config, sensors=source)
     prepare_module(module, announce)
     port = module.bt.port
     decoder = StreamDecoder()
@@ -135,7 +136,7 @@ def _step(module: Module) -> int:
 
 
 # ---------------------------------------------------------------------------------------------
-# command line (wired into `openshoe-emu` by firmware_sim.cli)
+# command line (wired into `openshoe-emu` by firmware_sim.app.cli)
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -153,12 +154,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    from .sensors.replay import RecordingFormatError, ReplaySource
+    from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
 
     truth = None
     try:
         if args.scenario is not None:
-            from .sensors.array import make_source
+            from firmware_sim.sensors.array import make_source
 
             source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate)
             truth = source.truth

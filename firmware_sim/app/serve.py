@@ -15,7 +15,7 @@ When everything listens, exactly one line goes to stdout::
 
 (with ``--modules N`` every key gets the module's index: ``m0.bt-pty=…``).
 Then a status line is kept up to date on stderr. ``--control`` opens a line
-protocol on TCP to drive faults at run time (:data:`~firmware_sim.control.CONTROL_HELP`). SIGINT and
+protocol on TCP to drive faults at run time (:data:`~firmware_sim.app.control.CONTROL_HELP`). SIGINT and
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
 exit with status 0.
 """
@@ -35,18 +35,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
+from firmware_sim.links.link import Link, LinkFaults, make_link
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.port import IdealPort, Port
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.sensors.playback import served_source
+from firmware_sim.transports.factory import make_sensors
+from firmware_sim.transports.hub import HostHub
+from firmware_sim.transports.pacer import MultiPacer, Pacer
+from firmware_sim.transports.pty_endpoint import PtyEndpoint
+from firmware_sim.transports.rfc2217 import Rfc2217Endpoint
+from firmware_sim.transports.tcp import TcpEndpoint
+
 from .control import ControlServer
-from .link import Link, LinkFaults, make_link
-from .module import Module, ModuleConfig
-from .port import IdealPort, Port
-from .sensors.playback import served_source
 from .trace import TraceWriter
-from .transports.factory import make_sensors
-from .transports.hub import HostHub
-from .transports.pacer import MultiPacer, Pacer
-from .transports.pty import PtyEndpoint
-from .transports.rfc2217 import Rfc2217Endpoint
-from .transports.tcp import TcpEndpoint
 
 # --------------------------------------------------------------------------- options
 
@@ -177,12 +179,12 @@ def _indexed_port(addr: tuple[str, int] | None, index: int) -> tuple[str, int] |
     return host, (port + index if port else 0)
 
 
-def build_module(args: argparse.Namespace, index: int) -> ServedModule:
+def build_served_module(args: argparse.Namespace, index: int) -> ServedModule:
     """Module *index* of ``serve``: sensors, links, endpoints on its interfaces, and a pacer."""
     seed = args.seed + index
     rate_hz = 1000.0
     if args.replay:
-        from .sensors.replay import ReplaySource
+        from firmware_sim.sensors.replay import ReplaySource
 
         recording = ReplaySource.from_file(args.replay)
         rate_hz = recording.rate_hz
@@ -201,7 +203,7 @@ def build_module(args: argparse.Namespace, index: int) -> ServedModule:
         links["usb"] = make_link("usb", seed=seed)
         wants["usb"] = (args.usb_pty, args.usb_tcp, None)
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
-    module = Module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
+    module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints: list[Any] = []
     ready: list[tuple[str, str]] = []
     prefix = "" if n == 1 else f"m{index}."
@@ -268,7 +270,7 @@ def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.
     try:
         try:
             for i in range(args.modules):
-                modules.append(build_module(args, i))
+                modules.append(build_served_module(args, i))
             if args.control:
                 control = ControlServer(modules, *args.control)
                 control.register(sel)
@@ -391,7 +393,7 @@ def spawn(*serve_args: str, timeout: float = 20.0, stderr: Any = subprocess.DEVN
     """Start ``openshoe-emu serve *serve_args*`` and wait (at most *timeout* s) for its READY line.
 
     *env*: the process's environment (default: this one's)."""
-    proc = subprocess.Popen([python, "-m", "firmware_sim.cli", "serve", *serve_args],
+    proc = subprocess.Popen([python, "-m", "firmware_sim.app.cli", "serve", *serve_args],
                             stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL, env=env)
     assert proc.stdout is not None
     fd = proc.stdout.fileno()

@@ -13,7 +13,7 @@ What happens, end to end, as with a real module:
 4. the summary compares the track with the ground truth, and the track is
    drawn to a PNG.
 
-Nothing here needs the shared recordings. Run ``python -m firmware_sim.demo --help``.
+Nothing here needs the shared recordings. Run ``python -m firmware_sim.app.demo --help``.
 """
 
 from __future__ import annotations
@@ -30,19 +30,20 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
+from firmware_sim.links.link import make_link
+from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.mcu.port import IdealPort
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.warmup import prepare_compiled_path
+from firmware_sim.sensors.playback import served_source
+from firmware_sim.sensors.truth import GroundTruth
+from firmware_sim.transports.pacer import Pacer
+from firmware_sim.transports.pty_endpoint import PtyEndpoint
 from hostlib.tracking import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
-from .link import make_link
-from .module import Module, ModuleConfig
-from .port import IdealPort
 from .progress import progress_bar
-from .sensors.base import SensorSource
-from .sensors.playback import served_source
-from .sensors.truth import GroundTruth
-from .transports.pacer import Pacer
-from .transports.pty import PtyEndpoint
-from .warmup import prepare_compiled_path
 
 #: Virtual seconds the module keeps running after the route ends (the last step's reset).
 TAIL_S = 1.5
@@ -104,7 +105,7 @@ class DemoResult:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m firmware_sim.demo", description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m firmware_sim.app.demo", description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="default", help="route or recipe (default: the built-in route)")
     p.add_argument("--seed", type=int, default=0, help="sensor and link seed (default 0)")
     p.add_argument("--link", choices=["bt", "usb", "ideal"], default="bt", help="link model (default bt)")
@@ -144,7 +145,7 @@ class _Route:
 
 
 def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
-    from .sensors import make_source
+    from firmware_sim.sensors import make_source
 
     t0 = time.monotonic()
     say(f"[1/4] simulating the sensors of a foot walking the {args.scenario!r} route "
@@ -168,7 +169,7 @@ class _EmulatedModule:
     def __init__(self, route: _Route, args: argparse.Namespace):
         self.played = served_source(route.source)
         self.link = make_link(args.link, seed=args.seed)
-        self.module = Module(ModuleConfig(rate_hz=route.source.rate_hz), self.played,
+        self.module = build_module(ModuleConfig(rate_hz=route.source.rate_hz), self.played,
                              usb_port=IdealPort(connected=False), bt_port=self.link)
         self.route_ticks = route.ticks
         self.last_step: int | None = None

@@ -1,6 +1,6 @@
 """Bluetooth and USB link models in virtual time, with seeded fault injection.
 
-A link is a :class:`~firmware_sim.port.Port`: the µC's driver sees a receive
+A link is a :class:`~firmware_sim.mcu.port.Port`: the µC's driver sees a receive
 ring and a transmit ring, the host (a transport or a test) sees
 ``host_write``/``host_read``. Time is the module's 64 MHz cycle counter, moved
 forward by :meth:`Link.advance` once per module tick; nothing here reads the
@@ -249,7 +249,7 @@ class _Stall:
 
 
 class Link:
-    """One module↔host link in virtual time (a :class:`~firmware_sim.port.Port`).
+    """One module↔host link in virtual time (a :class:`~firmware_sim.mcu.port.Port`).
 
     ``seed`` fixes the jitter and every injected fault; two links built with the
     same profile, seed and faults and driven by the same calls behave

@@ -20,25 +20,20 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-import numpy as np
-
 from protocol.commands import CommandSet, command_set
-from protocol.ids import NR_IMUS, Interface, StateId
+from protocol.ids import Interface, StateId
 
-from . import functions  # noqa: F401  (fills the processing-function registry)
-from .board import MIMU22BT
 from .clock import DEFAULT_RATE_HZ, Clock, CostModel
+from .firmware import RUNTIME_ONLY, CompiledPath, CompiledSequence, Firmware
+from .imu_bus import SensorSource, still_board
 from .interface import ExternalInterface, TraceEntry
 from .memory import DEFAULT_MCU_SERIAL, StateMemory
 from .port import IdealPort, Port
-from .sensors.base import ScriptedSource, SensorSource
-from .sequence import BOOT_HOOKS, ProcessSequence, sequence_budget
-from .utility import ConditionalOutput
+from .sequence import ProcessSequence
+from .sequence_control import ConditionalOutput
 
 T = TypeVar("T")
 _U32 = 0xFFFFFFFF
-#: Accelerometer LSB per g at ±16 g (default still source).
-_ACC_LSB_PER_G = 2048
 
 
 @dataclass
@@ -57,55 +52,42 @@ class ModuleConfig:
     trace: bool = False
     #: Cycle counter at boot (0 on the module; set near 2^32 to exercise the COUNT wrap).
     start_cycles: int = 0
-    #: Front-end configuration (calibration, detector windows) for firmware_sim.frontend; None = default.
+    #: Front-end configuration (calibration, detector windows) for firmware_sim.nav.frontend; None = default.
     frontend: Any = None
     #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
     initial_states: dict[int, Any] = field(default_factory=dict)
-    #: Run the step-wise tracking sequence compiled (numba, firmware_sim.fastpath): None = when
+    #: Run the firmware's compiled path (Firmware.compiled_path; numba for navigation): None = when
     #: numba is importable and OPENSHOE_PURE is not 1; False = pure Python (the reference);
     #: True = compiled (ImportError without numba). The bytes are the same either way.
     compiled: bool | None = None
 
 
-def _compiled_available() -> tuple[bool, str]:
-    """Whether firmware_sim.fastpath can run here (numba, the navigation modules), and why not."""
-    try:
-        from . import fastpath
-    except ImportError as e:  # the navigation modules are optional in a partial tree
-        return False, str(e)
-    return fastpath.available(), fastpath.reason_unavailable()
-
-
-def _want_compiled(setting: bool | None) -> bool:
-    if setting is False:
+def _want_compiled(setting: bool | None, path: CompiledPath | None) -> bool:
+    """Whether a module runs its firmware's compiled path (ModuleConfig.compiled)."""
+    if setting is False or path is None:
+        if setting and path is None:
+            raise ImportError("compiled path requested but this firmware has none")
         return False
-    ok, why = _compiled_available()
-    if setting and not ok:
-        raise ImportError(f"compiled path requested but unavailable: {why} "
+    if setting and not path.available():
+        raise ImportError(f"compiled path requested but unavailable: {path.reason_unavailable()} "
                           "(pip install 'openshoe-emulator[fast]')")
-    return ok
-
-
-def still_source(rate_hz: float = DEFAULT_RATE_HZ) -> ScriptedSource:
-    """Raw registers of a board lying still and level (f = (0, 0, −g) in board axes)."""
-    f_board = np.array([0, 0, -_ACC_LSB_PER_G], dtype=np.int64)
-    imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
-    for i in range(NR_IMUS):
-        imu[0, i, 0:3] = MIMU22BT.mounting[i] @ f_board
-    return ScriptedSource(imu, rate_hz=rate_hz)
+    return path.available()
 
 
 class Module:
     """One emulated OpenShoe module (µC, firmware, sensors, two external interfaces)."""
 
     def __init__(self, config: ModuleConfig | None = None, sensors: SensorSource | None = None,
-                 usb_port: Port | None = None, bt_port: Port | None = None):
+                 usb_port: Port | None = None, bt_port: Port | None = None, *,
+                 firmware: Firmware = RUNTIME_ONLY):
         self.config = config = config if config is not None else ModuleConfig()
+        #: What this module runs: its processing functions, boot hooks and compiled path.
+        self.firmware = firmware
         self.costs = config.costs
         self.clock = Clock(config.rate_hz, start_cycles=config.start_cycles)
         self.memory = StateMemory(config.mcu_serial)
-        self.sequence = ProcessSequence()
-        self.sensors: SensorSource = sensors if sensors is not None else still_source(config.rate_hz)
+        self.sequence = ProcessSequence(firmware.functions)
+        self.sensors: SensorSource = sensors if sensors is not None else still_board(config.rate_hz)
         self.command_set = command_set(config.command_set)
         #: Every frame in and out (TraceEntry) when ModuleConfig.trace is set; any object
         #: with ``append(entry)`` may be assigned instead (a hook), None switches tracing off.
@@ -124,15 +106,12 @@ class Module:
         #: Interfaces by kind; ``interface_list`` in the order the loop serves them.
         self.interfaces = {Interface.USB: self.usb, Interface.BLUETOOTH: self.bt}
         self.interface_list = (self.usb, self.bt)
-        self._compiled = _want_compiled(config.compiled)
-        self._fast: Any = None
-        if self._compiled:
-            from .fastpath import FastNav
-
-            self._fast_cls: Any = FastNav
+        self._compiled_path = firmware.compiled_path
+        self._compiled = _want_compiled(config.compiled, self._compiled_path)
+        self._fast: CompiledSequence | None = None
         self._interrupt_counter = self.memory[StateId.INTERRUPT_COUNTER]
         self._gp_dt = self.memory[StateId.GP_DT]
-        for hook in BOOT_HOOKS:
+        for hook in firmware.boot_hooks:
             hook(self)
         for sid, value in config.initial_states.items():
             self.memory[sid][...] = value
@@ -150,7 +129,7 @@ class Module:
         bt.port.advance(now)
         usb.receive()
         bt.receive()
-        kind = self._compiled and self._fast_cls.kind(self)
+        kind = self._compiled and self._compiled_path.kind(self)
         if kind:
             self._fastnav().sequence_tick(self, kind)
         else:
@@ -180,7 +159,7 @@ class Module:
         """
         if max_ticks < 1:
             return 0
-        kind = max_ticks > 1 and self._compiled and self._fast_cls.kind(self)
+        kind = max_ticks > 1 and self._compiled and self._compiled_path.kind(self)
         if kind:
             fast = self._fastnav()
             quiet = fast.quiet_ticks(self, max_ticks)
@@ -193,7 +172,7 @@ class Module:
 
     @property
     def compiled(self) -> bool:
-        """Whether this module runs the tracking sequence compiled (firmware_sim.fastpath)."""
+        """Whether this module runs its firmware's compiled path."""
         return self._compiled
 
     def use_pure_path(self) -> None:
@@ -204,10 +183,10 @@ class Module:
         self._compiled = False
         self._fast = None
 
-    def _fastnav(self) -> Any:
+    def _fastnav(self) -> CompiledSequence:
         fast = self._fast
         if fast is None:
-            fast = self._fast = self._fast_cls(self)
+            fast = self._fast = self._compiled_path.runner(self)  # type: ignore[union-attr]
         return fast
 
     def run_until(self, predicate: Callable[[Module], bool], max_ticks: int) -> int:
@@ -243,7 +222,7 @@ class Module:
         ``fixed`` the loop's own minimum (wake-up, polling both interfaces), ``free``
         what is left of a tick for commands and transmission.
         """
-        slots = sequence_budget(self.sequence.slots, self.costs.slot_call)
+        slots = self.firmware.functions.budget(self.sequence.slots, self.costs.slot_call)
         c = self.costs
         fixed = c.loop_overhead + 2 * c.rx_poll
         tick = self.clock.cycles_per_tick

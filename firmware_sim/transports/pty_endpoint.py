@@ -37,7 +37,8 @@ import tty
 import weakref
 from pathlib import Path
 
-from ..port import Port
+from firmware_sim.mcu.port import Port
+
 from .pairing import PairingEvents
 
 _READ = 65536

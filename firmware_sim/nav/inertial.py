@@ -1,7 +1,7 @@
 """READ_INERTIAL (ProcId 0x13): sample the IMU array into the raw states (firmware.md §3).
 
 Reads sample number ``module.clock.sample_index`` (the loop number) from the
-module's :class:`~firmware_sim.sensors.base.SensorSource` and writes:
+module's :class:`~firmware_sim.mcu.imu_bus.SensorSource` and writes:
 
 * IMU i raw registers → states 0x40+i (6 × int16). The **accelerometer triple
   is delayed by one sample** (it holds the previous read's values, matching the
@@ -20,12 +20,11 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from firmware_sim.mcu.sequence import processing_function
 from protocol.ids import NR_IMUS, ProcId, StateId
 
-from .sequence import processing_function
-
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from firmware_sim.mcu.module import Module
 
 #: Modelled CPU cost of reading four MPU9150s: the chips sit on their own TWI buses and
 #: are read by DMA, so the CPU only starts the transfers, waits for the last one to

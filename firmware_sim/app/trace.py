@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from .module import Module
+from firmware_sim.mcu.module import Module
 
 if TYPE_CHECKING:  # pragma: no cover
     from .serve import ServedModule

@@ -120,3 +120,8 @@ def state_output_if_counter(module: Module) -> None:
     cond = module.cond_output
     if (module.clock.interrupts - cond.setup_count) & _U32 == cond.wait_cycles:
         cond.force(module)
+
+
+#: The runtime's own processing functions (0x01–0x07), in every firmware image.
+RUNTIME_FUNCTIONS = (store_and_empty_proc_sequ, restore_proc_sequ, empty_process_sequence,
+                     restore_proc_sequ_if, state_output_if, state_output_once_if, state_output_if_counter)

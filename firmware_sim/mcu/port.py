@@ -5,7 +5,7 @@ reads command bytes from, a transmit ring it writes packets into, and a
 "connected" line (USB attached / Bluetooth paired). The host-facing methods
 (``host_write``, ``host_read``, ``connect``, ``disconnect``) are what a
 transport or a test uses on the other end. Link models with finite rates and
-fault injection live in :mod:`firmware_sim.link`; :class:`IdealPort` here has no
+fault injection live in :mod:`firmware_sim.links.link`; :class:`IdealPort` here has no
 limits at all and is the default for tests.
 """
 

@@ -1,7 +1,7 @@
 """Compiled (numba) path of the step-wise tracking sequence: the same bytes, faster.
 
-The pure-Python processing functions (:mod:`firmware_sim.inertial`,
-:mod:`~firmware_sim.frontend`, :mod:`~firmware_sim.ins`, :mod:`~firmware_sim.utility`)
+The pure-Python processing functions (:mod:`firmware_sim.nav.inertial`,
+:mod:`~firmware_sim.nav.frontend`, :mod:`~firmware_sim.nav.ins`, :mod:`~firmware_sim.mcu.sequence_control`)
 are the reference. This module runs the tracking sequence of step-wise dead
 reckoning (0x34) — READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP,
 STEPWISE_SYSTEM_RESET, MECHANIZATION, TIME_UPDATE, ZUPT_UPDATE, STATE_OUTPUT_IF —
@@ -14,7 +14,7 @@ rounded to float32 as in the reference. So the wire bytes are identical
 (tests/tools/test_fastpath.py checks it on simulated walks and on the six
 recordings).
 
-Two entry points, used by :class:`~firmware_sim.module.Module` when the running
+Two entry points, used by :class:`~firmware_sim.mcu.module.Module` when the running
 sequence is exactly that tracking sequence with the reference functions
 registered:
 
@@ -40,17 +40,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from firmware_sim.mcu import sequence_control as utility
+from firmware_sim.mcu.imu_bus import imu_block
+from firmware_sim.mcu.memory import Arena, StateMemory
 from protocol.ids import MAX_IMU_IDS, NR_IMUS, ProcId, StateId
 from protocol.states import STATES
 
-from . import frontend, inertial, ins, utility
-from . import nav_config as cfg
-from .memory import Arena, StateMemory
-from .sensors.base import imu_block
-from .sequence import PROCESSING_FUNCTIONS
+from . import config as cfg
+from . import frontend, inertial, ins
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from firmware_sim.mcu.module import Module
 
 __all__ = ["ALIGNMENT_SLOTS", "TRACKING_SLOTS", "FastNav", "available", "numba_version", "reason_unavailable"]
 
@@ -105,12 +105,6 @@ try:  # numba is optional (the `fast` extra)
 except ImportError as _e:  # pragma: no cover - depends on the environment
     numba = None
     _NUMBA_ERROR = str(_e) or "numba is not installed"
-
-if numba is not None and not all(hasattr(ins, h) for h in ("_mv", "_mm", "_sinf", "_cosf", "_atan2f")):
-    # The kernels follow the reference's explicit float32 order (ins._mv/_mm, libm sin/cos/atan2);
-    # a reference that still calls BLAS (machine-dependent fused multiply-adds) cannot be matched.
-    numba = None
-    _NUMBA_ERROR = "firmware_sim.ins has no explicit-order float32 helpers (_mv, _mm, _sinf …)"
 
 
 def available() -> bool:
@@ -893,11 +887,12 @@ class FastNav:
         #: Arguments after (n, do_read, mode, imu, start, period, ts_off): the two arenas.
         self.arrays: tuple[Any, ...] = (mem.arena, arena.buf)
         self._ids = [p for p in TRACKING_SLOTS if p]
-        self._costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call for p in self._ids]
+        funcs = module.firmware.functions
+        self._costs = [funcs[p].cycles + module.costs.slot_call for p in self._ids]
         self.seq_cycles = sum(self._costs)
         self._mid_cycles = sum(self._costs[1:9])
         self._fe_cycles = sum(self._costs[1:5])
-        self._align_costs = [PROCESSING_FUNCTIONS[p].cycles + module.costs.slot_call
+        self._align_costs = [funcs[p].cycles + module.costs.slot_call
                              for p in (P.FRONTEND_INITIAL_ALIGNMENT, P.RESTORE_PROC_SEQU_IF)]
         self._align_seq_cycles = self._costs[0] + self._fe_cycles + sum(self._align_costs)
         self._ps_dt = np.array(self._costs, dtype=np.uint32)
@@ -917,7 +912,7 @@ class FastNav:
             kind = ALIGNMENT
         else:
             return 0
-        funcs = PROCESSING_FUNCTIONS
+        funcs = module.firmware.functions
         for pid in slots:
             if pid:
                 pf = funcs.get(pid)
@@ -966,7 +961,7 @@ class FastNav:
 
         Nothing may be received, pending or due for output, and a lossless packet waiting for
         its ACK must not be due for a resend. The ports bound the run
-        (:meth:`~firmware_sim.port.IdealPort.quiet_until`): a link model with bytes in flight
+        (:meth:`~firmware_sim.mcu.port.IdealPort.quiet_until`): a link model with bytes in flight
         is quiet until the first of them could reach the µC or the host, and a scheduled
         disconnect or reconnect ends the run before it; the loop of such an event then runs
         loop by loop as usual."""
@@ -1087,3 +1082,27 @@ class FastNav:
         module.bt.transmit()
         clock.last_loop_cycles = clock.now_cycles - clock.loop_start
         module.memory[StateId.GP_DT][...] = clock.last_loop_cycles & _U32
+
+
+class _TrackingCompiledPath:
+    """The compiled path as the runtime sees it (:class:`firmware_sim.mcu.firmware.CompiledPath`)."""
+
+    @staticmethod
+    def available() -> bool:
+        return available()
+
+    @staticmethod
+    def reason_unavailable() -> str:
+        return reason_unavailable()
+
+    @staticmethod
+    def kind(module: Module) -> int:
+        return FastNav.kind(module)
+
+    @staticmethod
+    def runner(module: Module) -> FastNav:
+        return FastNav(module)
+
+
+#: Handed to the runtime by the tracking firmware (:data:`firmware_sim.nav.firmware.OPENSHOE`).
+COMPILED_PATH = _TrackingCompiledPath()

@@ -12,7 +12,11 @@ from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
+from firmware_sim.board import MIMU22BT
 from protocol.ids import NR_IMUS
+
+#: Accelerometer LSB per g at ±16 g (the still board's registers).
+_ACC_LSB_PER_G = 2048
 
 
 class RawSample(NamedTuple):
@@ -92,3 +96,13 @@ class ScriptedSource:
 
     def set_dlpf(self, cfg: int) -> None:
         self.dlpf_cfg = cfg
+
+
+def still_board(rate_hz: float = 1000.0) -> ScriptedSource:
+    """Raw registers of a board lying still and level (f = (0, 0, −g) in board axes): what a
+    module reads when no other sensor source is given."""
+    f_board = np.array([0, 0, -_ACC_LSB_PER_G], dtype=np.int64)
+    imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
+    for i in range(NR_IMUS):
+        imu[0, i, 0:3] = MIMU22BT.mounting[i] @ f_board
+    return ScriptedSource(imu, rate_hz=rate_hz)

@@ -34,11 +34,11 @@ _U32 = 0xFFFFFFFF
 @dataclass(frozen=True)
 class CostModel:
     """Modelled CPU cycles of the loop's fixed parts (the functions' own costs are
-    in the processing-function registry, :mod:`firmware_sim.sequence`).
+    in the processing-function registry, :mod:`firmware_sim.mcu.sequence`).
 
     The numbers are estimates for a 64 MHz AVR32 (a few cycles per byte copied,
     a few hundred per call into a driver); they are a model, not a measurement,
-    and are all configurable through :class:`~firmware_sim.module.ModuleConfig`.
+    and are all configurable through :class:`~firmware_sim.mcu.module.ModuleConfig`.
     """
 
     #: Wake-up from the timer flag plus end_of_main_loop bookkeeping.

@@ -39,7 +39,7 @@ from protocol.commands import CommandSet, CommandSpec
 from protocol.frames import MAX_PACKET, build_command_ack, build_state_packet, checksum
 from protocol.ids import Interface, OutputMode
 
-from .queue import PackageQueue
+from .packet_queue import PackageQueue
 
 if TYPE_CHECKING:  # pragma: no cover
     from .module import Module
@@ -192,7 +192,7 @@ class ExternalInterface:
                     self._trace("in", raw, "bad checksum")
 
     def _execute(self, spec: CommandSpec, raw: bytes) -> None:
-        from .commands import execute  # late import: commands needs the module's types
+        from .command_handlers import execute  # late import: commands needs the module's types
 
         self.frames_executed += 1
         self.module.clock.now_cycles += self.module.costs.command_exec

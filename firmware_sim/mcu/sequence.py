@@ -1,14 +1,17 @@
 """The process sequence: 12 slots of processing functions, a 12-slot storage,
-and the registry of processing functions by id (firmware.md §2).
+and the table of processing functions by id (firmware.md §2).
 
-A processing function is ``fn(module) -> None`` registered with
+A processing function is ``fn(module) -> None`` declared with
 ``@processing_function(ProcId.X, cycles=N)``; *N* is its modelled cost in CPU
 cycles, written to its slot's PS_DT state when it runs and used to check
-whether a sequence fits a tick (:func:`sequence_budget`).
+whether a sequence fits a tick (:meth:`FunctionTable.budget`). A firmware build
+is a :class:`FunctionTable` of such functions, built explicitly and handed to
+the module (:class:`~firmware_sim.mcu.firmware.Firmware`): the runtime knows no
+function it was not given.
 
 Slots hold ids; 0 is an empty slot. As on the µC, whose slots hold function
-pointers looked up from the id, writing an id that has no registered function
-empties the slot (:meth:`ProcessSequence.set_slot`).
+pointers looked up from the id, writing an id that has no function in the
+table empties the slot (:meth:`ProcessSequence.set_slot`).
 
 **A function that edits the sequence it runs in.** The real loop indexes the
 live slot array (``for i in 0..11: if (slot[i]) slot[i]();``), so after a
@@ -22,7 +25,7 @@ unchanged.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -36,7 +39,7 @@ ProcessingFn = Callable[["Module"], None]
 
 @dataclass(frozen=True)
 class ProcessingFunction:
-    """One registered processing function: id, callable and modelled cycle cost."""
+    """One processing function: id, callable and modelled cycle cost."""
 
     proc_id: int
     fn: ProcessingFn
@@ -47,54 +50,91 @@ class ProcessingFunction:
         return f"ProcessingFunction(0x{self.proc_id:02X} {self.name}, {self.cycles} cycles)"
 
 
-#: Every registered processing function by id (filled by the function modules
-#: on import; :mod:`firmware_sim.functions` imports them all).
-PROCESSING_FUNCTIONS: dict[int, ProcessingFunction] = {}
-
-
 def processing_function(proc_id: int, *, cycles: int) -> Callable[[ProcessingFn], ProcessingFn]:
-    """Register ``fn(module)`` as processing function *proc_id* costing *cycles* CPU cycles."""
+    """Declare ``fn(module)`` as processing function *proc_id* costing *cycles* CPU cycles.
+
+    Only a declaration (the record goes to ``fn.processing_function``): a
+    :class:`FunctionTable` built from the functions is what a module runs.
+    """
     if not 0 < proc_id < 0x30:
         raise ValueError(f"processing-function id 0x{proc_id:02X} must be in 0x01..0x2F")
     if cycles < 0:
         raise ValueError("cycles must be >= 0")
 
-    def register(fn: ProcessingFn) -> ProcessingFn:
+    def declare(fn: ProcessingFn) -> ProcessingFn:
         try:
             name = ProcId(proc_id).name
         except ValueError:
             name = fn.__name__
-        old = PROCESSING_FUNCTIONS.get(proc_id)
-        if old is not None and old.fn is not fn and getattr(old.fn, "__qualname__", None) != fn.__qualname__:
-            raise ValueError(f"processing function 0x{proc_id:02X} is already registered as {old.fn!r}")
-        PROCESSING_FUNCTIONS[proc_id] = ProcessingFunction(proc_id, fn, int(cycles), name)
+        fn.processing_function = ProcessingFunction(proc_id, fn, int(cycles), name)  # type: ignore[attr-defined]
         return fn
 
-    return register
+    return declare
 
 
-#: Power-on hooks ``fn(module)``, run once by every new Module after its memory
-#: exists (e.g. a function module writing default thresholds), in registration order.
-BOOT_HOOKS: list[ProcessingFn] = []
+class FunctionTable(Mapping[int, ProcessingFunction]):
+    """The processing functions of one firmware build, by id (the µC's table of function
+    pointers). Immutable; :meth:`with_functions` makes an extended copy."""
+
+    def __init__(self, functions: Iterable[ProcessingFunction] = ()):
+        table: dict[int, ProcessingFunction] = {}
+        for pf in functions:
+            if pf.proc_id in table and table[pf.proc_id].fn is not pf.fn:
+                raise ValueError(f"processing function 0x{pf.proc_id:02X} is declared twice: "
+                                 f"{table[pf.proc_id].fn!r} and {pf.fn!r}")
+            table[pf.proc_id] = pf
+        self._table = table
+
+    @classmethod
+    def of(cls, *fns: ProcessingFn) -> FunctionTable:
+        """A table of functions declared with :func:`processing_function`."""
+        return cls(_declared(fn) for fn in fns)
+
+    def with_functions(self, *fns: ProcessingFn) -> FunctionTable:
+        """A copy with *fns* added; a declared id replaces the table's function of that id."""
+        added = {pf.proc_id: pf for pf in (_declared(fn) for fn in fns)}
+        return FunctionTable([*(pf for pid, pf in self._table.items() if pid not in added), *added.values()])
+
+    def __getitem__(self, proc_id: int) -> ProcessingFunction:
+        return self._table[proc_id]
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(self._table)
+
+    def __len__(self) -> int:
+        return len(self._table)
+
+    def budget(self, proc_ids: Iterable[int], slot_call: int = 20) -> int:
+        """Modelled cycles a sequence of ids takes (ids not in the table count as empty slots).
+
+        Compare with :attr:`~firmware_sim.mcu.clock.Clock.cycles_per_tick` (64 000 at 1 kHz)
+        to see whether it fits one tick, together with the loop's own costs.
+        """
+        return sum(self._table[p].cycles + slot_call for p in proc_ids if p in self._table)
+
+    def cost_table(self) -> list[tuple[int, str, int]]:
+        """(id, name, cycles) of every function, by id: the documented cost model."""
+        return [(p.proc_id, p.name, p.cycles) for p in sorted(self._table.values(), key=lambda p: p.proc_id)]
+
+    def __repr__(self) -> str:
+        return f"FunctionTable({', '.join(f'0x{p:02X}' for p in sorted(self._table))})"
 
 
-def on_boot(fn: ProcessingFn) -> ProcessingFn:
-    """Register ``fn(module)`` to run when a module boots (before ModuleConfig.initial_states)."""
-    if fn not in BOOT_HOOKS:
-        BOOT_HOOKS.append(fn)
-    return fn
-
-
-def is_registered(proc_id: int) -> bool:
-    return proc_id in PROCESSING_FUNCTIONS
+def _declared(fn: ProcessingFn) -> ProcessingFunction:
+    pf = getattr(fn, "processing_function", None)
+    if not isinstance(pf, ProcessingFunction):
+        raise TypeError(f"{fn!r} is not declared with @processing_function")
+    return pf
 
 
 class ProcessSequence:
     """The 12 running slots and the 12-slot storage of one module."""
 
-    __slots__ = ("slots", "storage", "runs")
+    __slots__ = ("slots", "storage", "runs", "functions")
 
-    def __init__(self) -> None:
+    def __init__(self, functions: FunctionTable) -> None:
+        #: The firmware's processing functions: ids not in it cannot occupy a slot.
+        self.functions = functions
         #: Running slots (ids, 0 = empty). Edit through the methods below.
         self.slots: list[int] = [0] * NR_SLOTS
         #: Stored sequence (STORE_AND_EMPTY / RESTORE).
@@ -107,7 +147,7 @@ class ProcessSequence:
         """Put *proc_id* in *slot*; an id with no registered function empties the slot."""
         if not 0 <= slot < NR_SLOTS:
             raise IndexError(f"slot {slot} out of range 0..{NR_SLOTS - 1}")
-        self.slots[slot] = proc_id if proc_id in PROCESSING_FUNCTIONS else 0
+        self.slots[slot] = proc_id if proc_id in self.functions else 0
 
     def set_slots(self, proc_ids: Iterable[int], start: int = 0) -> None:
         for k, pid in enumerate(proc_ids):
@@ -132,14 +172,14 @@ class ProcessSequence:
         if len(ids) > NR_SLOTS:
             raise ValueError(f"at most {NR_SLOTS} slots, got {len(ids)}")
         ids += [0] * (NR_SLOTS - len(ids))
-        self.storage[:] = [p if p in PROCESSING_FUNCTIONS else 0 for p in ids]
+        self.storage[:] = [p if p in self.functions else 0 for p in ids]
 
     # -------------------------------------------------------------------- run
     def run(self, module: Module) -> None:
         """run_process_sequence(): call every occupied slot in order, live (see module doc)."""
         self.runs += 1
         slots = self.slots  # the live list: edits by a function are seen by later slots
-        funcs = PROCESSING_FUNCTIONS
+        funcs = self.functions
         clock = module.clock
         ps_dt = module.memory.ps_dt
         call = module.costs.slot_call
@@ -147,7 +187,7 @@ class ProcessSequence:
             pid = slots[j]
             if pid:
                 pf = funcs.get(pid)
-                if pf is None:  # unregistered since it was written: an empty slot
+                if pf is None:  # not in this firmware: an empty slot
                     slots[j] = 0
                     continue
                 pf.fn(module)
@@ -160,23 +200,3 @@ class ProcessSequence:
             return " ".join(f"{p:02X}" if p else "--" for p in ids)
 
         return f"ProcessSequence([{fmt(self.slots)}], stored [{fmt(self.storage)}])"
-
-
-def sequence_budget(proc_ids: Iterable[int], slot_call: int = 20) -> int:
-    """Modelled cycles a sequence of ids takes (unregistered ids count as empty slots).
-
-    Compare with :attr:`~firmware_sim.clock.Clock.cycles_per_tick` (64 000 at 1 kHz)
-    to see whether it fits one tick, together with the loop's own costs.
-    """
-    total = 0
-    for pid in proc_ids:
-        pf = PROCESSING_FUNCTIONS.get(pid)
-        if pf is not None:
-            total += pf.cycles + slot_call
-    return total
-
-
-def cost_table() -> list[tuple[int, str, int]]:
-    """(id, name, cycles) of every registered function, by id: the documented cost model."""
-    return [(p.proc_id, p.name, p.cycles) for p in sorted(PROCESSING_FUNCTIONS.values(),
-                                                         key=lambda p: p.proc_id)]

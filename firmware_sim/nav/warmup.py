@@ -1,7 +1,7 @@
 """Getting the compiled tracking path ready before a module's clock starts.
 
 With numba the step-wise tracking sequence runs compiled
-(:mod:`firmware_sim.fastpath`). numba compiles a kernel on its first call, or
+(:mod:`firmware_sim.nav.fastpath`). numba compiles a kernel on its first call, or
 loads it from its on-disk cache (``__pycache__`` beside the source, or
 ``NUMBA_CACHE_DIR``): about 10 s the first time on a 2-core machine, well under
 a second after that. Whatever drives a module's clock against a host — the
@@ -26,11 +26,12 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.nav.firmware import build_module
 from protocol.frames import build_command
 from protocol.ids import Command
 
 from . import fastpath
-from .module import Module, ModuleConfig
 
 __all__ = ["FIRST_RUN_NOTICE", "CompiledPath", "prepare_compiled_path", "prepare_module", "to_stderr"]
 
@@ -70,7 +71,7 @@ _fallback_said = False
 
 
 def _warm_up() -> None:
-    scratch = Module(ModuleConfig(compiled=True))
+    scratch = build_module(ModuleConfig(compiled=True))
     scratch.bt.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
     scratch.run(WARM_UP_TICKS)
 

@@ -18,7 +18,7 @@ Conventions (the spec leaves them open; these are ours, used consistently):
   row 1 9–16, row 2 17–23, row 3 starts at 24 — var(v_x), the reset criterion.
 
 Every arithmetic operation is single precision: inputs are the float32 states,
-constants are the ``numpy.float32`` values of :mod:`firmware_sim.nav_config`,
+constants are the ``numpy.float32`` values of :mod:`firmware_sim.nav.config`,
 transcendental functions are numpy's on float32 scalars. The kernels are plain
 functions over arrays and scalars (numba-compilable later).
 """
@@ -30,13 +30,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from firmware_sim.mcu.sequence import processing_function
 from protocol.ids import ProcId, StateId
 
-from . import nav_config as cfg
-from .sequence import processing_function
+from . import config as cfg
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from firmware_sim.mcu.module import Module
 
 __all__ = [
     "InsWork",

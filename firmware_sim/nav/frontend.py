@@ -20,7 +20,7 @@ Processing functions, in sequence order:
 
 Every stored integer is an int32 / uint32 (int16 for reduced samples) that wraps
 like C; intermediates that need it are 64-bit (the µC's 32 × 32 → 64 multiply).
-The constants and the overflow proof are in :mod:`firmware_sim.nav_config`.
+The constants and the overflow proof are in :mod:`firmware_sim.nav.config`.
 
 Layout for speed: the per-sample state of the front end lives in the flat typed
 arrays of :class:`FrontendWork` (one per module, ``module.work("frontend", …)``);
@@ -34,13 +34,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from firmware_sim.mcu.sequence import processing_function
 from protocol.ids import IMU_RAW_BASE, NR_IMUS, ProcId, StateId
 
-from . import nav_config as cfg
-from .sequence import processing_function
+from . import config as cfg
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from firmware_sim.mcu.module import Module
 
 __all__ = [
     "FrontendWork",
