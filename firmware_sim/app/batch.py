@@ -16,7 +16,7 @@ host app runs over Bluetooth:
 When the source runs out the process sequence is emptied (the foot stops being
 sensed) and the loop keeps running until the packet queue has drained, so the
 last step is on the wire too. ``--scenario NAME`` replays a simulated walk
-(:func:`firmware_sim.sensors.array.make_source`, 1 kHz by default) instead and
+(:func:`firmware_sim.sensors.imu_array.make_source`, 1 kHz by default) instead and
 writes its ground truth beside OUT (``OUT.truth.csv``).
 """
 
@@ -159,7 +159,7 @@ def main(args: argparse.Namespace) -> int:
     truth = None
     try:
         if args.scenario is not None:
-            from firmware_sim.sensors.array import make_source
+            from firmware_sim.sensors.imu_array import make_source
 
             source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate)
             truth = source.truth

@@ -48,7 +48,7 @@ from firmware_sim.transports.rfc2217 import Rfc2217Endpoint
 from firmware_sim.transports.tcp import TcpEndpoint
 
 from .control import ControlServer
-from .trace import TraceWriter
+from .frame_trace import TraceWriter
 
 # --------------------------------------------------------------------------- options
 

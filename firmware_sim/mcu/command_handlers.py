@@ -34,8 +34,8 @@ from protocol.commands import CommandSpec
 from protocol.ids import NR_IMUS, NR_SLOTS, PROC_ID_LIMIT, Command, OutputMode, ProcId, StateId
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .context import Mcu as Module
     from .interface import ExternalInterface
-    from .module import Module
 
 Handler = Callable[["Module", "ExternalInterface", Any, bytes], None]
 HANDLERS: dict[Command, Handler] = {}
@@ -116,7 +116,7 @@ def _input_imu_rd(module: Module, iface: ExternalInterface, f: Any, raw: bytes) 
     memory[StateId.IMU_TS][...] = f.timestamp
     memory.imu_raw[:NR_IMUS] = np.asarray(f.imu, dtype=np.int16)
     module.sequence.restore()
-    module.cond_output.force(module)
+    module.cond_output.force(module.interface_list)
 
 
 # ----------------------------------------------------------------- states

@@ -25,7 +25,7 @@ from .sequence import FunctionTable, ProcessingFn
 from .sequence_control import RUNTIME_FUNCTIONS
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from .context import Mcu as Module
 
 __all__ = ["RUNTIME_ONLY", "CompiledPath", "CompiledSequence", "Firmware"]
 

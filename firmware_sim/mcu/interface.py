@@ -33,7 +33,7 @@ host sees the gap.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, NamedTuple
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 from protocol.commands import CommandSet, CommandSpec
 from protocol.frames import MAX_PACKET, build_command_ack, build_state_packet, checksum
@@ -42,7 +42,8 @@ from protocol.ids import Interface, OutputMode
 from .packet_queue import PackageQueue
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from .clock import Clock, CostModel
+    from .memory import StateMemory
     from .port import Port
 
 #: Bytes the parser takes from a link per loop cycle.
@@ -72,10 +73,22 @@ class TraceEntry(NamedTuple):
                 f"{self.data.hex(' ').upper()})")
 
 
+class InterfaceOwner(Protocol):
+    """What an interface needs of its module: its memory, clock and loop costs, the trace,
+    and the command handlers (:meth:`execute`) that act on the whole module."""
+
+    memory: StateMemory
+    clock: Clock
+    costs: CostModel
+    trace: Any  #: None, or anything with ``append(TraceEntry)``
+
+    def execute(self, iface: ExternalInterface, spec: CommandSpec, raw: bytes) -> None: ...
+
+
 class ExternalInterface:
     """USB or Bluetooth interface of one module."""
 
-    def __init__(self, module: Module, kind: Interface, port: Port, command_set: CommandSet):
+    def __init__(self, module: InterfaceOwner, kind: Interface, port: Port, command_set: CommandSet):
         self.module = module
         self.kind = kind
         self.name = "USB" if kind is Interface.USB else "BT"
@@ -192,11 +205,9 @@ class ExternalInterface:
                     self._trace("in", raw, "bad checksum")
 
     def _execute(self, spec: CommandSpec, raw: bytes) -> None:
-        from .command_handlers import execute  # late import: commands needs the module's types
-
         self.frames_executed += 1
         self.module.clock.now_cycles += self.module.costs.command_exec
-        execute(self.module, self, spec, raw)
+        self.module.execute(self, spec, raw)
         if spec.acked:
             ack = self._ack_frames.get(spec.wire_id)
             if ack is None:

@@ -20,17 +20,18 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from protocol.commands import CommandSet, command_set
+from protocol.commands import CommandSet, CommandSpec, command_set
 from protocol.ids import Interface, StateId
 
 from .clock import DEFAULT_RATE_HZ, Clock, CostModel
+from .command_handlers import execute
+from .conditional_output import ConditionalOutput
 from .firmware import RUNTIME_ONLY, CompiledPath, CompiledSequence, Firmware
 from .imu_bus import SensorSource, still_board
 from .interface import ExternalInterface, TraceEntry
 from .memory import DEFAULT_MCU_SERIAL, StateMemory
 from .port import IdealPort, Port
 from .sequence import ProcessSequence
-from .sequence_control import ConditionalOutput
 
 T = TypeVar("T")
 _U32 = 0xFFFFFFFF
@@ -207,6 +208,10 @@ class Module:
         if w is None:
             w = self._work[key] = factory()
         return w
+
+    def execute(self, iface: ExternalInterface, spec: CommandSpec, raw: bytes) -> None:
+        """Run a complete, checksum-verified command received on *iface* (the command handlers)."""
+        execute(self, iface, spec, raw)
 
     def interface(self, kind: Interface | int) -> ExternalInterface:
         return self.interfaces[Interface(kind)]

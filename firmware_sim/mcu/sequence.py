@@ -27,14 +27,25 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, Protocol
 
 from protocol.ids import NR_SLOTS, ProcId
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .module import Module
+    from .clock import Clock, CostModel
+    from .memory import StateMemory
 
-ProcessingFn = Callable[["Module"], None]
+#: ``fn(module)``: a processing function gets the whole module (as :class:`firmware_sim.mcu.context.Mcu`
+#: describes it; typed loosely here, where the sequence only passes it on).
+ProcessingFn = Callable[[Any], None]
+
+
+class SequenceOwner(Protocol):
+    """What running the sequence needs of the module (it is passed on to the functions whole)."""
+
+    clock: Clock
+    memory: StateMemory
+    costs: CostModel
 
 
 @dataclass(frozen=True)
@@ -175,7 +186,7 @@ class ProcessSequence:
         self.storage[:] = [p if p in self.functions else 0 for p in ids]
 
     # -------------------------------------------------------------------- run
-    def run(self, module: Module) -> None:
+    def run(self, module: SequenceOwner) -> None:
         """run_process_sequence(): call every occupied slot in order, live (see module doc)."""
         self.runs += 1
         slots = self.slots  # the live list: edits by a function are seen by later slots

@@ -1,10 +1,13 @@
-"""Sensor sources for READ_INERTIAL: scripted, simulated 4-IMU array on a walking foot, replay.
+"""Sensor sources for READ_INERTIAL: the simulated 4-IMU array on a walking foot, and replay.
+
+They implement the µC's IMU bus (:mod:`firmware_sim.mcu.imu_bus`: ``SensorSource``,
+``RawSample``, the scripted source for tests).
 
 Entry points: :func:`make_source` / :func:`list_scenarios` (simulation, with
 ground truth in ``source.truth``), :class:`ReplaySource` /
 :func:`load_recording` (recorded walks), :class:`SensorConfig` (every number
 of the sensor model; ``SensorConfig.ideal()`` switches all errors off).
-Submodules are imported lazily so that ``sensors.base`` stays light.
+Submodules are imported lazily, so importing one model does not load them all.
 """
 
 from __future__ import annotations
@@ -13,9 +16,8 @@ from importlib import import_module
 from typing import Any
 
 _EXPORTS = {
-    "RawSample": "base", "SensorSource": "base", "ScriptedSource": "base",
     "SensorConfig": "config", "DEFAULT_CONFIG": "config", "IDEAL_CONFIG": "config",
-    "make_source": "array", "SimulatedSource": "array",
+    "make_source": "imu_array", "SimulatedSource": "imu_array",
     "list_scenarios": "scenarios", "trajectory": "scenarios", "SCENARIOS": "scenarios",
     "GaitBuilder": "gait", "GaitParams": "gait", "GroundTruth": "truth",
     "Recording": "replay", "RecordingFormatError": "replay", "ReplaySource": "replay",

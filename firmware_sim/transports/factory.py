@@ -24,7 +24,7 @@ from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
 
 

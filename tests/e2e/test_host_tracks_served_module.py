@@ -1,4 +1,4 @@
-"""The host SDK tracking a served module end to end: the host SDK against `openshoe-emu serve` walking a known scenario.
+"""The host SDK tracking a served module end to end: `openshoe-emu serve` walks a known scenario.
 
 * over a real pty and over socket://: the tracked end position lies within 3σ (of the
   track's own covariance) of the scenario's ground truth, and the track equals what an

@@ -15,7 +15,7 @@ import pytest
 
 from firmware_sim.app.batch import run_replay
 from firmware_sim.app.demo import true_motion_steps
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from hostlib.replay import replay_capture
 
 

@@ -18,7 +18,7 @@ import pytest
 from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.nav import fastpath
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.replay import ReplaySource
 from tests.conftest import WALK_IDS, requires_walks, walk_path
 

@@ -1,4 +1,4 @@
-"""Batch replay (the `openshoe-emu replay` contract): a source → exactly the bytes the module sent over Bluetooth."""
+"""Batch replay (`openshoe-emu replay`): a source → exactly the bytes the module sent over Bluetooth."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import pytest
 from firmware_sim.app import cli
 from firmware_sim.app.batch import START_STEPWISE, run_replay
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.replay import Recording, ReplaySource, save_csv
 from protocol.codec import decode_states
 from protocol.frames import CommandAck, StatePacket, build_command

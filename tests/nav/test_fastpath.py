@@ -20,7 +20,7 @@ from firmware_sim.links.link import LinkFaults, make_link
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav import fastpath
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.replay import ReplaySource
 from protocol.frames import StatePacket, build_packet_ack

@@ -33,7 +33,7 @@ import numpy as np
 import pytest
 
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.replay import ReplaySource
 from protocol.ids import StateId
 from tests.conftest import WALK_IDS, requires_walks, walk_path

@@ -14,7 +14,7 @@ from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.nav import fastpath, warmup
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 
 
 @pytest.fixture

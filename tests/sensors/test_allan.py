@@ -1,4 +1,4 @@
-"""Noise statistics of the simulated MPU9150s by Allan deviation: white noise and bias instability as the datasheet and the configuration say.
+"""Noise statistics of the simulated MPU9150s by Allan deviation.
 
 White noise of one-sided density N [unit/√Hz] has the Allan deviation
 σ(τ) = N / √(2τ): a slope of −1/2 on a log-log plot at short τ, where the bias
@@ -14,8 +14,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from firmware_sim.sensors.array import make_source
 from firmware_sim.sensors.config import DEFAULT_CONFIG, IDEAL_CONFIG
+from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.registers import lsb_to_accel, lsb_to_gyro
 
 TAUS_S = np.array([0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0])

@@ -12,8 +12,8 @@ from hypothesis import strategies as st
 
 from firmware_sim.board import MIMU22BT
 from firmware_sim.mcu.imu_bus import SensorSource
-from firmware_sim.sensors.array import SimulatedSource, list_scenarios, make_source
 from firmware_sim.sensors.config import DEFAULT_CONFIG, G0, IDEAL_CONFIG, SensorConfig
+from firmware_sim.sensors.imu_array import SimulatedSource, list_scenarios, make_source
 from firmware_sim.sensors.magnetic import earth_field_ned
 from firmware_sim.sensors.mpu9150 import dlpf_filter, one_pole_alpha
 from firmware_sim.sensors.registers import lsb_to_accel, lsb_to_gyro, lsb_to_mag, lsb_to_temp

@@ -218,8 +218,8 @@ def test_quantisation_saturates_at_int16(tmp_path):
 
 
 def test_a_simulated_walk_written_as_csv_replays_as_its_board_signals(tmp_path):
-    from firmware_sim.sensors.array import make_source
     from firmware_sim.sensors.config import IDEAL_CONFIG
+    from firmware_sim.sensors.imu_array import make_source
 
     sim = make_source("stand:1+walk:3", config=IDEAL_CONFIG, rate_hz=250.0)
     rec = load_recording(save_csv(sim.to_recording(), tmp_path / "sim.csv"))

@@ -22,7 +22,7 @@ from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.nav import fastpath
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.warmup import prepare_module
-from firmware_sim.sensors.array import make_source
+from firmware_sim.sensors.imu_array import make_source
 from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
 from protocol.stream import StreamDecoder
 
