@@ -34,26 +34,16 @@ from protocol.ids import Command
 from .commands import CommandMethods
 from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
 from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
+from .events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from .outputs import OutputPlan
-from .session import CommandAckEvent, Event, GapEvent, HostSession, PacketEvent, StepEvent
+from .session import HostSession
 from .tracking import StepTracker, Track
 
-__all__ = ["Device", "LinkEvent"]
+__all__ = ["Device"]
 
 log = logging.getLogger(__name__)
 
 _READ_ERRORS = (serial.SerialException, OSError, TypeError, AttributeError, ValueError)
-
-
-class LinkEvent:
-    """The link dropped (``up=False``) or came back (``up=True``); *error* says why it dropped."""
-
-    def __init__(self, up: bool, error: BaseException | None = None):
-        self.up = up
-        self.error = error
-
-    def __repr__(self) -> str:
-        return f"LinkEvent(up={self.up}, error={self.error!r})"
 
 
 class _BoundedQueue:
@@ -331,7 +321,7 @@ class Device(CommandMethods):
                 log.exception("processing %d bytes from %s failed", len(data), self.name)
         log.debug("reader of %s stopped", self.name)
 
-    def feed(self, data: bytes) -> list[Event]:
+    def feed(self, data: bytes) -> list[StreamEvent]:
         """Process received bytes as the reader thread does (public for tests and replays)."""
         if self.raw_log is not None:
             self.raw_log.write(data)
@@ -341,7 +331,7 @@ class Device(CommandMethods):
         with self._cond:
             return fn(*args)
 
-    def _deliver(self, events: list[Event], to_send: bytes) -> list[Event]:
+    def _deliver(self, events: list[StreamEvent], to_send: bytes) -> list[StreamEvent]:
         """Send the session's packet acks, then hand its events to waiters, queues and callbacks."""
         if to_send:
             try:

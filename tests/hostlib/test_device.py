@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 import serial
 
-from hostlib.device import Device, LinkEvent
+from hostlib.device import Device
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
-from hostlib.session import StepEvent
+from hostlib.events import LinkEvent, StepEvent
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
