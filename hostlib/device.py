@@ -115,6 +115,14 @@ class Device(CommandMethods):
     to it and go out between reads). Needed by ports that are not thread-safe,
     such as the emulator's virtual-time ``openshoe://`` port (the default for
     those URLs); real serial ports read and write concurrently.
+
+    Reading: every kind of event that is queued has one pair of names.
+    ``recv_<kind>(timeout)`` returns the next one, or None when *timeout* s pass
+    (:meth:`recv_packet`, :meth:`recv_step`); ``<kind>s(timeout)`` iterates over
+    them until *timeout* s have passed in total (:meth:`packets`, :meth:`steps`).
+    Both take from the same bounded queue, so an event is read once, by either.
+    After :meth:`close` the queued events are still handed out; then ``recv_*``
+    raises :class:`DeviceClosed` and the iterators end.
     """
 
     def __init__(
@@ -441,14 +449,20 @@ class Device(CommandMethods):
                 self.callback_errors += 1
                 log.exception("%s callback %r failed", kind, fn)
 
-    # -- iterators -----------------------------------------------------------------
+    # -- reading packets and steps ---------------------------------------------------
 
-    def recv(self, timeout: float | None = None) -> PacketEvent | None:
-        """The next new state packet, or None after *timeout* s (None = wait forever)."""
+    def recv_packet(self, timeout: float | None = None) -> PacketEvent | None:
+        """The next new state packet, or None after *timeout* s (None = wait forever).
+
+        Raises :class:`DeviceClosed` once the device is closed and every packet was read.
+        """
         return self._get(self._packets, timeout)
 
     def recv_step(self, timeout: float | None = None) -> StepEvent | None:
-        """The next new step (summed into :attr:`track`), or None after *timeout* s."""
+        """The next new step (summed into :attr:`track`), or None after *timeout* s (None = forever).
+
+        Raises :class:`DeviceClosed` once the device is closed and every step was read.
+        """
         return self._get(self._steps, timeout)
 
     def _get(self, q: _BoundedQueue, timeout: float | None) -> Any:
@@ -461,11 +475,17 @@ class Device(CommandMethods):
         return item
 
     def packets(self, timeout: float | None = None) -> Iterator[PacketEvent]:
-        """Iterate over new state packets until *timeout* s have passed in total (or close)."""
+        """Iterate over new state packets until *timeout* s have passed in total, or the device closed.
+
+        The same packets, from the same queue, as :meth:`recv_packet`.
+        """
         yield from self._iterate(self._packets, timeout)
 
     def steps(self, timeout: float | None = None) -> Iterator[StepEvent]:
-        """Iterate over new steps until *timeout* s have passed in total (or close)."""
+        """Iterate over new steps until *timeout* s have passed in total, or the device closed.
+
+        The same steps, from the same queue, as :meth:`recv_step`.
+        """
         yield from self._iterate(self._steps, timeout)
 
     def _iterate(self, q: _BoundedQueue, timeout: float | None) -> Iterator[Any]:

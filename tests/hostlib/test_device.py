@@ -140,11 +140,41 @@ def test_callbacks_and_recv(dev, fake):
     fake.inject(step_packet(1, 1))
     assert seen.wait(5)
     assert isinstance(steps[0], StepEvent)
-    assert dev.recv(timeout=5).number == 1
-    assert dev.recv(timeout=0.01) is None
+    assert dev.recv_packet(timeout=5).number == 1
+    assert dev.recv_packet(timeout=0.01) is None
     assert dev.callback_errors == 1
     with pytest.raises(ValueError, match="unknown callback"):
         dev.add_callback("nope", print)
+
+
+def test_single_reads_and_iterators_take_turns_on_the_same_packets_and_steps(fake):
+    with Device(fake, start=False) as d:  # no reader thread: feed() hands the bytes in
+        d.feed(b"".join(step_packet(n, n) for n in range(1, 5)))
+        packets = d.packets(timeout=0)
+        assert [d.recv_packet(0).number, next(packets).number, d.recv_packet(0).number] == [1, 2, 3]
+        assert [p.number for p in packets] == [4]
+        steps = d.steps(timeout=0)
+        assert [d.recv_step(0).step.counter, next(steps).step.counter] == [1, 2]
+        assert [ev.step.counter for ev in steps] == [3, 4]
+        assert d.recv_packet(0) is None and d.recv_step(0) is None
+
+
+def test_after_close_single_reads_raise_and_iterators_end_once_the_queue_is_read(fake):
+    d = Device(fake, start=False)
+    d.feed(step_packet(1, 1) + step_packet(2, 2))
+    d.close()
+    assert d.recv_packet(0).number == 1 and [p.number for p in d.packets()] == [2]
+    assert d.recv_step(0).step.counter == 1 and [ev.step.counter for ev in d.steps()] == [2]
+    for read in (d.recv_packet, d.recv_step):
+        with pytest.raises(DeviceClosed):
+            read(0)
+    assert list(d.packets()) == [] and list(d.steps()) == []
+
+
+@pytest.mark.parametrize("kind", ["packet", "step"])
+def test_each_queued_kind_has_a_single_read_and_an_iterator(kind):
+    assert callable(getattr(Device, f"recv_{kind}")) and callable(getattr(Device, f"{kind}s"))
+    assert not hasattr(Device, "recv")
 
 
 def test_garbage_and_gaps_are_counted(dev, fake):
@@ -207,7 +237,7 @@ def test_without_reconnect_a_drop_closes_the_device(fake):
     d = Device(fake, reconnect=False)
     fake.drop()
     with pytest.raises(DeviceClosed):
-        d.recv(timeout=5)
+        d.recv_packet(timeout=5)
     assert d.closed
 
 
@@ -230,7 +260,7 @@ def test_already_open_serial_object():
     port = serial.serial_for_url("loop://", timeout=0.05)
     with Device(port) as d:
         d.send_raw(build_state_packet(4, bytes(4)) + build_packet_ack(0))
-        assert d.recv(timeout=5).number == 4
+        assert d.recv_packet(timeout=5).number == 4
     assert not port.is_open
 
 
