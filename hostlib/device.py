@@ -34,7 +34,7 @@ from protocol.ids import Command
 from .commands import CommandMethods
 from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
 from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
-from .events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
+from .events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from .outputs import OutputPlan
 from .session import HostSession
 from .tracking import StepTracker, Track
@@ -116,6 +116,16 @@ class Device(CommandMethods):
     such as the emulator's virtual-time ``openshoe://`` port (the default for
     those URLs); real serial ports read and write concurrently.
 
+    Callbacks: one method per kind of event — :meth:`on_packet`, :meth:`on_step`,
+    :meth:`on_gap`, :meth:`on_ack`, :meth:`on_link` — each taking *fn(event)*
+    (and returning it, so it also decorates); :meth:`remove_callback` undoes
+    them. One method per kind, not one keyed by a string: each signature names
+    the event the callback gets, and a misspelt kind fails where it is written
+    (AttributeError) instead of never firing. Callbacks run in the reader
+    thread, after the acks of the bytes that produced their event were sent;
+    keep them short, since the reader reads (and acks) nothing more until they
+    return. Their exceptions are logged and counted (``callback_errors``).
+
     Reading: every kind of event that is queued has one pair of names.
     ``recv_<kind>(timeout)`` returns the next one, or None when *timeout* s pass
     (:meth:`recv_packet`, :meth:`recv_step`); ``<kind>s(timeout)`` iterates over
@@ -174,8 +184,8 @@ class Device(CommandMethods):
         self.reader_errors = 0
         self._packets = _BoundedQueue("packets", queue_size)
         self._steps = _BoundedQueue("steps", queue_size)
-        self._callbacks: dict[str, list[Callable[[Any], None]]] = {
-            "packet": [], "step": [], "gap": [], "ack": [], "link": []
+        self._callbacks: dict[type, list[Callable[[Any], object]]] = {
+            kind: [] for kind in (PacketEvent, StepEvent, GapEvent, CommandAckEvent, LinkEvent)
         }
         self.gap_events: list[GapEvent] = []
         self._port = self._factory()
@@ -356,16 +366,12 @@ class Device(CommandMethods):
         for ev in events:
             if isinstance(ev, PacketEvent):
                 self._packets.put(ev)
-                self._dispatch("packet", ev)
             elif isinstance(ev, StepEvent):
                 self._steps.put(ev)
-                self._dispatch("step", ev)
             elif isinstance(ev, GapEvent):
                 self.gap_events.append(ev)
                 log.warning("%s: %s", self.name, ev)
-                self._dispatch("gap", ev)
-            elif isinstance(ev, CommandAckEvent):
-                self._dispatch("ack", ev)
+            self._dispatch(ev)
         return events
 
     def _link_dropped(self, exc: BaseException) -> bool:
@@ -375,7 +381,7 @@ class Device(CommandMethods):
             self.link_drops += 1
             self._cond.notify_all()
         log.warning("link to %s dropped: %s", self.name, exc)
-        self._dispatch("link", LinkEvent(False, exc))
+        self._dispatch(LinkEvent(False, exc))
         try:
             self._port.close()
         except _READ_ERRORS:
@@ -398,7 +404,7 @@ class Device(CommandMethods):
                 self.reconnects += 1
                 self._cond.notify_all()
             log.info("link to %s is back", self.name)
-            self._dispatch("link", LinkEvent(True))
+            self._dispatch(LinkEvent(True))
             return True
         return False
 
@@ -426,28 +432,52 @@ class Device(CommandMethods):
 
     # -- callbacks -----------------------------------------------------------------
 
-    def add_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
-        """Call *fn(event)* in the reader thread for each event of *kind*.
+    def on_packet(self, fn: Callable[[PacketEvent], object]) -> Callable[[PacketEvent], object]:
+        """Call *fn(event)* for each new state packet (:class:`PacketEvent`); returns *fn*."""
+        return self._subscribe(PacketEvent, fn)
 
-        Kinds: ``"packet"`` (:class:`PacketEvent`), ``"step"`` (:class:`StepEvent`),
-        ``"gap"`` (:class:`GapEvent`), ``"ack"`` (:class:`CommandAckEvent`),
-        ``"link"`` (:class:`LinkEvent`). Keep callbacks short: the reader acks
-        packets only after they return. Exceptions are logged and counted.
-        """
-        if kind not in self._callbacks:
-            raise ValueError(f"unknown callback kind {kind!r}; choose from {sorted(self._callbacks)}")
+    def on_step(self, fn: Callable[[StepEvent], object]) -> Callable[[StepEvent], object]:
+        """Call *fn(event)* for each new step, once it is summed (:class:`StepEvent`); returns *fn*."""
+        return self._subscribe(StepEvent, fn)
+
+    def on_gap(self, fn: Callable[[GapEvent], object]) -> Callable[[GapEvent], object]:
+        """Call *fn(event)* when step counters were skipped (:class:`GapEvent`); returns *fn*."""
+        return self._subscribe(GapEvent, fn)
+
+    def on_ack(self, fn: Callable[[CommandAckEvent], object]) -> Callable[[CommandAckEvent], object]:
+        """Call *fn(event)* for each command ack from the module (:class:`CommandAckEvent`); returns *fn*."""
+        return self._subscribe(CommandAckEvent, fn)
+
+    def on_link(self, fn: Callable[[LinkEvent], object]) -> Callable[[LinkEvent], object]:
+        """Call *fn(event)* when the link drops or comes back (:class:`LinkEvent`); returns *fn*."""
+        return self._subscribe(LinkEvent, fn)
+
+    def remove_callback(self, fn: Callable[..., object]) -> None:
+        """Stop calling *fn*, for every kind it was registered for; ValueError if it was not."""
+        found = False
+        for fns in self._callbacks.values():
+            while fn in fns:
+                fns.remove(fn)
+                found = True
+        if not found:
+            raise ValueError(f"{fn!r} is not a callback of {self.name}")
+
+    def _subscribe(self, kind: type, fn: Callable[[Any], object]) -> Callable[[Any], object]:
+        if not callable(fn):
+            raise TypeError(f"a {kind.__name__} callback must be callable, got {fn!r}")
         self._callbacks[kind].append(fn)
+        return fn
 
-    def remove_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
-        self._callbacks[kind].remove(fn)
-
-    def _dispatch(self, kind: str, ev: Any) -> None:
-        for fn in list(self._callbacks[kind]):
+    def _dispatch(self, ev: Event) -> None:
+        fns = self._callbacks.get(type(ev))
+        if fns is None:
+            raise TypeError(f"no callbacks are kept for {type(ev).__name__}")
+        for fn in list(fns):
             try:
                 fn(ev)
             except Exception:  # noqa: BLE001 - a user callback must not kill the reader
                 self.callback_errors += 1
-                log.exception("%s callback %r failed", kind, fn)
+                log.exception("%s callback %r failed", type(ev).__name__, fn)
 
     # -- reading packets and steps ---------------------------------------------------
 

@@ -14,7 +14,7 @@ import serial
 
 from hostlib.device import Device
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
-from hostlib.events import LinkEvent, StepEvent
+from hostlib.events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
@@ -132,19 +132,55 @@ def test_lossless_ack_waits_behind_data(fake):
         assert d.stats["packets"] == 2
 
 
-def test_callbacks_and_recv(dev, fake):
+def test_callbacks_get_their_events_in_the_reader_and_a_broken_one_does_not_stop_it(dev, fake):
     seen = threading.Event()
-    steps = []
-    dev.add_callback("step", lambda ev: (steps.append(ev), seen.set()))
-    dev.add_callback("packet", lambda ev: 1 / 0)  # a broken callback does not kill the reader
+    steps, acks = [], []
+    dev.on_step(lambda ev: (steps.append(ev), seen.set()))
+    dev.on_ack(acks.append)
+    dev.on_packet(lambda ev: 1 / 0)  # a broken callback does not kill the reader
+    dev.ping()
     fake.inject(step_packet(1, 1))
     assert seen.wait(5)
-    assert isinstance(steps[0], StepEvent)
+    assert isinstance(steps[0], StepEvent) and acks == [CommandAckEvent(0x03)]
     assert dev.recv_packet(timeout=5).number == 1
     assert dev.recv_packet(timeout=0.01) is None
     assert dev.callback_errors == 1
-    with pytest.raises(ValueError, match="unknown callback"):
-        dev.add_callback("nope", print)
+
+
+def test_a_callback_registered_for_a_kind_is_called_for_that_kind_only(fake):
+    got = {"packet": [], "step": [], "gap": []}
+    with Device(fake, start=False) as d:
+        for kind, events in got.items():
+            getattr(d, f"on_{kind}")(events.append)
+        d.feed(step_packet(1, 1) + step_packet(2, 4))
+    assert [type(e) for e in got["packet"]] == [PacketEvent, PacketEvent]
+    assert [e.step.counter for e in got["step"]] == [1, 4]
+    assert got["gap"] == [GapEvent(after=1, counter=4, missing=2, index=2)]
+
+
+def test_a_wrong_callback_kind_or_callback_is_an_error_not_ignored(dev):
+    with pytest.raises(AttributeError):
+        dev.add_callback("step", print)  # kinds are methods, not strings
+    with pytest.raises(AttributeError):
+        dev.on_stance(print)
+    with pytest.raises(TypeError, match="callable"):
+        dev.on_step("step")
+    with pytest.raises(ValueError, match="not a callback"):
+        dev.remove_callback(print)
+
+
+def test_a_removed_callback_is_no_longer_called_and_on_methods_decorate(fake):
+    calls = []
+    with Device(fake, start=False) as d:
+
+        @d.on_packet
+        def count(ev: PacketEvent) -> None:
+            calls.append(ev.number)
+
+        d.feed(build_state_packet(1, bytes(4)))
+        d.remove_callback(count)
+        d.feed(build_state_packet(2, bytes(4)))
+    assert calls == [1]
 
 
 def test_single_reads_and_iterators_take_turns_on_the_same_packets_and_steps(fake):
@@ -218,7 +254,7 @@ def test_reconnects_after_a_dropped_link():
     links = []
     back = threading.Event()
     with Device(port_factory=factory, reconnect_interval=0.01) as d:
-        d.add_callback("link", lambda ev: (links.append(ev.up), ev.up and back.set()))
+        d.on_link(lambda ev: (links.append(ev.up), ev.up and back.set()))
         d.start_stepwise_dead_reckoning()
         ports[0].inject(step_packet(1, 1))
         assert d.recv_step(5).step.counter == 1
@@ -330,7 +366,7 @@ def test_every_typed_method_sends_its_command(numbering):
 def test_an_already_open_port_object_is_reopened_after_a_drop(fake):
     back = threading.Event()
     with Device(fake, reconnect_interval=0.01) as d:
-        d.add_callback("link", lambda ev: ev.up and back.set())
+        d.on_link(lambda ev: ev.up and back.set())
         fake.drop()
         assert back.wait(5)
         assert fake.reopens == 1
