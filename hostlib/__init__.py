@@ -14,6 +14,8 @@ matplotlib only for :mod:`hostlib.plot`), so it talks to a real module on
 * :mod:`hostlib.export` (CSV, GeoJSON), :mod:`hostlib.plot` (PNG), :mod:`hostlib.cli`.
 """
 
+from typing import TYPE_CHECKING
+
 from .errors import AckTimeout, DeviceClosed, HostError, LinkLost, NotSupportedByCommandSet, QueueFullWarning
 from .events import (
     CommandAckEvent,
@@ -26,6 +28,10 @@ from .events import (
     StreamEvent,
 )
 from .tracking import StepTracker, Track
+
+if TYPE_CHECKING:  # type checkers see the classes the lazy __getattr__ below hands out
+    from .device import Device
+    from .session import HostSession
 
 __all__ = [
     "AckTimeout",

@@ -238,24 +238,21 @@ class Device(CommandMethods):
     # -- commands ------------------------------------------------------------------
 
     def command(self, meaning: Command, *, timeout: float | None = None, retries: int | None = None,
-                **fields: Any) -> CommandAckEvent | None:
-        """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``.
+                **fields: Any) -> CommandAckEvent:
+        """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``; returns the ack.
 
         Each attempt waits *timeout* s (default :attr:`ack_timeout`); while a
         lossless module keeps delivering data (the ack waits behind it) the wait
         is extended, up to 10 × *timeout*. After *retries* extra attempts
-        :class:`AckTimeout`. ACK (0x01) is sent once and not waited for.
+        :class:`AckTimeout`. ACK (0x01) gets no ack: send it with :meth:`ack_packet`.
         """
+        if meaning is Command.ACK:
+            raise ValueError("the module does not acknowledge ACK (0x01): send it with ack_packet()")
         if self._closed:
             raise DeviceClosed(f"{self.name} is closed")
         timeout = self.ack_timeout if timeout is None else float(timeout)
         retries = self.retries if retries is None else int(retries)
-        with self._lock:
-            frame = self.session.encode_command(meaning, **fields)
-            wire_id = self.session.wire_id(meaning)
-        if meaning is Command.ACK:
-            self._write(frame)
-            return None
+        frame, wire_id = self._encode(meaning, fields)
         for _attempt in range(retries + 1):
             with self._cond:
                 seen = self._ack_counts.get(wire_id, 0)
@@ -263,6 +260,16 @@ class Device(CommandMethods):
             if self._wait_ack(wire_id, seen, timeout):
                 return CommandAckEvent(wire_id)
         raise AckTimeout(meaning.name, wire_id, retries + 1, timeout)
+
+    def _send_command(self, meaning: Command, **fields: Any) -> None:
+        """Send a command frame once without waiting: for ACK (0x01), which the module never acknowledges."""
+        if self._closed:
+            raise DeviceClosed(f"{self.name} is closed")
+        self._write(self._encode(meaning, fields)[0])
+
+    def _encode(self, meaning: Command, fields: dict[str, Any]) -> tuple[bytes, int]:
+        with self._lock:
+            return self.session.encode_command(meaning, **fields), self.session.wire_id(meaning)
 
     def _wait_ack(self, wire_id: int, seen: int, timeout: float) -> bool:
         now = _now()

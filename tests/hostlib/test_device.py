@@ -6,6 +6,8 @@ Against an in-memory scripted port (tests/hostlib/fakes.py) and pyserial's own
 
 from __future__ import annotations
 
+import inspect
+import re
 import threading
 
 import numpy as np
@@ -41,6 +43,31 @@ def dev(fake):
 def test_ping_waits_for_its_ack(dev, fake):
     assert dev.ping().command_id == 0x03
     assert fake.commands == [bytes.fromhex("03 00 03")]
+
+
+def test_a_command_method_returns_the_ack_it_waited_for_in_the_devices_numbering(dev):
+    assert dev.start_stepwise_dead_reckoning() == CommandAckEvent(0x34)
+    assert dev.set_state(StateId.TH_ZUPT, 100000, timeout=1.0, retries=0) == CommandAckEvent(0x13)
+    with Device(FakeModulePort(LEGACY_2014), command_set="2014") as d:
+        assert d.start_stepwise_dead_reckoning() == CommandAckEvent(0x14)
+
+
+def test_the_packet_ack_is_not_a_command_that_waits(dev, fake):
+    with pytest.raises(ValueError, match="ack_packet"):
+        dev.command(Command.ACK, packet_number=1)
+    assert fake.written == b""
+
+
+def test_command_methods_declare_what_they_return():
+    from hostlib.commands import CommandMethods
+
+    methods = {n: f for n, f in vars(CommandMethods).items() if callable(f) and not n.startswith("_")}
+    returns = {n: inspect.get_annotations(f)["return"] for n, f in methods.items()}
+    assert returns.pop("ack_packet") == "None"
+    assert set(returns.values()) == {"CommandAckEvent"}
+    untyped = [n for n, f in methods.items() if n != "command"  # its fields depend on the command
+               for a in inspect.get_annotations(f).values() if re.search(r"\bAny\b", a)]
+    assert untyped == []
 
 
 def test_typed_commands_send_the_documented_frames(dev, fake):
@@ -357,9 +384,10 @@ def test_every_typed_method_sends_its_command(numbering):
                     getattr(d, name)(*args)
                 continue
             n = len(fake.commands)
-            getattr(d, name)(*args)
+            ack = getattr(d, name)(*args)
             frame = parse_command(fake.commands[n], cs)
             assert frame.command is meaning, name
+            assert ack == CommandAckEvent(cs.spec(meaning).wire_id), name
     assert {m for _, _, m in METHOD_CALLS} | {Command.ACK} == set(Command)
 
 
