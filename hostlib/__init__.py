@@ -7,26 +7,50 @@ matplotlib only for :mod:`hostlib.plot`), so it talks to a real module on
 * :class:`Device` — open a link, typed commands with acks, reader thread,
   lossless acking, steps and packets (:mod:`hostlib.device`);
 * :class:`HostSession` — the same protocol logic without I/O (:mod:`hostlib.session`);
+* the events a host receives — :class:`CommandAckEvent`, :class:`PacketEvent`,
+  :class:`StepEvent`, :class:`GapEvent`, :class:`LinkEvent` (:mod:`hostlib.events`);
 * :class:`StepTracker`, :class:`Track` — step-wise dead reckoning with covariance
   (:mod:`hostlib.tracking`);
 * :mod:`hostlib.export` (CSV, GeoJSON), :mod:`hostlib.plot` (PNG), :mod:`hostlib.cli`.
 """
 
+from typing import TYPE_CHECKING
+
 from .errors import AckTimeout, DeviceClosed, HostError, LinkLost, NotSupportedByCommandSet, QueueFullWarning
-from .tracking import GapEvent, StepOutcome, StepTracker, Track
+from .events import (
+    CommandAckEvent,
+    Event,
+    GapEvent,
+    LinkEvent,
+    PacketEvent,
+    StepEvent,
+    StepOutcome,
+    StreamEvent,
+)
+from .tracking import StepTracker, Track
+
+if TYPE_CHECKING:  # type checkers see the classes the lazy __getattr__ below hands out
+    from .device import Device
+    from .session import HostSession
 
 __all__ = [
     "AckTimeout",
+    "CommandAckEvent",
     "Device",
     "DeviceClosed",
+    "Event",
     "GapEvent",
     "HostError",
     "HostSession",
+    "LinkEvent",
     "LinkLost",
     "NotSupportedByCommandSet",
+    "PacketEvent",
     "QueueFullWarning",
+    "StepEvent",
     "StepOutcome",
     "StepTracker",
+    "StreamEvent",
     "Track",
 ]
 

@@ -196,7 +196,7 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
         live = _LiveLine(out, every_s=LOG_LINE_EVERY_S)
         try:
             while deadline is None or time.monotonic() < deadline:
-                dev.recv(timeout=_remaining(deadline))
+                dev.recv_packet(timeout=_remaining(deadline))
                 st = dev.stats
                 live.show(f"bytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
                           f"step packets {st['steps']:5d} | garbage {st['garbage_bytes']}")
@@ -217,7 +217,7 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
         dev.request_mcu_id()  # 0x04 in both numberings
         deadline = time.monotonic() + 2.0
         while got is None and time.monotonic() < deadline:
-            pkt = dev.recv(timeout=_remaining(deadline))
+            pkt = dev.recv_packet(timeout=_remaining(deadline))
             if pkt is not None and pkt.states and StateId.MCU_ID in pkt.states:
                 got = bytes(pkt.states[StateId.MCU_ID].astype("u1"))
         print("mcu id    " + (got.hex(" ").upper() if got else "(no answer)"), file=out)

@@ -34,26 +34,16 @@ from protocol.ids import Command
 from .commands import CommandMethods
 from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
 from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
+from .events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from .outputs import OutputPlan
-from .session import CommandAckEvent, Event, GapEvent, HostSession, PacketEvent, StepEvent
+from .session import HostSession
 from .tracking import StepTracker, Track
 
-__all__ = ["Device", "LinkEvent"]
+__all__ = ["Device"]
 
 log = logging.getLogger(__name__)
 
 _READ_ERRORS = (serial.SerialException, OSError, TypeError, AttributeError, ValueError)
-
-
-class LinkEvent:
-    """The link dropped (``up=False``) or came back (``up=True``); *error* says why it dropped."""
-
-    def __init__(self, up: bool, error: BaseException | None = None):
-        self.up = up
-        self.error = error
-
-    def __repr__(self) -> str:
-        return f"LinkEvent(up={self.up}, error={self.error!r})"
 
 
 class _BoundedQueue:
@@ -125,6 +115,24 @@ class Device(CommandMethods):
     to it and go out between reads). Needed by ports that are not thread-safe,
     such as the emulator's virtual-time ``openshoe://`` port (the default for
     those URLs); real serial ports read and write concurrently.
+
+    Callbacks: one method per kind of event — :meth:`on_packet`, :meth:`on_step`,
+    :meth:`on_gap`, :meth:`on_ack`, :meth:`on_link` — each taking *fn(event)*
+    (and returning it, so it also decorates); :meth:`remove_callback` undoes
+    them. One method per kind, not one keyed by a string: each signature names
+    the event the callback gets, and a misspelt kind fails where it is written
+    (AttributeError) instead of never firing. Callbacks run in the reader
+    thread, after the acks of the bytes that produced their event were sent;
+    keep them short, since the reader reads (and acks) nothing more until they
+    return. Their exceptions are logged and counted (``callback_errors``).
+
+    Reading: every kind of event that is queued has one pair of names.
+    ``recv_<kind>(timeout)`` returns the next one, or None when *timeout* s pass
+    (:meth:`recv_packet`, :meth:`recv_step`); ``<kind>s(timeout)`` iterates over
+    them until *timeout* s have passed in total (:meth:`packets`, :meth:`steps`).
+    Both take from the same bounded queue, so an event is read once, by either.
+    After :meth:`close` the queued events are still handed out; then ``recv_*``
+    raises :class:`DeviceClosed` and the iterators end.
     """
 
     def __init__(
@@ -176,8 +184,8 @@ class Device(CommandMethods):
         self.reader_errors = 0
         self._packets = _BoundedQueue("packets", queue_size)
         self._steps = _BoundedQueue("steps", queue_size)
-        self._callbacks: dict[str, list[Callable[[Any], None]]] = {
-            "packet": [], "step": [], "gap": [], "ack": [], "link": []
+        self._callbacks: dict[type, list[Callable[[Any], object]]] = {
+            kind: [] for kind in (PacketEvent, StepEvent, GapEvent, CommandAckEvent, LinkEvent)
         }
         self.gap_events: list[GapEvent] = []
         self._port = self._factory()
@@ -230,24 +238,21 @@ class Device(CommandMethods):
     # -- commands ------------------------------------------------------------------
 
     def command(self, meaning: Command, *, timeout: float | None = None, retries: int | None = None,
-                **fields: Any) -> CommandAckEvent | None:
-        """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``.
+                **fields: Any) -> CommandAckEvent:
+        """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``; returns the ack.
 
         Each attempt waits *timeout* s (default :attr:`ack_timeout`); while a
         lossless module keeps delivering data (the ack waits behind it) the wait
         is extended, up to 10 × *timeout*. After *retries* extra attempts
-        :class:`AckTimeout`. ACK (0x01) is sent once and not waited for.
+        :class:`AckTimeout`. ACK (0x01) gets no ack: send it with :meth:`ack_packet`.
         """
+        if meaning is Command.ACK:
+            raise ValueError("the module does not acknowledge ACK (0x01): send it with ack_packet()")
         if self._closed:
             raise DeviceClosed(f"{self.name} is closed")
         timeout = self.ack_timeout if timeout is None else float(timeout)
         retries = self.retries if retries is None else int(retries)
-        with self._lock:
-            frame = self.session.encode_command(meaning, **fields)
-            wire_id = self.session.wire_id(meaning)
-        if meaning is Command.ACK:
-            self._write(frame)
-            return None
+        frame, wire_id = self._encode(meaning, fields)
         for _attempt in range(retries + 1):
             with self._cond:
                 seen = self._ack_counts.get(wire_id, 0)
@@ -255,6 +260,16 @@ class Device(CommandMethods):
             if self._wait_ack(wire_id, seen, timeout):
                 return CommandAckEvent(wire_id)
         raise AckTimeout(meaning.name, wire_id, retries + 1, timeout)
+
+    def _send_command(self, meaning: Command, **fields: Any) -> None:
+        """Send a command frame once without waiting: for ACK (0x01), which the module never acknowledges."""
+        if self._closed:
+            raise DeviceClosed(f"{self.name} is closed")
+        self._write(self._encode(meaning, fields)[0])
+
+    def _encode(self, meaning: Command, fields: dict[str, Any]) -> tuple[bytes, int]:
+        with self._lock:
+            return self.session.encode_command(meaning, **fields), self.session.wire_id(meaning)
 
     def _wait_ack(self, wire_id: int, seen: int, timeout: float) -> bool:
         now = _now()
@@ -331,7 +346,7 @@ class Device(CommandMethods):
                 log.exception("processing %d bytes from %s failed", len(data), self.name)
         log.debug("reader of %s stopped", self.name)
 
-    def feed(self, data: bytes) -> list[Event]:
+    def feed(self, data: bytes) -> list[StreamEvent]:
         """Process received bytes as the reader thread does (public for tests and replays)."""
         if self.raw_log is not None:
             self.raw_log.write(data)
@@ -341,7 +356,7 @@ class Device(CommandMethods):
         with self._cond:
             return fn(*args)
 
-    def _deliver(self, events: list[Event], to_send: bytes) -> list[Event]:
+    def _deliver(self, events: list[StreamEvent], to_send: bytes) -> list[StreamEvent]:
         """Send the session's packet acks, then hand its events to waiters, queues and callbacks."""
         if to_send:
             try:
@@ -358,16 +373,12 @@ class Device(CommandMethods):
         for ev in events:
             if isinstance(ev, PacketEvent):
                 self._packets.put(ev)
-                self._dispatch("packet", ev)
             elif isinstance(ev, StepEvent):
                 self._steps.put(ev)
-                self._dispatch("step", ev)
             elif isinstance(ev, GapEvent):
                 self.gap_events.append(ev)
                 log.warning("%s: %s", self.name, ev)
-                self._dispatch("gap", ev)
-            elif isinstance(ev, CommandAckEvent):
-                self._dispatch("ack", ev)
+            self._dispatch(ev)
         return events
 
     def _link_dropped(self, exc: BaseException) -> bool:
@@ -377,7 +388,7 @@ class Device(CommandMethods):
             self.link_drops += 1
             self._cond.notify_all()
         log.warning("link to %s dropped: %s", self.name, exc)
-        self._dispatch("link", LinkEvent(False, exc))
+        self._dispatch(LinkEvent(False, exc))
         try:
             self._port.close()
         except _READ_ERRORS:
@@ -400,7 +411,7 @@ class Device(CommandMethods):
                 self.reconnects += 1
                 self._cond.notify_all()
             log.info("link to %s is back", self.name)
-            self._dispatch("link", LinkEvent(True))
+            self._dispatch(LinkEvent(True))
             return True
         return False
 
@@ -428,37 +439,67 @@ class Device(CommandMethods):
 
     # -- callbacks -----------------------------------------------------------------
 
-    def add_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
-        """Call *fn(event)* in the reader thread for each event of *kind*.
+    def on_packet(self, fn: Callable[[PacketEvent], object]) -> Callable[[PacketEvent], object]:
+        """Call *fn(event)* for each new state packet (:class:`PacketEvent`); returns *fn*."""
+        return self._subscribe(PacketEvent, fn)
 
-        Kinds: ``"packet"`` (:class:`PacketEvent`), ``"step"`` (:class:`StepEvent`),
-        ``"gap"`` (:class:`GapEvent`), ``"ack"`` (:class:`CommandAckEvent`),
-        ``"link"`` (:class:`LinkEvent`). Keep callbacks short: the reader acks
-        packets only after they return. Exceptions are logged and counted.
-        """
-        if kind not in self._callbacks:
-            raise ValueError(f"unknown callback kind {kind!r}; choose from {sorted(self._callbacks)}")
+    def on_step(self, fn: Callable[[StepEvent], object]) -> Callable[[StepEvent], object]:
+        """Call *fn(event)* for each new step, once it is summed (:class:`StepEvent`); returns *fn*."""
+        return self._subscribe(StepEvent, fn)
+
+    def on_gap(self, fn: Callable[[GapEvent], object]) -> Callable[[GapEvent], object]:
+        """Call *fn(event)* when step counters were skipped (:class:`GapEvent`); returns *fn*."""
+        return self._subscribe(GapEvent, fn)
+
+    def on_ack(self, fn: Callable[[CommandAckEvent], object]) -> Callable[[CommandAckEvent], object]:
+        """Call *fn(event)* for each command ack from the module (:class:`CommandAckEvent`); returns *fn*."""
+        return self._subscribe(CommandAckEvent, fn)
+
+    def on_link(self, fn: Callable[[LinkEvent], object]) -> Callable[[LinkEvent], object]:
+        """Call *fn(event)* when the link drops or comes back (:class:`LinkEvent`); returns *fn*."""
+        return self._subscribe(LinkEvent, fn)
+
+    def remove_callback(self, fn: Callable[..., object]) -> None:
+        """Stop calling *fn*, for every kind it was registered for; ValueError if it was not."""
+        found = False
+        for fns in self._callbacks.values():
+            while fn in fns:
+                fns.remove(fn)
+                found = True
+        if not found:
+            raise ValueError(f"{fn!r} is not a callback of {self.name}")
+
+    def _subscribe(self, kind: type, fn: Callable[[Any], object]) -> Callable[[Any], object]:
+        if not callable(fn):
+            raise TypeError(f"a {kind.__name__} callback must be callable, got {fn!r}")
         self._callbacks[kind].append(fn)
+        return fn
 
-    def remove_callback(self, kind: str, fn: Callable[[Any], None]) -> None:
-        self._callbacks[kind].remove(fn)
-
-    def _dispatch(self, kind: str, ev: Any) -> None:
-        for fn in list(self._callbacks[kind]):
+    def _dispatch(self, ev: Event) -> None:
+        fns = self._callbacks.get(type(ev))
+        if fns is None:
+            raise TypeError(f"no callbacks are kept for {type(ev).__name__}")
+        for fn in list(fns):
             try:
                 fn(ev)
             except Exception:  # noqa: BLE001 - a user callback must not kill the reader
                 self.callback_errors += 1
-                log.exception("%s callback %r failed", kind, fn)
+                log.exception("%s callback %r failed", type(ev).__name__, fn)
 
-    # -- iterators -----------------------------------------------------------------
+    # -- reading packets and steps ---------------------------------------------------
 
-    def recv(self, timeout: float | None = None) -> PacketEvent | None:
-        """The next new state packet, or None after *timeout* s (None = wait forever)."""
+    def recv_packet(self, timeout: float | None = None) -> PacketEvent | None:
+        """The next new state packet, or None after *timeout* s (None = wait forever).
+
+        Raises :class:`DeviceClosed` once the device is closed and every packet was read.
+        """
         return self._get(self._packets, timeout)
 
     def recv_step(self, timeout: float | None = None) -> StepEvent | None:
-        """The next new step (summed into :attr:`track`), or None after *timeout* s."""
+        """The next new step (summed into :attr:`track`), or None after *timeout* s (None = forever).
+
+        Raises :class:`DeviceClosed` once the device is closed and every step was read.
+        """
         return self._get(self._steps, timeout)
 
     def _get(self, q: _BoundedQueue, timeout: float | None) -> Any:
@@ -471,11 +512,17 @@ class Device(CommandMethods):
         return item
 
     def packets(self, timeout: float | None = None) -> Iterator[PacketEvent]:
-        """Iterate over new state packets until *timeout* s have passed in total (or close)."""
+        """Iterate over new state packets until *timeout* s have passed in total, or the device closed.
+
+        The same packets, from the same queue, as :meth:`recv_packet`.
+        """
         yield from self._iterate(self._packets, timeout)
 
     def steps(self, timeout: float | None = None) -> Iterator[StepEvent]:
-        """Iterate over new steps until *timeout* s have passed in total (or close)."""
+        """Iterate over new steps until *timeout* s have passed in total, or the device closed.
+
+        The same steps, from the same queue, as :meth:`recv_step`.
+        """
         yield from self._iterate(self._steps, timeout)
 
     def _iterate(self, q: _BoundedQueue, timeout: float | None) -> Iterator[Any]:

@@ -14,6 +14,8 @@ stream, without any I/O, so it can be tested byte by byte:
   recognise steps, sum them (:class:`hostlib.tracking.StepTracker`), report
   step-counter gaps.
 
+The events it reports are declared in :mod:`hostlib.events`.
+
 ``feed(chunk) -> (events, bytes_to_send)``: a thread (or anything else) only
 moves bytes between the port and this object.
 """
@@ -23,84 +25,27 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-
 from protocol.codec import PayloadError, Step, decode_states
 from protocol.commands import CommandSet
 from protocol.commands import command_set as _command_set
-from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack, hexdump
+from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
 from .errors import NotSupportedByCommandSet
+from .events import CommandAckEvent, PacketEvent, StepEvent, StepOutcome, StreamEvent
 from .outputs import OutputPlan
-from .tracking import GapEvent, StepOutcome, StepTracker
+from .tracking import StepTracker
 
 __all__ = [
     "AckPolicy",
-    "CommandAckEvent",
-    "Event",
-    "GapEvent",
     "HostSession",
-    "PacketEvent",
     "SessionStats",
-    "StepEvent",
 ]
 
 #: When to acknowledge state packets: "auto" (while the module may be lossless,
 #: or when a resend or a step shows it is), "always", or "never".
 AckPolicy = str
-
-
-@dataclass(frozen=True)
-class CommandAckEvent:
-    """The module acknowledged the command with header byte *command_id* (``A0 cmd ck ck``)."""
-
-    command_id: int
-
-    def __repr__(self) -> str:
-        return f"CommandAckEvent(command_id=0x{self.command_id:02X})"
-
-
-@dataclass(frozen=True, eq=False)
-class PacketEvent:
-    """A new state packet (resends are not reported again).
-
-    *states* maps state id → value (native numpy arrays) when the payload could
-    be split by the states the host asked for, else None (the raw *payload* is
-    always there).
-    """
-
-    number: int
-    payload: bytes
-    states: dict[int, np.ndarray] | None = None
-
-    def __repr__(self) -> str:
-        ids = "?" if self.states is None else " ".join(f"{i:02X}" for i in self.states)
-        payload = hexdump(self.payload, 16)
-        return f"PacketEvent(number=0x{self.number:04X}, states=[{ids}], payload={payload!r})"
-
-
-@dataclass(frozen=True, eq=False)
-class StepEvent:
-    """A new step, summed into the track: the step, the packet it came in, the pose after it."""
-
-    step: Step
-    packet_number: int
-    outcome: StepOutcome
-    pose: np.ndarray  #: [x, y, z, χ] after this step
-    covariance: np.ndarray  #: 4×4 covariance of that pose
-    index: int  #: 1-based index of the step in the track
-
-    def __repr__(self) -> str:
-        x, y, z, chi = self.pose
-        return (
-            f"StepEvent(#{self.index} counter={self.step.counter}, packet=0x{self.packet_number:04X}, "
-            f"pose=({x:.3f}, {y:.3f}, {z:.3f}, {chi:.3f}), {self.outcome.value})"
-        )
-
-
-Event = CommandAckEvent | PacketEvent | StepEvent | GapEvent
 
 
 @dataclass
@@ -191,17 +136,17 @@ class HostSession:
 
     # -- module → host ------------------------------------------------------------
 
-    def feed(self, data: bytes) -> tuple[list[Event], bytes]:
+    def feed(self, data: bytes) -> tuple[list[StreamEvent], bytes]:
         """Process received bytes: the events they complete, and the acks to send back."""
         data = bytes(data)
         self.stats.bytes_received += len(data)
         return self._frames(self.decoder.feed(data))
 
-    def idle(self) -> tuple[list[Event], bytes]:
+    def idle(self) -> tuple[list[StreamEvent], bytes]:
         """The link went quiet: stop waiting on a false frame start if a valid frame follows it."""
         return self._frames(self.decoder.flush())
 
-    def finish(self) -> tuple[list[Event], bytes]:
+    def finish(self) -> tuple[list[StreamEvent], bytes]:
         """The stream ended (end of a capture): decode what is complete, drop the rest (counted)."""
         return self._frames(self.decoder.finish())
 
@@ -214,8 +159,8 @@ class HostSession:
         self.decoder.reset()
         self.stats.garbage_bytes = self.decoder.skipped_bytes
 
-    def _frames(self, frames: list) -> tuple[list[Event], bytes]:
-        events: list[Event] = []
+    def _frames(self, frames: list) -> tuple[list[StreamEvent], bytes]:
+        events: list[StreamEvent] = []
         out = bytearray()
         for frame in frames:
             if isinstance(frame, CommandAck):
@@ -228,7 +173,7 @@ class HostSession:
         self.stats.bad_frames = self.decoder.bad_frames
         return events, bytes(out)
 
-    def _packet(self, pkt: StatePacket, events: list[Event], out: bytearray) -> None:
+    def _packet(self, pkt: StatePacket, events: list[StreamEvent], out: bytearray) -> None:
         duplicate = pkt.number == self._last_number
         if duplicate and self.ack_policy == "auto":
             self._resend_seen = True  # only a lossless module resends
@@ -262,7 +207,7 @@ class HostSession:
         if step is not None:
             self._step(step, pkt.number, events)
 
-    def _step(self, step: Step, number: int, events: list[Event]) -> None:
+    def _step(self, step: Step, number: int, events: list[StreamEvent]) -> None:
         n_gaps = len(self.tracker.gaps)
         outcome = self.tracker.add(step)
         if outcome is StepOutcome.DUPLICATE:

@@ -25,26 +25,25 @@ continues from the last summed step (the lost displacement is unknown).
 
 This module is pure computation: no I/O, no protocol decoding. It accepts any
 object with ``dx`` (4,), ``dp`` (4×4) and ``counter`` attributes, such as
-:class:`protocol.codec.Step`.
+:class:`protocol.codec.Step`. Its gap records and step outcomes are the types
+declared in :mod:`hostlib.events` (numpy and the standard library only).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass
-from enum import Enum
 from typing import Protocol
 
 import numpy as np
+
+from .events import GapEvent, StepOutcome
 
 __all__ = [
     "COUNTER_MODULUS",
     "MOTION_MIN_HEADING_RAD",
     "MOTION_MIN_LENGTH_M",
-    "GapEvent",
     "StepLike",
-    "StepOutcome",
     "StepTracker",
     "Track",
     "counter_delta",
@@ -131,28 +130,6 @@ def counter_delta(previous: int, counter: int) -> int:
     1 is the next step, 0 a resend of the same step, > 1 a gap, < 0 an older step.
     """
     return ((int(counter) - int(previous) + _HALF) % COUNTER_MODULUS) - _HALF
-
-
-@dataclass(frozen=True)
-class GapEvent:
-    """Steps lost between two summed steps: counters ``after+1 .. counter−1`` never arrived."""
-
-    after: int | None  #: counter of the last summed step (None: none summed yet)
-    counter: int  #: counter of the step that arrived after the gap
-    missing: int  #: number of step counters skipped
-    index: int  #: index in the track of the step that arrived after the gap
-
-    def __str__(self) -> str:
-        after = "start" if self.after is None else str(self.after)
-        return f"step gap: {self.missing} step(s) missing between {after} and {self.counter}"
-
-
-class StepOutcome(Enum):
-    """What the tracker did with one step."""
-
-    SUMMED = "summed"  #: the next step, summed
-    SUMMED_AFTER_GAP = "summed after gap"  #: summed, but steps before it were lost
-    DUPLICATE = "duplicate"  #: a resend of a step already summed (or older): ignored
 
 
 class Track:

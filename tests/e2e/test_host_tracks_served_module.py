@@ -25,7 +25,8 @@ import pytest
 from firmware_sim.app.serve import spawn
 from firmware_sim.sensors import make_source
 from hostlib.device import Device
-from hostlib.tracking import StepOutcome, StepTracker
+from hostlib.events import StepOutcome
+from hostlib.tracking import StepTracker
 from protocol.codec import decode_step
 from protocol.frames import StatePacket
 from protocol.stream import StreamDecoder

@@ -6,15 +6,17 @@ Against an in-memory scripted port (tests/hostlib/fakes.py) and pyserial's own
 
 from __future__ import annotations
 
+import inspect
+import re
 import threading
 
 import numpy as np
 import pytest
 import serial
 
-from hostlib.device import Device, LinkEvent
+from hostlib.device import Device
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
-from hostlib.session import StepEvent
+from hostlib.events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
@@ -41,6 +43,31 @@ def dev(fake):
 def test_ping_waits_for_its_ack(dev, fake):
     assert dev.ping().command_id == 0x03
     assert fake.commands == [bytes.fromhex("03 00 03")]
+
+
+def test_a_command_method_returns_the_ack_it_waited_for_in_the_devices_numbering(dev):
+    assert dev.start_stepwise_dead_reckoning() == CommandAckEvent(0x34)
+    assert dev.set_state(StateId.TH_ZUPT, 100000, timeout=1.0, retries=0) == CommandAckEvent(0x13)
+    with Device(FakeModulePort(LEGACY_2014), command_set="2014") as d:
+        assert d.start_stepwise_dead_reckoning() == CommandAckEvent(0x14)
+
+
+def test_the_packet_ack_is_not_a_command_that_waits(dev, fake):
+    with pytest.raises(ValueError, match="ack_packet"):
+        dev.command(Command.ACK, packet_number=1)
+    assert fake.written == b""
+
+
+def test_command_methods_declare_what_they_return():
+    from hostlib.commands import CommandMethods
+
+    methods = {n: f for n, f in vars(CommandMethods).items() if callable(f) and not n.startswith("_")}
+    returns = {n: inspect.get_annotations(f)["return"] for n, f in methods.items()}
+    assert returns.pop("ack_packet") == "None"
+    assert set(returns.values()) == {"CommandAckEvent"}
+    untyped = [n for n, f in methods.items() if n != "command"  # its fields depend on the command
+               for a in inspect.get_annotations(f).values() if re.search(r"\bAny\b", a)]
+    assert untyped == []
 
 
 def test_typed_commands_send_the_documented_frames(dev, fake):
@@ -132,19 +159,85 @@ def test_lossless_ack_waits_behind_data(fake):
         assert d.stats["packets"] == 2
 
 
-def test_callbacks_and_recv(dev, fake):
+def test_callbacks_get_their_events_in_the_reader_and_a_broken_one_does_not_stop_it(dev, fake):
     seen = threading.Event()
-    steps = []
-    dev.add_callback("step", lambda ev: (steps.append(ev), seen.set()))
-    dev.add_callback("packet", lambda ev: 1 / 0)  # a broken callback does not kill the reader
+    steps, acks = [], []
+    dev.on_step(lambda ev: (steps.append(ev), seen.set()))
+    dev.on_ack(acks.append)
+    dev.on_packet(lambda ev: 1 / 0)  # a broken callback does not kill the reader
+    dev.ping()
     fake.inject(step_packet(1, 1))
     assert seen.wait(5)
-    assert isinstance(steps[0], StepEvent)
-    assert dev.recv(timeout=5).number == 1
-    assert dev.recv(timeout=0.01) is None
+    assert isinstance(steps[0], StepEvent) and acks == [CommandAckEvent(0x03)]
+    assert dev.recv_packet(timeout=5).number == 1
+    assert dev.recv_packet(timeout=0.01) is None
     assert dev.callback_errors == 1
-    with pytest.raises(ValueError, match="unknown callback"):
-        dev.add_callback("nope", print)
+
+
+def test_a_callback_registered_for_a_kind_is_called_for_that_kind_only(fake):
+    got = {"packet": [], "step": [], "gap": []}
+    with Device(fake, start=False) as d:
+        for kind, events in got.items():
+            getattr(d, f"on_{kind}")(events.append)
+        d.feed(step_packet(1, 1) + step_packet(2, 4))
+    assert [type(e) for e in got["packet"]] == [PacketEvent, PacketEvent]
+    assert [e.step.counter for e in got["step"]] == [1, 4]
+    assert got["gap"] == [GapEvent(after=1, counter=4, missing=2, index=2)]
+
+
+def test_a_wrong_callback_kind_or_callback_is_an_error_not_ignored(dev):
+    with pytest.raises(AttributeError):
+        dev.add_callback("step", print)  # kinds are methods, not strings
+    with pytest.raises(AttributeError):
+        dev.on_stance(print)
+    with pytest.raises(TypeError, match="callable"):
+        dev.on_step("step")
+    with pytest.raises(ValueError, match="not a callback"):
+        dev.remove_callback(print)
+
+
+def test_a_removed_callback_is_no_longer_called_and_on_methods_decorate(fake):
+    calls = []
+    with Device(fake, start=False) as d:
+
+        @d.on_packet
+        def count(ev: PacketEvent) -> None:
+            calls.append(ev.number)
+
+        d.feed(build_state_packet(1, bytes(4)))
+        d.remove_callback(count)
+        d.feed(build_state_packet(2, bytes(4)))
+    assert calls == [1]
+
+
+def test_single_reads_and_iterators_take_turns_on_the_same_packets_and_steps(fake):
+    with Device(fake, start=False) as d:  # no reader thread: feed() hands the bytes in
+        d.feed(b"".join(step_packet(n, n) for n in range(1, 5)))
+        packets = d.packets(timeout=0)
+        assert [d.recv_packet(0).number, next(packets).number, d.recv_packet(0).number] == [1, 2, 3]
+        assert [p.number for p in packets] == [4]
+        steps = d.steps(timeout=0)
+        assert [d.recv_step(0).step.counter, next(steps).step.counter] == [1, 2]
+        assert [ev.step.counter for ev in steps] == [3, 4]
+        assert d.recv_packet(0) is None and d.recv_step(0) is None
+
+
+def test_after_close_single_reads_raise_and_iterators_end_once_the_queue_is_read(fake):
+    d = Device(fake, start=False)
+    d.feed(step_packet(1, 1) + step_packet(2, 2))
+    d.close()
+    assert d.recv_packet(0).number == 1 and [p.number for p in d.packets()] == [2]
+    assert d.recv_step(0).step.counter == 1 and [ev.step.counter for ev in d.steps()] == [2]
+    for read in (d.recv_packet, d.recv_step):
+        with pytest.raises(DeviceClosed):
+            read(0)
+    assert list(d.packets()) == [] and list(d.steps()) == []
+
+
+@pytest.mark.parametrize("kind", ["packet", "step"])
+def test_each_queued_kind_has_a_single_read_and_an_iterator(kind):
+    assert callable(getattr(Device, f"recv_{kind}")) and callable(getattr(Device, f"{kind}s"))
+    assert not hasattr(Device, "recv")
 
 
 def test_garbage_and_gaps_are_counted(dev, fake):
@@ -188,7 +281,7 @@ def test_reconnects_after_a_dropped_link():
     links = []
     back = threading.Event()
     with Device(port_factory=factory, reconnect_interval=0.01) as d:
-        d.add_callback("link", lambda ev: (links.append(ev.up), ev.up and back.set()))
+        d.on_link(lambda ev: (links.append(ev.up), ev.up and back.set()))
         d.start_stepwise_dead_reckoning()
         ports[0].inject(step_packet(1, 1))
         assert d.recv_step(5).step.counter == 1
@@ -207,7 +300,7 @@ def test_without_reconnect_a_drop_closes_the_device(fake):
     d = Device(fake, reconnect=False)
     fake.drop()
     with pytest.raises(DeviceClosed):
-        d.recv(timeout=5)
+        d.recv_packet(timeout=5)
     assert d.closed
 
 
@@ -230,7 +323,7 @@ def test_already_open_serial_object():
     port = serial.serial_for_url("loop://", timeout=0.05)
     with Device(port) as d:
         d.send_raw(build_state_packet(4, bytes(4)) + build_packet_ack(0))
-        assert d.recv(timeout=5).number == 4
+        assert d.recv_packet(timeout=5).number == 4
     assert not port.is_open
 
 
@@ -291,16 +384,17 @@ def test_every_typed_method_sends_its_command(numbering):
                     getattr(d, name)(*args)
                 continue
             n = len(fake.commands)
-            getattr(d, name)(*args)
+            ack = getattr(d, name)(*args)
             frame = parse_command(fake.commands[n], cs)
             assert frame.command is meaning, name
+            assert ack == CommandAckEvent(cs.spec(meaning).wire_id), name
     assert {m for _, _, m in METHOD_CALLS} | {Command.ACK} == set(Command)
 
 
 def test_an_already_open_port_object_is_reopened_after_a_drop(fake):
     back = threading.Event()
     with Device(fake, reconnect_interval=0.01) as d:
-        d.add_callback("link", lambda ev: ev.up and back.set())
+        d.on_link(lambda ev: ev.up and back.set())
         fake.drop()
         assert back.wait(5)
         assert fake.reopens == 1

@@ -21,7 +21,7 @@ def test_ping_and_mcu_id_over_the_emulator():
         assert dev.serialize_io  # the virtual-time port is driven by the reader thread only
         dev.ping()
         dev.request_mcu_id()
-        pkt = dev.recv(timeout=10)
+        pkt = dev.recv_packet(timeout=10)
         assert list(pkt.states) == [StateId.MCU_ID]
         assert pkt.states[StateId.MCU_ID].shape == (15,)
 

@@ -51,7 +51,7 @@ def test_device_over_tcp_survives_a_dropped_link():
     with Pacer(module, [ep], speed=1.0) as pacer:
         with Device(url, ack_timeout=2.0, reconnect_interval=0.05) as dev:
             down, up = threading.Event(), threading.Event()
-            dev.add_callback("link", lambda ev: (up if ev.up else down).set())
+            dev.on_link(lambda ev: (up if ev.up else down).set())
             dev.output_state(StateId.INTERRUPT_COUNTER, 5 | OutputMode.LOSSLESS)
             before = collect(dev, 10)
             pacer.call(lambda m: ep._hangup()).result(5)  # the module side drops the link
@@ -101,7 +101,7 @@ def test_steps_missed_while_the_link_is_down_are_reported_as_a_gap():
 
         with Device(port_factory=factory, ack_timeout=2.0, reconnect_interval=0.05) as dev:
             down = threading.Event()
-            dev.add_callback("link", lambda ev: ev.up or down.set())
+            dev.on_link(lambda ev: ev.up or down.set())
             dev.start_stepwise_dead_reckoning()
             for ev in dev.steps(timeout=30):
                 if ev.pose[0] > 3.0:

@@ -1,7 +1,12 @@
-"""The host SDK's data path depends on protocol/ and pyserial only: no emulator, no matplotlib."""
+"""The host SDK's data path depends on protocol/ and pyserial only: no emulator, no matplotlib.
+
+The events and the step summation are lighter still: numpy and the standard library.
+"""
 
 from __future__ import annotations
 
+import ast
+import json
 import subprocess
 import sys
 from pathlib import Path
@@ -19,3 +24,44 @@ def test_host_sdk_does_not_import_the_emulator_or_matplotlib():
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def _third_party_modules_after(statement: str) -> dict[str, list[str]]:
+    """The non-stdlib packages and hostlib modules a fresh interpreter loads for *statement* (after numpy)."""
+    code = (
+        "import sys, json\n"
+        "import numpy\n"
+        "before = set(sys.modules)\n"
+        f"{statement}\n"
+        "new = set(sys.modules) - before\n"
+        "top = sorted({m.split('.')[0] for m in new} - set(sys.stdlib_module_names))\n"
+        "ours = sorted(m for m in new if m.split('.')[0] == 'hostlib')\n"
+        "print(json.dumps({'top': top, 'hostlib': ours}))\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout)
+
+
+def test_the_events_module_needs_nothing_but_numpy_and_the_standard_library():
+    loaded = _third_party_modules_after("import hostlib.events")
+    assert loaded["top"] == ["hostlib"]
+    assert loaded["hostlib"] == ["hostlib", "hostlib.errors", "hostlib.events", "hostlib.tracking"]
+
+
+def test_summing_steps_loads_no_protocol_decoding_and_no_serial_port():
+    loaded = _third_party_modules_after("import hostlib.tracking; from hostlib import StepEvent, StepTracker")
+    assert loaded["top"] == ["hostlib"]
+
+
+def test_the_events_module_source_imports_only_protocol_numpy_and_the_standard_library():
+    """Also what it names for type checkers only: the events never reach into the I/O side."""
+    tree = ast.parse((REPO / "hostlib" / "events.py").read_text())
+    imported = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            imported |= {alias.name.split(".")[0] for alias in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            assert node.level == 0, "hostlib.events imports no other hostlib module"
+            imported.add((node.module or "").split(".")[0])
+    assert imported - set(sys.stdlib_module_names) <= {"numpy", "protocol"}

@@ -10,8 +10,9 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from hostlib.errors import NotSupportedByCommandSet
+from hostlib.events import CommandAckEvent, GapEvent, PacketEvent, StepEvent
 from hostlib.outputs import OutputPlan, match_layout
-from hostlib.session import CommandAckEvent, GapEvent, HostSession, PacketEvent, StepEvent
+from hostlib.session import HostSession
 from protocol.codec import Step, encode_states, encode_step
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet
 from protocol.ids import Command, OutputMode, StateId

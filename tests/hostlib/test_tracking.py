@@ -10,9 +10,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from hostlib.events import GapEvent, StepOutcome
 from hostlib.tracking import (
-    GapEvent,
-    StepOutcome,
     StepTracker,
     counter_delta,
     is_motion_step,
