@@ -31,7 +31,7 @@ import serial
 
 from protocol.ids import Command
 
-from .commands import CommandMethods
+from .command_methods import CommandMethods
 from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
 from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
 from .events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent

@@ -122,7 +122,7 @@ def test_a_layer_never_imports_the_layers_above_it(layer, forbidden):
 
 
 def test_the_host_sdk_data_path_uses_only_protocol_pyserial_and_numpy():
-    allowed_third_party = {"serial", "numpy"}
+    allowed_third_party = {"serial", "numpy", "typing_extensions"}  # the last for type checkers only
     stdlib = set(sys.stdlib_module_names)
     found = []
     for mod in project_modules():

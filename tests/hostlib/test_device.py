@@ -59,7 +59,7 @@ def test_the_packet_ack_is_not_a_command_that_waits(dev, fake):
 
 
 def test_command_methods_declare_what_they_return():
-    from hostlib.commands import CommandMethods
+    from hostlib.command_methods import CommandMethods
 
     methods = {n: f for n, f in vars(CommandMethods).items() if callable(f) and not n.startswith("_")}
     returns = {n: inspect.get_annotations(f)["return"] for n, f in methods.items()}
