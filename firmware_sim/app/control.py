@@ -9,7 +9,7 @@ import socket
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .serve import ServedModule
+    from .served_module import ServedModule
 
 CONTROL_HELP = """\
 commands (one per line; prefix with @I to address module I only, e.g. "@1 disconnect"):

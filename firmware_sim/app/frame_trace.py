@@ -7,7 +7,7 @@ from typing import TYPE_CHECKING
 from firmware_sim.mcu.module import Module
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .serve import ServedModule
+    from .served_module import ServedModule
 
 
 class TraceWriter:

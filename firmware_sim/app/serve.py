@@ -31,12 +31,11 @@ import subprocess
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TextIO
 
 from firmware_sim.links.link import Link, LinkFaults, make_link
-from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.playback import served_source
@@ -49,6 +48,7 @@ from firmware_sim.transports.tcp import TcpEndpoint
 
 from .control import ControlServer
 from .frame_trace import TraceWriter
+from .served_module import ServedModule
 
 # --------------------------------------------------------------------------- options
 
@@ -144,21 +144,6 @@ def frame_ticks(args: argparse.Namespace, rate_hz: float) -> int:
 
 
 # --------------------------------------------------------------------------- building
-
-
-@dataclass
-class ServedModule:
-    """One running module with its links, endpoints and pacer."""
-
-    index: int
-    module: Module
-    links: dict[str, Link]
-    endpoints: list[Any]
-    pacer: Pacer
-    ready: list[tuple[str, str]] = field(default_factory=list)
-
-    def status_line(self) -> str:
-        return self.pacer.status().line()
 
 
 def _faults(args: argparse.Namespace) -> LinkFaults | None:

@@ -10,7 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from firmware_sim.app.control import ControlServer
-from firmware_sim.app.serve import ServedModule, parse_ready, tcp_address
+from firmware_sim.app.serve import parse_ready, tcp_address
+from firmware_sim.app.served_module import ServedModule
 from firmware_sim.links.link import make_link
 from firmware_sim.mcu.imu_bus import RawSample, ScriptedSource
 from firmware_sim.mcu.port import IdealPort

@@ -1,0 +1,25 @@
+"""A module as ``serve`` runs it: the module, its links and endpoints, its pacer and READY lines."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from firmware_sim.links.link import Link
+from firmware_sim.mcu.module import Module
+from firmware_sim.transports.pacer import Pacer
+
+
+@dataclass
+class ServedModule:
+    """One running module with its links, endpoints and pacer."""
+
+    index: int
+    module: Module
+    links: dict[str, Link]
+    endpoints: list[Any]
+    pacer: Pacer
+    ready: list[tuple[str, str]] = field(default_factory=list)
+
+    def status_line(self) -> str:
+        return self.pacer.status().line()
