@@ -861,7 +861,7 @@ class FastNav:
         mem = module.memory
         fw = frontend.frontend_work(module)
         iw = ins.ins_work(module)
-        iwk = module.work("inertial", inertial._work)
+        iwk = inertial.inertial_work(module)
         self._empty_imu = np.zeros((1, NR_IMUS, 6), dtype=np.int16)
         # the kernel's work arrays move into one arena (values kept; the functions look
         # their arrays up on every call, so they use the new homes from now on)
