@@ -167,21 +167,29 @@ def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return c
 
 
+def _double(x: np.float32) -> float:
+    """x widened to a double (``float(x)`` alone would stay single precision in compiled code)."""
+    return float(np.float64(x))
+
+
 def _sinf(x: np.float32) -> np.float32:
     """sin of a float32, rounded from the C library's double sin (numpy's float32 sin is
-    machine-dependent SIMD code); the compiled path calls the same function. ±inf gives
+    machine-dependent SIMD code); the compiled path runs this function too. ±inf gives
     NaN as in C (Python's math.sin would raise)."""
-    v = float(x)
+    v = _double(x)
     return F32(v - v) if math.isinf(v) else F32(math.sin(v))
 
 
 def _cosf(x: np.float32) -> np.float32:
-    v = float(x)
+    v = _double(x)
     return F32(v - v) if math.isinf(v) else F32(math.cos(v))
 
 
 def _atan2f(y: np.float32, x: np.float32) -> np.float32:
-    return F32(math.atan2(float(y), float(x)))
+    """atan2 of float32, rounded from the C library's double atan2; a NaN argument gives the
+    quiet NaN whatever its payload, as Python's math.atan2 does (C's would pass the payload on)."""
+    vy, vx = _double(y), _double(x)
+    return F32(math.nan) if math.isnan(vy) or math.isnan(vx) else F32(math.atan2(vy, vx))
 
 
 def _normalise(q: np.ndarray) -> np.ndarray:
