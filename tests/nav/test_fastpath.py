@@ -220,6 +220,27 @@ def test_full_rate_ins_with_outputs_on_a_bluetooth_link_matches_loop_by_loop(com
     assert mods[1]._fast.ticks_single > 0.9 * len(source), compiled_path
 
 
+def test_an_alignment_restored_on_another_flag_runs_as_the_reference(compiled_path: str) -> None:
+    """The host points RESTORE_PROC_SEQU_IF at ZUPT (0x36) after starting 0x33: the tracking
+    sequence comes in at the first stationary sample, not at the end of the alignment — in
+    quiet stretches too."""
+    source = make_source("stand:2+walk:2", seed=9)
+    restore_on_zupt = build_command(Command.RESET_PROC_SETUP, flag_id=StateId.ZUPT)
+    level = {StateId.QUATERNION: [0, 0, 0, 1]}  # (the INS starts without an attitude of its own)
+    mods = [build_module(ModuleConfig(compiled=c, initial_states=level), sensors=source)
+            for c in (False, True)]
+    for m in mods:
+        m.usb.port.host_write(START_FULL_RATE_INS + restore_on_zupt)
+    while mods[0].clock.ticks < len(source):
+        mods[0].step()
+    while mods[1].clock.ticks < len(source):
+        mods[1].advance(len(source) - mods[1].clock.ticks)
+    _assert_same_module(*mods)
+    assert not mods[1].memory.flag(StateId.INIT_DONE), "tracking began before the alignment was done"
+    assert np.isfinite(mods[1].memory[StateId.QUATERNION]).all()
+    assert mods[1]._fast.ticks_quiet > 0.5 * len(source), compiled_path
+
+
 def test_pure_path_selected_by_environment() -> None:
     """OPENSHOE_PURE=1 selects the reference even when numba is installed."""
     code = ("from firmware_sim.nav import fastpath; from firmware_sim.nav.firmware import build_module; "

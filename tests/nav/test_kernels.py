@@ -433,3 +433,16 @@ def test_a_nan_keeps_its_sign_and_payload_as_in_the_reference(compiled, data, na
         assert_same_call(getattr(ins, name), form(getattr(ik, name), compiled), x, **strict)
     assert_same_call(ins._atan2f, form(ik._atan2f, compiled), x, dt, **strict)
     assert_same_call(ins._atan2f, form(ik._atan2f, compiled), dt, x, **strict)
+
+
+@pytest.mark.skipif(not jit.COMPILING, reason=f"kernels are not compiled here: {jit.NUMBA_ERROR}")
+def test_every_cached_kernel_is_renewed_when_any_kernel_source_changes():
+    """A kernel compiled into another (the driver holds them all) lives in that one's cache entry:
+    each entry is stamped with all the sources, not only its own file's."""
+    from firmware_sim.nav import driver
+
+    sources = {p.name for p in jit.SOURCES}
+    assert {"driver.py", "frontend_kernels.py", "ins_kernels.py", "frontend.py", "ins.py", "config.py",
+            "ids.py"} <= sources
+    for k in (driver.run_loops, fk.statdet, ik.time_update, ik.stepwise_reset):
+        assert k._cache._impl.locator.get_source_stamp() == jit._sources_stamp()
