@@ -5,9 +5,10 @@ reading and writing the states exactly as the processing functions do around the
 (:mod:`~firmware_sim.nav.frontend_kernels`, :mod:`~firmware_sim.nav.ins_kernels`). What needs
 the module's Python objects — a sensor source's other registers, the conditional output, an
 edit of the sequence, the clock, the interfaces — stays with the caller
-(:class:`firmware_sim.nav.fastpath.FastNav`). The arguments are typed records
+(:class:`firmware_sim.nav.fastpath.FastNav`). The kernels get typed records
 (:mod:`~firmware_sim.nav.records`): the state memory, and the work of the front end, of the INS
-and of READ_INERTIAL.
+and of READ_INERTIAL; :func:`run_loops` takes them as their bytes (numba recognises a byte
+array at once, a record array only after comparing its whole type: µs on every call).
 
 The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP in all three):
 
@@ -25,10 +26,13 @@ import numpy as np
 
 from protocol.ids import NR_IMUS
 
+from .frontend import FrontendWork
 from .frontend_kernels import biasest, convcomp, preproc, statdet
-from .inertial import latch_registers
+from .inertial import InertialWork, latch_registers
+from .ins import InsWork
 from .ins_kernels import initial_alignment, mechanization, stepwise_reset, time_update, zupt_update
 from .jit import compiled_reference, kernel
+from .records import STATE_RECORD
 
 __all__ = ["ALIGNMENT", "FULL_RATE_INS", "NO_SAMPLES", "TRACKING", "run_loops"]
 
@@ -37,6 +41,8 @@ TRACKING, ALIGNMENT, FULL_RATE_INS = 1, 2, 3
 NO_SAMPLES = np.zeros((0, NR_IMUS, 6), dtype=np.int16)
 
 _latch_registers = compiled_reference(latch_registers)
+#: The work records' types (compiled code takes a dtype, not a class).
+_FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK = FrontendWork.DTYPE, InsWork.DTYPE, InertialWork.DTYPE
 
 
 @kernel
@@ -85,16 +91,20 @@ def navigation(s, iw):
 
 
 @kernel
-def run_loops(kind, n, imu, first_wake, period, ts_offset, states, frontend_work, ins_work, inertial_work):
+def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work, ins_work, inertial_work):
     """The numeric slots of up to *n* loops of the sequence *kind*; returns the loops run.
 
     Loop i reads the registers ``imu[i]`` (READ_INERTIAL: the accelerometer one read late,
     IMU_TS the cycle counter at ``first_wake + i·period + ts_offset``); with no registers
     (:data:`NO_SAMPLES`) the caller has read the one loop's sample. Stops after a loop in which
-    a step ends (TRACKING) or the alignment completes (ALIGNMENT). The records are one-element
-    arrays: the states and the work of the front end, the INS and READ_INERTIAL.
+    a step ends (TRACKING) or the alignment completes (ALIGNMENT). *memory* is the bytes of the
+    state memory's arena, the work arguments the bytes of the FrontendWork, InsWork and
+    InertialWork records (uint8 arrays; a numpy.recarray of them in plain Python).
     """
-    s, fw, iw, rw = states[0], frontend_work[0], ins_work[0], inertial_work[0]
+    s = memory.view(STATE_RECORD)[0]
+    fw = frontend_work.view(_FRONTEND_WORK)[0]
+    iw = ins_work.view(_INS_WORK)[0]
+    rw = inertial_work.view(_INERTIAL_WORK)[0]
     for i in range(n):
         if len(imu):
             _latch_registers(imu[i], s.imu_raw, rw.prev_acc, rw.have_prev)

@@ -46,7 +46,6 @@ from protocol.ids import (
 
 from . import frontend, inertial, ins, jit
 from .driver import ALIGNMENT, FULL_RATE_INS, NO_SAMPLES, TRACKING, run_loops
-from .records import state_record
 
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
@@ -148,11 +147,12 @@ class FastNav:
     """The compiled INS sequences bound to one module's state memory and work records."""
 
     def __init__(self, module: Module):
-        records = (state_record(module.memory), frontend.frontend_work(module).record,
-                   ins.ins_work(module).record, inertial.inertial_work(module).record)
-        # compiled kernels take plain arrays (numba's quick way in); plain-Python ones need the
-        # records' attribute access
-        self._records = tuple(r.view(np.ndarray) for r in records) if jit.COMPILING else records
+        records = (module.memory.arena, frontend.frontend_work(module).record, ins.ins_work(module).record,
+                   inertial.inertial_work(module).record)
+        # the records' bytes (driver.run_loops); in plain Python a recarray, for their fields by name
+        as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if jit.COMPILING else (
+            lambda r: r.view(np.ndarray).view(np.uint8).view(np.recarray))
+        self._records = tuple(as_bytes(r) for r in records)
         self._sequences = {seq.kind: seq for seq in SEQUENCES}
         self._timings: dict[int, _Timing] = {}
         #: Loops run compiled, loop by loop and in quiet runs (for the benchmark).

@@ -5,10 +5,11 @@ argument (and numba reaches every array in it by name, at a fixed offset).
   ring buffer and running sums, the INS's timers, …). A subclass declares them in ``FIELDS``;
   each is an attribute — a view into :attr:`WorkRecord.record` — so the reference functions
   read and write the attributes as plain arrays, and the compiled path hands the record over.
-* :func:`state_record` — a module's state memory seen as one record: every state a field named
-  after it in lower case (``position``, ``u_k``, ``filter_reset_flag``, and the blocks
-  ``imu_raw``, ``imu_temp``, ``imu_mag``, ``ps_dt``) at its byte offset in the memory's arena.
-  A scalar state is a one-element array (a kernel writes ``s.dt[0]``).
+* :data:`STATE_RECORD` — a module's state memory seen as one record (``memory.arena.view(
+  STATE_RECORD)``): every state a field named after it in lower case (``position``, ``u_k``,
+  ``filter_reset_flag``, and the blocks ``imu_raw``, ``imu_temp``, ``imu_mag``, ``ps_dt``) at
+  its byte offset in the arena. A scalar state is a one-element array (a kernel writes
+  ``s.dt[0]``).
 
 numba has no bool fields in records: a bool array is stored as uint8 (the same byte, as a C
 bool holds it); a work record's attribute shows it as bool again.
@@ -24,7 +25,7 @@ from firmware_sim.mcu.memory import StateMemory
 from protocol.ids import IMU_MAG_BASE, IMU_RAW_BASE, IMU_TEMP_BASE, MAX_IMU_IDS, NR_SLOTS, PS_DT_BASE
 from protocol.states import STATES
 
-__all__ = ["STATE_RECORD", "Field", "WorkRecord", "state_record"]
+__all__ = ["STATE_RECORD", "Field", "WorkRecord"]
 
 #: One array of a record: name, element type, shape.
 Field = tuple[str, type, tuple[int, ...]]
@@ -76,8 +77,3 @@ def _state_record_dtype() -> np.dtype:
 
 #: A module's state memory as one record (the arena's layout is the same in every module).
 STATE_RECORD = _state_record_dtype()
-
-
-def state_record(memory: StateMemory) -> np.recarray:
-    """*memory*'s states as one record over its arena (a one-element numpy.recarray; no copy)."""
-    return memory.arena.view(STATE_RECORD).view(np.recarray)
