@@ -139,3 +139,24 @@ class Clock:
             f"Clock({self.rate_hz:g} Hz, cycle {self.now_cycles} (COUNT 0x{self.count:08X}), "
             f"{self.ticks} loops, {self.interrupts} interrupts, {self.overruns} overruns)"
         )
+
+    def loops_on_time(self, loops: int, busy_cycles: int) -> int:
+        """Account for *loops* main loops at once, each woken on its own timer tick and busy
+        *busy_cycles* (at most one tick, so none overruns): the counters as that many rounds of
+        :meth:`wait_for_tick`, :meth:`spend` and :meth:`end_loop` leave them, with the last loop
+        current and ``now_cycles`` at its end. Returns the cycle at which the last loop woke.
+
+        For a runner that executes whole loops outside the module's step; the clock must not be
+        past its next tick (``cycles_until_next_tick() >= 0``).
+        """
+        late = self.now_cycles > self._next_interrupt
+        if loops < 1 or not 0 <= busy_cycles <= self.cycles_per_tick or late:
+            raise ValueError(f"cannot run {loops} loops of {busy_cycles} cycles on time from {self!r}")
+        last = self._next_interrupt + (loops - 1) * self.cycles_per_tick
+        self.ticks += loops
+        self.interrupts += loops
+        self._next_interrupt = last + self.cycles_per_tick
+        self.loop_start = last
+        self.now_cycles = last + busy_cycles
+        self.last_loop_cycles = busy_cycles
+        return last

@@ -385,5 +385,18 @@ class ExternalInterface:
                 f"{mode}, outputs [{outs}], pulled [{' '.join(f'{s:02X}' for s in sorted(self._pulled))}], "
                 f"packet {self.packet_number}, {self.queue!r})")
 
+    def is_idle(self) -> bool:
+        """Whether receive() and transmit() only poll this interface: no command frame half
+        received, no output set up (periodic or pulled). The queue and the link are asked apart."""
+        return not (self._need or self._periodic or self._pulled)
+
+    def count_idle_transmissions(self, loops: int) -> None:
+        """Account for *loops* calls of transmit() on an idle interface that sent nothing: a
+        lossless packet waiting for its ACK counts its resend delay on (the caller made sure
+        that no resend fell due in them)."""
+        queue = self.queue
+        if self.lossless and queue.frames and self.port.connected:
+            queue.delay_counter = (queue.delay_counter + loops) % queue.resend_cycles
+
 
 __all__ = ["ExternalInterface", "MAX_RX_BYTES_PER_CYCLE", "RX_TIMEOUT_CYCLES", "TraceEntry"]

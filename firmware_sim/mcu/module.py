@@ -246,3 +246,25 @@ class Module:
     def __repr__(self) -> str:
         return (f"Module({self.command_set.name} numbering, {self.clock!r}, {self.sequence!r}, "
                 f"USB {'on' if self.usb.connected else 'off'}, BT {'on' if self.bt.connected else 'off'})")
+
+    def account_loops(self, loops: int, busy_cycles: int) -> int:
+        """Book *loops* main loops whose process sequence a compiled runner ran in one go, each
+        woken on its own tick and busy *busy_cycles* from its wake-up to the end of its sequence,
+        receiving and sending nothing: the clock, the interrupt counter, GP_DT and the sequence's
+        run count as that many :meth:`step` calls leave them. Returns the cycle at which the last
+        loop woke; that loop is closed too, unless :meth:`finish_loop` is called for it.
+        """
+        clock = self.clock
+        last = clock.loops_on_time(loops, busy_cycles)
+        self._interrupt_counter[...] = clock.interrupts & _U32
+        self._gp_dt[...] = busy_cycles & _U32
+        self.sequence.runs += loops
+        return last
+
+    def finish_loop(self) -> None:
+        """transmit_data() and end_of_main_loop() of the current loop, as :meth:`step` ends it
+        (for a runner that ran the loop's process sequence itself)."""
+        usb, bt = self.interface_list
+        usb.transmit()
+        bt.transmit()
+        self._gp_dt[...] = self.clock.end_loop() & _U32

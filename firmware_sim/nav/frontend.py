@@ -23,9 +23,10 @@ like C; intermediates that need it are 64-bit (the µC's 32 × 32 → 64 multipl
 The constants and the overflow proof are in :mod:`firmware_sim.nav.config`.
 
 Layout for speed: the per-sample state of the front end lives in the flat typed
-arrays of :class:`FrontendWork` (one per module, ``module.work("frontend", …)``);
-the kernels (``preproc``, ``statdet``, …) are plain functions over arrays and
-scalars, free of object churn, so a compiler (numba) can take them over unchanged.
+arrays of :class:`FrontendWork` (one record per module, ``module.work("frontend", …)``);
+the array-level functions (``preproc``, ``statdet``, …) are plain functions over arrays and
+scalars, free of object churn. Their compiled counterparts, of the same names and
+arguments, are in :mod:`firmware_sim.nav.frontend_kernels`.
 """
 
 from __future__ import annotations
@@ -35,9 +36,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from firmware_sim.mcu.sequence import processing_function
-from protocol.ids import IMU_RAW_BASE, NR_IMUS, ProcId, StateId
+from protocol.ids import NR_IMUS, ProcId, StateId
 
 from . import config as cfg
+from .records import WorkRecord
 
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
@@ -81,8 +83,8 @@ def isqrt64(x: int) -> int:
     return res
 
 
-class FrontendWork:
-    """The front end's private per-sample state (flat typed arrays, one set per module).
+class FrontendWork(WorkRecord):
+    """The front end's private per-sample state (flat typed arrays in one record, one per module).
 
     Ring buffer of N samples: ``buf32`` the int32 combined sample, ``buf16`` its
     int16 reduction, ``norm`` the squared norms of the reduced accelerometer and
@@ -91,25 +93,28 @@ class FrontendWork:
     reduced acc xyz and gyro xyz over all N), ``zaru_cd`` (uint32, Σ of the norms'
     low 16 bits for acc, gyro, then of their high 16 bits), ``zupt_a`` and
     ``zupt_cd`` the same over the M-sample ZUPT window (accelerometer sum only).
+    ``cal`` and ``bias`` are PREPROC's calibration, ``gyro_bias`` and ``bias_p`` BIASEST's
+    estimate, ``t_prev`` CONVCOMP's previous T_INT_K, ``stat_out`` STATDET's results.
     """
 
+    FIELDS = (
+        ("cal", np.int32, (NR_IMUS, 2, 3, 3)), ("bias", np.int32, (6,)),
+        ("buf32", np.int32, (cfg.N, 6)), ("buf16", np.int16, (cfg.N, 6)), ("norm", np.uint32, (cfg.N, 2)),
+        ("ts", np.uint32, (cfg.N,)), ("newest", np.int32, (1,)),
+        ("zaru_ab", np.int32, (6,)), ("zaru_cd", np.uint32, (4,)), ("zupt_a", np.int32, (3,)),
+        ("zupt_cd", np.uint32, (4,)),
+        ("gyro_bias", np.float32, (3,)),  # BIASEST estimate [rad/s]
+        ("bias_p", np.float32, (1,)),
+        ("t_prev", np.uint32, (1,)),  # CONVCOMP's previous T_INT_K
+        ("stat_out", np.uint32, (5,)),  # STATDET's T1, T2, ZUPT, ZARU, T_INT_K
+    )
+
     def __init__(self, config: cfg.FrontendConfig = cfg.DEFAULT_FRONTEND):
+        super().__init__()
         self.config = config
-        self.cal = np.ascontiguousarray(config.calibration, dtype=np.int32)  # (chips, 2, 3, 3)
-        self.bias = np.ascontiguousarray(config.bias, dtype=np.int32)  # (6,)
-        self.buf32 = np.zeros((cfg.N, 6), dtype=np.int32)
-        self.buf16 = np.zeros((cfg.N, 6), dtype=np.int16)
-        self.norm = np.zeros((cfg.N, 2), dtype=np.uint32)
-        self.ts = np.zeros(cfg.N, dtype=np.uint32)
-        self.newest = np.zeros(1, dtype=np.int32)
-        self.zaru_ab = np.zeros(6, dtype=np.int32)
-        self.zaru_cd = np.zeros(4, dtype=np.uint32)
-        self.zupt_a = np.zeros(3, dtype=np.int32)
-        self.zupt_cd = np.zeros(4, dtype=np.uint32)
-        self.gyro_bias = np.zeros(3, dtype=np.float32)  # BIASEST estimate [rad/s]
-        self.bias_p = np.full(1, cfg.BIAS_P0, dtype=np.float32)
-        self.t_prev = np.zeros(1, dtype=np.uint32)  # CONVCOMP's previous T_INT_K
-        self.stat_out = np.zeros(5, dtype=np.uint32)  # STATDET's T1, T2, ZUPT, ZARU, T_INT_K
+        self.cal[...] = config.calibration  # (chips, 2, 3, 3)
+        self.bias[...] = config.bias  # (6,)
+        self.bias_p[0] = cfg.BIAS_P0
 
     def __repr__(self) -> str:
         return f"FrontendWork(N={cfg.N}, M={cfg.M}, newest={int(self.newest[0])})"
@@ -283,9 +288,7 @@ def frontend_preproc(module: Module) -> None:
     """0x10: calibrate, average and bias-compensate the four chips' raw samples."""
     w = frontend_work(module)
     mem = module.memory
-    raw = mem.imu_raw[:NR_IMUS] if hasattr(mem, "imu_raw") else np.stack(
-        [mem[IMU_RAW_BASE + i] for i in range(NR_IMUS)])
-    preproc(raw, w.cal, w.bias, mem[StateId.U_NEW], mem[StateId.U_K])
+    preproc(mem.imu_raw[:NR_IMUS], w.cal, w.bias, mem[StateId.U_NEW], mem[StateId.U_K])
 
 
 @processing_function(ProcId.FRONTEND_STATDET, cycles=2600)

@@ -23,6 +23,8 @@ import numpy as np
 from firmware_sim.mcu.sequence import processing_function
 from protocol.ids import NR_IMUS, ProcId, StateId
 
+from .records import WorkRecord
+
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
 
@@ -32,11 +34,28 @@ if TYPE_CHECKING:  # pragma: no cover
 READ_INERTIAL_CYCLES = 3_000
 
 
-def _work() -> dict[str, np.ndarray]:
-    return {
-        "prev_acc": np.zeros((NR_IMUS, 3), dtype=np.int16),  # last read's accelerometer
-        "have_prev": np.zeros(1, dtype=np.bool_),
-    }
+class InertialWork(WorkRecord):
+    """READ_INERTIAL's private state: the last read's accelerometer registers (the one-sample delay)."""
+
+    FIELDS = (("prev_acc", np.int16, (NR_IMUS, 3)), ("have_prev", np.bool_, (1,)))
+
+
+def inertial_work(module: Module) -> InertialWork:
+    """The module's READ_INERTIAL state (created on first use)."""
+    return module.work("inertial", InertialWork)
+
+
+def latch_registers(imu: np.ndarray, raw: np.ndarray, prev_acc: np.ndarray, have_prev: np.ndarray) -> None:
+    """One read's int16 registers *imu* (chips, 6) into the raw states *raw*: the gyro as read,
+    the accelerometer the previous read's (*prev_acc*, then updated), or, on the very first
+    read (*have_prev* false), the current one."""
+    if have_prev[0]:
+        raw[:NR_IMUS, 0:3] = prev_acc
+    else:
+        raw[:NR_IMUS, 0:3] = imu[:, 0:3]
+        have_prev[0] = True
+    prev_acc[:, :] = imu[:, 0:3]
+    raw[:NR_IMUS, 3:6] = imu[:, 3:6]
 
 
 @processing_function(ProcId.READ_INERTIAL, cycles=READ_INERTIAL_CYCLES)
@@ -45,18 +64,9 @@ def read_inertial(module: Module) -> None:
     if sample is None:
         module.sensors_exhausted = True
         return
-    w = module.work("inertial", _work)
+    w = inertial_work(module)
     memory = module.memory
-    raw = memory.imu_raw
-    prev = w["prev_acc"]
-    imu = sample.imu
-    if w["have_prev"][0]:
-        raw[:NR_IMUS, 0:3] = prev
-    else:
-        raw[:NR_IMUS, 0:3] = imu[:, 0:3]
-        w["have_prev"][0] = True
-    prev[...] = imu[:, 0:3]
-    raw[:NR_IMUS, 3:6] = imu[:, 3:6]
+    latch_registers(sample.imu, memory.imu_raw, w.prev_acc, w.have_prev)
     memory.imu_temp[:NR_IMUS] = sample.temp
     memory.imu_mag[:NR_IMUS] = sample.mag
     memory[StateId.IMU_TS][...] = module.clock.now_cycles & 0xFFFFFFFF

@@ -19,8 +19,10 @@ Conventions (the spec leaves them open; these are ours, used consistently):
 
 Every arithmetic operation is single precision: inputs are the float32 states,
 constants are the ``numpy.float32`` values of :mod:`firmware_sim.nav.config`,
-transcendental functions are numpy's on float32 scalars. The kernels are plain
-functions over arrays and scalars (numba-compilable later).
+transcendental functions are numpy's on float32 scalars. The array-level functions are
+plain functions over arrays and scalars; their compiled counterparts, of the same names
+and arguments, are in :mod:`firmware_sim.nav.ins_kernels` (which compiles some of them, and
+the scalar helpers :func:`rot_rows`, :func:`quat_product`, :func:`inv3_sym_upper`, as written).
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from firmware_sim.mcu.sequence import processing_function
 from protocol.ids import ProcId, StateId
 
 from . import config as cfg
+from .records import WorkRecord
 
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
@@ -46,6 +49,8 @@ __all__ = [
     "POS_YAW_TRIANGLE",
     "quat_to_rot",
     "quat_mul",
+    "quat_product",
+    "rot_rows",
     "rot_to_yaw",
     "unpack_p",
     "pack_p",
@@ -55,6 +60,7 @@ __all__ = [
     "time_update",
     "zupt_update",
     "inv3_sym",
+    "inv3_sym_upper",
     "stepwise_reset",
 ]
 
@@ -78,26 +84,25 @@ POS_YAW_TRIANGLE = np.array(
 #: Triangle elements zeroed by a reset: every term in a position row/column or the yaw row/column.
 _RESET_MASK = np.isin(P_IU[0], _POS_YAW) | np.isin(P_IU[1], _POS_YAW)
 _GRAVITY_N = np.array([0.0, 0.0, cfg.GRAVITY], dtype=np.float32)
+#: The alignment's standard deviations of [δp, δv, δθ] (P = their squares on the diagonal).
+_SIGMA_0 = np.array([cfg.SIGMA_P0] * 3 + [cfg.SIGMA_V0] * 3 + [cfg.SIGMA_TH0] * 3, dtype=np.float32)
 
 
-class InsWork:
-    """The INS's private per-sample state (flat typed arrays, one set per module).
+class InsWork(WorkRecord):
+    """The INS's private per-sample state (flat typed arrays in one record, one per module).
 
     ``f_n``: the specific force in the navigation frame from the last
     mechanization (TIME_UPDATE's F); ``align_sum`` / ``align_count``: the
     alignment's running accelerometer sum over consecutive stationary samples;
     ``t_since_reset``, ``t_pending`` [s] and ``pending``: the step-wise reset's
-    timers.
+    timers; ``p_full``: room for the full 9×9 P (the updates' scratch).
     """
 
-    def __init__(self) -> None:
-        self.f_n = np.zeros(3, dtype=np.float32)
-        self.align_sum = np.zeros(3, dtype=np.float32)
-        self.align_count = np.zeros(1, dtype=np.int32)
-        self.t_since_reset = np.zeros(1, dtype=np.float32)
-        self.t_pending = np.zeros(1, dtype=np.float32)
-        self.pending = np.zeros(1, dtype=np.bool_)
-        self.p_full = np.zeros((9, 9), dtype=np.float32)
+    FIELDS = (
+        ("f_n", np.float32, (3,)), ("align_sum", np.float32, (3,)), ("align_count", np.int32, (1,)),
+        ("t_since_reset", np.float32, (1,)), ("t_pending", np.float32, (1,)), ("pending", np.bool_, (1,)),
+        ("p_full", np.float32, (9, 9)),
+    )
 
     def __repr__(self) -> str:
         return (f"InsWork(align_count={int(self.align_count[0])}, "
@@ -113,31 +118,35 @@ def ins_work(module: Module) -> InsWork:
 # float32 helpers
 
 
-def quat_to_rot(q: np.ndarray) -> np.ndarray:
-    """R(q) (body → navigation), q = [x, y, z, w], float32 3×3."""
+def rot_rows(q) -> tuple:
+    """R(q)'s three rows as float32 triples (:func:`quat_to_rot`'s arithmetic; q indexable as q[0..3])."""
     x, y, z, w = q[0], q[1], q[2], q[3]
     xx, yy, zz = x * x, y * y, z * z
     xy, xz, yz = x * y, x * z, y * z
     wx, wy, wz = w * x, w * y, w * z
-    return np.array(
-        [[_1 - _2 * (yy + zz), _2 * (xy - wz), _2 * (xz + wy)],
-         [_2 * (xy + wz), _1 - _2 * (xx + zz), _2 * (yz - wx)],
-         [_2 * (xz - wy), _2 * (yz + wx), _1 - _2 * (xx + yy)]],
-        dtype=np.float32,
-    )
+    return ((_1 - _2 * (yy + zz), _2 * (xy - wz), _2 * (xz + wy)),
+            (_2 * (xy + wz), _1 - _2 * (xx + zz), _2 * (yz - wx)),
+            (_2 * (xz - wy), _2 * (yz + wx), _1 - _2 * (xx + yy)))
+
+
+def quat_to_rot(q: np.ndarray) -> np.ndarray:
+    """R(q) (body → navigation), q = [x, y, z, w], float32 3×3."""
+    return np.array(rot_rows(q), dtype=np.float32)
+
+
+def quat_product(a, b) -> tuple:
+    """a ⊗ b as four float32 (:func:`quat_mul`'s arithmetic; a, b indexable as a[0..3])."""
+    ax, ay, az, aw = a[0], a[1], a[2], a[3]
+    bx, by, bz, bw = b[0], b[1], b[2], b[3]
+    return (aw * bx + bw * ax + (ay * bz - az * by),
+            aw * by + bw * ay + (az * bx - ax * bz),
+            aw * bz + bw * az + (ax * by - ay * bx),
+            aw * bw - (ax * bx + ay * by + az * bz))
 
 
 def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Hamilton product a ⊗ b of scalar-last quaternions (R(a ⊗ b) = R(a) R(b)), float32."""
-    ax, ay, az, aw = a[0], a[1], a[2], a[3]
-    bx, by, bz, bw = b[0], b[1], b[2], b[3]
-    return np.array(
-        [aw * bx + bw * ax + (ay * bz - az * by),
-         aw * by + bw * ay + (az * bx - ax * bz),
-         aw * bz + bw * az + (ax * by - ay * bx),
-         aw * bw - (ax * bx + ay * by + az * bz)],
-        dtype=np.float32,
-    )
+    return np.array(quat_product(a, b), dtype=np.float32)
 
 
 def _mv(a: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -158,21 +167,29 @@ def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return c
 
 
+def _double(x: np.float32) -> float:
+    """x widened to a double (``float(x)`` alone would stay single precision in compiled code)."""
+    return float(np.float64(x))
+
+
 def _sinf(x: np.float32) -> np.float32:
     """sin of a float32, rounded from the C library's double sin (numpy's float32 sin is
-    machine-dependent SIMD code); the compiled path calls the same function. ±inf gives
+    machine-dependent SIMD code); the compiled path runs this function too. ±inf gives
     NaN as in C (Python's math.sin would raise)."""
-    v = float(x)
+    v = _double(x)
     return F32(v - v) if math.isinf(v) else F32(math.sin(v))
 
 
 def _cosf(x: np.float32) -> np.float32:
-    v = float(x)
+    v = _double(x)
     return F32(v - v) if math.isinf(v) else F32(math.cos(v))
 
 
 def _atan2f(y: np.float32, x: np.float32) -> np.float32:
-    return F32(math.atan2(float(y), float(x)))
+    """atan2 of float32, rounded from the C library's double atan2; a NaN argument gives the
+    quiet NaN whatever its payload, as Python's math.atan2 does (C's would pass the payload on)."""
+    vy, vx = _double(y), _double(x)
+    return F32(math.nan) if math.isnan(vy) or math.isnan(vx) else F32(math.atan2(vy, vx))
 
 
 def _normalise(q: np.ndarray) -> np.ndarray:
@@ -235,8 +252,8 @@ def initial_alignment(f: np.ndarray, zupt: bool, w: InsWork, pos: np.ndarray, ve
     pos[:] = _0
     vel[:] = _0
     pm = np.zeros((9, 9), dtype=np.float32)
-    d = np.array([cfg.SIGMA_P0] * 3 + [cfg.SIGMA_V0] * 3 + [cfg.SIGMA_TH0] * 3, dtype=np.float32)
-    pm[np.arange(9), np.arange(9)] = d * d
+    for i in range(9):
+        pm[i, i] = _SIGMA_0[i] * _SIGMA_0[i]
     pack_p(pm, p45)
     w.align_count[0] = 0
     w.align_sum[:] = _0
@@ -300,11 +317,9 @@ def time_update(f_n: np.ndarray, dt: np.float32, zaru: bool, p45: np.ndarray, pm
     pack_p(pm, p45)
 
 
-def inv3_sym(s: np.ndarray) -> np.ndarray:
-    """Inverse of a symmetric 3×3 float32 matrix by cofactors."""
-    a, b, c = s[0, 0], s[0, 1], s[0, 2]
-    d, e = s[1, 1], s[1, 2]
-    f = s[2, 2]
+def inv3_sym_upper(a, b, c, d, e, f) -> tuple:
+    """The inverse of the symmetric [[a, b, c], [b, d, e], [c, e, f]] by cofactors, as its upper
+    triangle row by row (six float32: [0,0], [0,1], [0,2], [1,1], [1,2], [2,2])."""
     c00 = d * f - e * e
     c01 = c * e - b * f
     c02 = b * e - c * d
@@ -312,7 +327,13 @@ def inv3_sym(s: np.ndarray) -> np.ndarray:
     c12 = b * c - a * e
     c22 = a * d - b * b
     inv_det = _1 / (a * c00 + b * c01 + c * c02)
-    return np.array([[c00, c01, c02], [c01, c11, c12], [c02, c12, c22]], dtype=np.float32) * inv_det
+    return c00 * inv_det, c01 * inv_det, c02 * inv_det, c11 * inv_det, c12 * inv_det, c22 * inv_det
+
+
+def inv3_sym(s: np.ndarray) -> np.ndarray:
+    """Inverse of a symmetric 3×3 float32 matrix by cofactors."""
+    i00, i01, i02, i11, i12, i22 = inv3_sym_upper(s[0, 0], s[0, 1], s[0, 2], s[1, 1], s[1, 2], s[2, 2])
+    return np.array([[i00, i01, i02], [i01, i11, i12], [i02, i12, i22]], dtype=np.float32)
 
 
 _R_ZUPT = np.eye(3, dtype=np.float32) * (cfg.SIGMA_ZUPT * cfg.SIGMA_ZUPT)

@@ -1,17 +1,18 @@
 """Getting the compiled tracking path ready before a module's clock starts.
 
-With numba the step-wise tracking sequence runs compiled
-(:mod:`firmware_sim.nav.fastpath`). numba compiles a kernel on its first call, or
-loads it from its on-disk cache (``__pycache__`` beside the source, or
-``NUMBA_CACHE_DIR``): about 10 s the first time on a 2-core machine, well under
-a second after that. Whatever drives a module's clock against a host — the
-real-time pacer, the ``openshoe://`` URL handler in virtual time, a batch
-replay, ``serve`` before its READY line, the demo, the benchmarks — calls
+With numba the INS sequences run compiled (:mod:`firmware_sim.nav.fastpath`).
+numba compiles a kernel on its first call, or loads it from its on-disk cache
+(``__pycache__`` beside the source, or ``NUMBA_CACHE_DIR``): about 20 s the first
+time on a 2-core machine, well under a second after that. Whatever drives a
+module's clock against a host — the real-time pacer, the ``openshoe://`` URL
+handler in virtual time, a batch replay, ``serve`` before its READY line, the
+demo, the benchmarks — calls
 :func:`prepare_module` first, so no host ever waits on a compile for a command
 ack.
 
 Preparing runs a scratch module (a board lying still) through the initial
-alignment into step-wise tracking, which calls every compiled kernel once. It
+alignment into step-wise tracking, which calls every compiled kernel once (the
+full-rate INS runs in the same compiled loop, with the same argument types). It
 happens once per process. While it takes longer than a moment, *announce* is
 told why the first start is slower. If the compiled path cannot be had (numba
 missing, or a compile that fails), modules fall back to the pure-Python
@@ -36,7 +37,7 @@ from . import fastpath
 __all__ = ["FIRST_RUN_NOTICE", "CompiledPath", "prepare_compiled_path", "prepare_module", "to_stderr"]
 
 #: What a user reads while the kernels compile.
-FIRST_RUN_NOTICE = "preparing the compiled tracking path (first run only, about 10 s) …"
+FIRST_RUN_NOTICE = "preparing the compiled tracking path (first run only, about 20 s) …"
 #: Loop cycles of the scratch run: alignment (256 still samples + the detector's delay), then tracking.
 WARM_UP_TICKS = 1000
 #: A preparation that takes longer than this [s] is announced while it runs (a cache load takes less).

@@ -23,7 +23,8 @@ from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.replay import ReplaySource
-from protocol.frames import StatePacket, build_packet_ack
+from protocol.frames import StatePacket, build_command, build_packet_ack
+from protocol.ids import Command, StateId
 from protocol.states import STATES
 from protocol.stream import StreamDecoder
 from tests.conftest import WALK_IDS, walk_path
@@ -166,6 +167,78 @@ def test_host_thresholds_and_custom_functions_respected() -> None:
     other.bt.port.host_write(START_STEPWISE)
     other.run(len(source))
     assert not fastpath.FastNav.sequence_matches(other)
+
+
+@pytest.fixture
+def compiled_path(monkeypatch: pytest.MonkeyPatch) -> str:
+    """The compiled path: its kernels compiled with numba, else the same kernels as plain Python."""
+    if fastpath.available():
+        return "compiled"
+    monkeypatch.setattr(fastpath, "available", lambda: True)
+    return "plain Python"
+
+
+START_FULL_RATE_INS = build_command(Command.RESET_ZUPT_AIDED_INS)
+
+
+def test_full_rate_ins_mode_runs_compiled_with_the_same_states(compiled_path: str) -> None:
+    """ZUPT-aided INS (0x33) on a simulated walk: the alignment, then the full-rate INS in quiet
+    stretches of the compiled path — the same states, clock and bytes (the command's ack) as the
+    processing functions give loop by loop."""
+    source = make_source("stand:2+walk:3", seed=6)
+    mods = [build_module(ModuleConfig(compiled=c), sensors=source) for c in (False, True)]
+    for m in mods:
+        m.usb.port.host_write(START_FULL_RATE_INS)
+    while mods[0].clock.ticks < len(source):
+        mods[0].step()
+    while mods[1].clock.ticks < len(source):
+        mods[1].advance(len(source) - mods[1].clock.ticks)
+    _assert_same_module(*mods)
+    assert mods[0].usb.port.host_read() == mods[1].usb.port.host_read() != b""
+    assert fastpath.FastNav.kind(mods[1]) == fastpath.FULL_RATE_INS
+    assert np.linalg.norm(mods[1].memory[StateId.POSITION]) > 0.5, "the foot walked"
+    assert mods[1]._fast.ticks_quiet > 0.8 * len(source), compiled_path
+
+
+def test_full_rate_ins_with_outputs_on_a_bluetooth_link_matches_loop_by_loop(compiled_path: str) -> None:
+    """0x33 with position, velocity and attitude sent every 8th loop over a Bluetooth link model:
+    the compiled sequence loop by loop sends the reference's bytes."""
+    source = make_source("stand:2+walk:2", seed=8)
+    navigation = [StateId.POSITION, StateId.VELOCITY, StateId.QUATERNION, 0, 0, 0, 0, 0]
+    outputs = build_command(Command.OUTPUT_MULTIPLE_STATES, state_ids=navigation, mode=4)
+    mods = [build_module(ModuleConfig(compiled=c), sensors=source, bt_port=make_link("bt", seed=3))
+            for c in (False, True)]
+    wires = [bytearray(), bytearray()]
+    for m in mods:
+        m.bt.port.host_write(START_FULL_RATE_INS + outputs)
+    for _ in range(len(source)):
+        for m, wire in zip(mods, wires, strict=True):
+            m.step()
+            wire += m.bt.port.host_read()
+    assert wires[0] == wires[1] and wires[0].count(b"\xaa") > 100
+    _assert_same_module(*mods)
+    assert mods[1]._fast.ticks_single > 0.9 * len(source), compiled_path
+
+
+def test_an_alignment_restored_on_another_flag_runs_as_the_reference(compiled_path: str) -> None:
+    """The host points RESTORE_PROC_SEQU_IF at ZUPT (0x36) after starting 0x33: the tracking
+    sequence comes in at the first stationary sample, not at the end of the alignment — in
+    quiet stretches too."""
+    source = make_source("stand:2+walk:2", seed=9)
+    restore_on_zupt = build_command(Command.RESET_PROC_SETUP, flag_id=StateId.ZUPT)
+    level = {StateId.QUATERNION: [0, 0, 0, 1]}  # (the INS starts without an attitude of its own)
+    mods = [build_module(ModuleConfig(compiled=c, initial_states=level), sensors=source)
+            for c in (False, True)]
+    for m in mods:
+        m.usb.port.host_write(START_FULL_RATE_INS + restore_on_zupt)
+    while mods[0].clock.ticks < len(source):
+        mods[0].step()
+    while mods[1].clock.ticks < len(source):
+        mods[1].advance(len(source) - mods[1].clock.ticks)
+    _assert_same_module(*mods)
+    assert not mods[1].memory.flag(StateId.INIT_DONE), "tracking began before the alignment was done"
+    assert np.isfinite(mods[1].memory[StateId.QUATERNION]).all()
+    assert mods[1]._fast.ticks_quiet > 0.5 * len(source), compiled_path
 
 
 def test_pure_path_selected_by_environment() -> None:

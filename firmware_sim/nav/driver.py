@@ -1,0 +1,123 @@
+"""The compiled INS sequences: the kernels called in slot order, loop after loop.
+
+One loop of a known sequence runs here from READ_INERTIAL's registers to its last numeric slot,
+reading and writing the states exactly as the processing functions do around the kernels
+(:mod:`~firmware_sim.nav.frontend_kernels`, :mod:`~firmware_sim.nav.ins_kernels`). What needs
+the module's Python objects — a sensor source's other registers, the conditional output, an
+edit of the sequence, the clock, the interfaces — stays with the caller
+(:class:`firmware_sim.nav.fastpath.FastNav`). The kernels get typed records
+(:mod:`~firmware_sim.nav.records`): the state memory, and the work of the front end, of the INS
+and of READ_INERTIAL; :func:`run_loops` takes them as their bytes (numba recognises a byte
+array at once, a record array only after comparing its whole type: µs on every call).
+
+The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP in all three):
+
+* :data:`TRACKING` — step-wise dead reckoning (0x34) after the alignment: STEPWISE_SYSTEM_RESET,
+  MECHANIZATION, TIME_UPDATE, ZUPT_UPDATE, then STATE_OUTPUT_IF (the caller's);
+* :data:`FULL_RATE_INS` — the ZUPT-aided INS (0x33) after the alignment: MECHANIZATION,
+  TIME_UPDATE, ZUPT_UPDATE;
+* :data:`ALIGNMENT` — both modes until the alignment is done: INITIAL_ALIGNMENT, then
+  RESTORE_PROC_SEQU_IF (the caller's).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from protocol.ids import NR_IMUS
+
+from .frontend import FrontendWork
+from .frontend_kernels import biasest, convcomp, preproc, statdet
+from .inertial import InertialWork, latch_registers
+from .ins import InsWork
+from .ins_kernels import initial_alignment, mechanization, stepwise_reset, time_update, zupt_update
+from .jit import compiled_reference, kernel
+from .records import STATE_RECORD
+
+__all__ = ["ALIGNMENT", "FULL_RATE_INS", "NO_SAMPLES", "TRACKING", "run_loops"]
+
+TRACKING, ALIGNMENT, FULL_RATE_INS = 1, 2, 3
+#: An empty register block: the caller has read the loop's sample itself.
+NO_SAMPLES = np.zeros((0, NR_IMUS, 6), dtype=np.int16)
+
+_latch_registers = compiled_reference(latch_registers)
+#: The work records' types (compiled code takes a dtype, not a class).
+_FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK = FrontendWork.DTYPE, InsWork.DTYPE, InertialWork.DTYPE
+
+
+@kernel
+def front_end(s, fw):
+    """PREPROC, STATDET, BIASEST, CONVCOMP of the sample in the raw states (*s*: the states,
+    *fw*: the front end's work)."""
+    preproc(s.imu_raw[:NR_IMUS], fw.cal, fw.bias, s.u_new, s.u_k)
+    out = fw.stat_out
+    statdet(s.u_new, np.int64(s.imu_ts[0]), fw.buf32, fw.buf16, fw.norm, fw.ts, fw.newest, fw.zaru_ab,
+            fw.zaru_cd, fw.zupt_a, fw.zupt_cd, np.int64(s.th_zupt[0]), np.int64(s.th_zaru[0]), s.u_int_k, out)
+    s.t1s2f[0] = out[0]
+    s.t2s2f[0] = out[1]
+    s.zupt[0] = out[2] != 0
+    s.zaru[0] = out[3] != 0
+    s.t_int_k[0] = out[4]
+    biasest(s.u_int_k, s.zaru[0] != 0, fw.gyro_bias, fw.bias_p)
+    convcomp(s.u_int_k, np.int64(s.t_int_k[0]), fw.gyro_bias, fw.t_prev, s.u_k, s.dt)
+
+
+@kernel
+def alignment(s, iw):
+    """INITIAL_ALIGNMENT (*iw*: the INS's work); sets INIT_DONE and returns True when complete."""
+    done = initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p)
+    if done:
+        s.init_done[0] = True
+    return done
+
+
+@kernel
+def step_reset(s, iw):
+    """STEPWISE_SYSTEM_RESET: FILTER_RESET_FLAG, and STEP_COUNTER + 1 when a step ends; returns the flag."""
+    flag = stepwise_reset(s.zupt[0] != 0, s.dt[0], iw, s.position, s.quaternion, s.p, s.dx, s.dp)
+    s.filter_reset_flag[0] = flag
+    if flag:
+        s.step_counter[0] = (np.int64(s.step_counter[0]) + 1) & 0xFFFF
+    return flag
+
+
+@kernel
+def navigation(s, iw):
+    """MECHANIZATION, TIME_UPDATE, and ZUPT_UPDATE while ZUPT."""
+    mechanization(s.u_k, s.dt[0], s.zaru[0] != 0, s.position, s.velocity, s.quaternion, iw.f_n)
+    time_update(iw.f_n, s.dt[0], s.zaru[0] != 0, s.p, iw.p_full)
+    if s.zupt[0] != 0:
+        zupt_update(s.position, s.velocity, s.quaternion, s.p, iw.p_full, s.dt[0])
+
+
+@kernel
+def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work, ins_work, inertial_work):
+    """The numeric slots of up to *n* loops of the sequence *kind*; returns the loops run.
+
+    Loop i reads the registers ``imu[i]`` (READ_INERTIAL: the accelerometer one read late,
+    IMU_TS the cycle counter at ``first_wake + i·period + ts_offset``); with no registers
+    (:data:`NO_SAMPLES`) the caller has read the one loop's sample. Stops after a loop in which
+    a step ends (TRACKING) or the alignment completes (ALIGNMENT). *memory* is the bytes of the
+    state memory's arena, the work arguments the bytes of the FrontendWork, InsWork and
+    InertialWork records (uint8 arrays; a numpy.recarray of them in plain Python).
+    """
+    s = memory.view(STATE_RECORD)[0]
+    fw = frontend_work.view(_FRONTEND_WORK)[0]
+    iw = ins_work.view(_INS_WORK)[0]
+    rw = inertial_work.view(_INERTIAL_WORK)[0]
+    for i in range(n):
+        if len(imu):
+            _latch_registers(imu[i], s.imu_raw, rw.prev_acc, rw.have_prev)
+            s.imu_ts[0] = (first_wake + i * period + ts_offset) & 0xFFFFFFFF
+        front_end(s, fw)
+        if kind == ALIGNMENT:
+            if alignment(s, iw):
+                return i + 1
+        elif kind == TRACKING:
+            step_ended = step_reset(s, iw)
+            navigation(s, iw)
+            if step_ended:
+                return i + 1
+        else:
+            navigation(s, iw)
+    return n

@@ -1,0 +1,164 @@
+"""Compiling the navigation kernels with numba, when numba is there.
+
+numba is optional (the ``fast`` extra). :func:`kernel` compiles a function in nopython mode,
+cached on disk, with C's float division (a division by zero gives inf or NaN, as in the
+reference, never an exception). Without numba, or with ``OPENSHOE_PURE=1``, it returns the
+function itself: every kernel then runs as plain Python, slowly but with the same results —
+which is how the kernel tests run in every job.
+
+* :func:`compiled_reference` compiles a reference function as it is written, the helpers it
+  calls by name replaced by their kernels (compiled code calls only compiled functions).
+* :func:`plain` gives a kernel back as plain Python, with every kernel it calls plain too.
+* :data:`objmode` is numba's object-mode block (a no-op context without numba).
+
+The on-disk cache: numba renews a cached function when its own source file changes, not when
+a function it calls — and compiled into itself — changes in another file. The kernels of one
+sequence span several files, so every cache entry made here is stamped with the contents of
+all of them (:data:`SOURCES`): editing any of them recompiles the kernels.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import os
+import types
+from collections.abc import Callable, Iterator
+from pathlib import Path
+from typing import Any, TypeVar
+
+import protocol.ids
+
+__all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compiled_reference", "kernel", "numba_version", "objmode",
+           "plain", "pure_requested"]
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def pure_requested() -> bool:
+    """Whether the user asked for the pure-Python path (``OPENSHOE_PURE=1``)."""
+    return os.environ.get("OPENSHOE_PURE", "") == "1"
+
+
+try:  # numba is optional (the `fast` extra)
+    if pure_requested():
+        raise ImportError("OPENSHOE_PURE=1")
+    import numba
+    from numba.core import caching
+    from numba.core.registry import CPUDispatcher
+
+    if numba.config.DISABLE_JIT:
+        raise ImportError("NUMBA_DISABLE_JIT=1")
+    NUMBA_ERROR = ""
+except ImportError as _e:  # pragma: no cover - depends on the environment
+    numba = None
+    NUMBA_ERROR = str(_e) or "numba is not installed"
+
+#: Whether :func:`kernel` compiles in this process.
+COMPILING = numba is not None
+
+_HERE = Path(__file__).resolve().parent
+#: The sources whose contents stamp every cached kernel: the navigation package (kernels,
+#: reference functions, constants) and the ids it sizes its arrays by.
+SOURCES = (*sorted(_HERE.glob("*.py")), Path(protocol.ids.__file__).resolve())
+
+
+def numba_version() -> str | None:
+    return None if numba is None else numba.__version__
+
+
+@functools.cache
+def _sources_stamp() -> bytes:
+    digest = hashlib.sha256()
+    for path in SOURCES:
+        digest.update(path.read_bytes())
+    return digest.digest()
+
+
+#: Each kernel's plain-Python function (for :func:`plain`).
+_PLAIN: dict[Any, Callable[..., Any]] = {}
+
+if numba is not None:
+
+    class _Stamped:
+        def get_source_stamp(self) -> bytes:
+            return _sources_stamp()
+
+    class _UserDirLocator(_Stamped, caching.UserProvidedCacheLocator):
+        """NUMBA_CACHE_DIR, when set."""
+
+    class _InTreeLocator(_Stamped, caching.InTreeCacheLocator):
+        """``__pycache__`` beside the source."""
+
+    class _UserWideLocator(_Stamped, caching.UserWideCacheLocator):
+        """The user's cache folder (a read-only installation)."""
+
+    class _StampedCacheImpl(caching.CompileResultCacheImpl):
+        _locator_classes = [_UserDirLocator, _InTreeLocator, _UserWideLocator]
+
+    class _StampedCache(caching.FunctionCache):
+        _impl_class = _StampedCacheImpl
+
+    class _KernelDispatcher(CPUDispatcher):
+        """numba's CPU dispatcher, its on-disk cache stamped with all of :data:`SOURCES`."""
+
+        def enable_caching(self) -> None:
+            self._cache = _StampedCache(self.py_func)
+
+    _OPTIONS = {"nopython": True, "nogil": True, "error_model": "numpy"}
+
+
+def kernel(fn: F, *, nogil: bool = True) -> F:
+    """*fn* compiled (nopython, cached, C division; releasing the GIL unless *nogil* is false:
+    a kernel with an object-mode block needs it), or *fn* itself without numba."""
+    if numba is None:
+        return fn
+    compiled = _KernelDispatcher(fn, targetoptions={**_OPTIONS, "nogil": nogil})
+    compiled.enable_caching()
+    _PLAIN[compiled] = fn
+    return compiled  # type: ignore[return-value]
+
+
+def compiled_reference(fn: F, **helpers: Callable[..., Any]) -> F:
+    """The reference function *fn* compiled as it is written, the helpers it calls by the names
+    in *helpers* going to those kernels. Without numba, *fn* itself."""
+    unknown = set(helpers) - set(fn.__code__.co_names)
+    if unknown:
+        raise NameError(f"{fn.__qualname__} calls no {', '.join(sorted(unknown))}")
+    if numba is None:
+        return fn
+    clone = types.FunctionType(fn.__code__, {**fn.__globals__, **helpers}, fn.__name__, fn.__defaults__,
+                               fn.__closure__)
+    functools.update_wrapper(clone, fn)
+    compiled = kernel(clone)
+    _PLAIN[compiled] = fn
+    return compiled
+
+
+_KernelType: type | tuple[()] = _KernelDispatcher if numba is not None else ()
+
+
+@functools.cache
+def plain(fn: Callable[..., Any]) -> Callable[..., Any]:
+    """The kernel *fn* as plain Python, every kernel it calls by name plain too (*fn* itself when
+    it is no kernel: e.g. every kernel without numba)."""
+    py = _PLAIN.get(fn)
+    if py is None:
+        return fn
+    names = {n: plain(v) for n in py.__code__.co_names if isinstance(v := py.__globals__.get(n), _KernelType)}
+    if not names:
+        return py
+    clone = types.FunctionType(py.__code__, {**py.__globals__, **names}, py.__name__, py.__defaults__,
+                               py.__closure__)
+    return functools.update_wrapper(clone, py)
+
+
+@contextlib.contextmanager
+def _no_objmode(**_types: str) -> Iterator[None]:
+    yield
+
+
+#: ``with objmode(out="float32[::1]"): out = reference(…)`` runs the reference function from
+#: compiled code (numba's object mode); a no-op block without numba.
+objmode = numba.objmode if numba is not None else _no_objmode
