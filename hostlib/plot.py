@@ -97,14 +97,9 @@ def plot_track(
     """
     if every < 1:
         raise ValueError(f"every must be >= 1, got {every}")
-    Figure, FigureCanvasAgg, Ellipse = _matplotlib()
+    Figure, FigureCanvasAgg, _Ellipse = _matplotlib()
     pos = track.positions
-    covs = track.covariances
-    ref = None
-    if reference is not None:
-        ref = np.asarray(reference, dtype=float)
-        if ref.ndim != 2 or ref.shape[1] < 2:
-            raise ValueError(f"reference must be rows of (north, east), got shape {ref.shape}")
+    ref = _reference_rows(reference)
     fig = Figure(figsize=(7, 9.5) if height_profile else (7, 7))
     FigureCanvasAgg(fig)
     if height_profile:
@@ -117,17 +112,7 @@ def plot_track(
     ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label="track")
     ax.plot(pos[0, 1], pos[0, 0], "o", color="tab:green", label="start")
     ax.plot(pos[-1, 1], pos[-1, 0], "s", color="tab:red", label="end")
-    marks = sorted(set(range(0, len(pos), every)) | {len(pos) - 1})
-    shapes = [ellipse_params(covs[k][:2, :2], n_sigma) for k in marks]
-    extent = float(np.ptp(pos[:, :2], axis=0).max()) if len(pos) > 1 else 0.0
-    if scale is None:
-        scale = ellipse_scale(extent, max((w for w, _h, _a in shapes), default=0.0))
-    label = f"{n_sigma:g}σ ellipse" + (f" ×{scale:g}" if scale != 1 else "") + f", every {every} steps"
-    for k, (w, h, ang) in zip(marks, shapes, strict=True):
-        if w > 0:
-            ax.add_patch(Ellipse((pos[k, 1], pos[k, 0]), w * scale, h * scale, angle=ang, fill=False,
-                                 color="tab:orange", lw=1.0, label=label))
-            label = None
+    _draw_ellipses(ax, pos, track.covariances, every, n_sigma, scale)
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
@@ -141,6 +126,34 @@ def plot_track(
     out = Path(path)
     fig.savefig(out, dpi=dpi, format="png")
     return out
+
+
+def _reference_rows(reference: np.ndarray | None) -> np.ndarray | None:
+    """The reference path as float rows of (north, east[, down]), or None; refuses other shapes."""
+    if reference is None:
+        return None
+    ref = np.asarray(reference, dtype=float)
+    if ref.ndim != 2 or ref.shape[1] < 2:
+        raise ValueError(f"reference must be rows of (north, east), got shape {ref.shape}")
+    return ref
+
+
+def _draw_ellipses(ax, pos: np.ndarray, covs: np.ndarray, every: int, n_sigma: float,
+                   scale: float | None) -> None:
+    """The n-σ position ellipse of every *every*-th step and the last, enlarged *scale* times
+    (None: :func:`ellipse_scale`); the legend names the factor once."""
+    _Figure, _Canvas, Ellipse = _matplotlib()
+    marks = sorted(set(range(0, len(pos), every)) | {len(pos) - 1})
+    shapes = [ellipse_params(covs[k][:2, :2], n_sigma) for k in marks]
+    extent = float(np.ptp(pos[:, :2], axis=0).max()) if len(pos) > 1 else 0.0
+    if scale is None:
+        scale = ellipse_scale(extent, max((w for w, _h, _a in shapes), default=0.0))
+    label = f"{n_sigma:g}σ ellipse" + (f" ×{scale:g}" if scale != 1 else "") + f", every {every} steps"
+    for k, (w, h, ang) in zip(marks, shapes, strict=True):
+        if w > 0:
+            ax.add_patch(Ellipse((pos[k, 1], pos[k, 0]), w * scale, h * scale, angle=ang, fill=False,
+                                 color="tab:orange", lw=1.0, label=label))
+            label = None
 
 
 def _draw_height_profile(ax: Any, pos: np.ndarray, ref: np.ndarray | None, reference_label: str) -> None:

@@ -80,54 +80,73 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
         config = ModuleConfig(rate_hz=float(source.rate_hz))
     module = build_module(config, sensors=source)
     prepare_module(module, announce)
-    port = module.bt.port
-    decoder = StreamDecoder()
-    out = bytearray()
+    host = _LosslessHost(module)
+    host.run_source(_source_length(source), progress, progress_every)
+    host.drain()
+    result = ReplayResult(bytes(host.out))
+    result.ticks = host.ticks
+    result.packets = host.packets
     total = _source_length(source)
-    port.host_write(START_STEPWISE)
-    packets = 0
-    ticks = 0
-
-    def loop_once(max_ticks: int = 1) -> int:
-        """Run up to *max_ticks* loops (quiet stretches compiled, when available), then be the host."""
-        nonlocal packets, ticks
-        ticks += module.advance(max_ticks) if max_ticks > 1 else _step(module)
-        data = port.host_read()
-        if not data:
-            return 0
-        out.extend(data)
-        for frame in decoder.feed(data):
-            if isinstance(frame, StatePacket):
-                port.host_write(build_packet_ack(frame.number))
-                packets += 1
-        return len(data)
-
-    next_progress = progress_every
-    while True:
-        if total is not None and module.clock.ticks >= total:
-            break
-        loop_once(min(total - module.clock.ticks, progress_every) if total is not None else 1)
-        if module.sensors_exhausted:
-            break
-        if progress is not None and ticks >= next_progress:
-            progress(ticks, total)
-            next_progress += progress_every
-    # the source has ended: stop processing, let the queue drain
-    module.sequence.empty()
-    quiet = 0
-    for _ in range(DRAIN_TICKS):
-        if loop_once() == 0 and port.rx_pending() == 0:
-            quiet += 1
-            if quiet > 2 and len(module.bt.queue) == 0:
-                break
-        else:
-            quiet = 0
-    result = ReplayResult(bytes(out))
-    result.ticks = ticks
-    result.packets = packets
-    result.samples = ticks if total is None else min(total, ticks)
+    result.samples = host.ticks if total is None else min(total, host.ticks)
     result.module = module
     return result
+
+
+class _LosslessHost:
+    """The host side of a batch replay: starts step-wise tracking over Bluetooth, keeps every
+    byte the module sends and acknowledges each state packet, as a lossless host does."""
+
+    def __init__(self, module: Module):
+        self.module = module
+        self.port = module.bt.port
+        self.decoder = StreamDecoder()
+        self.out = bytearray()
+        self.packets = 0
+        self.ticks = 0
+        self.port.host_write(START_STEPWISE)
+
+    def loop_once(self, max_ticks: int = 1) -> int:
+        """Run up to *max_ticks* loops (quiet stretches compiled, when available), then read and
+        acknowledge; returns the number of bytes read."""
+        module = self.module
+        self.ticks += module.advance(max_ticks) if max_ticks > 1 else _step(module)
+        data = self.port.host_read()
+        if not data:
+            return 0
+        self.out.extend(data)
+        for frame in self.decoder.feed(data):
+            if isinstance(frame, StatePacket):
+                self.port.host_write(build_packet_ack(frame.number))
+                self.packets += 1
+        return len(data)
+
+    def run_source(self, total: int | None, progress: Callable[[int, int | None], None] | None,
+                   progress_every: int) -> None:
+        """Loop until the source's *total* samples ran or it is exhausted."""
+        module = self.module
+        next_progress = progress_every
+        while True:
+            if total is not None and module.clock.ticks >= total:
+                break
+            self.loop_once(min(total - module.clock.ticks, progress_every) if total is not None else 1)
+            if module.sensors_exhausted:
+                break
+            if progress is not None and self.ticks >= next_progress:
+                progress(self.ticks, total)
+                next_progress += progress_every
+
+    def drain(self) -> None:
+        """The source has ended: stop processing and let the queue drain (at most DRAIN_TICKS)."""
+        module = self.module
+        module.sequence.empty()
+        quiet = 0
+        for _ in range(DRAIN_TICKS):
+            if self.loop_once() == 0 and self.port.rx_pending() == 0:
+                quiet += 1
+                if quiet > 2 and len(module.bt.queue) == 0:
+                    break
+            else:
+                quiet = 0
 
 
 def _step(module: Module) -> int:
