@@ -24,6 +24,16 @@ def test_result_line_format_and_ratio() -> None:
     assert "SHORT" in short.line()
 
 
+def test_the_targets_do_not_import_the_package_that_runs_them() -> None:
+    """``tools.bench`` runs ``tools.bench.targets``; both take Result from ``tools.bench.result``."""
+    from tests.test_layering import project_imports
+    from tools.bench import result
+
+    assert "tools.bench" not in project_imports("tools.bench.targets")
+    assert "tools.bench" not in project_imports("tools.bench.result")
+    assert Result is result.Result
+
+
 def test_machine_is_noted() -> None:
     m = machine_info()
     assert {"cpu", "cores", "python", "numpy", "numba", "compiled_path"} <= m.keys()

@@ -26,8 +26,8 @@ from firmware_sim.sensors.imu_array import make_source
 from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
 from protocol.stream import StreamDecoder
 
-from . import Result
 from .driver import START_STEPWISE, run_session
+from .result import Result
 
 Say = Callable[[str], None]
 
