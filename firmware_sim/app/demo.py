@@ -30,16 +30,12 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from firmware_sim.links.link import make_link
 from firmware_sim.mcu.imu_bus import SensorSource
-from firmware_sim.mcu.module import ModuleConfig
-from firmware_sim.mcu.port import IdealPort
-from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.warmup import prepare_compiled_path
 from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.truth import GroundTruth
+from firmware_sim.transports.factory import EmulatorSettings, build
 from firmware_sim.transports.pacer import Pacer
-from firmware_sim.transports.pty_endpoint import PtyEndpoint
 from hostlib.tracking import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
@@ -160,6 +156,9 @@ def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
 class _EmulatedModule:
     """The module on a Bluetooth link model behind a pty, run by a pacer; a context manager.
 
+    Built like every served module (:func:`firmware_sim.transports.factory.build`), playing
+    the route the demo simulated.
+
     The route starts when the host starts tracking (the module's first sensor read), and
     after it the walker stands still. :attr:`last_step` is the module's step counter
     :data:`TAIL_S` after the route's end — noted inside the loop, so it is exact however
@@ -168,14 +167,20 @@ class _EmulatedModule:
 
     def __init__(self, route: _Route, args: argparse.Namespace):
         self.played = served_source(route.source)
-        self.link = make_link(args.link, seed=args.seed)
-        self.module = build_module(ModuleConfig(rate_hz=route.source.rate_hz), self.played,
-                             usb_port=IdealPort(connected=False), bt_port=self.link)
-        self.route_ticks = route.ticks
-        self.last_step: int | None = None
         self._tmp = tempfile.TemporaryDirectory(prefix="openshoe-demo-")
         self.pty_path = Path(self._tmp.name) / "openshoe0"
-        self.pacer = Pacer(self.module, [PtyEndpoint(self.link, self.pty_path)], speed=args.speed)
+        settings = EmulatorSettings(scenario=args.scenario, seed=args.seed, link=args.link, interface="bt",
+                                    speed=args.speed, pty=str(self.pty_path))
+        try:
+            built = build(settings, sensors=self.played)
+        except BaseException:
+            self._tmp.cleanup()
+            raise
+        self.link = built.link
+        self.module = built.module
+        self.route_ticks = route.ticks
+        self.last_step: int | None = None
+        self.pacer = Pacer(self.module, built.endpoints, speed=settings.speed)
         self._step = self.module.step
         self.module.step = self._step_and_note_the_end  # type: ignore[method-assign]
 

@@ -18,6 +18,11 @@ Then a status line is kept up to date on stderr. ``--control`` opens a line
 protocol on TCP to drive faults at run time (:data:`~firmware_sim.app.control.CONTROL_HELP`). SIGINT and
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
 exit with status 0.
+
+The options become :class:`ServeSettings` at the command line's edge
+(:func:`settings_from_args`; a refused value exits with status 2 and says which
+option); each module, its links and endpoints are built by
+:func:`firmware_sim.transports.factory.build`.
 """
 
 from __future__ import annotations
@@ -31,20 +36,11 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
+from dataclasses import dataclass, field, replace
 from typing import Any, TextIO
 
-from firmware_sim.links.link import Link, LinkFaults, make_link
-from firmware_sim.mcu.module import ModuleConfig
-from firmware_sim.mcu.port import IdealPort, Port
-from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.playback import served_source
-from firmware_sim.transports.factory import make_sensors
-from firmware_sim.transports.hub import HostHub
+from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
-from firmware_sim.transports.pty_endpoint import PtyEndpoint
-from firmware_sim.transports.rfc2217 import Rfc2217Endpoint
-from firmware_sim.transports.tcp import TcpEndpoint
 
 from .control import ControlServer
 from .frame_trace import TraceWriter
@@ -135,198 +131,247 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 MANY_MODULES_FRAME_MS = 4.0
 
 
-def frame_ticks(args: argparse.Namespace, rate_hz: float) -> int:
-    """Ticks per frame from ``--frame-ms`` (at least one tick)."""
-    ms = args.frame_ms
+# --------------------------------------------------------------------------- settings
+
+
+@dataclass(frozen=True)
+class ServeSettings:
+    """What ``serve`` runs: its modules and where hosts connect (*emulator*), and how it runs.
+
+    Checked when made (:class:`~firmware_sim.transports.factory.SettingsError`). *trace*: a
+    file for every frame in and out (the modules record frames only then). *frame_ms*,
+    *overrun_ms*: see ``--frame-ms``, ``--overrun-ms`` (None: the default).
+    """
+
+    emulator: EmulatorSettings
+    control: Address | None = None
+    trace: str = ""
+    duration: float | None = None
+    status_interval: float = 1.0
+    frame_ms: float | None = None
+    overrun_ms: float | None = None
+
+    def __post_init__(self) -> None:
+        if not self.emulator.endpoint_requests():
+            raise SettingsError("say where hosts connect: {} PATH and/or {} [HOST:]PORT", "pty", "tcp")
+        for name in ("frame_ms", "overrun_ms"):
+            value = getattr(self, name)
+            if value is not None and not value >= 0:
+                raise SettingsError("{} must be >= 0", name, got=value)
+
+
+def settings_from_args(args: argparse.Namespace) -> ServeSettings:
+    """The options of :func:`add_arguments` as settings; SettingsError for a refused value."""
+    emulator = EmulatorSettings(
+        scenario=args.scenario, replay=args.replay or "", seed=args.seed, command_set=args.command_set,
+        speed=args.speed, interface=args.interface, link=args.link or args.interface,
+        loss=args.loss, corrupt=args.corrupt, stall_rate=args.stall_rate,
+        disconnect_rate=args.disconnect_rate, pty=args.pty or "", tcp=args.tcp, rfc2217=args.rfc2217,
+        usb_pty=args.usb_pty or "", usb_tcp=args.usb_tcp, modules=args.modules)
+    return ServeSettings(emulator, control=args.control, trace=args.trace or "", duration=args.duration,
+                         status_interval=args.status_interval, frame_ms=args.frame_ms,
+                         overrun_ms=args.overrun_ms)
+
+
+def cli_option(name: str) -> str:
+    """A setting's name as the command line spells it: ``usb_pty`` → ``--usb-pty``."""
+    return "--" + name.replace("_", "-")
+
+
+def frame_ticks(settings: ServeSettings, rate_hz: float) -> int:
+    """Ticks per frame from ``frame_ms`` (at least one tick)."""
+    ms = settings.frame_ms
     if ms is None:
-        ms = MANY_MODULES_FRAME_MS if args.modules > 1 else 0.0
+        ms = MANY_MODULES_FRAME_MS if settings.emulator.modules > 1 else 0.0
     return max(1, round(ms * rate_hz / 1000.0))
 
 
 # --------------------------------------------------------------------------- building
 
 
-def _faults(args: argparse.Namespace) -> LinkFaults | None:
-    if not (args.loss or args.corrupt or args.stall_rate or args.disconnect_rate):
-        return None
-    return LinkFaults.both(byte_loss=args.loss, corrupt=args.corrupt, stall_rate_hz=args.stall_rate,
-                           disconnect_rate_hz=args.disconnect_rate)
+def build_served_module(settings: EmulatorSettings, index: int) -> ServedModule:
+    """Module *index* of *settings* (:func:`~firmware_sim.transports.factory.build`) with its pacer."""
+    built = build(settings, index)
+    pacer = Pacer(built.module, built.endpoints, speed=settings.speed)
+    return ServedModule(index, built.module, built.links, built.endpoints, pacer, built.ready)
 
 
-def _indexed_path(path: str, index: int, n: int) -> str:
-    return path if n == 1 else f"{path}{index}"
+@dataclass
+class _Served:
+    """What a run of ``serve`` holds open (closed by :func:`_shut_down`)."""
+
+    modules: list[ServedModule] = field(default_factory=list)
+    control: ControlServer | None = None
+    trace: TraceWriter | None = None
+    loop: MultiPacer | None = None
+    sel: selectors.BaseSelector = field(default_factory=selectors.DefaultSelector)
 
 
-def _indexed_port(addr: tuple[str, int] | None, index: int) -> tuple[str, int] | None:
-    if addr is None:
-        return None
-    host, port = addr
-    return host, (port + index if port else 0)
+def _open(served: _Served, settings: ServeSettings) -> None:
+    """Build every module, then open the control channel and the trace file, each into *served*."""
+    emulator = replace(settings.emulator, trace=bool(settings.trace))
+    for i in range(emulator.modules):
+        served.modules.append(build_served_module(emulator, i))
+    if settings.control:
+        served.control = ControlServer(served.modules, *settings.control)
+        served.control.register(served.sel)
+    if settings.trace:
+        served.trace = TraceWriter(settings.trace, served.modules)
 
 
-def build_served_module(args: argparse.Namespace, index: int) -> ServedModule:
-    """Module *index* of ``serve``: sensors, links, endpoints on its interfaces, and a pacer."""
-    seed = args.seed + index
-    rate_hz = 1000.0
-    if args.replay:
-        from firmware_sim.sensors.replay import ReplaySource
+def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
+    """One loop for every module's pacer, prepared (compiled path) and started."""
+    rate_hz = served.modules[0].module.clock.rate_hz
+    served.loop = MultiPacer([m.pacer for m in served.modules], frame_ticks=frame_ticks(settings, rate_hz),
+                             overrun_s=None if settings.overrun_ms is None else settings.overrun_ms / 1000.0)
+    served.loop.prepare(announce=lambda text: print(text, file=err, flush=True))
+    gc.collect()
+    gc.freeze()  # what exists now is never scanned again: no long collections in the loop
+    # the status line and the control channel run in this thread: hand the interpreter
+    # back to the loop within 0.2 ms, not the default 5 ms (a dozen missed ticks)
+    sys.setswitchinterval(2e-4)
+    served.loop.start()
 
-        recording = ReplaySource.from_file(args.replay)
-        rate_hz = recording.rate_hz
-        sensors = served_source(recording)
-    else:
-        sensors = make_sensors(args.scenario, seed, rate_hz)
-    config = ModuleConfig(rate_hz=rate_hz, command_set=args.command_set, trace=bool(args.trace))
-    main_kind = args.interface
-    other = "usb" if main_kind == "bt" else "bt"
-    links: dict[str, Link] = {main_kind: make_link(args.link or main_kind, seed=seed, faults=_faults(args))}
-    n = args.modules
-    wants = {main_kind: (args.pty, args.tcp, args.rfc2217), other: (None, None, None)}
-    if args.usb_pty or args.usb_tcp:
-        if main_kind == "usb":
-            raise SystemExit("openshoe-emu serve: --usb-pty/--usb-tcp need --interface bt")
-        links["usb"] = make_link("usb", seed=seed)
-        wants["usb"] = (args.usb_pty, args.usb_tcp, None)
-    ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
-    module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
-    endpoints: list[Any] = []
-    ready: list[tuple[str, str]] = []
-    prefix = "" if n == 1 else f"m{index}."
-    try:
-        for kind, (pty_path, tcp_addr, rfc_addr) in wants.items():
-            if kind not in links:
-                continue
-            shared = sum(x is not None and x != "" for x in (pty_path, tcp_addr, rfc_addr)) > 1
-            hub = HostHub(links[kind]) if shared else None
-            if pty_path:
-                path = _indexed_path(pty_path, index, n)
-                ep = PtyEndpoint(hub.tap("pty") if hub else links[kind], path)
-                endpoints.append(ep)
-                ready.append((f"{prefix}{kind}-pty", str(Path(path))))
-            if tcp_addr:
-                host, port = _indexed_port(tcp_addr, index)
-                ep = TcpEndpoint(hub.tap("tcp") if hub else links[kind], host, port)
-                endpoints.append(ep)
-                ready.append((f"{prefix}{kind}-tcp", f"{ep.address[0]}:{ep.address[1]}"))
-            if rfc_addr:
-                host, port = _indexed_port(rfc_addr, index)
-                ep = Rfc2217Endpoint(hub.tap("rfc2217") if hub else links[kind], host, port)
-                endpoints.append(ep)
-                ready.append((f"{prefix}{kind}-rfc2217", f"{ep.address[0]}:{ep.address[1]}"))
-    except BaseException:
-        for ep in endpoints:
-            ep.close()
-        raise
-    pacer = Pacer(module, endpoints, speed=args.speed)
-    return ServedModule(index, module, links, endpoints, pacer, ready)
+
+def ready_line(modules: list[ServedModule], control: ControlServer | None) -> str:
+    """``READY key=value …``: every module's endpoints, then the control channel."""
+    fields = [f"{k}={v}" for m in modules for k, v in m.ready]
+    if control is not None:
+        fields.append(f"control={control.address[0]}:{control.address[1]}")
+    return "READY " + " ".join(fields)
 
 
 # --------------------------------------------------------------------------- running
 
 
-def serve(args: argparse.Namespace, out: TextIO = sys.stdout, err: TextIO = sys.stderr,
-          stop: threading.Event | None = None) -> int:
-    """Run ``serve`` until *stop* is set, SIGINT/SIGTERM, or ``--duration``; returns the exit status."""
-    if not (args.pty or args.tcp or args.rfc2217 or args.usb_pty or args.usb_tcp):
-        print("openshoe-emu serve: say where hosts connect: --pty PATH and/or --tcp [HOST:]PORT", file=err)
-        return 2
-    if args.modules < 1:
-        print("openshoe-emu serve: --modules must be >= 1", file=err)
-        return 2
-    if args.speed < 0:
-        print("openshoe-emu serve: --speed must be >= 0", file=err)
-        return 2
-    for name in ("frame_ms", "overrun_ms"):
-        value = getattr(args, name)
-        if value is not None and not value >= 0:
-            print(f"openshoe-emu serve: --{name.replace('_', '-')} must be >= 0", file=err)
-            return 2
-    stop = stop if stop is not None else threading.Event()
-    modules: list[ServedModule] = []
-    loop: MultiPacer | None = None
-    control: ControlServer | None = None
-    trace: TraceWriter | None = None
-    old_handlers = {}
+def status_text(modules: list[ServedModule]) -> str:
+    """Every module's status, ``m<i>``-prefixed when there are several."""
+    if len(modules) == 1:
+        return modules[0].status_line()
+    return " || ".join(f"m{m.index} {m.status_line()}" for m in modules)
+
+
+class _StatusLines:
+    """The status on *err* every *interval* s (0: never); on a terminal, kept on one line."""
+
+    def __init__(self, modules: list[ServedModule], interval: float, err: TextIO):
+        self.modules = modules
+        self.interval = interval
+        self.err = err
+        self.next = time.monotonic() + interval if interval > 0 else None
+        self.is_tty = getattr(err, "isatty", lambda: False)()
+
+    def when_due(self) -> None:
+        if self.next is None or time.monotonic() < self.next:
+            return
+        self.next += self.interval
+        text = status_text(self.modules)
+        if self.is_tty:
+            print("\r" + text, end="", file=self.err, flush=True)
+        else:
+            print(text, file=self.err, flush=True)
+
+
+def _stopped_module(served: _Served, err: TextIO) -> bool:
+    """Whether a module's loop failed (each one said on *err*)."""
+    broken = [m for m in served.modules if m.pacer.error is not None]
+    for m in broken:
+        print(f"\nopenshoe-emu serve: module {m.index} stopped: {m.pacer.error!r}", file=err)
+    return bool(broken)
+
+
+def _run(served: _Served, settings: ServeSettings, stop: threading.Event, err: TextIO) -> int:
+    """Serve until *stop* is set or the duration ends (0), or a module fails (1).
+
+    Meanwhile the control channel is answered, the status line kept and the trace written.
+    """
+    t_end = None if settings.duration is None else time.monotonic() + settings.duration
+    status = _StatusLines(served.modules, settings.status_interval, err)
+    sel = served.sel
+    while not stop.is_set():
+        if t_end is not None and time.monotonic() >= t_end:
+            break
+        if _stopped_module(served, err):
+            return 1
+        for key, _ in sel.select(timeout=0.1) if sel.get_map() else []:
+            key.data.handle(sel, key.fileobj)
+        if not sel.get_map():
+            stop.wait(0.1)
+        status.when_due()
+        if served.trace is not None:
+            served.trace.flush()
+    return 0
+
+
+def _shut_down(served: _Served, err: TextIO) -> bool:
+    """Stop the loop and close what *served* holds; False if the loop would not stop."""
+    stopped = True
+    if served.loop is not None:
+        try:
+            served.loop.stop()
+        except RuntimeError as exc:
+            print(f"openshoe-emu serve: {exc}", file=err)
+            stopped = False
+    for m in served.modules:
+        for ep in m.endpoints:  # the pacer closes them when its loop ends; never started → here
+            ep.close()
+    if served.control is not None:
+        served.control.close()
+    if served.trace is not None:
+        served.trace.flush(stopped=True)
+        served.trace.close()
+    served.sel.close()
+    return stopped
+
+
+def _stop_on_signals(stop: threading.Event) -> dict[int, Any]:
+    """SIGINT and SIGTERM set *stop* (in the main thread only); returns the handlers they had."""
+    old: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
         for sig in (signal.SIGINT, signal.SIGTERM):
-            old_handlers[sig] = signal.signal(sig, lambda *_: stop.set())
-    sel = selectors.DefaultSelector()
+            old[sig] = signal.signal(sig, lambda *_: stop.set())
+    return old
+
+
+def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.stderr,
+          stop: threading.Event | None = None) -> int:
+    """Run ``serve`` until *stop* is set, SIGINT/SIGTERM, or the duration; returns the exit status.
+
+    1 when a module cannot be built or an endpoint opened (said on *err*), or a module fails.
+    """
+    stop = stop if stop is not None else threading.Event()
+    served = _Served()
+    old_handlers = _stop_on_signals(stop)
     status = 0
     try:
         try:
-            for i in range(args.modules):
-                modules.append(build_served_module(args, i))
-            if args.control:
-                control = ControlServer(modules, *args.control)
-                control.register(sel)
-            if args.trace:
-                trace = TraceWriter(args.trace, modules)
+            _open(served, settings)
         except (OSError, ValueError) as exc:
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
-        rate_hz = modules[0].module.clock.rate_hz
-        loop = MultiPacer([m.pacer for m in modules], frame_ticks=frame_ticks(args, rate_hz),
-                          overrun_s=None if args.overrun_ms is None else args.overrun_ms / 1000.0)
-        loop.prepare(announce=lambda text: print(text, file=err, flush=True))
-        gc.collect()
-        gc.freeze()  # what exists now is never scanned again: no long collections in the loop
-        # the status line and the control channel run in this thread: hand the interpreter
-        # back to the loop within 0.2 ms, not the default 5 ms (a dozen missed ticks)
-        sys.setswitchinterval(2e-4)
-        loop.start()
-        fields = [f"{k}={v}" for m in modules for k, v in m.ready]
-        if control is not None:
-            fields.append(f"control={control.address[0]}:{control.address[1]}")
-        print("READY " + " ".join(fields), file=out, flush=True)
-        t_end = None if args.duration is None else time.monotonic() + args.duration
-        next_status = time.monotonic() + args.status_interval if args.status_interval > 0 else None
-        is_tty = getattr(err, "isatty", lambda: False)()
-        while not stop.is_set():
-            now = time.monotonic()
-            if t_end is not None and now >= t_end:
-                break
-            broken = [m for m in modules if m.pacer.error is not None]
-            if broken:
-                for m in broken:
-                    print(f"\nopenshoe-emu serve: module {m.index} stopped: {m.pacer.error!r}", file=err)
-                status = 1
-                break
-            for key, _ in sel.select(timeout=0.1) if sel.get_map() else []:
-                key.data.handle(sel, key.fileobj)
-            if not sel.get_map():
-                stop.wait(0.1)
-            if next_status is not None and time.monotonic() >= next_status:
-                next_status += args.status_interval
-                text = " || ".join(f"m{m.index} {m.status_line()}" if len(modules) > 1 else m.status_line()
-                                   for m in modules)
-                print(("\r" + text) if is_tty else text, end="" if is_tty else "\n", file=err, flush=True)
-            if trace is not None:
-                trace.flush()
+        _start_loop(served, settings, err)
+        print(ready_line(served.modules, served.control), file=out, flush=True)
+        status = _run(served, settings, stop, err)
     finally:
-        if loop is not None:
-            try:
-                loop.stop()
-            except RuntimeError as exc:
-                print(f"openshoe-emu serve: {exc}", file=err)
-                status = 1
-        for m in modules:
-            for ep in m.endpoints:  # the pacer closes them when its loop ends; never started → here
-                ep.close()
-        if control is not None:
-            control.close()
-        if trace is not None:
-            trace.flush(stopped=True)
-            trace.close()
-        sel.close()
-        for sig, h in old_handlers.items():
-            signal.signal(sig, h)
+        if not _shut_down(served, err):
+            status = 1
+        for sig, handler in old_handlers.items():
+            signal.signal(sig, handler)
     print("\nSTOPPED" if getattr(err, "isatty", lambda: False)() else "STOPPED", file=err, flush=True)
     return status
 
 
 def main(args: argparse.Namespace) -> int:
-    """Entry point of the ``serve`` subcommand (argparse namespace from :func:`add_arguments`)."""
-    return serve(args)
+    """Entry point of the ``serve`` subcommand (argparse namespace from :func:`add_arguments`).
+
+    Refused options end here: the message on stderr, exit status 2.
+    """
+    try:
+        settings = settings_from_args(args)
+    except SettingsError as exc:
+        print(f"openshoe-emu serve: {exc.spelled(cli_option, with_value=False)}", file=sys.stderr)
+        return 2
+    return serve(settings)
 
 
 # --------------------------------------------------------------------------- for host-app tests

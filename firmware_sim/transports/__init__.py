@@ -8,7 +8,8 @@
 * :mod:`.pty` — :class:`PtyEndpoint`, a pty behind a stable symlink for ``serial.Serial(path)``;
 * :mod:`.protocol_openshoe` — the pyserial ``openshoe://`` URL handler, registered on import
   of this package (:func:`register_url_handler`);
-* :mod:`.factory` — build a module + link from URL-style settings.
+* :mod:`.factory` — :class:`EmulatorSettings` (checked when made) and :func:`build`: a module,
+  its links and the endpoints asked for; used by ``serve``, the URL handler and the demo.
 """
 
 from __future__ import annotations

@@ -1,36 +1,92 @@
-"""Build an emulated module with a link model on one interface, from a few settings.
+"""Build an emulated module, its links and the endpoints hosts reach it on, from settings.
 
-The settings are those of the ``openshoe://`` URL (and fit a CLI's options)::
+Everything that serves a module describes it as :class:`EmulatorSettings` and
+calls :func:`build`: ``openshoe-emu serve``, the ``openshoe://`` URL handler
+(:mod:`.protocol_openshoe`) and the demo. The settings are checked when they are
+made (:class:`SettingsError`, a ValueError naming the option).
 
-    scenario     sensor scenario name (firmware_sim.sensors.make_source), "default"
-    seed         seed of the sensors and the link's jitter/faults, 0
+The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
+
+    scenario     sensor scenario name or recipe (firmware_sim.sensors.make_source), "default"
+    seed         seed of the sensors and the link's jitter/faults, 0 (module i of several: seed + i)
     link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
     speed        0 = virtual time as the host waits; s > 0 = real time × s, 0
     loss, corrupt   per-byte fault probabilities on both directions, 0
+    stall_rate, disconnect_rate   random stalls / disconnects per second, 0
+    replay       a recording (OpenShoe text or CSV) played instead of the scenario
+    trace        record every frame in and out (``module.trace``), False
+    pty, tcp, rfc2217   endpoints on the served interface: a pty path, (host, port) pairs
+    usb_pty, usb_tcp    endpoints on the USB interface beside a served Bluetooth one
+    modules      how many modules the settings describe: module i gets PATH<i> and PORT + i, 1
 
-The served interface gets the link; the other one is left unplugged.
+The served interface gets the link; the other one is left unplugged, but for USB
+endpoints beside a served Bluetooth interface, which get a USB link of their own
+(no faults). Two or more endpoints on one interface share its link
+(:class:`~firmware_sim.transports.hub.HostHub`).
 """
 
 from __future__ import annotations
 
-import math
+from collections.abc import Callable
 from dataclasses import dataclass, fields
+from pathlib import Path
+from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from firmware_sim.links.link import Link, LinkFaults, make_link
+from firmware_sim.links.link import PROFILES, Link, LinkFaults, make_link
+from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
 from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
-from firmware_sim.mcu.port import IdealPort
+from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
+from protocol.commands import COMMAND_SETS
+
+from .hub import HostHub
+from .rfc2217 import Rfc2217Endpoint
+from .tcp import TcpEndpoint
+
+#: ``(host, port)`` of a listening endpoint; port 0 = pick a free one.
+Address = tuple[str, int]
+
+#: The settings an ``openshoe://`` URL may give, in the order its error messages list them.
+URL_OPTIONS = ("scenario", "seed", "link", "interface", "command_set", "speed", "loss", "corrupt")
+
+_NO_VALUE = object()
+
+
+class SettingsError(ValueError):
+    """A refused setting. *template* has one ``{}`` per name in *options*; *got* is the bad value.
+
+    ``str()`` names the options as :class:`EmulatorSettings` does (``speed must be >= 0,
+    got -1.0``); :meth:`spelled` names them the caller's way (a command line: ``--speed``).
+    """
+
+    def __init__(self, template: str, *options: str, got: object = _NO_VALUE):
+        self.template = template
+        self.options = options
+        self.got = got
+        super().__init__(self.spelled())
+
+    def spelled(self, spell: Callable[[str], str] = str, with_value: bool = True) -> str:
+        """The message with each option written as ``spell(name)``; *with_value*: add ``, got …``."""
+        text = self.template.format(*(spell(name) for name in self.options))
+        if with_value and self.got is not _NO_VALUE:
+            text += f", got {self.got!r}"
+        return text
+
+
+def _literal(value: object) -> str:
+    """*value*'s repr, safe inside a :class:`SettingsError` template."""
+    return repr(value).replace("{", "{{").replace("}", "}}")
 
 
 @dataclass(frozen=True)
 class EmulatorSettings:
-    """What an ``openshoe://`` URL asks for."""
+    """One module (or *modules* alike), its link and where hosts connect; checked when made."""
 
     scenario: str = "default"
     seed: int = 0
@@ -40,12 +96,72 @@ class EmulatorSettings:
     speed: float = 0.0
     loss: float = 0.0
     corrupt: float = 0.0
+    stall_rate: float = 0.0
+    disconnect_rate: float = 0.0
+    replay: str = ""
+    trace: bool = False
+    pty: str = ""
+    tcp: Address | None = None
+    rfc2217: Address | None = None
+    usb_pty: str = ""
+    usb_tcp: Address | None = None
+    modules: int = 1
+
+    def __post_init__(self) -> None:
+        self._check_module()
+        self._check_link()
+        self._check_endpoints()
+
+    def _check_module(self) -> None:
+        if str(self.command_set) not in COMMAND_SETS:
+            raise SettingsError("{} must be 2014 or 2015", "command_set", got=self.command_set)
+        if not self.speed >= 0:  # NaN too
+            raise SettingsError("{} must be >= 0", "speed", got=self.speed)
+        if self.modules < 1:
+            raise SettingsError("{} must be >= 1", "modules", got=self.modules)
+
+    def _check_link(self) -> None:
+        if self.served_interface not in ("usb", "bt"):
+            raise SettingsError("{} must be usb or bt", "interface", got=self.interface)
+        if self.link.lower() not in PROFILES:
+            raise SettingsError(f"unknown {{}} profile {_literal(self.link)}; known: bt, usb, ideal", "link")
+        for name in ("loss", "corrupt"):
+            if not 0.0 <= getattr(self, name) <= 1.0:
+                raise SettingsError("{} must be a probability 0..1", name, got=getattr(self, name))
+        for name in ("stall_rate", "disconnect_rate"):
+            if not getattr(self, name) >= 0:
+                raise SettingsError("{} must be >= 0", name, got=getattr(self, name))
+
+    def _check_endpoints(self) -> None:
+        if (self.usb_pty or self.usb_tcp) and self.served_interface == "usb":
+            raise SettingsError("{}/{} need {} bt", "usb_pty", "usb_tcp", "interface")
+        for name in ("tcp", "rfc2217", "usb_tcp"):
+            address = getattr(self, name)
+            if address is None:
+                continue
+            port = address[1]
+            if not 0 <= port <= 65535:
+                raise SettingsError("{} port must be 0..65535", name, got=port)
+            if port and port + self.modules - 1 > 65535:
+                raise SettingsError(f"{{}} port {port} + one per module runs past 65535 with "
+                                    f"{self.modules} {{}}", name, "modules")
 
     @property
     def served_interface(self) -> str:
+        """The interface with the link: ``interface``, or ``bt`` for a Bluetooth link, else ``usb``."""
         if self.interface:
-            return self.interface
+            return "bt" if self.interface == "bluetooth" else self.interface
         return "bt" if self.link in ("bt", "bluetooth") else "usb"
+
+    def endpoint_requests(self) -> dict[str, dict[str, Any]]:
+        """Interface → endpoint kind (:data:`ENDPOINT_KINDS`) → where, for the endpoints asked for."""
+        wants: dict[str, dict[str, Any]] = {
+            self.served_interface: {"pty": self.pty, "tcp": self.tcp, "rfc2217": self.rfc2217}}
+        if self.served_interface == "bt":
+            wants["usb"] = {"pty": self.usb_pty, "tcp": self.usb_tcp}
+        asked = {iface: {kind: where for kind, where in kinds.items() if where}
+                 for iface, kinds in wants.items()}
+        return {iface: kinds for iface, kinds in asked.items() if kinds}
 
     @classmethod
     def from_url(cls, url: str) -> EmulatorSettings:
@@ -53,28 +169,22 @@ class EmulatorSettings:
         parts = urlsplit(url)
         if parts.scheme.lower() != "openshoe":
             raise ValueError(f"expected an openshoe:// URL, got {url!r}")
-        known = {f.name: f for f in fields(cls)}
+        types = {f.name: f.type for f in fields(cls)}
         kw: dict[str, object] = {}
         for key, values in parse_qs(parts.query, keep_blank_values=True).items():
-            if key not in known:
-                raise ValueError(f"unknown option {key!r} in {url!r}; known: {', '.join(known)}")
+            if key not in URL_OPTIONS:
+                raise ValueError(f"unknown option {key!r} in {url!r}; known: {', '.join(URL_OPTIONS)}")
             raw = values[-1]
-            typ = known[key].type
             try:
-                if typ in ("int", int):
+                if types[key] in ("int", int):
                     kw[key] = int(raw)
-                elif typ in ("float", float):
+                elif types[key] in ("float", float):
                     kw[key] = float(raw)
                 else:
                     kw[key] = raw
             except ValueError:
                 raise ValueError(f"option {key}={raw!r} in {url!r} is not a number") from None
-        s = cls(**kw)  # type: ignore[arg-type]
-        if s.speed < 0 or math.isnan(s.speed):
-            raise ValueError(f"speed must be >= 0, got {s.speed}")
-        if s.served_interface not in ("usb", "bt", "bluetooth"):
-            raise ValueError(f"interface must be usb or bt, got {s.interface!r}")
-        return s
+        return cls(**kw)  # type: ignore[arg-type]
 
 
 def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource:
@@ -91,17 +201,136 @@ def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource:
     return served_source(source)
 
 
-def build(settings: EmulatorSettings) -> tuple[Module, Link]:
-    """A module whose served interface has the asked-for link (connected), the other unplugged."""
-    faults = None
-    if settings.loss or settings.corrupt:
-        faults = LinkFaults.both(byte_loss=settings.loss, corrupt=settings.corrupt)
-    link = make_link(settings.link, seed=settings.seed, faults=faults)
-    config = ModuleConfig(command_set=settings.command_set)
-    sensors = make_sensors(settings.scenario, settings.seed, config.rate_hz)
-    unplugged = IdealPort(connected=False)
-    if settings.served_interface == "usb":
-        module = build_module(config, sensors, usb_port=link, bt_port=unplugged)
-    else:
-        module = build_module(config, sensors, usb_port=unplugged, bt_port=link)
-    return module, link
+# --------------------------------------------------------------------------- endpoints
+
+
+def indexed_path(path: str, index: int, modules: int) -> str:
+    """The pty path of module *index*: *path* itself when there is one module, else *path* + index."""
+    return path if modules == 1 else f"{path}{index}"
+
+
+def indexed_address(address: Address, index: int) -> Address:
+    """The address of module *index*: port + index (port 0 stays 0: each picks a free one)."""
+    host, port = address
+    return host, (port + index if port else 0)
+
+
+def _address_text(address: tuple[Any, ...]) -> str:
+    return f"{address[0]}:{address[1]}"
+
+
+def open_pty(port: Port, path: str, index: int, modules: int) -> tuple[Any, str]:
+    """A pty behind a stable symlink; returns it and the path hosts open."""
+    from .pty_endpoint import PtyEndpoint  # ptys are POSIX only: imported when one is asked for
+
+    path = indexed_path(path, index, modules)
+    return PtyEndpoint(port, path), str(Path(path))
+
+
+def open_tcp(port: Port, address: Address, index: int, modules: int) -> tuple[Any, str]:
+    """A TCP port, one host at a time; returns it and the ``HOST:PORT`` it listens on."""
+    endpoint = TcpEndpoint(port, *indexed_address(address, index))
+    return endpoint, _address_text(endpoint.address)
+
+
+def open_rfc2217(port: Port, address: Address, index: int, modules: int) -> tuple[Any, str]:
+    """An RFC 2217 port (pyserial ``rfc2217://``); returns it and the ``HOST:PORT`` it listens on."""
+    endpoint = Rfc2217Endpoint(port, *indexed_address(address, index))
+    return endpoint, _address_text(endpoint.address)
+
+
+#: Endpoint kind → how to open one for module ``index`` of ``modules`` on a port (a link or a
+#: hub's tap): ``(port, where, index, modules) -> (endpoint, where hosts connect)``.
+ENDPOINT_KINDS: dict[str, Callable[[Port, Any, int, int], tuple[Any, str]]] = {
+    "pty": open_pty,
+    "tcp": open_tcp,
+    "rfc2217": open_rfc2217,
+}
+
+
+def open_endpoints(settings: EmulatorSettings, links: dict[str, Link],
+                   index: int = 0) -> tuple[list[Any], list[tuple[str, str]]]:
+    """The endpoints *settings* ask for on module *index*'s *links*, and their READY fields.
+
+    Fields are ``(key, where)``, the key ``<interface>-<kind>`` (``m<index>.``-prefixed when
+    there are several modules). On failure the endpoints opened so far are closed.
+    """
+    endpoints: list[Any] = []
+    ready: list[tuple[str, str]] = []
+    prefix = "" if settings.modules == 1 else f"m{index}."
+    try:
+        for iface, kinds in settings.endpoint_requests().items():
+            hub = HostHub(links[iface]) if len(kinds) > 1 else None
+            for kind, where in kinds.items():
+                endpoint, shown = ENDPOINT_KINDS[kind](hub.tap(kind) if hub else links[iface], where,
+                                                       index, settings.modules)
+                endpoints.append(endpoint)
+                ready.append((f"{prefix}{iface}-{kind}", shown))
+    except BaseException:
+        for endpoint in endpoints:
+            endpoint.close()
+        raise
+    return endpoints, ready
+
+
+# --------------------------------------------------------------------------- the module
+
+
+@dataclass
+class BuiltModule:
+    """A module with its links (interface → link) and the endpoints hosts reach it on."""
+
+    index: int
+    interface: str  #: the served interface (the one with the settings' link)
+    module: Module
+    links: dict[str, Link]
+    endpoints: list[Any]
+    ready: list[tuple[str, str]]  #: (key, where) per endpoint, e.g. ("bt-pty", "/tmp/openshoe0")
+
+    @property
+    def link(self) -> Link:
+        """The served interface's link."""
+        return self.links[self.interface]
+
+
+def _faults(settings: EmulatorSettings) -> LinkFaults | None:
+    s = settings
+    if not (s.loss or s.corrupt or s.stall_rate or s.disconnect_rate):
+        return None
+    return LinkFaults.both(byte_loss=s.loss, corrupt=s.corrupt, stall_rate_hz=s.stall_rate,
+                           disconnect_rate_hz=s.disconnect_rate)
+
+
+def _links(settings: EmulatorSettings, seed: int) -> dict[str, Link]:
+    served = settings.served_interface
+    links = {served: make_link(settings.link, seed=seed, faults=_faults(settings))}
+    if settings.usb_pty or settings.usb_tcp:
+        links["usb"] = make_link("usb", seed=seed)
+    return links
+
+
+def _sensors(settings: EmulatorSettings, seed: int) -> SensorSource:
+    if settings.replay:
+        from firmware_sim.sensors.replay import ReplaySource
+
+        return served_source(ReplaySource.from_file(settings.replay))
+    return make_sensors(settings.scenario, seed, DEFAULT_RATE_HZ)
+
+
+def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource | None = None) -> BuiltModule:
+    """Module *index* of *settings*: its sensors, links, the module and the endpoints asked for.
+
+    Module *index* has seed ``settings.seed + index``. It runs at its sensors' rate (1 kHz
+    for a scenario, a recording's own). *sensors*: a source to play as it is, instead of
+    the settings' scenario or recording. Refused settings of the sensors (an unknown
+    scenario, a bad recording) raise ValueError; endpoints that cannot open, OSError.
+    """
+    seed = settings.seed + index
+    if sensors is None:
+        sensors = _sensors(settings, seed)
+    links = _links(settings, seed)
+    config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace)
+    ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
+    module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
+    endpoints, ready = open_endpoints(settings, links, index)
+    return BuiltModule(index, settings.served_interface, module, links, endpoints, ready)

@@ -53,10 +53,11 @@ class Serial(SerialBase):
             raise SerialException("Port must be configured before it can be used.")
         try:
             self.settings = s = EmulatorSettings.from_url(self._port)
-            self.module, self.link = build(s)
+            built = build(s)
         except ValueError as e:
             raise SerialException(f"bad openshoe URL {self._port!r}: {e}") from e
-        iface = s.served_interface
+        self.module, self.link = built.module, built.link
+        iface = built.interface
         if s.speed == 0:
             prepare_module(self.module)  # reads run the clock: no compile may happen inside one
             self._pipe = VirtualPipe(self.module, iface)

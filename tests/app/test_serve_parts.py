@@ -167,3 +167,53 @@ def test_anything_not_a_ready_line_is_refused(text):
 def test_tcp_address_round_trips(host, port):
     assert tcp_address(f"{host}:{port}") == (host, port)
     assert tcp_address(str(port)) == ("127.0.0.1", port)
+
+
+def _serve_args(*argv: str) -> argparse.Namespace:
+    from firmware_sim.app.serve import add_arguments
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    return parser.parse_args(argv)
+
+
+def test_the_command_line_becomes_settings():
+    from firmware_sim.app.serve import settings_from_args
+
+    s = settings_from_args(_serve_args("--pty", "/tmp/p", "--tcp", "5000", "--modules", "3", "--seed", "7",
+                                       "--frame-ms", "2", "--trace", "/tmp/t"))
+    e = s.emulator
+    assert (e.pty, e.tcp, e.modules, e.seed, e.speed) == ("/tmp/p", ("127.0.0.1", 5000), 3, 7, 1.0)
+    assert (e.interface, e.link, e.served_interface) == ("bt", "bt", "bt"), "the link follows the interface"
+    assert (s.frame_ms, s.trace, s.control, s.status_interval) == (2.0, "/tmp/t", None, 1.0)
+    usb = settings_from_args(_serve_args("--tcp", "0", "--interface", "usb", "--link", "ideal")).emulator
+    assert (usb.link, usb.served_interface, usb.pty) == ("ideal", "usb", "")
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    ((), "openshoe-emu serve: say where hosts connect: --pty PATH and/or --tcp [HOST:]PORT"),
+    (("--tcp", "0", "--modules", "0"), "openshoe-emu serve: --modules must be >= 1"),
+    (("--tcp", "0", "--speed", "-1"), "openshoe-emu serve: --speed must be >= 0"),
+    (("--tcp", "0", "--frame-ms", "-1"), "openshoe-emu serve: --frame-ms must be >= 0"),
+    (("--tcp", "0", "--overrun-ms", "nan"), "openshoe-emu serve: --overrun-ms must be >= 0"),
+    (("--tcp", "0", "--interface", "usb", "--usb-tcp", "0"),
+     "openshoe-emu serve: --usb-pty/--usb-tcp need --interface bt"),
+    (("--tcp", "0", "--stall-rate", "-2"), "openshoe-emu serve: --stall-rate must be >= 0"),
+])
+def test_refused_options_exit_with_status_2_and_name_the_option(argv, message, capsys):
+    from firmware_sim.app.serve import main
+
+    assert main(_serve_args(*argv)) == 2
+    captured = capsys.readouterr()
+    assert captured.err == message + "\n" and captured.out == ""
+
+
+def test_serve_settings_refuse_bad_values_by_name():
+    from firmware_sim.app.serve import ServeSettings
+    from firmware_sim.transports.factory import EmulatorSettings, SettingsError
+
+    with pytest.raises(SettingsError, match="say where hosts connect: pty PATH and/or tcp"):
+        ServeSettings(EmulatorSettings())
+    with pytest.raises(SettingsError, match="frame_ms must be >= 0, got -1.0") as caught:
+        ServeSettings(EmulatorSettings(pty="/tmp/p"), frame_ms=-1.0)
+    assert caught.value.options == ("frame_ms",)

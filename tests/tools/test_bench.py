@@ -24,6 +24,16 @@ def test_result_line_format_and_ratio() -> None:
     assert "SHORT" in short.line()
 
 
+def test_the_targets_do_not_import_the_package_that_runs_them() -> None:
+    """``tools.bench`` runs ``tools.bench.targets``; both take Result from ``tools.bench.result``."""
+    from tests.test_layering import project_imports
+    from tools.bench import result
+
+    assert "tools.bench" not in project_imports("tools.bench.targets")
+    assert "tools.bench" not in project_imports("tools.bench.result")
+    assert Result is result.Result
+
+
 def test_machine_is_noted() -> None:
     m = machine_info()
     assert {"cpu", "cores", "python", "numpy", "numba", "compiled_path"} <= m.keys()
@@ -61,3 +71,35 @@ def test_batch_target_prints_its_line_and_json(tmp_path: Path, capsys: pytest.Ca
     assert data["machine"]["cores"] >= 1
     if res["details"]["compiled"]:
         assert res["details"]["identical_bytes"] is True
+
+
+def test_realtime_plan_spreads_the_modules_over_the_processes() -> None:
+    from tools.bench.targets import _realtime_plan
+
+    plan = _realtime_plan(50, 2, 10.0, None)
+    assert plan.per == [25, 25] and plan.frame_len == 4.0 and not plan.short
+    assert plan.scenario == "stand:3+walk:177", "long runs hold the last sample after 3 minutes"
+    plan = _realtime_plan(5, 2, 0.5, 2.0)
+    assert plan.per == [3, 2] and plan.frame_len == 2.0 and plan.short
+    assert plan.scenario == "stand:3+walk:60"
+    assert _realtime_plan(1, 1, 1.0, None).frame_len == 1.0, "one module per process: 1-ms frames"
+
+
+def test_realtime_figures_from_the_status_lines() -> None:
+    from tools.bench.targets import _realtime_details, _realtime_plan, _realtime_result, _ServeStatus
+
+    status = _ServeStatus()
+    for process, module, overruns in ((0, 0, 0), (0, 1, 2), (1, 0, 0)):
+        status.add(process, {"module": module, "overruns": overruns, "late_bytes": 1, "late_max_ms": 0.5,
+                             "lookahead_ms": 19.0, "overrun_limit_ms": 35.0, "lag_max_ms": 3.0 + module,
+                             "loop_us_mean": 10.0, "lag_frames": {"<1ms": 10, "<2ms": 1}})
+    steps = {"p0.m0.bt-pty": 4, "p0.m1.bt-pty": 3, "p1.m0.bt-pty": 0}
+    plan = _realtime_plan(3, 2, 0.1, None)
+    details = _realtime_details(plan, status, steps, per_tick=20.0)
+    assert details["overruns"] == {"p0.m0": 0, "p0.m1": 2, "p1.m0": 0}
+    assert details["frames_by_lateness"] == {"<1ms": 30, "<2ms": 3} and details["lag_max_ms"] == 4.0
+    said: list[str] = []
+    r = _realtime_result(plan, status, details, said.append)
+    # the fewer of: modules without overrun (2), modules that sent steps (2)
+    assert (r.figure, r.target, r.passed, r.short) == (2, 3.0, False, True)
+    assert said[0].startswith("realtime: 2/3 modules without overrun, 2 sent steps (7 in all)")

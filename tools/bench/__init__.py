@@ -28,46 +28,17 @@ import os
 import platform
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict
 from pathlib import Path
 from typing import Any
+
+from .result import Result
 
 __all__ = ["Result", "main", "machine_info"]
 
 TARGETS = ("batch", "realtime", "latency", "memory")
 #: 24 h at 1 kHz.
 FULL_CYCLES = 86_400_000
-
-
-@dataclass
-class Result:
-    """One target's figure against its goal (``higher`` = bigger is better)."""
-
-    name: str
-    figure: float
-    unit: str
-    target: float
-    higher: bool = True
-    passed: bool = False
-    short: bool = False
-    details: dict[str, Any] = field(default_factory=dict)
-
-    note: str = ""
-
-    @property
-    def ratio(self) -> float:
-        """figure / target (≥ 1 meets a higher-is-better target, ≤ 1 a lower-is-better one)."""
-        return self.figure / self.target if self.target else float("inf")
-
-    def line(self) -> str:
-        fig = f"{self.figure:.0f}" if abs(self.figure) >= 100 else f"{self.figure:.3g}"
-        tgt = f"{self.target:.0f}" if abs(self.target) >= 100 else f"{self.target:g}"
-        extra = "" if self.passed else " NOT MET"
-        if self.note:
-            extra += f"; {self.note}"
-        if self.short:
-            extra += "; SHORT run (see --help for the full one)"
-        return f"{self.name}: {fig} {self.unit} (target {tgt}, ratio {self.ratio:.2f}){extra}"
 
 
 def machine_info() -> dict[str, Any]:

@@ -12,7 +12,8 @@ import statistics
 import time
 import tty
 from collections.abc import Callable
-from typing import Any
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -26,8 +27,11 @@ from firmware_sim.sensors.imu_array import make_source
 from protocol.frames import StatePacket, build_packet_ack, build_state_packet, build_state_packet_declared
 from protocol.stream import StreamDecoder
 
-from . import Result
 from .driver import START_STEPWISE, run_session
+from .result import Result
+
+if TYPE_CHECKING:  # pragma: no cover
+    from firmware_sim.app.serve import ServeProcess
 
 Say = Callable[[str], None]
 
@@ -241,119 +245,194 @@ def single_loop_cost_us(modules: int = 10, ticks: int = 2000) -> float:
     return (time.perf_counter() - t) / ticks / modules * 1e6
 
 
-def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
-                   frame_ms: float | None = None, quiet: bool = False) -> Result:
-    """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
-    from firmware_sim.app.serve import MANY_MODULES_FRAME_MS, spawn
+@dataclass
+class _RealtimePlan:
+    """How the real-time target runs: modules per serve process, frame length, scenario."""
+
+    modules: int
+    minutes: float
+    per: list[int]  #: modules in each serve process
+    frame_len: float  #: serve's --frame-ms
+    scenario: str
+    short: bool  #: shorter or smaller than the full target
+
+
+def _realtime_plan(modules: int, processes: int, minutes: float, frame_ms: float | None) -> _RealtimePlan:
+    from firmware_sim.app.serve import MANY_MODULES_FRAME_MS
 
     frame_len = frame_ms if frame_ms is not None else (MANY_MODULES_FRAME_MS if modules > processes else 1.0)
-
-    short = minutes < REALTIME_MINUTES or modules < 50
     per = [modules // processes + (1 if i < modules % processes else 0) for i in range(processes)]
     walk_s = minutes * 60 + 30
     scenario = f"stand:3+walk:{walk_s:g}" if walk_s <= 180 else "stand:3+walk:177"
-    say(f"realtime: {modules} modules in {processes} serve processes {per}, {minutes:g} min, "
-        f"frames of {frame_len:g} ms, scenario {scenario} (after it the last sample is held)")
-    procs = []
+    short = minutes < REALTIME_MINUTES or modules < 50
+    return _RealtimePlan(modules, minutes, per, frame_len, scenario, short)
+
+
+def _spawn_serves(plan: _RealtimePlan, procs: list[ServeProcess], say: Say) -> None:
+    """One serve process per entry of ``plan.per``, each appended to *procs* once READY."""
+    from firmware_sim.app.serve import spawn
+
     tag = f"/tmp/openshoe-bench-{os.getpid()}"
+    for k, m in enumerate(plan.per):
+        t = time.monotonic()
+        procs.append(spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", plan.scenario,
+                           "--control", "127.0.0.1:0", "--status-interval", "10",
+                           "--frame-ms", f"{plan.frame_len:g}", timeout=600))
+        say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
+
+
+@dataclass
+class _Host:
+    """A host on one module's pty: it started step-wise dead reckoning and acks every step."""
+
+    proc: int  #: which serve process
+    name: str  #: the READY key of the pty
+    dec: StreamDecoder = field(default_factory=StreamDecoder)
+    steps: int = 0
+
+
+def _open_hosts(procs: list[ServeProcess], hosts: dict[int, _Host]) -> None:
+    """A host on every module's Bluetooth pty (into *hosts*, by file descriptor), tracking started."""
+    for k, sp in enumerate(procs):
+        for key, path in sp.ready.items():
+            if key.endswith("bt-pty"):
+                fd = _open_pty(path)
+                hosts[fd] = _Host(k, key)
+                os.write(fd, START_STEPWISE)
+
+
+def _ack_steps(fd: int, host: _Host) -> None:
+    """Read what the module sent; ack each step packet."""
     try:
-        for k, m in enumerate(per):
-            t = time.monotonic()
-            procs.append(spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", scenario,
-                               "--control", "127.0.0.1:0", "--status-interval", "10",
-                               "--frame-ms", f"{frame_len:g}", timeout=600))
-            say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
-        hosts: dict[int, dict[str, Any]] = {}
-        sel = selectors.DefaultSelector()
-        for k, sp in enumerate(procs):
-            for key, path in sp.ready.items():
-                if key.endswith("bt-pty"):
-                    fd = _open_pty(path)
-                    hosts[fd] = {"proc": k, "name": key, "dec": StreamDecoder(), "steps": 0}
-                    os.write(fd, START_STEPWISE)
-                    sel.register(fd, selectors.EVENT_READ)
-        end = time.monotonic() + minutes * 60
-        last = time.monotonic()
-        bar = progress_bar(round(minutes * 60), "realtime", "s", quiet=quiet,
-                           bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s "
-                                      "[{elapsed}<{remaining}]")
-        while time.monotonic() < end:
-            bar.update(min(minutes * 60, minutes * 60 - (end - time.monotonic())) - bar.n)
-            for key, _ in sel.select(0.5):
-                h = hosts[key.fd]
-                try:
-                    data = os.read(key.fd, 65536)
-                except BlockingIOError:
-                    continue
-                for frame in h["dec"].feed(data):
-                    if isinstance(frame, StatePacket):
-                        os.write(key.fd, build_packet_ack(frame.number))
-                        h["steps"] += 1
-            if time.monotonic() - last > 60:
-                last = time.monotonic()
-                say(f"realtime: {sum(h['steps'] for h in hosts.values())} steps so far")
-        bar.close()
-        overruns: dict[str, int] = {}
-        late_bytes: dict[str, int] = {}
-        late_max: dict[str, float] = {}
-        limits: set[tuple[float, float]] = set()
-        lag_max: dict[str, float] = {}
-        lag_frames: dict[str, int] = {}
-        loop_us: list[float] = []
-        for k, sp in enumerate(procs):
-            for line in _control(sp.ready["control"], "status json").splitlines():
-                if not line.startswith("{"):
-                    continue
-                st = json.loads(line)
-                name = f"p{k}.m{st['module']}"
-                overruns[name] = st["overruns"]
-                late_bytes[name] = st["late_bytes"]
-                late_max[name] = st["late_max_ms"]
-                limits.add((st["lookahead_ms"], st["overrun_limit_ms"]))
-                lag_max[name] = st["lag_max_ms"]
-                loop_us.append(st["loop_us_mean"])
-                for cls, n in st["lag_frames"].items():
-                    lag_frames[cls] = lag_frames.get(cls, 0) + n
+        data = os.read(fd, 65536)
+    except BlockingIOError:
+        return
+    for frame in host.dec.feed(data):
+        if isinstance(frame, StatePacket):
+            os.write(fd, build_packet_ack(frame.number))
+            host.steps += 1
+
+
+def _drive_hosts(hosts: dict[int, _Host], minutes: float, say: Say, quiet: bool) -> None:
+    """Every host acks its module's steps for *minutes*; the steps so far said every minute."""
+    sel = selectors.DefaultSelector()
+    for fd in hosts:
+        sel.register(fd, selectors.EVENT_READ)
+    end = time.monotonic() + minutes * 60
+    last = time.monotonic()
+    bar = progress_bar(round(minutes * 60), "realtime", "s", quiet=quiet,
+                       bar_format="{desc} {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s "
+                                  "[{elapsed}<{remaining}]")
+    while time.monotonic() < end:
+        bar.update(min(minutes * 60, minutes * 60 - (end - time.monotonic())) - bar.n)
+        for key, _ in sel.select(0.5):
+            _ack_steps(key.fd, hosts[key.fd])
+        if time.monotonic() - last > 60:
+            last = time.monotonic()
+            say(f"realtime: {sum(h.steps for h in hosts.values())} steps so far")
+    bar.close()
+    sel.close()
+
+
+@dataclass
+class _ServeStatus:
+    """What the serve processes' control channels report, per module (``p<process>.m<index>``)."""
+
+    overruns: dict[str, int] = field(default_factory=dict)
+    late_bytes: dict[str, int] = field(default_factory=dict)
+    late_max: dict[str, float] = field(default_factory=dict)
+    limits: set[tuple[float, float]] = field(default_factory=set)  #: (lookahead, overrun limit) in ms
+    lag_max: dict[str, float] = field(default_factory=dict)
+    lag_frames: dict[str, int] = field(default_factory=dict)  #: frames by lateness class, all modules
+    loop_us: list[float] = field(default_factory=list)
+
+    def add(self, process: int, st: dict[str, Any]) -> None:
+        """One module's ``status json`` line from serve process *process*."""
+        name = f"p{process}.m{st['module']}"
+        self.overruns[name] = st["overruns"]
+        self.late_bytes[name] = st["late_bytes"]
+        self.late_max[name] = st["late_max_ms"]
+        self.limits.add((st["lookahead_ms"], st["overrun_limit_ms"]))
+        self.lag_max[name] = st["lag_max_ms"]
+        self.loop_us.append(st["loop_us_mean"])
+        for cls, n in st["lag_frames"].items():
+            self.lag_frames[cls] = self.lag_frames.get(cls, 0) + n
+
+
+def _serve_status(procs: list[ServeProcess]) -> _ServeStatus:
+    status = _ServeStatus()
+    for k, sp in enumerate(procs):
+        for line in _control(sp.ready["control"], "status json").splitlines():
+            if line.startswith("{"):
+                status.add(k, json.loads(line))
+    return status
+
+
+def _realtime_details(plan: _RealtimePlan, status: _ServeStatus, steps: dict[str, int],
+                      per_tick: float) -> dict[str, Any]:
+    """The real-time target's figures for the JSON report."""
+    ahead, limit = max(status.limits) if status.limits else (0.0, plan.frame_len)
+    overruns = status.overruns
+    return {"processes": plan.per, "minutes": plan.minutes, "scenario": plan.scenario,
+            "frame_ms": plan.frame_len, "lookahead_ms": ahead, "overrun_limit_ms": limit,
+            "overrun_means": f"a frame (the {plan.frame_len:g} ms of ticks a module runs per wake-up, "
+                             f"{ahead:g} ms ahead of the wall clock behind the Bluetooth link) "
+                             f"starting more than {limit:g} ms after its deadline, so late that a host "
+                             "could see it",
+            "late_bytes_total": sum(status.late_bytes.values()),
+            "late_max_ms": round(max(status.late_max.values(), default=0.0), 2),
+            "late_bytes_mean": "bytes that reached a host (or the module) more than one frame after the "
+                               "link model's arrival time (any cause: a late frame, or the loop not "
+                               "running when they were due)",
+            "lag_max_ms": max(status.lag_max.values(), default=float("nan")),
+            "lag_max_ms_per_module": status.lag_max, "frames_by_lateness": status.lag_frames,
+            "overruns_total": sum(overruns.values()),
+            "modules_without_overrun": sum(1 for n in overruns.values() if n == 0),
+            "modules_with_steps": sum(1 for n in steps.values() if n > 0),
+            "steps_total": sum(steps.values()), "single_loop_us_per_module_tick": round(per_tick, 1),
+            "loop_us_mean": round(statistics.mean(status.loop_us), 1) if status.loop_us else None,
+            "overruns": overruns, "late_bytes": status.late_bytes, "steps": steps}
+
+
+def _realtime_result(plan: _RealtimePlan, status: _ServeStatus, details: dict[str, Any], say: Say) -> Result:
+    """Say the real-time figures; the result: modules without overrun that sent steps."""
+    d = details
+    ok, stepping = d["modules_without_overrun"], d["modules_with_steps"]
+    say(f"realtime: {ok}/{plan.modules} modules without overrun, {stepping} sent steps "
+        f"({d['steps_total']} in all), total overruns {d['overruns_total']}, "
+        f"worst frame lateness {d['lag_max_ms']:.1f} ms (modules {d['lookahead_ms']:g} ms ahead; "
+        f"overrun: more than {d['overrun_limit_ms']:g} ms)")
+    say(f"realtime: bytes that reached a host later than the link model says (by more than one frame): "
+        f"{d['late_bytes_total']}, worst {max(status.late_max.values(), default=0.0):.1f} ms late")
+    say(f"realtime: frames by lateness: {' '.join(f'{k} {v}' for k, v in status.lag_frames.items())}")
+    figure = min(ok, stepping)
+    return Result("realtime", figure, "modules without overrun", float(plan.modules), passed=figure >= 50,
+                  short=plan.short, details=details)
+
+
+def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
+                   frame_ms: float | None = None, quiet: bool = False) -> Result:
+    """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
+    plan = _realtime_plan(modules, processes, minutes, frame_ms)
+    say(f"realtime: {modules} modules in {processes} serve processes {plan.per}, {minutes:g} min, "
+        f"frames of {plan.frame_len:g} ms, scenario {plan.scenario} (after it the last sample is held)")
+    procs: list[ServeProcess] = []
+    hosts: dict[int, _Host] = {}
+    try:
+        _spawn_serves(plan, procs, say)
+        _open_hosts(procs, hosts)
+        _drive_hosts(hosts, minutes, say, quiet)
+        status = _serve_status(procs)
+    finally:
         for fd in hosts:
             os.close(fd)
-    finally:
         for sp in procs:
             sp.stop()
-    steps = {f"p{h['proc']}.{h['name']}": h["steps"] for h in hosts.values()}
+    steps = {f"p{h.proc}.{h.name}": h.steps for h in hosts.values()}
     per_tick = single_loop_cost_us()
     say(f"realtime: one thread stepping modules needs {per_tick:.1f} µs per module and tick "
         f"(≈ {1000 / per_tick:.0f} modules per core at 1 kHz, before pacing and pty I/O)")
-    ok = sum(1 for name, n in overruns.items() if n == 0)
-    stepping = sum(1 for n in steps.values() if n > 0)
-    figure = min(ok, stepping)
-    worst = max(lag_max.values(), default=float("nan"))
-    ahead, limit = max(limits) if limits else (0.0, frame_len)
-    late_total = sum(late_bytes.values())
-    late_worst = max(late_max.values(), default=0.0)
-    details = {"processes": per, "minutes": minutes, "scenario": scenario, "frame_ms": frame_len,
-               "lookahead_ms": ahead, "overrun_limit_ms": limit,
-               "overrun_means": f"a frame (the {frame_len:g} ms of ticks a module runs per wake-up, "
-                                f"{ahead:g} ms ahead of the wall clock behind the Bluetooth link) "
-                                f"starting more than {limit:g} ms after its deadline, so late that a host "
-                                "could see it",
-               "late_bytes_total": late_total, "late_max_ms": round(late_worst, 2),
-               "late_bytes_mean": "bytes that reached a host (or the module) more than one frame after the "
-                                  "link model's arrival time (any cause: a late frame, or the loop not "
-                                  "running when they were due)",
-               "lag_max_ms": worst, "lag_max_ms_per_module": lag_max, "frames_by_lateness": lag_frames,
-               "overruns_total": sum(overruns.values()),
-               "modules_without_overrun": ok, "modules_with_steps": stepping,
-               "steps_total": sum(steps.values()), "single_loop_us_per_module_tick": round(per_tick, 1),
-               "loop_us_mean": round(statistics.mean(loop_us), 1)
-               if loop_us else None, "overruns": overruns, "late_bytes": late_bytes, "steps": steps}
-    say(f"realtime: {ok}/{modules} modules without overrun, {stepping} sent steps "
-        f"({sum(steps.values())} in all), total overruns {sum(overruns.values())}, "
-        f"worst frame lateness {worst:.1f} ms (modules {ahead:g} ms ahead; overrun: more than {limit:g} ms)")
-    say(f"realtime: bytes that reached a host later than the link model says (by more than one frame): "
-        f"{late_total}, worst {late_worst:.1f} ms late")
-    say(f"realtime: frames by lateness: {' '.join(f'{k} {v}' for k, v in lag_frames.items())}")
-    return Result("realtime", figure, "modules without overrun", float(modules), passed=figure >= 50,
-                  short=short, details=details)
+    return _realtime_result(plan, status, _realtime_details(plan, status, steps, per_tick), say)
 
 
 def bench_latency(pings: int, say: Say, quiet: bool = False) -> Result:
