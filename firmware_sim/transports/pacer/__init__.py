@@ -74,89 +74,14 @@ import threading
 import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import Future
-from dataclasses import asdict, dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 from firmware_sim.mcu.module import Module
 from firmware_sim.nav.warmup import Announce, prepare_module, to_stderr
 
-#: Upper bounds [ms of module time] of the lateness classes counted per frame (PacerStatus.lag_frames).
-LAG_BOUNDS_MS = (1.0, 2.0, 5.0, 10.0, 20.0, 50.0, math.inf)
-LAG_LABELS = tuple(f"<{b:g}ms" for b in LAG_BOUNDS_MS[:-1]) + (f">={LAG_BOUNDS_MS[-2]:g}ms",)
-
-
-class Endpoint(Protocol):
-    """A host-facing transport the pacer pumps."""
-
-    def pump(self) -> None: ...
-
-    def close(self) -> None: ...
-
-
-@dataclass
-class PacerStatus:
-    """A snapshot of one module's real-time loop, for a live status line."""
-
-    running: bool
-    speed: float
-    ticks: int  #: module ticks run by this pacer
-    virtual_s: float  #: the module's clock
-    wall_s: float  #: wall time since start
-    loop_us_mean: float  #: mean wall time of one tick (module.step)
-    loop_us_max: float  #: longest wall time of one frame's ticks
-    overruns: int  #: frames that started later than the overrun limit (see the module doc)
-    rebases: int  #: times the schedule was moved forward after falling far behind
-    lag_ms: float  #: how far the last frame ran behind its deadline
-    lag_max_ms: float  #: the most a frame ran behind its deadline
-    frame_ms: float  #: wall time of one frame (the ticks run back to back per wake-up)
-    lookahead_ms: float = 0.0  #: how far ahead of the wall clock the module runs (its links' latency)
-    overrun_limit_ms: float = 0.0  #: a frame starting later than this after its deadline is an overrun
-    late_bytes: int = 0  #: bytes that reached a host or the module later than the link model says
-    late_max_ms: float = 0.0  #: the largest such lateness (deliveries within one frame are on time)
-    #: frames by how late they started, e.g. {"<1ms": 9000, "<2ms": 40, …, ">=50ms": 0}
-    lag_frames: dict[str, int] = field(default_factory=dict)
-    packets: dict[str, int] = field(default_factory=dict)  #: packets assembled per interface
-    queue: dict[str, int] = field(default_factory=dict)  #: frames in each interface's queue
-    endpoints: list[dict[str, Any]] = field(default_factory=list)
-
-    def line(self) -> str:
-        """One status line, e.g. for a terminal."""
-        ratio = self.virtual_s / self.wall_s if self.wall_s > 0 else 0.0
-        pk = " ".join(f"{k}:{v}" for k, v in self.packets.items())
-        q = " ".join(f"{k}:{v}" for k, v in self.queue.items())
-        hosts = " ".join(f"{e.get('kind', '?')}={'on' if e.get('paired') else 'off'}" for e in self.endpoints)
-        return (f"t={self.virtual_s:9.3f}s x{ratio:5.2f} "
-                f"loop {self.loop_us_mean:6.1f}/{self.loop_us_max:6.1f} us "
-                f"overruns {self.overruns} lag {self.lag_ms:5.1f}/{self.lag_max_ms:5.1f} ms "
-                f"late {self.late_bytes} B "
-                f"| packets {pk} | queue {q} | {hosts}")
-
-    def as_dict(self) -> dict[str, Any]:
-        return asdict(self)
-
-
-def _port_behind(endpoint: Endpoint) -> Any:
-    """The module's port an endpoint reaches (through a hub's tap: the hub's shared port)."""
-    port = getattr(endpoint, "port", None)
-    hub = getattr(port, "hub", None)
-    return hub.port if hub is not None else port
-
-
-def links_of(endpoints: Iterable[Endpoint]) -> list[Any]:
-    """The link models behind *endpoints* (ports with a host clock; a hub's link once)."""
-    out: list[Any] = []
-    for port in map(_port_behind, endpoints):
-        if hasattr(port, "host_clock") and all(port is not o for o in out):
-            out.append(port)
-    return out
-
-
-def _lookahead_cycles(module: Module, endpoints: list[Endpoint]) -> int:
-    """Cycles a module may run ahead of its hosts: the least one-way latency of the ports
-    behind its endpoints, less one tick (0 for a port without latency, or with no host)."""
-    least = min((port.lookahead_cycles() if callable(getattr(port, "lookahead_cycles", None)) else 0
-                 for port in map(_port_behind, endpoints)), default=0)
-    return max(0, least - module.clock.cycles_per_tick)
+from .endpoints import Endpoint, links_of
+from .endpoints import lookahead_cycles as _lookahead_cycles
+from .status import LAG_BOUNDS_MS, LAG_LABELS, PacerStatus
 
 
 def _check_speed(speed: float) -> None:
@@ -663,3 +588,6 @@ class MultiPacer:
         return (f"MultiPacer({len(self.pacers)} modules, speed={self.speed}, "
                 f"overruns={sum(p.overruns for p in self.pacers)}, running={self.running})")
 
+
+
+__all__ = ["LAG_BOUNDS_MS", "LAG_LABELS", "Endpoint", "MultiPacer", "Pacer", "PacerStatus", "links_of"]
