@@ -92,6 +92,8 @@ class MultiPacer:
         if self._thread is not None:
             raise RuntimeError("pacer already started")
         self.prepare(announce)
+        for p in self.pacers:
+            p.waits.begin()
         self._thread = threading.Thread(target=self.run, name="openshoe-pacer", daemon=True)
         self._thread.start()
         return self
@@ -113,6 +115,15 @@ class MultiPacer:
     def call(self, index: int, fn: Callable[[Module], Any]) -> Future:
         """``fn(module)`` for module *index*, between two ticks (see :meth:`PacedModule.call`)."""
         return self.pacers[index].call(fn)
+
+    def wait_ticks(self, index: int, n: int, timeout: float | None = None) -> bool:
+        """Block until module *index* has run *n* more ticks (see :meth:`PacedModule.wait_ticks`)."""
+        return self.pacers[index].wait_ticks(n, timeout)
+
+    def wait_until(self, index: int, predicate: Callable[[Module], object],
+                   timeout: float | None = None) -> bool:
+        """Block until ``predicate(module)`` holds for module *index* (see :meth:`PacedModule.wait_until`)."""
+        return self.pacers[index].wait_until(predicate, timeout)
 
     def status(self) -> list[PacerStatus]:
         """One snapshot per module."""

@@ -14,6 +14,7 @@ from firmware_sim.nav.warmup import Announce, to_stderr
 
 from .endpoints import Endpoint, links_of
 from .status import LAG_BOUNDS_MS, LAG_LABELS, PacerStatus
+from .waits import TickWaits
 
 
 def check_speed(speed: float) -> None:
@@ -41,7 +42,8 @@ class Loop(Protocol):
 class PacedModule:
     """*module* with its *endpoints*, as one module of a loop paced to the wall clock (× *speed*).
 
-    It keeps its own counters, status and control queue (:meth:`call`); the loop it
+    It keeps its own counters, status and control queue (:meth:`call`), and lets other
+    threads wait on its ticks (:meth:`wait_ticks`, :meth:`wait_until`); the loop it
     runs in (:attr:`group`) runs its ticks and pumps its endpoints. A
     :class:`~.single.Pacer` is one with a loop of its own."""
 
@@ -65,6 +67,7 @@ class PacedModule:
         self.lookahead_s = 0.0  #: wall seconds the module runs ahead (set when its loop starts)
         self.overrun_limit_s = 0.0  #: wall seconds of lateness that count an overrun (likewise)
         self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
+        self.waits = TickWaits()  #: threads waiting on the module's ticks (the loop tests them)
         self._group: Loop | None = None  # set by the loop that takes the module
 
     @property
@@ -103,6 +106,24 @@ class PacedModule:
         fut: Future = Future()
         self._controls.put((fn, fut))
         return fut
+
+    # ------------------------------------------------------------------ waiting on ticks
+    def wait_ticks(self, n: int, timeout: float | None = None) -> bool:
+        """Block until the module has run *n* more ticks (counted from now): True; False after
+        *timeout* seconds (None: no limit), or once its loop has stopped. This waits on the
+        loop, which wakes the caller after it ran the ticks, not on the clock."""
+        if n <= 0:
+            return True
+        target = self.ticks + n
+        return self.waits.wait(lambda: self.ticks >= target, timeout)
+
+    def wait_until(self, predicate: Callable[[Module], object], timeout: float | None = None) -> bool:
+        """Block until ``predicate(module)`` is true: True; False after *timeout* seconds (None:
+        no limit), or once its loop has stopped. The loop evaluates the predicate in its own
+        thread after each run of the module's ticks from now on, so it may read the module
+        (and its links and endpoints) as :meth:`call` does; what it raises is raised here."""
+        module = self.module
+        return self.waits.wait(lambda: predicate(module), timeout)
 
     # ------------------------------------------------------------------ in the loop's thread
     def run_controls(self) -> None:

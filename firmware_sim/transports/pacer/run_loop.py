@@ -90,6 +90,8 @@ class RunLoop:
         t0 = self.sched.t0 = self.owner.t_start = self.perf()
         self.end = None if self.duration_s is None else t0 + self.duration_s
         self.owner.running = True
+        for p in self.members:
+            p.waits.begin()
         if not self.sched.asap:
             self._clock_links()
 
@@ -117,6 +119,8 @@ class RunLoop:
         self.owner.running = False
         self.releases.detach()  # back on the module's clock
         self.pumps.close()
+        for p in self.members:
+            p.waits.end()  # wakes the threads still waiting on ticks
 
     # ------------------------------------------------------------------ one pass
     def _pass(self) -> bool:
@@ -245,6 +249,7 @@ class RunLoop:
             self.done[k] = d
         dt = self.perf() - s
         p.count_busy(dt)
+        p.waits.check()
         return dt
 
     def _pump_module(self, k: int, force: bool) -> None:
