@@ -1,7 +1,8 @@
 """Real-time pacing: run modules' ticks against the wall clock and pump transports.
 
 One loop (in one thread) owns the modules and every endpoint, so nothing needs
-a lock except the control queues (:meth:`Pacer.call`) and the status snapshots.
+a lock except the control queues (:meth:`Pacer.call`), the waits on ticks
+(:meth:`Pacer.wait_ticks`, below) and the status snapshots.
 A :class:`Pacer` is one module with its endpoints; run alone it has a loop of
 its own, and a :class:`MultiPacer` runs many of them — every module of a
 ``serve`` process — in one loop and one thread (one thread per module would
@@ -63,6 +64,21 @@ between deadlines instead of sleeping: on this VM a step after a sleep costs
 ~30 % more than back to back (cold caches), but a spinning loop takes a whole
 core from the other processes, and measured end to end it did not win. A lone
 pacer always sleeps.
+
+Another thread waits on a running module's ticks, not on the clock:
+:meth:`Pacer.wait_ticks` (*n* more ticks ran) and :meth:`Pacer.wait_until` (a
+predicate of the module, tested in the loop's thread after each run of its
+ticks) block on a condition the loop notifies, and return False on timeout or
+once the loop stopped (:class:`MultiPacer` offers both per module index).
+
+The parts: :mod:`.status` (:class:`PacerStatus`), :mod:`.endpoints` (what is
+pumped, the links behind it), :mod:`.member` (:class:`PacedModule`: one module
+of a loop, its counters, controls, waits and status), :mod:`.single`
+(:class:`Pacer`: one with a loop of its own), :mod:`.group` (:class:`MultiPacer`:
+the loop, its thread), :mod:`.run_loop` (one run of the loop, pass after pass),
+:mod:`.schedule` (the deadlines), :mod:`.host_clock` (the wall clock in a
+module's cycles), :mod:`.release` (bytes due at hosts), :mod:`.pumps` (the
+endpoints and their fds), :mod:`.waits` (threads waiting on ticks).
 """
 
 from __future__ import annotations
