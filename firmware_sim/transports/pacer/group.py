@@ -19,8 +19,6 @@ from .status import PacerStatus
 
 def _check_members(pacers: list[PacedModule], group: object) -> None:
     """Modules that can run in one loop: one speed, one tick rate, none in another loop."""
-    if not pacers:
-        raise ValueError("a MultiPacer needs at least one module")
     first = pacers[0]
     for p in pacers:
         if p.speed != first.speed and not (math.isinf(p.speed) and math.isinf(first.speed)):
@@ -53,6 +51,8 @@ class MultiPacer:
                  spin_load: float | None = None, phases: int | None = None, frame_ticks: int = 1,
                  overrun_s: float | None = None):
         self.pacers: list[PacedModule] = list(pacers)
+        if not self.pacers:
+            raise ValueError("a MultiPacer needs at least one module")
         if idle_pump_s < 0:
             raise ValueError(f"idle_pump_s must be >= 0, got {idle_pump_s}")
         if frame_ticks < 1:
