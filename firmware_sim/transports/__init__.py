@@ -3,7 +3,8 @@
 * :mod:`.pipe` — :class:`VirtualPipe` (in-process, virtual time, deterministic) and
   :class:`QueueEndpoint` (in-process, real time, pumped by a pacer);
 * :mod:`.pacer` — :class:`Pacer`, runs a module's ticks paced to the wall clock and
-  pumps endpoints; :class:`PacerStatus` for a status line;
+  pumps endpoints (:class:`MultiPacer`: many modules in one loop); :class:`PacerStatus`
+  for a status line; ``wait_ticks``/``wait_until`` to wait on a running module's ticks;
 * :mod:`.tcp` — :class:`TcpEndpoint`, one TCP host at a time;
 * :mod:`.pty` — :class:`PtyEndpoint`, a pty behind a stable symlink for ``serial.Serial(path)``;
 * :mod:`.protocol_openshoe` — the pyserial ``openshoe://`` URL handler, registered on import

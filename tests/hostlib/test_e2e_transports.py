@@ -99,6 +99,9 @@ def test_steps_missed_while_the_link_is_down_are_reported_as_a_gap():
         def module_steps() -> int:
             return pacer.call(lambda m: int(m.memory[StateId.STEP_COUNTER])).result(5)
 
+        def counted(steps: int):
+            return lambda m: int(m.memory[StateId.STEP_COUNTER]) >= steps
+
         with Device(port_factory=factory, ack_timeout=2.0, reconnect_interval=0.05) as dev:
             down = threading.Event()
             dev.on_link(lambda ev: ev.up or down.set())
@@ -110,11 +113,7 @@ def test_steps_missed_while_the_link_is_down_are_reported_as_a_gap():
             pacer.call(lambda m: ep._hangup()).result(5)
             assert down.wait(10)
             first = module_steps()
-            poll = threading.Event()
-            for _ in range(400):  # until the module has counted 3 more steps (deadline 20 s)
-                if module_steps() >= first + 3:
-                    break
-                poll.wait(0.05)
+            assert pacer.wait_until(counted(first + 3), timeout=60)  # the module tracks on, unheard
             allow.set()
             for ev in dev.steps(timeout=30):
                 if ev.pose[0] > 8.0:
