@@ -161,12 +161,14 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
                 live.show(summary_line(dev), key=len(tracker))
         except KeyboardInterrupt:
             pass
-        live.close()
         if not args.leave_running:
             try:
                 dev.output_all_off()
             except HostError as exc:
                 print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
+        # the last line counts every step, also those that came while the outputs went off
+        live.show(summary_line(dev), key=len(tracker))
+        live.close()
         track = dev.track_snapshot()
         _write_outputs(args, track, origin)
         print(repr(track), file=out)
