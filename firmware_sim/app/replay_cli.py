@@ -12,7 +12,6 @@ tracking path is prepared once, before the first run.
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 import time
 from pathlib import Path
@@ -20,9 +19,9 @@ from typing import Any
 
 from . import batch
 from .progress import progress_bar, say
-from .runs import METRICS, TIMINGS, RunSpec, file_runs, parse_seeds, run_one, scenario_runs, summary_lines
+from .runs import RunSpec, file_runs, parse_seeds, run_one, scenario_runs, summary_lines, write_csv
 
-__all__ = ["add_arguments", "main", "replay_many", "write_csv"]
+__all__ = ["add_arguments", "main", "replay_many"]
 
 add_arguments = batch.add_arguments
 
@@ -71,15 +70,3 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     if table is not None:
         write_csv(rows, table)
     return 0
-
-
-def write_csv(rows: list[dict[str, Any]], path: Path, setting_names: tuple[str, ...] = ()) -> Path:
-    """The rows as CSV: identity, settings, metrics, timings; floats in shortest round-trip form."""
-    header = ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        for row in rows:
-            w.writerow([repr(v) if isinstance(v, float) else v for v in (row[k] for k in header)])
-    return path

@@ -20,6 +20,7 @@ and sums the steps the host received (:func:`hostlib.replay.replay_bytes`) into 
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import math
 import re
@@ -32,7 +33,7 @@ from typing import Any
 from . import settings as run_settings
 
 __all__ = ["METRICS", "TIMINGS", "RunSpec", "file_runs", "parse_seeds", "run_one", "scenario_runs",
-           "summary_lines"]
+           "summary_lines", "write_csv"]
 
 #: The columns every row has, after the run's identity and its settings.
 METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "wire_bytes",
@@ -188,3 +189,15 @@ def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] =
     lines.append(f"{len(rows)} runs, {total:.2f} s in the runs: parsing {parse:.2f} s, "
                  f"navigation {nav:.2f} s, writing {write:.2f} s{mean}")
     return lines
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path, setting_names: tuple[str, ...] = ()) -> Path:
+    """The rows as CSV: identity, settings, metrics, timings; floats in shortest round-trip form."""
+    header = ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for row in rows:
+            w.writerow([repr(v) if isinstance(v, float) else v for v in (row[k] for k in header)])
+    return path

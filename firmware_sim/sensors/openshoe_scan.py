@@ -34,7 +34,7 @@ import os
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "scan_rows"]
+__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "scan_rows", "warm_up"]
 
 try:  # numba is optional (the `fast` extra)
     if os.environ.get("OPENSHOE_PURE", "") == "1":
@@ -234,3 +234,15 @@ def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:
     if status != OK or rows != len(out):
         return None
     return out
+
+
+#: One well-formed row (the first of a shared walk), for :func:`warm_up`.
+_SAMPLE_ROW = (b"   0xcb   -0.10581776   +0.15830289   +0.99007481   +0.00535047   -0.01242570   +0.00101861"
+               b"     130516848    0x15fd       1 1274434048.503018 1274434048.503018 1274434048.507018"
+               b"  250.000001   -0.12299968   -0.01066045   -0.46057537 \r\n")
+
+
+def warm_up() -> bool:
+    """Compile the reader, or load it from numba's cache, now rather than on the first file;
+    whether it is available."""
+    return scan_rows(_SAMPLE_ROW, 0, len(_SAMPLE_ROW)) is not None

@@ -147,3 +147,7 @@ def test_kept_columns_are_the_exact_parsers_groups():
     assert len(openshoe_scan.COLUMNS) == len(openshoe_scan.KEPT) == len(replay._COLUMN_NAMES)
     kept = openshoe_scan.KEPT
     assert np.array_equal(np.sort(kept[kept >= 0]), np.arange(openshoe_scan.N_KEPT))
+
+
+def test_warming_up_reads_a_sample_row():
+    assert openshoe_scan.warm_up() is True
