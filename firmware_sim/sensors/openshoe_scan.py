@@ -57,6 +57,8 @@ COLUMNS = np.array([HEX] + [NUM] * 6 + [UINT, HEX, UINT] + [NUM] * 3 + [NUM_OR_N
 KEPT = np.array([-1, 0, 1, 2, 3, 4, 5, 6, -1, 7, 8, -1, -1, -1, 9, 10, 11], dtype=np.int8)
 N_KEPT = 12
 
+#: No well-formed row is shorter: 17 fields (two of at least 3 bytes), 16 blanks, a line feed.
+MIN_ROW_BYTES = 2 * 3 + 15 + 16 + 1
 OK, MALFORMED, INEXACT = 0, 1, 2
 _MANTISSA_MAX = 1 << 53  # largest integer below which every integer is an exact double
 _STICKY_FROM = 1 << 59  # m·10 + 9 stays within int64 below this
@@ -204,6 +206,8 @@ def _scan(buf: np.ndarray, start: int, end: int, columns: np.ndarray, kept: np.n
     pos = start
     row = 0
     while pos < end:
+        if row >= len(out):
+            return row, MALFORMED
         pos, status = _scan_line(buf, pos, columns, kept, out, row)
         if status != OK:
             return row, status
@@ -229,11 +233,11 @@ def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:
     if not AVAILABLE or end <= start or data[end - 1] != 10:
         return None
     buf = np.frombuffer(data, dtype=np.uint8)
-    out = np.empty((data.count(b"\n", start, end), N_KEPT))
+    out = np.empty(((end - start) // MIN_ROW_BYTES + 1, N_KEPT))  # room for every possible row
     rows, status = _scan(buf, start, end, COLUMNS, KEPT, out)
-    if status != OK or rows != len(out):
+    if status != OK:
         return None
-    return out
+    return out[:rows]
 
 
 #: One well-formed row (the first of a shared walk), for :func:`warm_up`.

@@ -151,3 +151,13 @@ def test_kept_columns_are_the_exact_parsers_groups():
 
 def test_warming_up_reads_a_sample_row():
     assert openshoe_scan.warm_up() is True
+
+
+def test_the_shortest_rows_fit_the_room_made_for_them(tmp_path, monkeypatch):
+    short = "0x0 1 2 3 4 5 6 7 0x0 8 9 1 2 3 4 5 6"
+    assert len(short) + 1 == openshoe_scan.MIN_ROW_BYTES
+    path = tmp_path / "w.txt"
+    path.write_bytes(("\n".join(TITLE_LINES + [short] * 50) + "\n").encode())
+    data = path.read_bytes()
+    assert len(openshoe_scan.scan_rows(data, *body(data))) == 50
+    assert_same_bits(load_openshoe(path), exact(path, monkeypatch))
