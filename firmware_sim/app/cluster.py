@@ -58,21 +58,35 @@ def open_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]
     processes (1 thread each, no dashboard), closed on exit. Workers get :class:`PrepareWorker`."""
     from distributed import Client, LocalCluster
 
-    if scheduler is not None:
-        client = Client(scheduler)
-        cluster = None
-    else:
-        prepare_process()
-        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
-        client = Client(cluster)
-    try:
-        client.register_plugin(PrepareWorker())
-        yield client
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
+    with local_worker_environment():
+        if scheduler is not None:
+            client, cluster = Client(scheduler), None
+        else:
+            prepare_process()
+            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                   dashboard_address=None, silence_logs=logging.ERROR)
+            client = Client(cluster)
+        try:
+            client.register_plugin(PrepareWorker())
+            yield client
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()
+
+
+@contextlib.contextmanager
+def local_worker_environment() -> Iterator[None]:
+    """The environment Dask's nannies give the worker processes they start, without
+    ``MALLOC_TRIM_THRESHOLD_``: set, it turns off glibc's adaptive mmap threshold, so every
+    large numpy array of a run is mapped and unmapped afresh — a run then spends about as much
+    time in the kernel as in Python (measured: 0.6 s instead of 0.35 s per ``rectangle`` run)."""
+    import dask
+
+    key = "distributed.nanny.pre-spawn-environ"
+    environ = {k: v for k, v in dask.config.get(key, {}).items() if k != "MALLOC_TRIM_THRESHOLD_"}
+    with dask.config.set({key: environ}):
+        yield
 
 
 def execute(runs: Sequence[RunSpec], client: Any | None = None, *, runner: Runner = run_one,
