@@ -91,8 +91,10 @@ def load_spec_file(path: Path) -> SweepSpec:
     """A spec from a TOML (``.toml``) or JSON file (module docstring)."""
     text = path.read_text()
     if path.suffix == ".toml":
-        import tomllib
-
+        try:
+            import tomllib
+        except ImportError:  # pragma: no cover - Python 3.10
+            raise ValueError(f"{path}: TOML specs need Python ≥ 3.11; write the spec as JSON") from None
         data = tomllib.loads(text)
     else:
         data = json.loads(text)
