@@ -185,15 +185,15 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
 # the summary a person reads
 
 
-def _fmt(value: Any, digits: int) -> str:
+def _fmt(value: Any, digits: int | None) -> str:
     if isinstance(value, float):
-        return "–" if math.isnan(value) else f"{value:.{digits}f}"
+        return "–" if math.isnan(value) else f"{value:g}" if digits is None else f"{value:.{digits}f}"
     return str(value)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] = ()) -> list[str]:
     """A fixed-width table, one line per run, and a last line with the totals."""
-    cols = [("name", "name", 0), *((n, n, 6) for n in setting_names), ("samples", "samples", 0),
+    cols = [("name", "name", 0), *((n, n, None) for n in setting_names), ("samples", "samples", 0),
             ("steps", "steps", 0), ("distance_m", "distance [m]", 2), ("closure_m", "closure [m]", 3),
             ("closure_pct", "closure [%]", 2), ("time_s", "time [s]", 3)]
     cells = [[h for _, h, _ in cols]] + [[_fmt(r.get(k, ""), d) for k, _, d in cols] for r in rows]
@@ -205,7 +205,10 @@ def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] =
     closures = [r["closure_pct"] for r in rows if not math.isnan(r["closure_pct"])]
     mean = f"; mean closure {sum(closures) / len(closures):.3f} %" if closures else ""
     parse, nav, write = (sum(r[k] for r in rows) for k in ("parse_s", "nav_s", "write_s"))
-    lines.append(f"{len(rows)} runs, {total:.2f} s in the runs: parsing {parse:.2f} s, "
+    kinds = {r["kind"] for r in rows}
+    reading = {frozenset({"file"}): "parsing", frozenset({"scenario"}): "simulating"}.get(
+        frozenset(kinds), "parsing/simulating")
+    lines.append(f"{len(rows)} runs, {total:.2f} s in the runs: {reading} {parse:.2f} s, "
                  f"navigation {nav:.2f} s, writing {write:.2f} s{mean}")
     return lines
 
