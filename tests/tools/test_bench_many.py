@@ -36,4 +36,4 @@ def test_the_files_target_prints_walks_per_second(walks_dir, tmp_path, capsys):
     assert mo and mo.group(1) == "files" and mo.group(3) == "walks/s" and float(mo.group(2)) > 0
     (res,) = json.loads(out.read_text())["results"]
     assert res["details"]["walks"] == 3 and res["details"]["identical_copies"] is True
-    assert res["details"]["startup_s"] > 0
+    assert {"startup_s", "parse_s", "nav_s", "write_s"} <= res["details"].keys()
