@@ -207,7 +207,11 @@ def main(args: argparse.Namespace) -> int:
     if args.workers < 0:
         print("openshoe-emu sweep: --workers must be ≥ 0", file=sys.stderr)
         return 2
-    rows = run_sweep(spec, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    try:
+        rows = run_sweep(spec, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    except Exception as e:  # noqa: BLE001 - a run that failed on every try, or a lost cluster
+        print(f"openshoe-emu sweep: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
     written = write_tables(rows, spec.setting_names, args.out)
     if not args.no_plot:
         from .sweep_plot import plot_closure
