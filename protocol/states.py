@@ -7,6 +7,7 @@ that splits a packet's payload by the ids it carries is in :mod:`protocol.codec`
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -120,13 +121,21 @@ DP_INDEX: tuple[tuple[int, int], ...] = tuple((r, c) for r in range(4) for c in 
 P_INDEX: tuple[tuple[int, int], ...] = tuple((r, c) for r in range(9) for c in range(r, 9))
 
 
+@functools.cache
+def _triu_indices(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """``np.triu_indices(n)``, made once per size (a host expands one matrix per step packet)."""
+    rows, cols = np.triu_indices(n)
+    rows.flags.writeable = cols.flags.writeable = False
+    return rows, cols
+
+
 def upper_to_symmetric(values: np.ndarray, n: int) -> np.ndarray:
     """Expand an upper triangle stored row by row into a symmetric n×n matrix."""
     values = np.asarray(values)
     if values.shape != (n * (n + 1) // 2,):
         raise ValueError(f"expected {n * (n + 1) // 2} values, got shape {values.shape}")
     out = np.zeros((n, n), dtype=values.dtype)
-    rows, cols = np.triu_indices(n)
+    rows, cols = _triu_indices(n)
     out[rows, cols] = values
     out[cols, rows] = values
     return out

@@ -18,6 +18,10 @@ sensed) and the loop keeps running until the packet queue has drained, so the
 last step is on the wire too. ``--scenario NAME`` replays a simulated walk
 (:func:`firmware_sim.sensors.imu_array.make_source`, 1 kHz by default) instead and
 writes its ground truth beside OUT (``OUT.truth.csv``).
+
+``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
+of ``--seeds A:B`` — into ``DIR/<name>.bin`` (:mod:`firmware_sim.app.replay_cli`); each file's
+bytes are the ones a replay of it alone writes.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from pathlib import Path
 
 from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.port import Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 from protocol.frames import StatePacket, build_packet_ack
@@ -38,7 +43,7 @@ from protocol.stream import StreamDecoder
 
 from .progress import progress_bar, say
 
-__all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "main"]
+__all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "check_arguments", "main"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -68,17 +73,20 @@ def _source_length(source: SensorSource) -> int | None:
 
 def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                progress: Callable[[int, int | None], None] | None = None,
-               progress_every: int = 5000, announce: Announce | None = to_stderr) -> ReplayResult:
+               progress_every: int = 5000, announce: Announce | None = to_stderr,
+               bt_port: Port | None = None) -> ReplayResult:
     """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
 
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
     *progress(samples_done, samples_total_or_None)* is called every
     *progress_every* loops. *announce* hears about a slow first start (the compiled
     path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
+    *bt_port* is the Bluetooth interface's port (default: an ideal one; a link model
+    with faults makes the host receive what that link delivers).
     """
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
-    module = build_module(config, sensors=source)
+    module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
     host = _LosslessHost(module)
     host.run_source(_source_length(source), progress, progress_every)
@@ -159,20 +167,41 @@ def _step(module: Module) -> int:
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("file", nargs="?", type=Path,
-                     help="recording to replay (OpenShoe walk .txt or our CSV), at its own rate")
-    src.add_argument("--scenario", metavar="NAME",
-                     help="replay a simulated scenario instead (see firmware_sim.sensors.scenarios)")
-    p.add_argument("--wire", required=True, type=Path, metavar="OUT",
-                   help="write the bytes the module transmitted (Bluetooth) to OUT")
+    p.add_argument("files", nargs="*", type=Path, metavar="FILE",
+                   help="recording(s) to replay (OpenShoe walk .txt or our CSV), each at its own rate")
+    p.add_argument("--scenario", metavar="NAME",
+                   help="replay a simulated scenario instead (see firmware_sim.sensors.scenarios)")
+    out = p.add_mutually_exclusive_group(required=True)
+    out.add_argument("--wire", type=Path, metavar="OUT",
+                     help="write the bytes the module transmitted (Bluetooth) to OUT (one replay)")
+    out.add_argument("--wire-dir", type=Path, metavar="DIR",
+                     help="replay every FILE (or the scenario with every seed of --seeds) in this process, "
+                          "writing DIR/<name>.bin each, and print a summary table")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
+    p.add_argument("--seeds", metavar="A:B",
+                   help="with --scenario and --wire-dir: seeds A … B-1 (also N or N,M,…)")
     p.add_argument("--rate", type=float, default=1000.0,
                    help="loop/sample rate of a simulated scenario [Hz] (default 1000)")
+    p.add_argument("--table", type=Path, metavar="CSV",
+                   help="with --wire-dir: also write the summary, one row per run, as CSV")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
 
 
+def check_arguments(args: argparse.Namespace) -> str | None:
+    """What is wrong with a combination argparse cannot express, or None."""
+    if bool(args.files) == (args.scenario is not None):
+        return "give recording FILE(s) or --scenario NAME (one of them)"
+    if args.wire is not None and len(args.files) > 1:
+        return "several files replay into a folder: use --wire-dir DIR"
+    if args.wire is not None and (args.seeds is not None or args.table is not None):
+        return "--seeds and --table go with --wire-dir"
+    if args.seeds is not None and args.scenario is None:
+        return "--seeds goes with --scenario"
+    return None
+
+
 def main(args: argparse.Namespace) -> int:
+    """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT``."""
     from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
 
     truth = None
@@ -184,8 +213,8 @@ def main(args: argparse.Namespace) -> int:
             truth = source.truth
             name = f"scenario {args.scenario!r} (seed {args.seed}, {args.rate:g} Hz)"
         else:
-            source = ReplaySource.from_file(args.file)
-            name = str(args.file)
+            source = ReplaySource.from_file(args.files[0])
+            name = str(args.files[0])
     except (OSError, RecordingFormatError, KeyError, ValueError) as e:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2

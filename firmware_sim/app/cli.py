@@ -14,8 +14,10 @@ from collections.abc import Sequence
 #: name → (module implementing it, one-line help).
 SUBCOMMANDS: dict[str, tuple[str, str]] = {
     "serve": ("firmware_sim.app.serve", "run emulated modules in real time on a pty and/or TCP port"),
-    "replay": ("firmware_sim.app.batch",
-               "replay a recording or a scenario in batch mode; write the wire bytes"),
+    "replay": ("firmware_sim.app.replay_cli",
+               "replay recordings or scenarios in batch mode; write the wire bytes"),
+    "sweep": ("firmware_sim.app.sweep",
+              "sweep recordings or scenarios × seeds × settings (Dask); a results table"),
 }
 
 

@@ -13,6 +13,11 @@ columns, then one row per sample of 17 whitespace-separated columns::
     id(hex) a_x a_y a_z [g]  w_x w_y w_z [rad/s]  counter  checksum(hex)  nr
     filtered_ts unfiltered_ts predicted_ts [s]  freq [Hz]  m_x m_y m_z [G]
 
+A compiled reader (:mod:`firmware_sim.sensors.openshoe_scan`, with numba) reads a
+well-formed walk in a few milliseconds; anything it is not sure of goes through the
+exact parser below, which finds the line and the reason, so both refuse the same files
+and give the same numbers, bit for bit.
+
 Acceleration and rate must be finite numbers; the magnetometer columns may be
 ``nan`` (the recorder writes ``+nan`` when it had no magnetometer reading).
 The body frame is the sensor's own, z axis **up** (at rest a_z ≈ +1 g). A last
@@ -63,6 +68,7 @@ import numpy as np
 from firmware_sim.board import MIMU22BT, BoardGeometry
 from firmware_sim.mcu.imu_bus import RawSample
 
+from . import openshoe_scan
 from .config import DEFAULT_CONFIG, SensorConfig
 from .registers import accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 
@@ -197,9 +203,10 @@ class Recording:
 # reading
 
 
-def _read_lines(path: Path) -> tuple[list[str], str | None]:
+def _read_lines(path: Path, data: bytes | None = None) -> tuple[list[str], str | None]:
     """The terminated lines of a text file (without their line ends) and an unterminated tail."""
-    data = path.read_bytes()
+    if data is None:
+        data = path.read_bytes()
     try:
         text = data.decode("ascii")
     except UnicodeDecodeError as e:
@@ -229,10 +236,8 @@ def _diagnose_openshoe_row(path: Path, lineno: int, line: str) -> RecordingForma
     return RecordingFormatError(path, lineno, "malformed row", line)
 
 
-def load_openshoe(path: str | Path) -> Recording:
-    """Parse an OpenShoe walk file (see the module docstring); refuses any malformed line."""
-    path = Path(path)
-    lines, tail = _read_lines(path)
+def _openshoe_data_start(path: Path, lines: list[str]) -> int:
+    """Index of the first row: after the title, blank line(s) and the header (refuses others)."""
     i = 0
     while i < len(lines) and not lines[i].strip():
         i += 1
@@ -249,18 +254,11 @@ def load_openshoe(path: str | Path) -> Recording:
     header = " ".join(lines[i].split())
     if header != OPENSHOE_HEADER:
         raise RecordingFormatError(path, i + 1, f"unexpected header (expected {OPENSHOE_HEADER!r})", lines[i])
-    first = i + 1
-    groups = []
-    match = _OPENSHOE_ROW.fullmatch
-    for k in range(first, len(lines)):
-        m = match(lines[k])
-        if m is None:
-            raise _diagnose_openshoe_row(path, k + 1, lines[k])
-        groups.append(m.groups())
-    if not groups:
-        raise RecordingFormatError(path, None, "no samples")
-    cols = np.array(groups, dtype=np.float64) if groups else np.empty((0, 13))
-    # groups: 6 imu, counter, nr, filtered ts, 3 mag
+    return i + 1
+
+
+def _openshoe_recording(path: Path, cols: np.ndarray, tail: str | None) -> Recording:
+    """A recording from the kept fields: 6 imu, counter, nr, filtered ts, 3 mag."""
     ts = cols[:, 8]
     return Recording(
         t=ts - ts[0],
@@ -274,6 +272,66 @@ def load_openshoe(path: str | Path) -> Recording:
         nr=cols[:, 7].astype(np.int64),
         partial_tail=tail,
     )
+
+
+#: Lines the compiled reader looks through for the header before leaving the file to the exact parser.
+_HEAD_LINES = 64
+
+
+def _load_openshoe_compiled(path: Path, data: bytes) -> Recording | None:
+    """The compiled reader (:mod:`.openshoe_scan`); None when the exact parser must decide."""
+    if not openshoe_scan.AVAILABLE:
+        return None
+    head: list[str] = []
+    pos = 0
+    while len(head) < _HEAD_LINES and (eol := data.find(b"\n", pos)) >= 0:
+        raw = data[pos:eol].rstrip(b"\r")
+        if not raw.isascii() or b"\r" in raw:
+            return None
+        head.append(raw.decode("ascii"))
+        pos = eol + 1
+        if head[-1].lstrip().startswith("Header:"):
+            break
+    else:
+        return None
+    try:
+        _openshoe_data_start(path, head)
+    except RecordingFormatError:
+        return None
+    end = data.rfind(b"\n") + 1
+    tail = data[end:]
+    if not tail.isascii():
+        return None
+    cols = openshoe_scan.scan_rows(data, pos, end)
+    if cols is None or not len(cols):
+        return None
+    text = tail.decode("ascii")
+    return _openshoe_recording(path, cols, text if text.strip() else None)
+
+
+def load_openshoe(path: str | Path) -> Recording:
+    """Parse an OpenShoe walk file (see the module docstring); refuses any malformed line.
+
+    The compiled reader (:mod:`.openshoe_scan`) reads a well-formed file; anything it is not
+    sure of goes through the exact parser here, which finds the line and the reason.
+    """
+    path = Path(path)
+    data = path.read_bytes()
+    fast = _load_openshoe_compiled(path, data)
+    if fast is not None:
+        return fast
+    lines, tail = _read_lines(path, data)
+    first = _openshoe_data_start(path, lines)
+    groups = []
+    match = _OPENSHOE_ROW.fullmatch
+    for k in range(first, len(lines)):
+        m = match(lines[k])
+        if m is None:
+            raise _diagnose_openshoe_row(path, k + 1, lines[k])
+        groups.append(m.groups())
+    if not groups:
+        raise RecordingFormatError(path, None, "no samples")
+    return _openshoe_recording(path, np.array(groups, dtype=np.float64), tail)
 
 
 def load_csv(path: str | Path, rate_hz: float | None = None) -> Recording:
@@ -374,6 +432,28 @@ def load_recording(path: str | Path) -> Recording:
 # replay
 
 
+def _signed_permutations(*matrices: np.ndarray) -> bool:
+    """Whether every row of every matrix is one ±1 and zeros."""
+    return all(bool(np.isin(m, (-1.0, 0.0, 1.0)).all() and (np.count_nonzero(m, axis=-1) == 1).all())
+               for m in matrices)
+
+
+def _to_chips(mount: np.ndarray, v: np.ndarray, *factors: np.ndarray) -> np.ndarray:
+    """(n, chips, 3): each board vector *v[n]* in each chip's axes, ``mount[k] @ v[n]``.
+
+    *mount* may be a product of *factors* (``einsum("ij,kjl,nl->nki", *factors, v)``). When every
+    matrix is a signed permutation, each output is one input value, maybe negated, plus zeros:
+    picking and negating it gives the einsum's values exactly, many times faster.
+    """
+    factors = factors or (mount,)
+    if not _signed_permutations(*factors):
+        spec = "kij,nj->nki" if len(factors) == 1 else "ij,kjl,nl->nki"
+        return np.einsum(spec, *factors, v)
+    rows = mount.reshape(-1, 3)  # (chips·3, 3): one ±1 per row
+    picked = v[:, np.argmax(rows != 0, axis=1)] * rows.sum(axis=1)
+    return picked.reshape(len(v), *mount.shape[:2])
+
+
 class ReplaySource:
     """A recording served as the raw registers of a replicated 4-chip board (module docstring).
 
@@ -390,8 +470,8 @@ class ReplaySource:
         self.dlpf_cfg = config.dlpf.cfg
         mount = np.asarray(geometry.mounting, dtype=np.float64)  # (chips, 3, 3)
         n, chips = len(recording), mount.shape[0]
-        acc = np.einsum("kij,nj->nki", mount, recording.board_acc_g())
-        gyro = np.einsum("kij,nj->nki", mount, recording.board_gyro())
+        acc = _to_chips(mount, recording.board_acc_g())
+        gyro = _to_chips(mount, recording.board_gyro())
         imu = np.empty((n, chips, 6), dtype=np.int16)
         imu[..., :3] = accel_to_lsb(acc, config)
         imu[..., 3:] = gyro_to_lsb(gyro, config)
@@ -403,7 +483,7 @@ class ReplaySource:
         np.maximum.accumulate(last, out=last)
         held = np.where((last >= 0)[:, None], board_mag[np.maximum(last, 0)], 0.0)
         mag_axes = np.asarray(config.mag.axes, dtype=np.float64)
-        mag = np.einsum("ij,kjl,nl->nki", mag_axes, mount, held)
+        mag = _to_chips(np.einsum("ij,kjl->kil", mag_axes, mount), held, mag_axes, mount)
         self.mag = mag_to_lsb(mag, config)
         self.temp = np.full(chips, temp_to_lsb(config.temperature.reference_c, config), dtype=np.int16)
 

@@ -1,6 +1,6 @@
 """`openshoe-bench`: the emulator's performance targets, measured as ratios in one run.
 
-Targets (``openshoe-bench [TARGET …]``, all four by default):
+Targets (``openshoe-bench [TARGET …]``, all of them by default):
 
 * ``batch`` — the full firmware pipeline of step-wise dead reckoning (4 IMUs at 1 kHz:
   read, front end, detector, INS, step-wise reset, packet assembly, the host's acks)
@@ -11,6 +11,10 @@ Targets (``openshoe-bench [TARGET …]``, all four by default):
   reckoning and acknowledges every step, for ``--minutes`` (10); target: no overrun.
 * ``latency`` — one module served in real time on a pty: time from a command written on
   the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 2 ms.
+* ``files`` — ``--walks`` (100) walk files through one ``openshoe-emu replay`` command, start-up
+  included: walks/s (target 22) and the time split (:mod:`tools.bench.files`).
+* ``sweep`` — a sweep of ``--runs`` (64) runs on 1, then 2 local Dask workers: the speed-up
+  (target 1.7) and identical tables (:mod:`tools.bench.sweep`).
 * ``memory`` — a batch run of ``--cycles`` loop cycles (86.4 M = 24 h at 1 kHz) of a
   repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
 
@@ -36,7 +40,7 @@ from .result import Result
 
 __all__ = ["Result", "main", "machine_info"]
 
-TARGETS = ("batch", "realtime", "latency", "memory")
+TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep")
 #: 24 h at 1 kHz.
 FULL_CYCLES = 86_400_000
 
@@ -96,6 +100,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
     p.add_argument("--cycles", type=float, default=FULL_CYCLES,
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
+    p.add_argument("--walks", type=int, default=100, help="files: walk files replayed (default 100)")
+    p.add_argument("--runs", type=int, default=64, help="sweep: runs in the sweep (default 64)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
     targets = args.targets or list(TARGETS)
@@ -119,6 +125,14 @@ def main(argv: list[str] | None = None) -> int:
                                  quiet=args.quiet)
         elif name == "latency":
             r = t.bench_latency(args.pings, _say, quiet=args.quiet)
+        elif name == "files":
+            from .files import bench_files, default_walks_dir
+
+            r = bench_files(args.walks, default_walks_dir(), _say)
+        elif name == "sweep":
+            from .sweep import bench_sweep
+
+            r = bench_sweep(args.runs, _say)
         else:
             r = t.bench_memory(int(args.cycles), _say, quiet=args.quiet)
         r.details["wall_s"] = round(time.monotonic() - t0, 1)

@@ -1,0 +1,225 @@
+"""Many batch replays: one run per recording, or per scenario and seed, with its metrics.
+
+A :class:`RunSpec` names what one run replays — a recording file, or a simulated scenario
+with a seed — and the settings it changes (:mod:`firmware_sim.app.settings`). :func:`run_one`
+replays it exactly as ``openshoe-emu replay`` does (:func:`firmware_sim.app.batch.run_replay`:
+the same module, the same lossless host, the same bytes), optionally writes the wire bytes,
+and sums the steps the host received (:func:`hostlib.replay.replay_bytes`) into a row:
+
+* ``samples``, ``step_packets``, ``steps`` (the step packets that moved the foot,
+  :attr:`hostlib.tracking.Track.motion_steps`), ``distance_m`` (summed horizontal step lengths);
+* ``closure_m``, ``closure_pct`` — for a closed loop, the horizontal distance from the end of
+  the track to its start, in metres and in % of ``distance_m``. Recordings are taken as closed
+  loops (the shared walks are); a scenario is one when its true path ends within 5 cm of its
+  start, else both are NaN;
+* ``wire_bytes`` and ``wire_sha256`` of what the module sent;
+* timings: ``parse_s`` (reading the recording, or simulating the scenario: :func:`load`),
+  ``nav_s`` (the module's run), ``write_s``, ``time_s`` (all of the run's work, the metrics
+  too). Timings are the only columns that differ between two runs of the same spec.
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import math
+import re
+import time
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from . import settings as run_settings
+
+__all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "file_runs", "finish", "load", "parse_seeds", "run_one",
+           "scenario_runs", "summary_lines", "write_csv"]
+
+#: The columns every row has, after the run's identity and its settings.
+METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "wire_bytes",
+           "wire_sha256")
+TIMINGS = ("parse_s", "nav_s", "write_s", "time_s")
+#: A scenario whose true path ends this close [m] to its start is a closed loop.
+CLOSED_LOOP_M = 0.05
+
+
+@dataclass(frozen=True)
+class RunSpec:
+    """One run: ``kind`` "file" (``source`` a path) or "scenario" (``source`` a name or recipe)."""
+
+    kind: str
+    source: str
+    seed: int = 0
+    rate_hz: float = 1000.0  #: sample rate of a simulated scenario
+    settings: tuple[tuple[str, Any], ...] = ()
+    name: str = ""  #: output file stem, unique within a batch
+
+    @property
+    def key(self) -> tuple:
+        """What rows are sorted by: source, seed, then the settings' values in their order."""
+        return (self.kind, self.source, self.seed, *(v for _, v in self.settings))
+
+
+def parse_seeds(text: str) -> list[int]:
+    """``A:B`` (half-open: A … B−1), ``N``, or ``N,M,…``."""
+    try:
+        if ":" in text:
+            a, b = (int(x) for x in text.split(":"))
+            if b <= a:
+                raise ValueError
+            return list(range(a, b))
+        return [int(x) for x in text.split(",")]
+    except ValueError:
+        raise ValueError(f"seeds must be A:B (A < B), N or N,M,…; got {text!r}") from None
+
+
+def _stem(text: str) -> str:
+    return re.sub(r"[^A-Za-z0-9._-]+", "_", text).strip("_") or "run"
+
+
+def _unique(names: Iterable[str]) -> list[str]:
+    seen: dict[str, int] = {}
+    out = []
+    for name in names:
+        n = seen[name] = seen.get(name, 0) + 1
+        out.append(name if n == 1 else f"{name}-{n}")
+    return out
+
+
+def file_runs(paths: Sequence[str | Path], seeds: Sequence[int] = (0,),
+              settings: tuple[tuple[str, Any], ...] = ()) -> list[RunSpec]:
+    """Runs of recordings, in the order given; a stem met twice gets ``-2``, ``-3``, …"""
+    pairs = [(str(p), s) for p in paths for s in seeds]
+    stems = [Path(p).stem + (f"_seed{s}" if len(seeds) > 1 else "") for p, s in pairs]
+    return [RunSpec("file", p, s, settings=settings, name=n) for (p, s), n in zip(pairs, _unique(stems),
+                                                                                   strict=True)]
+
+
+def scenario_runs(names: Sequence[str], seeds: Sequence[int], rate_hz: float = 1000.0,
+                  settings: tuple[tuple[str, Any], ...] = ()) -> list[RunSpec]:
+    """Runs of simulated scenarios: every name with every seed, output ``<name>_seed<N>``."""
+    pairs = [(n, s) for n in names for s in seeds]
+    stems = _unique(f"{_stem(n)}_seed{s}" for n, s in pairs)
+    return [RunSpec("scenario", n, s, rate_hz, settings, stem) for (n, s), stem in zip(pairs, stems,
+                                                                                      strict=True)]
+
+
+@dataclass
+class Loaded:
+    """A run's sensor source, made ready (:func:`load`): the part of a run that reads a file or
+    simulates a walk, which a reader thread may do while the previous run navigates."""
+
+    source: Any
+    truth: Any  #: the scenario's ground truth (None for a recording)
+    applied: run_settings.Applied
+    parse_s: float
+
+
+def load(spec: RunSpec) -> Loaded:
+    """Read the recording (or simulate the scenario) of *spec* with its settings applied."""
+    t0 = time.perf_counter()
+    applied = run_settings.apply(spec.settings)
+    if spec.kind == "file":
+        from firmware_sim.sensors.replay import ReplaySource
+
+        source, truth = ReplaySource.from_file(spec.source), None
+    else:
+        from firmware_sim.sensors.imu_array import make_source
+
+        source = make_source(spec.source, seed=spec.seed, rate_hz=spec.rate_hz, config=applied.sensors)
+        truth = source.truth
+    return Loaded(source, truth, applied, time.perf_counter() - t0)
+
+
+def _closed_loop(truth) -> bool:
+    if truth is None:
+        return True
+    p = truth.stance_positions
+    return len(p) > 1 and math.hypot(*(p[-1, :2] - p[0, :2])) <= CLOSED_LOOP_M
+
+
+def _metrics(data: bytes, samples: int, closed: bool) -> dict[str, Any]:
+    from hostlib.replay import replay_bytes
+
+    track, _stats = replay_bytes(data)
+    closure = track.closure_error() if closed and len(track) else math.nan
+    distance = float(track.distance)
+    return {"samples": samples, "step_packets": len(track), "steps": track.motion_steps,
+            "distance_m": distance, "closure_m": closure,
+            "closure_pct": 100.0 * closure / distance if distance > 0 else math.nan,
+            "wire_bytes": len(data), "wire_sha256": hashlib.sha256(data).hexdigest()}
+
+
+def run_one(spec: RunSpec, wire_dir: Path | None = None) -> dict[str, Any]:
+    """Replay *spec* (writing ``wire_dir/<name>.bin`` and, for a scenario, its ``.truth.csv``);
+    returns its row: name, kind, source, seed, the settings, :data:`METRICS`, :data:`TIMINGS`."""
+    return finish(spec, load(spec), wire_dir)
+
+
+def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[str, Any]:
+    """The rest of :func:`run_one` once the source is :func:`load`-ed: run, write, measure."""
+    from firmware_sim.mcu.module import ModuleConfig
+
+    from .batch import run_replay
+
+    t1 = time.perf_counter()
+    source, truth, applied = loaded.source, loaded.truth, loaded.applied
+    config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=applied.initial_states)
+    data = run_replay(source, config=config, announce=None, bt_port=applied.make_link(spec.seed))
+    t2 = time.perf_counter()
+    if wire_dir is not None:
+        wire = Path(wire_dir) / f"{spec.name}.bin"
+        wire.write_bytes(data)
+        if truth is not None:
+            truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
+    t3 = time.perf_counter()
+    row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed}
+    row.update(spec.settings)
+    row.update(_metrics(bytes(data), data.samples, _closed_loop(truth)))
+    row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
+               time_s=loaded.parse_s + time.perf_counter() - t1)
+    return row
+
+
+# ---------------------------------------------------------------------------------------------
+# the summary a person reads
+
+
+def _fmt(value: Any, digits: int | None) -> str:
+    if isinstance(value, float):
+        return "–" if math.isnan(value) else f"{value:g}" if digits is None else f"{value:.{digits}f}"
+    return str(value)
+
+
+def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] = ()) -> list[str]:
+    """A fixed-width table, one line per run, and a last line with the totals."""
+    cols = [("name", "name", 0), *((n, n, None) for n in setting_names), ("samples", "samples", 0),
+            ("steps", "steps", 0), ("distance_m", "distance [m]", 2), ("closure_m", "closure [m]", 3),
+            ("closure_pct", "closure [%]", 2), ("time_s", "time [s]", 3)]
+    cells = [[h for _, h, _ in cols]] + [[_fmt(r.get(k, ""), d) for k, _, d in cols] for r in rows]
+    widths = [max(len(c[i]) for c in cells) for i in range(len(cols))]
+    lines = ["  ".join(c.ljust(w) if i == 0 else c.rjust(w) for i, (c, w) in enumerate(zip(row, widths,
+                                                                                          strict=True)))
+             for row in cells]
+    total = sum(r["time_s"] for r in rows)
+    closures = [r["closure_pct"] for r in rows if not math.isnan(r["closure_pct"])]
+    mean = f"; mean closure {sum(closures) / len(closures):.3f} %" if closures else ""
+    parse, nav, write = (sum(r[k] for r in rows) for k in ("parse_s", "nav_s", "write_s"))
+    kinds = {r["kind"] for r in rows}
+    reading = {frozenset({"file"}): "parsing", frozenset({"scenario"}): "simulating"}.get(
+        frozenset(kinds), "parsing/simulating")
+    lines.append(f"{len(rows)} runs, {total:.2f} s in the runs: {reading} {parse:.2f} s, "
+                 f"navigation {nav:.2f} s, writing {write:.2f} s{mean}")
+    return lines
+
+
+def write_csv(rows: list[dict[str, Any]], path: Path, setting_names: tuple[str, ...] = ()) -> Path:
+    """The rows as CSV: identity, settings, metrics, timings; floats in shortest round-trip form."""
+    header = ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for row in rows:
+            w.writerow([repr(v) if isinstance(v, float) else v for v in (row[k] for k in header)])
+    return path

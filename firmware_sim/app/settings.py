@@ -1,0 +1,150 @@
+"""Settings a run can vary: detector thresholds, sensor errors and noise, link faults.
+
+A setting is a dotted name and a value; a run's settings are a tuple of ``(name, value)``
+pairs, applied on top of the defaults by :func:`apply`:
+
+``frontend.zupt_threshold``, ``frontend.zaru_threshold``
+    the zero-velocity detector's thresholds TH_ZUPT / TH_ZARU (states 0x19 / 0x1A) at power-on,
+    integers in LSB_f² (defaults 16000 and 16; :mod:`firmware_sim.nav.config`).
+``sensors.<field>[.<field>]``
+    any number or switch of :class:`~firmware_sim.sensors.config.SensorConfig`, e.g.
+    ``sensors.noise`` (white noise on/off), ``sensors.drift``, ``sensors.offsets``,
+    ``sensors.scale_errors``, ``sensors.temperature_effects``, ``sensors.accel.noise_density_g``,
+    ``sensors.gyro.noise_density_rad_s``, ``sensors.gyro.bias_random_walk_rad_s_per_sqrt_s``.
+    Simulated scenarios only: a recording carries its own sensor errors.
+``link.profile``
+    ``ideal`` (default), ``bt`` or ``usb``: the Bluetooth interface's link model;
+``link.byte_loss``, ``link.corrupt``, ``link.stall_rate_hz``, ``link.disconnect_rate_hz``
+    seeded faults on both directions of that link (a ``bt`` profile unless ``link.profile``
+    says otherwise); the link's seed is the run's seed. The host acknowledges what it receives
+    intact, as a lossless host does; the metrics are those of the track it sums.
+
+Values given as text (``--set name=v1,v2``) are read as the setting's type: integers for the
+thresholds, ``true``/``false``/``1``/``0`` for switches, numbers for the rest.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from typing import Any
+
+from firmware_sim.sensors.config import DEFAULT_CONFIG, SensorConfig
+from protocol.ids import StateId
+
+__all__ = ["Applied", "LINK_FAULTS", "SettingError", "apply", "check", "parse_value"]
+
+Settings = tuple[tuple[str, Any], ...]
+
+THRESHOLDS = {"frontend.zupt_threshold": StateId.TH_ZUPT, "frontend.zaru_threshold": StateId.TH_ZARU}
+LINK_FAULTS = ("byte_loss", "corrupt", "stall_rate_hz", "disconnect_rate_hz")
+LINK_PROFILES = ("ideal", "bt", "usb")
+_TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
+
+
+class SettingError(ValueError):
+    """An unknown setting, or a value it cannot take."""
+
+
+@dataclass
+class Applied:
+    """What a run's settings change: module states at boot, the sensor model, the link."""
+
+    initial_states: dict[int, int] = field(default_factory=dict)
+    sensors: SensorConfig | None = None
+    link_profile: str | None = None
+    link_faults: dict[str, float] = field(default_factory=dict)
+
+    def make_link(self, seed: int):
+        """The Bluetooth link of the run (None: the ideal port, as a plain replay)."""
+        if self.link_profile in (None, "ideal") and not self.link_faults:
+            return None
+        from firmware_sim.links.link import LinkFaults, make_link
+
+        faults = self.link_faults
+        both = {k: faults[k] for k in ("byte_loss", "corrupt", "stall_rate_hz") if k in faults}
+        extra = {"disconnect_rate_hz": faults["disconnect_rate_hz"]} if "disconnect_rate_hz" in faults else {}
+        link_faults = LinkFaults.both(**both, **extra) if faults else None
+        return make_link(self.link_profile or "bt", seed=seed, faults=link_faults)
+
+
+def _sensor_field(name: str) -> tuple[list[str], Any]:
+    """The attribute path under SensorConfig and the default value a ``sensors.…`` name points to."""
+    path = name.split(".")[1:]
+    obj: Any = DEFAULT_CONFIG
+    for part in path:
+        if not dataclasses.is_dataclass(obj) or part not in {f.name for f in dataclasses.fields(obj)}:
+            raise SettingError(f"unknown setting {name!r}: SensorConfig has no field {'.'.join(path)!r}")
+        obj = getattr(obj, part)
+    if isinstance(obj, (tuple, list)) or dataclasses.is_dataclass(obj):
+        raise SettingError(f"setting {name!r} is not a single number or switch")
+    return path, obj
+
+
+def _kind(name: str) -> type:
+    if name in THRESHOLDS:
+        return int
+    if name == "link.profile":
+        return str
+    if name.startswith("link.") and name[5:] in LINK_FAULTS:
+        return float
+    if name.startswith("sensors."):
+        return type(_sensor_field(name)[1])
+    raise SettingError(f"unknown setting {name!r} (known: {', '.join(THRESHOLDS)}, sensors.<field>, "
+                       f"link.profile, {', '.join('link.' + f for f in LINK_FAULTS)})")
+
+
+def parse_value(name: str, value: Any) -> Any:
+    """*value* (text from the command line, or a TOML/JSON value) as setting *name* takes it."""
+    kind = _kind(name)
+    try:
+        if kind is bool:
+            if isinstance(value, bool):
+                return value
+            text = str(value).strip().lower()
+            if text not in _TRUE + _FALSE:
+                raise ValueError(value)
+            return text in _TRUE
+        if kind is int:
+            number = float(value) if isinstance(value, str) else value
+            if isinstance(number, bool) or number != int(number):
+                raise ValueError(value)
+            return int(number)
+        if kind is float:
+            return float(value)
+        text = str(value).strip()
+        if text not in LINK_PROFILES:
+            raise ValueError(value)
+        return text
+    except (TypeError, ValueError, OverflowError):
+        raise SettingError(f"setting {name!r} takes {kind.__name__} values, got {value!r}") from None
+
+
+def check(names: Iterable[str], *, recordings: bool) -> None:
+    """Refuse unknown names, and sensor settings for recordings (they carry their own errors)."""
+    for name in names:
+        _kind(name)
+        if recordings and name.startswith("sensors."):
+            raise SettingError(f"setting {name!r} applies to simulated scenarios only, not to recordings")
+
+
+def apply(settings: Settings) -> Applied:
+    """The changes a run's settings make (values already parsed by :func:`parse_value`)."""
+    out = Applied()
+    for name, value in settings:
+        if name in THRESHOLDS:
+            out.initial_states[int(THRESHOLDS[name])] = int(value)
+        elif name == "link.profile":
+            out.link_profile = value
+        elif name.startswith("link."):
+            out.link_faults[name[5:]] = float(value)
+        else:
+            out.sensors = _replace(out.sensors or DEFAULT_CONFIG, _sensor_field(name)[0], value)
+    return out
+
+
+def _replace(obj: Any, path: list[str], value: Any) -> Any:
+    if len(path) == 1:
+        return dataclasses.replace(obj, **{path[0]: value})
+    return dataclasses.replace(obj, **{path[0]: _replace(getattr(obj, path[0]), path[1:], value)})

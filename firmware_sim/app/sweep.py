@@ -1,0 +1,228 @@
+"""Sweep recordings or scenarios × seeds × settings, serially or on a Dask cluster; a results table.
+
+``openshoe-emu sweep`` runs the product of its sources (recording files, or ``--scenario``
+names), its seeds (``--seeds A:B``) and the values of every setting (``--set NAME=V1,V2``,
+repeatable; the names are those of :mod:`firmware_sim.app.settings`), one batch replay each
+(:func:`firmware_sim.app.runs.run_one`). A spec file (``--spec FILE``, TOML or JSON) says the
+same, and the command line adds to it::
+
+    recordings = ["walks/walk_100521_2.txt"]     # or: scenarios = ["rectangle", "walk"]
+    seeds = "0:8"                                # A:B, N, or a list
+    rate_hz = 1000.0                             # of the scenarios
+    [settings]
+    "frontend.zupt_threshold" = [8000, 16000, 32000]
+    "link.byte_loss" = [0.0, 1e-3]
+
+It writes ``OUT/runs.parquet`` and ``OUT/runs.csv`` (one row per run, sorted by run key:
+source, seed, then the settings in their order; the settings are columns; metrics and timings
+as :mod:`firmware_sim.app.runs` describes) and ``OUT/closure.png`` (closure per setting, when
+matplotlib is installed), and prints the table. The runs go to a local Dask cluster of
+``--workers`` processes (default 2), to an existing one (``--scheduler tcp://HOST:PORT``), or
+one after the other in this process (``--workers 0``); the table is the same every way, but for
+the timing columns.
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import sys
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any
+
+from . import settings as run_settings
+from .progress import say
+from .runs import METRICS, TIMINGS, RunSpec, parse_seeds, summary_lines, write_csv
+
+__all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "write_tables"]
+
+
+@dataclass(frozen=True)
+class SweepSpec:
+    """What a sweep runs: sources × seeds × every combination of the settings' values."""
+
+    recordings: tuple[str, ...] = ()
+    scenarios: tuple[str, ...] = ()
+    seeds: tuple[int, ...] = (0,)
+    rate_hz: float = 1000.0
+    settings: tuple[tuple[str, tuple[Any, ...]], ...] = ()
+
+    @property
+    def setting_names(self) -> tuple[str, ...]:
+        return tuple(name for name, _ in self.settings)
+
+    def check(self) -> None:
+        """Refuse an empty or ambiguous sweep, unknown settings, repeated values."""
+        if bool(self.recordings) == bool(self.scenarios):
+            raise ValueError("a sweep needs recording files or --scenario names (one of them)")
+        run_settings.check(self.setting_names, recordings=bool(self.recordings))
+        for what, values in [("seeds", self.seeds), *self.settings]:
+            if not values or len(set(values)) != len(values):
+                raise ValueError(f"{what}: give each value once, and at least one")
+
+    def runs(self) -> list[RunSpec]:
+        """Every run, sorted by run key."""
+        kind, sources = ("file", self.recordings) if self.recordings else ("scenario", self.scenarios)
+        out = []
+        for source, seed, values in itertools.product(sources, self.seeds,
+                                                      itertools.product(*(v for _, v in self.settings))):
+            chosen = tuple(zip(self.setting_names, values, strict=True))
+            name = _run_name(kind, source, seed, chosen)
+            out.append(RunSpec(kind, source, seed, self.rate_hz, chosen, name))
+        return sorted(out, key=lambda r: r.key)
+
+
+def _run_name(kind: str, source: str, seed: int, chosen: tuple[tuple[str, Any], ...]) -> str:
+    import re
+
+    stem = Path(source).stem if kind == "file" else source
+    parts = [stem, f"seed{seed}", *(f"{n.rsplit('.', 1)[-1]}={v}" for n, v in chosen)]
+    return re.sub(r"[^A-Za-z0-9._=-]+", "_", "_".join(parts))
+
+
+def _values(name: str, values: Any) -> tuple[Any, ...]:
+    items = values.split(",") if isinstance(values, str) else values if isinstance(values, list) else [values]
+    return tuple(run_settings.parse_value(name, v) for v in items)
+
+
+def load_spec_file(path: Path) -> SweepSpec:
+    """A spec from a TOML (``.toml``) or JSON file (module docstring)."""
+    text = path.read_text()
+    if path.suffix == ".toml":
+        try:
+            import tomllib
+        except ImportError:  # pragma: no cover - Python 3.10
+            raise ValueError(f"{path}: TOML specs need Python ≥ 3.11; write the spec as JSON") from None
+        data = tomllib.loads(text)
+    else:
+        data = json.loads(text)
+    unknown = set(data) - {"recordings", "scenarios", "seeds", "rate_hz", "settings"}
+    if unknown:
+        raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
+    seeds = data.get("seeds", [0])
+    return SweepSpec(
+        recordings=tuple(str(p) for p in data.get("recordings", ())),
+        scenarios=tuple(data.get("scenarios", ())),
+        seeds=tuple(parse_seeds(seeds) if isinstance(seeds, str) else [int(s) for s in _as_list(seeds)]),
+        rate_hz=float(data.get("rate_hz", 1000.0)),
+        settings=tuple((n, _values(n, v)) for n, v in data.get("settings", {}).items()),
+    )
+
+
+def _as_list(value: Any) -> list[Any]:
+    return value if isinstance(value, list) else [value]
+
+
+def build_spec(args: argparse.Namespace) -> SweepSpec:
+    """The spec file (if any) with the command line's sources, seeds and settings added."""
+    spec = load_spec_file(args.spec) if args.spec is not None else SweepSpec()
+    settings = dict(spec.settings)
+    for item in args.set:
+        name, sep, values = item.partition("=")
+        if not sep:
+            raise ValueError(f"--set takes NAME=V1,V2,…; got {item!r}")
+        settings[name.strip()] = _values(name.strip(), values)
+    spec = replace(
+        spec,
+        recordings=spec.recordings + tuple(str(f) for f in args.files),
+        scenarios=spec.scenarios + tuple(args.scenario),
+        seeds=tuple(parse_seeds(args.seeds)) if args.seeds is not None else spec.seeds,
+        rate_hz=args.rate if args.rate is not None else spec.rate_hz,
+        settings=tuple(settings.items()),
+    )
+    spec.check()
+    return spec
+
+
+# ---------------------------------------------------------------------------------------------
+# running and writing
+
+
+def run_sweep(spec: SweepSpec, *, workers: int = 2, scheduler: str | None = None,
+              quiet: bool = False, runner: Any = None) -> list[dict[str, Any]]:
+    """The rows of every run of *spec*, sorted by run key (serial when *workers* is 0 and no
+    *scheduler*); *runner* replaces :func:`~firmware_sim.app.runs.run_one` (tests)."""
+    from . import cluster
+
+    runs = spec.runs()
+    kw = {"quiet": quiet} if runner is None else {"quiet": quiet, "runner": runner}
+    if workers == 0 and scheduler is None:
+        cluster.prepare_process()
+        return cluster.execute(runs, **kw)
+    with cluster.open_client(workers, scheduler) as client:
+        return cluster.execute(runs, client, **kw)
+
+
+def columns(setting_names: tuple[str, ...]) -> list[str]:
+    return ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
+
+
+def write_tables(rows: list[dict[str, Any]], setting_names: tuple[str, ...], out: Path) -> list[Path]:
+    """``out/runs.parquet`` and ``out/runs.csv``: one row per run, in the order given."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    out.mkdir(parents=True, exist_ok=True)
+    names = columns(setting_names)
+    table = pa.Table.from_pydict({c: [r[c] for r in rows] for c in names})
+    pq.write_table(table, out / "runs.parquet")
+    return [out / "runs.parquet", write_csv(rows, out / "runs.csv", setting_names)]
+
+
+# ---------------------------------------------------------------------------------------------
+# command line (wired into `openshoe-emu` by firmware_sim.app.cli)
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("files", nargs="*", type=Path, metavar="FILE", help="recordings to sweep over")
+    p.add_argument("--scenario", action="append", default=[], metavar="NAME",
+                   help="a simulated scenario to sweep over (repeatable)")
+    p.add_argument("--seeds", metavar="A:B", help="seeds A … B-1 (also N or N,M,…); default 0")
+    p.add_argument("--set", action="append", default=[], metavar="NAME=V1,V2",
+                   help="a setting and its values (repeatable): frontend.zupt_threshold, "
+                        "frontend.zaru_threshold, sensors.<field>, link.profile, link.byte_loss, …")
+    p.add_argument("--spec", type=Path, metavar="FILE", help="a sweep spec (TOML or JSON)")
+    p.add_argument("--rate", type=float, help="sample rate of the scenarios [Hz] (default 1000)")
+    p.add_argument("--out", type=Path, required=True, metavar="DIR",
+                   help="write runs.parquet, runs.csv and closure.png here")
+    where = p.add_mutually_exclusive_group()
+    where.add_argument("--workers", type=int, default=2,
+                       help="local Dask worker processes, 1 thread each (default 2; 0 = serial, here)")
+    where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask cluster instead")
+    p.add_argument("--no-plot", action="store_true", help="skip closure.png")
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no table on stdout")
+
+
+def main(args: argparse.Namespace) -> int:
+    try:
+        spec = build_spec(args)
+        missing = [f for f in spec.recordings if not Path(f).is_file()]
+        if missing:
+            raise ValueError(f"no such recording: {', '.join(missing)}")
+    except (OSError, ValueError) as e:
+        print(f"openshoe-emu sweep: {e}", file=sys.stderr)
+        return 2
+    if args.workers < 0:
+        print("openshoe-emu sweep: --workers must be ≥ 0", file=sys.stderr)
+        return 2
+    try:
+        rows = run_sweep(spec, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)
+    except Exception as e:  # noqa: BLE001 - a run that failed on every try, or a lost cluster
+        print(f"openshoe-emu sweep: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    written = write_tables(rows, spec.setting_names, args.out)
+    if not args.no_plot:
+        from .sweep_plot import plot_closure
+
+        png = plot_closure(rows, spec.setting_names, args.out / "closure.png")
+        if png is None:
+            say("closure.png skipped: matplotlib is not installed (the `plot` extra)")
+        else:
+            written.append(png)
+    if not args.quiet:
+        for line in summary_lines(rows, spec.setting_names):
+            print(line)
+    print("results: " + ", ".join(str(p) for p in written))
+    return 0

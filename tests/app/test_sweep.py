@@ -1,0 +1,207 @@
+"""`openshoe-emu sweep`: the spec, the settings, and the same table serially and on Dask —
+also when a worker process dies in the middle of the sweep."""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import signal
+import sys
+from pathlib import Path
+
+import pyarrow.parquet as pq
+import pytest
+
+from firmware_sim.app import cli, runs, settings
+from firmware_sim.app.sweep import SweepSpec, build_spec, run_sweep
+from firmware_sim.links.link import Link
+from firmware_sim.nav import fastpath
+from protocol.ids import StateId
+
+RECIPE = "stand:3+walk:3+stand:2"
+TIMINGS = list(runs.TIMINGS)
+
+
+def parse(argv: list[str]):
+    return cli.build_parser().parse_args(["sweep", *argv, "--out", "unused"])
+
+
+def small_spec(seeds=(0, 1, 2)) -> SweepSpec:
+    spec = SweepSpec(scenarios=(RECIPE,), seeds=tuple(seeds), rate_hz=250.0,
+                     settings=(("frontend.zupt_threshold", (16000, 4000)),))
+    spec.check()
+    return spec
+
+
+def table(path: Path) -> str:
+    """The table without its timing columns, as text (NaN equals NaN, floats to the last bit)."""
+    return repr(pq.read_table(path).drop_columns(TIMINGS).to_pylist())
+
+
+# ---------------------------------------------------------------------------------------------
+# spec and settings
+
+
+def test_the_command_line_spec_is_the_product_sorted_by_run_key():
+    spec = build_spec(parse(["--scenario", "walk", "--scenario", "stand", "--seeds", "0:2",
+                             "--set", "frontend.zupt_threshold=2e4,1e4", "--set", "link.byte_loss=0,1e-3"]))
+    assert spec.setting_names == ("frontend.zupt_threshold", "link.byte_loss")
+    assert spec.settings[0][1] == (20000, 10000)
+    keys = [r.key for r in spec.runs()]
+    assert len(keys) == 2 * 2 * 2 * 2 == len(set(keys)) and keys == sorted(keys)
+    assert keys[0] == ("scenario", "stand", 0, 10000, 0.0)
+    assert spec.runs()[0].name == "stand_seed0_zupt_threshold=10000_byte_loss=0.0"
+
+
+def test_a_spec_file_and_the_command_line_add_up(tmp_path):
+    toml = tmp_path / "s.toml"
+    toml.write_text('scenarios = ["walk"]\nseeds = "3:5"\nrate_hz = 250.0\n'
+                    '[settings]\n"sensors.noise" = [true, false]\n')
+    spec = build_spec(parse(["--spec", str(toml), "--set", "sensors.gyro.noise_density_rad_s=1e-4"]))
+    assert spec.seeds == (3, 4) and spec.rate_hz == 250.0
+    assert dict(spec.settings) == {"sensors.noise": (True, False),
+                                   "sensors.gyro.noise_density_rad_s": (1e-4,)}
+    as_json = tmp_path / "s.json"
+    data = {"scenarios": ["walk"], "seeds": [1, 2], "settings": {"link.profile": "usb"}}
+    as_json.write_text(json.dumps(data))
+    assert build_spec(parse(["--spec", str(as_json)])).settings == (("link.profile", ("usb",)),)
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--scenario", "walk", "--set", "frontend.nope=1"], "unknown setting"),
+    (["--scenario", "walk", "--set", "sensors.accel.nope=1"], "SensorConfig has no field"),
+    (["--scenario", "walk", "--set", "frontend.zupt_threshold=1.5"], "takes int values"),
+    (["--scenario", "walk", "--set", "sensors.noise=maybe"], "takes bool values"),
+    (["--scenario", "walk", "--set", "link.profile=wifi"], "takes str values"),
+    (["--scenario", "walk", "--set", "frontend.zupt_threshold=1,1"], "give each value once"),
+    (["--scenario", "walk", "--set", "frontend.zupt_threshold"], "NAME=V1,V2"),
+    (["walk.txt", "--set", "sensors.noise=false"], "scenarios only"),
+    (["walk.txt", "--scenario", "walk"], "one of them"),
+    ([], "one of them"),
+])
+def test_a_wrong_spec_is_refused(argv, message, capsys):
+    assert cli.main(["sweep", *argv, "--out", "unused", "--workers", "0"]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_missing_recording_is_refused_before_any_run(tmp_path, capsys):
+    assert cli.main(["sweep", str(tmp_path / "none.txt"), "--out", str(tmp_path), "--workers", "0"]) == 2
+    assert "no such recording" in capsys.readouterr().err
+
+
+def test_settings_reach_the_module_the_sensors_and_the_link():
+    applied = settings.apply((("frontend.zaru_threshold", 20), ("sensors.gyro.noise_density_rad_s", 1e-3),
+                              ("sensors.drift", False), ("link.byte_loss", 1e-3)))
+    assert applied.initial_states == {int(StateId.TH_ZARU): 20}
+    assert applied.sensors.gyro.noise_density_rad_s == 1e-3 and applied.sensors.drift is False
+    assert applied.sensors.accel == settings.DEFAULT_CONFIG.accel
+    link = applied.make_link(seed=5)
+    assert isinstance(link, Link) and link.profile.name == "bt"
+    assert settings.apply(()).make_link(0) is None, "no link setting: the plain replay's ideal port"
+
+
+def test_a_threshold_changes_the_run_and_the_defaults_change_nothing():
+    (plain,) = runs.scenario_runs([RECIPE], [0], rate_hz=250.0)
+    (default,) = runs.scenario_runs([RECIPE], [0], 250.0, (("frontend.zupt_threshold", 16000),))
+    (strict,) = runs.scenario_runs([RECIPE], [0], 250.0, (("frontend.zupt_threshold", 500),))
+    a, b, c = (runs.run_one(s) for s in (plain, default, strict))
+    assert a["wire_sha256"] == b["wire_sha256"] != c["wire_sha256"]
+
+
+def test_a_lossy_link_still_gives_every_step_to_a_lossless_host():
+    (clean,) = runs.scenario_runs([RECIPE], [2], rate_hz=250.0)
+    (lossy,) = runs.scenario_runs([RECIPE], [2], 250.0, (("link.byte_loss", 2e-3), ("link.profile", "bt")))
+    a, b = runs.run_one(clean), runs.run_one(lossy)
+    assert a["steps"] == b["steps"] > 0 and b["distance_m"] == pytest.approx(a["distance_m"])
+
+
+# ---------------------------------------------------------------------------------------------
+# serial and distributed
+
+
+@pytest.fixture(scope="module")
+def serial_table(tmp_path_factory):
+    out = tmp_path_factory.mktemp("serial")
+    argv = ["sweep", "--scenario", RECIPE, "--rate", "250", "--seeds", "0:3",
+            "--set", "frontend.zupt_threshold=16000,4000", "--out", str(out), "--workers", "0", "-q",
+            "--no-plot"]
+    assert cli.main(argv) == 0
+    return out
+
+
+def test_the_serial_table_has_a_row_per_run_sorted_by_key(serial_table):
+    t = pq.read_table(serial_table / "runs.parquet")
+    assert t.num_rows == 6
+    assert t.column("seed").to_pylist() == [0, 0, 1, 1, 2, 2]
+    assert t.column("frontend.zupt_threshold").to_pylist() == [4000, 16000] * 3
+    assert set(t.column_names) >= {"steps", "distance_m", "closure_m", "closure_pct", *TIMINGS}
+    assert (serial_table / "runs.csv").read_text().count("\n") == 7
+
+
+@pytest.mark.slow
+def test_a_local_cluster_writes_the_serial_table(serial_table, tmp_path):
+    argv = ["sweep", "--scenario", RECIPE, "--rate", "250", "--seeds", "0:3",
+            "--set", "frontend.zupt_threshold=16000,4000", "--out", str(tmp_path), "--workers", "2", "-q"]
+    assert cli.main(argv) == 0
+    assert table(tmp_path / "runs.parquet") == table(serial_table / "runs.parquet")
+    assert (tmp_path / "closure.png").stat().st_size > 1000
+
+
+def kill_own_worker_once(spec: runs.RunSpec, marker: str) -> dict:
+    """The run; but the run of seed 1 first kills the worker process it runs in (once)."""
+    if spec.seed == 1 and spec.settings[0][1] == 4000:
+        try:
+            os.close(os.open(marker, os.O_CREAT | os.O_EXCL | os.O_WRONLY))
+        except FileExistsError:
+            pass
+        else:
+            os.kill(os.getpid(), signal.SIGKILL)
+    return runs.run_one(spec)
+
+
+def worker_cache_use() -> dict:
+    """On a worker: whether it was prepared, and numba's cache hits and misses of two kernels."""
+    from firmware_sim.nav import driver, warmup
+    from firmware_sim.sensors import openshoe_scan
+
+    stats = [driver.run_loops.stats, openshoe_scan._scan.stats]
+    return {"prepared": warmup._prepared is not None, "hits": sum(sum(s.cache_hits.values()) for s in stats),
+            "misses": sum(sum(s.cache_misses.values()) for s in stats)}
+
+
+@pytest.fixture
+def local_cluster():
+    import logging
+
+    import cloudpickle
+    from distributed import Client, LocalCluster
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers need not import tests
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None,
+                      silence_logs=logging.CRITICAL) as cluster, Client(cluster) as client:
+        yield cluster.scheduler_address, client
+    cloudpickle.unregister_pickle_by_value(sys.modules[__name__])
+
+
+@pytest.mark.slow
+def test_a_worker_killed_mid_sweep_loses_no_row_and_doubles_none(serial_table, local_cluster, tmp_path):
+    address, client = local_cluster
+    marker = tmp_path / "killed-once"
+    runner = functools.partial(kill_own_worker_once, marker=str(marker))
+    rows = run_sweep(small_spec(), scheduler=address, quiet=True, runner=runner)
+    assert marker.exists(), "a worker process was killed during the sweep"
+    from firmware_sim.app.sweep import write_tables
+
+    write_tables(rows, ("frontend.zupt_threshold",), tmp_path)
+    assert table(tmp_path / "runs.parquet") == table(serial_table / "runs.parquet")
+    if fastpath.available():
+        for worker, use in client.run(worker_cache_use).items():
+            assert use["prepared"] and use["misses"] == 0 and use["hits"] >= 2, worker
+
+
+def test_a_run_that_fails_stops_the_sweep_with_its_reason(tmp_path, capsys):
+    spec = tmp_path / "s.json"
+    spec.write_text(json.dumps({"scenarios": ["no_such_piece:3"], "rate_hz": 250.0}))
+    assert cli.main(["sweep", "--spec", str(spec), "--out", str(tmp_path), "--workers", "0", "-q"]) == 1
+    assert "no_such_piece" in capsys.readouterr().err

@@ -1,0 +1,92 @@
+"""The ``files`` target of `openshoe-bench`: a recording set through ``openshoe-emu replay``, end to end.
+
+One command replays ``--walks`` (100) walk files — the six shared OpenShoe walks over and over —
+into a folder, in a subprocess, start-up included (the interpreter, the imports, loading the
+compiled kernels from numba's cache). The figure is walks per second of that command's wall
+time; the split comes from the per-run table it writes (``--table``): parsing (reading the
+file into the replicated board's registers; the command does it in a reader thread while the
+previous walk navigates, so it overlaps the rest), navigation (the module's run), writing (the
+wire file), summing (the host's track for the table); start-up is the command's wall time
+before its runs begin (the interpreter, the imports, loading the compiled kernels).
+A first, unmeasured command with one walk fills numba's cache if it is empty. Every copy of a
+walk must give the same wire bytes.
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import os
+import re
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from . import Result
+
+__all__ = ["FILES_TARGET", "bench_files", "default_walks_dir"]
+
+#: Walks per second on the 2-core reference machine.
+FILES_TARGET = 22.0
+WALK_GLOB = "walk_*.txt"
+
+
+def default_walks_dir() -> Path:
+    """``OPENSHOE_WALKS``, else ``shared/data/openshoe-walks`` beside the clone."""
+    here = Path(__file__).resolve().parents[2]
+    return Path(os.environ.get("OPENSHOE_WALKS", here.parent / "shared" / "data" / "openshoe-walks"))
+
+
+def _replay(paths: list[Path], out: Path) -> tuple[float, float]:
+    """Run ``openshoe-emu replay PATHS --wire-dir out/wire --table out/runs.csv``: its wall time,
+    and the wall time of its runs (from its last line, ``… runs/s (S s) → DIR``)."""
+    cmd = [sys.executable, "-m", "firmware_sim.app.cli", "replay", *map(str, paths),
+           "--wire-dir", str(out / "wire"), "--table", str(out / "runs.csv"), "--quiet"]
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True)
+    wall = time.perf_counter() - t0
+    found = re.search(r"runs/s \(([\d.]+) s\)", done.stdout.strip().splitlines()[-1])
+    return wall, float(found.group(1)) if found else math.nan
+
+
+def _split(rows: list[dict[str, str]], wall: float, runs_wall: float) -> dict[str, float]:
+    total = {k: sum(float(r[k]) for r in rows) for k in ("parse_s", "nav_s", "write_s", "time_s")}
+    return {"startup_s": wall - runs_wall, "parse_s": total["parse_s"], "nav_s": total["nav_s"],
+            "write_s": total["write_s"],
+            "summing_s": total["time_s"] - total["parse_s"] - total["nav_s"] - total["write_s"]}
+
+
+def bench_files(walks: int, walks_dir: Path, say: Callable[[str], None]) -> Result:
+    """``walks`` files in one ``openshoe-emu replay`` command: walks/s and where the time goes."""
+    shared = sorted(walks_dir.glob(WALK_GLOB))
+    if not shared:
+        say(f"files: no {WALK_GLOB} in {walks_dir} (set OPENSHOE_WALKS)")
+        return Result("files", 0.0, "walks/s", FILES_TARGET, note=f"no walks in {walks_dir}")
+    paths = [shared[i % len(shared)] for i in range(walks)]
+    with tempfile.TemporaryDirectory(prefix="openshoe-files-") as tmp:
+        out = Path(tmp)
+        _replay(paths[:1], out / "warm")  # fills numba's cache if it is empty; not measured
+        say(f"files: {walks} walks ({len(shared)} shared walks repeated) in one command")
+        wall, runs_wall = _replay(paths, out / "run")
+        with (out / "run" / "runs.csv").open() as f:
+            rows = list(csv.DictReader(f))
+    split = _split(rows, wall, runs_wall)
+    by_source: dict[str, set[str]] = {}
+    for r in rows:
+        by_source.setdefault(r["source"], set()).add(r["wire_sha256"])
+    identical = len(rows) == walks and all(len(s) == 1 for s in by_source.values())
+    rate = walks / wall
+    per_walk = {k.replace("_s", "_ms_per_walk"): round(1e3 * v / walks, 2) for k, v in split.items()}
+    details: dict[str, Any] = {"walks": walks, "wall_s": round(wall, 3), "identical_copies": identical,
+                               **{k: round(v, 3) for k, v in split.items()}, **per_walk}
+    say(f"files: {rate:.1f} walks/s ({wall:.2f} s): start-up {split['startup_s']:.2f} s, parsing "
+        f"{split['parse_s']:.2f} s, navigation {split['nav_s']:.2f} s, writing {split['write_s']:.2f} s, "
+        f"summing steps {split['summing_s']:.2f} s; per walk parsing {per_walk['parse_ms_per_walk']} ms vs "
+        f"navigation {per_walk['nav_ms_per_walk']} ms; copies identical: {identical}")
+    return Result("files", rate, "walks/s", FILES_TARGET, passed=rate >= FILES_TARGET and identical,
+                  details=details, note=f"parse {per_walk['parse_ms_per_walk']} ms/walk vs navigation "
+                                        f"{per_walk['nav_ms_per_walk']} ms/walk")
