@@ -48,7 +48,7 @@ them. Every lost or corrupted byte is counted in :attr:`Link.counters`.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import asdict, dataclass, field, replace
 from typing import Literal
 
@@ -655,6 +655,19 @@ class Link:
         if late > c.late_max_cycles:
             c.late_max_cycles = late
 
+    def _arrived(self, air: deque[_Chunk], direction: str, until: int) -> Iterator[tuple[int, _Chunk]]:
+        """Take the chunks of *air* that arrived by *until*, in order, each with its arrival time
+        (held back by a stall of *direction*); the first one still on its way keeps its held time."""
+        stall = self._stall[direction]
+        while air:
+            ch = air[0]
+            at = stall.hold(ch.at)
+            if at > until:
+                ch.at = at
+                return
+            air.popleft()
+            yield at, ch
+
     def _deliver_to_host(self, now: int) -> None:
         """air → host buffer: the chunks that arrived by *now* (module cycles) and, with a
         host clock, by the host's present (the stall windows are known up to *now* only)."""
@@ -664,16 +677,9 @@ class Link:
         p = self.profile
         host_now = None if self.host_clock is None else self.host_clock()
         until = now if host_now is None else min(now, host_now)
-        stall = self._stall["to_host"]
-        while self._air_h:
-            ch = self._air_h[0]
-            at = stall.hold(ch.at)
-            if at > until:
-                ch.at = at
-                break
+        for at, ch in self._arrived(self._air_h, "to_host", until):
             if host_now is not None:
                 self._note_lateness(c, host_now - at, len(ch.data))
-            self._air_h.popleft()
             self._air_h_bytes -= len(ch.data)
             data = self._apply_faults("to_host", ch.data)
             if p.host_rx_buffer is not None:
@@ -690,14 +696,7 @@ class Link:
             return
         c = self.counters.to_module
         p = self.profile
-        stall = self._stall["to_module"]
-        while self._air_m:
-            ch = self._air_m[0]
-            at = stall.hold(ch.at)
-            if at > now:
-                ch.at = at
-                break
-            self._air_m.popleft()
+        for at, ch in self._arrived(self._air_m, "to_module", now):
             self._air_m_bytes -= len(ch.data)
             data = self._apply_faults("to_module", ch.data)
             if data:

@@ -62,16 +62,19 @@ class Arena:
         return f"Arena({len(self.views)} arrays, {len(self.buf)} B)"
 
 
-_BLOCKS = (("imu_raw", np.int16, (MAX_IMU_IDS, 6)), ("imu_temp", np.int16, (MAX_IMU_IDS,)),
-           ("imu_mag", np.int16, (MAX_IMU_IDS, 3)), ("ps_dt", np.uint32, (NR_SLOTS,)))
+#: The state blocks behind runs of ids: name, first id, how many, element dtype and shape.
+_BLOCKS = (("imu_raw", IMU_RAW_BASE, MAX_IMU_IDS, np.int16, (6,)),
+           ("imu_temp", IMU_TEMP_BASE, MAX_IMU_IDS, np.int16, ()),
+           ("imu_mag", IMU_MAG_BASE, MAX_IMU_IDS, np.int16, (3,)),
+           ("ps_dt", PS_DT_BASE, NR_SLOTS, np.uint32, ()))
 
 
-_BLOCK_RANGES = ((IMU_RAW_BASE, MAX_IMU_IDS), (IMU_TEMP_BASE, MAX_IMU_IDS), (IMU_MAG_BASE, MAX_IMU_IDS),
-                 (PS_DT_BASE, NR_SLOTS))
-
-
-def _in_block(sid: int) -> bool:
-    return any(base <= sid < base + n for base, n in _BLOCK_RANGES)
+def _block_of(sid: int) -> tuple[str, int] | None:
+    """The block holding state *sid* and its element there, or None for a state of its own."""
+    for name, base, n, _dtype, _shape in _BLOCKS:
+        if base <= sid < base + n:
+            return name, sid - base
+    return None
 
 
 class StateMemory:
@@ -83,8 +86,9 @@ class StateMemory:
     """
 
     def __init__(self, mcu_serial: bytes = DEFAULT_MCU_SERIAL):
-        arena = Arena([*_BLOCKS, *((sid, spec.native_dtype, spec.shape) for sid, spec in STATES.items()
-                                   if not _in_block(sid))])
+        arena = Arena([*((name, dtype, (n, *shape)) for name, _base, n, dtype, shape in _BLOCKS),
+                       *((sid, spec.native_dtype, spec.shape) for sid, spec in STATES.items()
+                         if _block_of(sid) is None)])
         #: The bytes behind every state (see the class doc).
         self.arena = arena.buf
         self.imu_raw = arena.views["imu_raw"]
@@ -94,21 +98,14 @@ class StateMemory:
         arrays: list[np.ndarray | None] = [None] * STATE_ID_LIMIT
         offsets: dict[int, int] = {}
         for sid, spec in STATES.items():
-            if IMU_RAW_BASE <= sid < IMU_RAW_BASE + MAX_IMU_IDS:
-                a = self.imu_raw[sid - IMU_RAW_BASE]
-                off = arena.offsets["imu_raw"] + (sid - IMU_RAW_BASE) * 12
-            elif IMU_TEMP_BASE <= sid < IMU_TEMP_BASE + MAX_IMU_IDS:
-                a = self.imu_temp[sid - IMU_TEMP_BASE: sid - IMU_TEMP_BASE + 1].reshape(())
-                off = arena.offsets["imu_temp"] + (sid - IMU_TEMP_BASE) * 2
-            elif IMU_MAG_BASE <= sid < IMU_MAG_BASE + MAX_IMU_IDS:
-                a = self.imu_mag[sid - IMU_MAG_BASE]
-                off = arena.offsets["imu_mag"] + (sid - IMU_MAG_BASE) * 6
-            elif PS_DT_BASE <= sid < PS_DT_BASE + NR_SLOTS:
-                a = self.ps_dt[sid - PS_DT_BASE: sid - PS_DT_BASE + 1].reshape(())
-                off = arena.offsets["ps_dt"] + (sid - PS_DT_BASE) * 4
+            where = _block_of(sid)
+            if where is None:
+                a, off = arena.views[sid], arena.offsets[sid]
             else:
-                a = arena.views[sid]
-                off = arena.offsets[sid]
+                name, k = where
+                block = arena.views[name]
+                a = block[k] if block.ndim > 1 else block[k:k + 1].reshape(())
+                off = arena.offsets[name] + k * block[:1].nbytes
             assert a.dtype == spec.native_dtype and a.shape == spec.shape, spec
             arrays[sid] = a
             offsets[sid] = off
@@ -118,7 +115,7 @@ class StateMemory:
         self._bytes = memoryview(self.arena)  # byte access without numpy scalars (flag())
         self._first_byte: list[int | None] = [offsets.get(i) for i in range(STATE_ID_LIMIT)]
         #: Byte offsets of the blocks imu_raw, imu_temp, imu_mag, ps_dt in :attr:`arena`.
-        self.block_offsets = {k: arena.offsets[k] for k, _, _ in _BLOCKS}
+        self.block_offsets = {name: arena.offsets[name] for name, *_ in _BLOCKS}
         self._specs: list[StateSpec | None] = [STATES.get(i) for i in range(STATE_ID_LIMIT)]
         #: Wire size of every id (0 = no state), indexable by any byte value.
         self.sizes: list[int] = [(s.size if s is not None else 0) for s in self._specs] + [0] * (
