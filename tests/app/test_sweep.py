@@ -114,7 +114,7 @@ def test_a_lossy_link_still_gives_every_step_to_a_lossless_host():
     (lossy,) = runs.scenario_runs([RECIPE], [2], 250.0, (("link.byte_loss", 2e-2), ("link.profile", "bt")))
     a, b = runs.run_one(clean), runs.run_one(lossy)
     assert a["wire_sha256"] != b["wire_sha256"]  # bytes were lost and sent again
-    # resends cost the µC loop time, which moves the steps' timing by microseconds, not the steps
+    # the lossy link changes the µC loop's timing a little (the distance by micrometres), not the steps
     assert a["steps"] == b["steps"] > 0 and b["distance_m"] == pytest.approx(a["distance_m"], abs=1e-3)
 
 
