@@ -71,6 +71,7 @@ from firmware_sim.mcu.imu_bus import RawSample
 from . import openshoe_scan
 from .config import DEFAULT_CONFIG, SensorConfig
 from .registers import accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
+from .truth import is_signed_permutation, rotate
 
 __all__ = [
     "OPENSHOE_HEADER",
@@ -432,26 +433,18 @@ def load_recording(path: str | Path) -> Recording:
 # replay
 
 
-def _signed_permutations(*matrices: np.ndarray) -> bool:
-    """Whether every row of every matrix is one ±1 and zeros."""
-    return all(bool(np.isin(m, (-1.0, 0.0, 1.0)).all() and (np.count_nonzero(m, axis=-1) == 1).all())
-               for m in matrices)
-
-
 def _to_chips(mount: np.ndarray, v: np.ndarray, *factors: np.ndarray) -> np.ndarray:
     """(n, chips, 3): each board vector *v[n]* in each chip's axes, ``mount[k] @ v[n]``.
 
     *mount* may be a product of *factors* (``einsum("ij,kjl,nl->nki", *factors, v)``). When every
-    matrix is a signed permutation, each output is one input value, maybe negated, plus zeros:
-    picking and negating it gives the einsum's values exactly, many times faster.
+    matrix is a signed permutation, :func:`~.truth.rotate` picks and negates the values, which
+    gives the einsum's values exactly, many times faster.
     """
     factors = factors or (mount,)
-    if not _signed_permutations(*factors):
+    if not all(is_signed_permutation(m) for m in factors):
         spec = "kij,nj->nki" if len(factors) == 1 else "ij,kjl,nl->nki"
         return np.einsum(spec, *factors, v)
-    rows = mount.reshape(-1, 3)  # (chips·3, 3): one ±1 per row
-    picked = v[:, np.argmax(rows != 0, axis=1)] * rows.sum(axis=1)
-    return picked.reshape(len(v), *mount.shape[:2])
+    return np.stack([rotate(m, v) for m in mount], axis=1)
 
 
 class ReplaySource:

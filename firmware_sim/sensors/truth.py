@@ -52,15 +52,20 @@ def mul_transposed(R: np.ndarray, v: np.ndarray) -> np.ndarray:
     return R[:, 0, :] * v[:, 0:1] + R[:, 1, :] * v[:, 1:2] + R[:, 2, :] * v[:, 2:3]
 
 
+def is_signed_permutation(M: np.ndarray) -> bool:
+    """Whether every row of the 3×3 matrix *M* (or of each in a stack) is one ±1 and zeros."""
+    nz = np.asarray(M) != 0
+    return bool(np.all(nz.sum(axis=-1) == 1) and np.all(np.abs(np.asarray(M)[nz]) == 1))
+
+
 def rotate(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     """M v for one 3×3 matrix and a stack of vectors (n, 3) (faster than v @ M.T for small M).
 
     A signed permutation (a chip mounting) is applied by indexing, exactly.
     """
     M = np.asarray(M)
-    nz = M != 0
-    if np.all(nz.sum(axis=1) == 1) and np.all(np.abs(M[nz]) == 1):
-        cols = np.argmax(nz, axis=1)
+    if is_signed_permutation(M):
+        cols = np.argmax(M != 0, axis=1)
         signs = M[np.arange(3), cols]
         return v[:, cols] * signs
     return v[:, 0:1] * M[:, 0] + v[:, 1:2] * M[:, 1] + v[:, 2:3] * M[:, 2]
