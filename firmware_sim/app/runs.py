@@ -142,11 +142,11 @@ def _metrics(data: bytes, samples: int, closed: bool) -> dict[str, Any]:
     from hostlib.replay import replay_bytes
 
     track, _stats = replay_bytes(data)
-    closure = track.closure_error() if closed and len(track) else math.nan
-    distance = float(track.distance)
+    measured = closed and len(track) > 0
     return {"samples": samples, "step_packets": len(track), "steps": track.motion_steps,
-            "distance_m": distance, "closure_m": closure,
-            "closure_pct": 100.0 * closure / distance if distance > 0 else math.nan,
+            "distance_m": float(track.distance),
+            "closure_m": track.closure_error() if measured else math.nan,
+            "closure_pct": 100.0 * track.relative_closure_error() if measured else math.nan,
             "wire_bytes": len(data), "wire_sha256": hashlib.sha256(data).hexdigest()}
 
 
@@ -175,7 +175,7 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
     t3 = time.perf_counter()
     row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed}
     row.update(spec.settings)
-    row.update(_metrics(bytes(data), data.samples, _closed_loop(truth)))
+    row.update(_metrics(data, data.samples, _closed_loop(truth)))
     row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
                time_s=loaded.parse_s + time.perf_counter() - t1)
     return row
