@@ -55,16 +55,21 @@ def test_pacer_keeps_real_time_and_reports_status():
     assert st.loop_us_mean > 0 and st.packets == {"USB": 0, "BT": 0}
 
 
-def test_pacer_counts_overruns_when_the_machine_is_too_slow():
-    m = build_module()
-    real_step = m.step
+def slowed(module):
+    """*module* with each loop taking 3 ms of CPU: too slow for 1 kHz on any machine."""
+    real_step = module.step
 
     def slow_step():
         real_step()
-        end = time.perf_counter() + 0.003  # a 3 ms loop at 1 kHz
+        end = time.perf_counter() + 0.003
         while time.perf_counter() < end:
             pass
-    m.step = slow_step
+    module.step = slow_step
+    return module
+
+
+def test_pacer_counts_overruns_when_the_machine_is_too_slow():
+    m = slowed(build_module())
     pacer = Pacer(m, speed=1.0, max_lag_s=0.05).start()
     try:
         assert pacer.wait_until(_ticked(60), timeout=WAIT_S)
@@ -224,15 +229,7 @@ def test_multipacer_pumps_a_quiet_endpoint_only_every_idle_interval():
 
 
 def test_multipacer_counts_overruns_per_module_and_keeps_virtual_time_whole():
-    fast, slow = build_module(), build_module()
-    real_step = slow.step
-
-    def slow_step():
-        real_step()
-        end = time.perf_counter() + 0.003  # a 3 ms loop at 1 kHz
-        while time.perf_counter() < end:
-            pass
-    slow.step = slow_step
+    fast, slow = build_module(), slowed(build_module())
     loop = MultiPacer([Pacer(fast, speed=1.0, max_lag_s=0.05), Pacer(slow, speed=1.0, max_lag_s=0.05)])
     with loop:
         assert loop.wait_until(1, _ticked(60), timeout=WAIT_S)
