@@ -14,6 +14,13 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[2]
 
 
+def run_fresh(code: str) -> str:
+    """What *code* prints in a fresh interpreter started in the repository (it must succeed)."""
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    return out.stdout
+
+
 def test_host_sdk_does_not_import_the_emulator_or_matplotlib():
     code = (
         "import sys, hostlib, hostlib.device, hostlib.cli, hostlib.export, hostlib.plot\n"
@@ -21,9 +28,7 @@ def test_host_sdk_does_not_import_the_emulator_or_matplotlib():
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('firmware_sim', 'matplotlib', 'tools'))\n"
         "print(bad)\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    assert out.stdout.strip() == "[]"
+    assert run_fresh(code).strip() == "[]"
 
 
 def _third_party_modules_after(statement: str) -> dict[str, list[str]]:
@@ -38,9 +43,7 @@ def _third_party_modules_after(statement: str) -> dict[str, list[str]]:
         "ours = sorted(m for m in new if m.split('.')[0] == 'hostlib')\n"
         "print(json.dumps({'top': top, 'hostlib': ours}))\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=60)
-    assert out.returncode == 0, out.stderr
-    return json.loads(out.stdout)
+    return json.loads(run_fresh(code))
 
 
 def test_the_events_module_needs_nothing_but_numpy_and_the_standard_library():
