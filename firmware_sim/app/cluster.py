@@ -111,4 +111,4 @@ def execute(runs: Sequence[RunSpec], client: Any | None = None, *, runner: Runne
 def _token(spec: RunSpec) -> str:
     from dask.base import tokenize
 
-    return tokenize(spec.kind, spec.source, spec.seed, spec.rate_hz, spec.settings)
+    return tokenize(spec.kind, spec.source, spec.seed, spec.module, spec.rate_hz, spec.settings)

@@ -246,19 +246,9 @@ def true_motion_steps(truth: GroundTruth) -> int:
     return sum(is_motion_step(m) for m in moves)
 
 
-def _truth_in_track_frame(truth: GroundTruth) -> np.ndarray:
-    """The rests of the foot in the track's frame: origin at the first rest, x along the
-    initial heading (the module's yaw is 0 at its alignment)."""
-    stances = truth.stance_positions
-    psi0 = float(truth.euler[0, 2])
-    c, s = math.cos(-psi0), math.sin(-psi0)
-    rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    return (stances - stances[0]) @ rot.T
-
-
 def _measure(track: Track, route: _Route, wall_s: float) -> DemoResult:
     truth = route.truth
-    ref = _truth_in_track_frame(truth)
+    ref = truth.stances_in_start_frame()
     cov = track.final_covariance
     return DemoResult(
         step_packets=len(track),
@@ -292,7 +282,7 @@ def _write(result: DemoResult, track: Track, route: _Route, args: argparse.Names
         from hostlib.plot import plot_track
 
         result.png = plot_track(
-            track, out / "track.png", reference=_truth_in_track_frame(route.truth),
+            track, out / "track.png", reference=route.truth.stances_in_start_frame(),
             title=f"OpenShoe demo: {args.scenario} route, {result.motion_steps} steps, "
                   f"{result.distance_m:.0f} m, end error {result.closure_error_m:.2f} m",
         )

@@ -12,6 +12,11 @@ and sums the steps the host received (:func:`hostlib.replay.replay_bytes`) into 
   the track to its start, in metres and in % of ``distance_m``. Recordings are taken as closed
   loops (the shared walks are); a scenario is one when its true path ends within 5 cm of its
   start, else both are NaN;
+* for a scenario, the error of the track's end against the ground truth, in the frame the
+  track starts in (:meth:`~firmware_sim.sensors.truth.GroundTruth.stances_in_start_frame`):
+  ``end_along_m`` and ``end_across_m`` along and to the right of the walker's true final heading
+  (for a straight walk: the length and across-track errors), ``end_height_m`` (positive: the
+  track ends above the truth) and ``end_heading_deg``; NaN for a recording;
 * ``wire_bytes`` and ``wire_sha256`` of what the module sent;
 * timings: ``parse_s`` (reading the recording, or simulating the scenario: :func:`load`),
   ``nav_s`` (the module's run), ``write_s``, ``time_s`` (all of the run's work, the metrics
@@ -32,12 +37,12 @@ from typing import Any
 
 from . import settings as run_settings
 
-__all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "file_runs", "finish", "load", "parse_seeds", "run_one",
-           "scenario_runs", "summary_lines", "write_csv"]
+__all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "file_runs", "finish", "load",
+           "parse_seeds", "run_one", "scenario_runs", "summary_lines", "write_csv"]
 
 #: The columns every row has, after the run's identity and its settings.
-METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "wire_bytes",
-           "wire_sha256")
+METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "end_along_m",
+           "end_across_m", "end_height_m", "end_heading_deg", "wire_bytes", "wire_sha256")
 TIMINGS = ("parse_s", "nav_s", "write_s", "time_s")
 #: A scenario whose true path ends this close [m] to its start is a closed loop.
 CLOSED_LOOP_M = 0.05
@@ -53,11 +58,14 @@ class RunSpec:
     rate_hz: float = 1000.0  #: sample rate of a simulated scenario
     settings: tuple[tuple[str, Any], ...] = ()
     name: str = ""  #: output file stem, unique within a batch
+    #: the simulated module's identity (its own errors); None: the seed's own module
+    module: int | None = None
 
     @property
     def key(self) -> tuple:
-        """What rows are sorted by: source, seed, then the settings' values in their order."""
-        return (self.kind, self.source, self.seed, *(v for _, v in self.settings))
+        """What rows are sorted by: source, module, seed, then the settings' values in their order."""
+        module = self.seed if self.module is None else self.module
+        return (self.kind, self.source, module, self.seed, *(v for _, v in self.settings))
 
 
 def parse_seeds(text: str) -> list[int]:
@@ -96,12 +104,14 @@ def file_runs(paths: Sequence[str | Path], seeds: Sequence[int] = (0,),
 
 
 def scenario_runs(names: Sequence[str], seeds: Sequence[int], rate_hz: float = 1000.0,
-                  settings: tuple[tuple[str, Any], ...] = ()) -> list[RunSpec]:
-    """Runs of simulated scenarios: every name with every seed, output ``<name>_seed<N>``."""
+                  settings: tuple[tuple[str, Any], ...] = (), module: int | None = None) -> list[RunSpec]:
+    """Runs of simulated scenarios: every name with every seed, output ``<name>_seed<N>``
+    (``<name>_module<M>_seed<N>`` for one *module* walked with every seed)."""
     pairs = [(n, s) for n in names for s in seeds]
-    stems = _unique(f"{_stem(n)}_seed{s}" for n, s in pairs)
-    return [RunSpec("scenario", n, s, rate_hz, settings, stem) for (n, s), stem in zip(pairs, stems,
-                                                                                      strict=True)]
+    tag = "" if module is None else f"_module{module}"
+    stems = _unique(f"{_stem(n)}{tag}_seed{s}" for n, s in pairs)
+    return [RunSpec("scenario", n, s, rate_hz, settings, stem, module)
+            for (n, s), stem in zip(pairs, stems, strict=True)]
 
 
 @dataclass
@@ -126,7 +136,8 @@ def load(spec: RunSpec) -> Loaded:
     else:
         from firmware_sim.sensors.imu_array import make_source
 
-        source = make_source(spec.source, seed=spec.seed, rate_hz=spec.rate_hz, config=applied.sensors)
+        source = make_source(spec.source, seed=spec.seed, rate_hz=spec.rate_hz, config=applied.sensors,
+                             module=spec.module)
         truth = source.truth
     return Loaded(source, truth, applied, time.perf_counter() - t0)
 
@@ -138,15 +149,30 @@ def _closed_loop(truth) -> bool:
     return len(p) > 1 and math.hypot(*(p[-1, :2] - p[0, :2])) <= CLOSED_LOOP_M
 
 
-def _metrics(data: bytes, samples: int, closed: bool) -> dict[str, Any]:
+def end_errors(track, truth) -> dict[str, float]:
+    """The error of *track*'s end against *truth* (see the module docstring); NaN without truth."""
+    keys = ("end_along_m", "end_across_m", "end_height_m", "end_heading_deg")
+    if truth is None or len(track) == 0:
+        return dict.fromkeys(keys, math.nan)
+    end = truth.stances_in_start_frame()[-1]
+    heading = truth.heading_change()
+    d = track.final_pose[:3] - end
+    along = (math.cos(heading), math.sin(heading))
+    return dict(zip(keys, (d[0] * along[0] + d[1] * along[1], -d[0] * along[1] + d[1] * along[0],
+                           -float(d[2]), math.degrees(math.remainder(float(track.final_pose[3]) - heading,
+                                                                     2.0 * math.pi))), strict=True))
+
+
+def _metrics(data: bytes, samples: int, truth) -> dict[str, Any]:
     from hostlib.replay import replay_bytes
 
     track, _stats = replay_bytes(data)
-    measured = closed and len(track) > 0
+    measured = _closed_loop(truth) and len(track) > 0
     return {"samples": samples, "step_packets": len(track), "steps": track.motion_steps,
             "distance_m": float(track.distance),
             "closure_m": track.closure_error() if measured else math.nan,
             "closure_pct": 100.0 * track.relative_closure_error() if measured else math.nan,
+            **{k: float(v) for k, v in end_errors(track, truth).items()},
             "wire_bytes": len(data), "wire_sha256": hashlib.sha256(data).hexdigest()}
 
 
@@ -173,9 +199,11 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
         if truth is not None:
             truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
     t3 = time.perf_counter()
-    row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed}
+    row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
+                           "module": None if spec.kind == "file" else spec.seed if spec.module is None
+                           else spec.module}
     row.update(spec.settings)
-    row.update(_metrics(data, data.samples, _closed_loop(truth)))
+    row.update(_metrics(data, data.samples, truth))
     row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
                time_s=loaded.parse_s + time.perf_counter() - t1)
     return row
@@ -213,13 +241,19 @@ def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] =
     return lines
 
 
+def columns(setting_names: Sequence[str] = ()) -> list[str]:
+    """A row's columns, in order: identity, settings, :data:`METRICS`, :data:`TIMINGS`."""
+    return ["name", "kind", "source", "seed", "module", *setting_names, *METRICS, *TIMINGS]
+
+
 def write_csv(rows: list[dict[str, Any]], path: Path, setting_names: tuple[str, ...] = ()) -> Path:
     """The rows as CSV: identity, settings, metrics, timings; floats in shortest round-trip form."""
-    header = ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
+    header = columns(setting_names)
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         for row in rows:
-            w.writerow([repr(v) if isinstance(v, float) else v for v in (row[k] for k in header)])
+            w.writerow(["" if v is None else repr(v) if isinstance(v, float) else v
+                        for v in (row[k] for k in header)])
     return path

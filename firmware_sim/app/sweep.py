@@ -34,7 +34,7 @@ from typing import Any
 
 from . import settings as run_settings
 from .progress import say
-from .runs import METRICS, TIMINGS, RunSpec, parse_seeds, summary_lines, write_csv
+from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv
 
 __all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "write_tables"]
 
@@ -153,10 +153,6 @@ def run_sweep(spec: SweepSpec, *, workers: int = 2, scheduler: str | None = None
         return cluster.execute(runs, **kw)
     with cluster.open_client(workers, scheduler) as client:
         return cluster.execute(runs, client, **kw)
-
-
-def columns(setting_names: tuple[str, ...]) -> list[str]:
-    return ["name", "kind", "source", "seed", *setting_names, *METRICS, *TIMINGS]
 
 
 def write_tables(rows: list[dict[str, Any]], setting_names: tuple[str, ...], out: Path) -> list[Path]:

@@ -16,7 +16,11 @@ each chip, which is geometry, not an error), quantised to the registers.
 Units: accelerations in g (1 g = :data:`G0` m/s²) where the register is in g,
 angular rates in rad/s, magnetic fields in µT, temperatures in °C, times in s.
 Per-chip random quantities are bounds of a uniform draw (±bound) unless said
-otherwise; every draw comes from the seeded generator of the simulated source.
+otherwise. A module's own errors (turn-on offsets, scale and cross-axis,
+misalignment, g-sensitivity, temperature coefficients, shoe iron) are drawn from
+the generator of its identity, the walk's (noise, drift, bias instability,
+heel-strike ringing, the building's field) from the walk's seed; see
+:mod:`.imu_array`. ``docs/sensor-errors.md`` gives the source of every figure.
 """
 
 from __future__ import annotations
@@ -43,6 +47,10 @@ class AccelConfig:
     offset_tempco_g_per_c: tuple[float, float, float] = (0.35e-3, 0.35e-3, 0.75e-3)  #: datasheet ± per °C
     sensitivity_tempco_per_c: float = 0.0002  #: datasheet ±0.02 %/°C
     bias_random_walk_g_per_sqrt_s: float = 20e-6  #: choice: in-run bias drift (random walk)
+    #: choice: bias instability, a first-order Gauss–Markov process of this sd and correlation time
+    #: (consumer MEMS accelerometers of the MPU-6000 family: tens of µg in Allan-variance analyses)
+    bias_instability_g: float = 50e-6
+    bias_correlation_s: float = 100.0  #: choice
 
 
 @dataclass(frozen=True)
@@ -58,6 +66,15 @@ class GyroConfig:
     offset_tempco_rad_s_per_c: float = 0.02 * DEG
     sensitivity_tempco_per_c: float = 0.0002  #: datasheet ±2 % over −40..85 °C ≈ ±0.02 %/°C (rounded)
     bias_random_walk_rad_s_per_sqrt_s: float = 0.0005 * DEG  #: choice: in-run bias drift (random walk)
+    #: choice: bias instability, a first-order Gauss–Markov process of this sd and correlation time
+    #: (≈ 18 °/h; Allan-variance analyses of MPU-6000-family gyros report 5–20 °/h)
+    bias_instability_rad_s: float = 0.005 * DEG
+    bias_correlation_s: float = 100.0  #: choice
+    #: Sensitivity to linear acceleration [rad/s per g], ± bound of each element of the 3×3
+    #: matrix G in ω += G·a. The datasheet gives 0.1 °/s/g typical (sensors.md); choice: elements
+    #: within ±0.03 °/s/g, because 0.1 on every element gives twice the module paper's across-track
+    #: spread on 100 m walks (docs/sensor-errors.md).
+    g_sensitivity_rad_s_per_g: float = 0.03 * DEG
 
 
 @dataclass(frozen=True)
@@ -94,6 +111,23 @@ class TemperatureConfig:
 
 
 @dataclass(frozen=True)
+class ImpactConfig:
+    """Ringing of the board after each heel strike (choice, see docs/sensor-errors.md).
+
+    A shoe sole and a small PCB ring when the heel lands: a damped oscillation
+    of the whole board, the same for its four chips, in a direction drawn per
+    strike. Peak sizes are those seen in recorded foot-mounted IMU data at heel
+    strike (about 1 g of high-frequency content over the smooth motion, a few
+    °/s); frequency and decay are a choice for a shoe-mounted board.
+    """
+
+    accel_g: float = 1.0  #: peak of the accelerometer ringing [g]
+    gyro_rad_s: float = 5.0 * DEG  #: peak of the gyro ringing [rad/s]
+    frequency_hz: float = 120.0
+    decay_s: float = 0.012  #: time constant of the envelope
+
+
+@dataclass(frozen=True)
 class MagConfig:
     """AK8975 magnetometer inside each MPU9150, and the field it sees."""
 
@@ -118,9 +152,19 @@ class MagConfig:
     indoor_radius_m: float = 0.0  #: 0: the whole walk is indoors
 
 
+@dataclass(frozen=True)
+class ArrayConfig:
+    """How the four chips sit on the board, beyond the nominal mounting."""
+
+    #: choice: ± per axis of each chip's small rotation from its nominal mounting, left after the
+    #: array calibration (a soldered QFN package sits within a few tenths of a degree)
+    misalignment_rad: float = 0.1 * DEG
+
+
 #: Every error switch of :class:`SensorConfig`, off (the DLPF is switched separately).
 _ERRORS_OFF = dict(offsets=False, scale_errors=False, noise=False, drift=False,
-                   temperature_effects=False, mag_disturbance=False)
+                   temperature_effects=False, mag_disturbance=False, g_sensitivity=False,
+                   misalignment=False, impacts=False)
 
 
 @dataclass(frozen=True)
@@ -132,13 +176,19 @@ class SensorConfig:
     dlpf: DlpfConfig = field(default_factory=DlpfConfig)
     temperature: TemperatureConfig = field(default_factory=TemperatureConfig)
     mag: MagConfig = field(default_factory=MagConfig)
+    impact: ImpactConfig = field(default_factory=ImpactConfig)
+    array: ArrayConfig = field(default_factory=ArrayConfig)
     gravity: float = 9.81  #: [m/s²] local gravity of the simulated world (firmware.md uses 9.81)
     #: The module is calibrated at the factory, but the emulated firmware runs ideal calibration
     #: matrices (mounting only) and no static bias; so the chips carry only the *residual* errors
-    #: left after calibration: this fraction of the datasheet's uncalibrated offset, sensitivity
-    #: and cross-axis spreads (choice: 2 %, e.g. gyro offsets within ±0.4 °/s, which BIASEST
-    #: removes at rest). 1.0 simulates raw, uncalibrated chips.
-    calibration_residual: float = 0.02
+    #: left after calibration, as fractions of the datasheet's uncalibrated spreads.
+    #: Offsets (choice: 2 %, e.g. gyro offsets within ±0.4 °/s, which BIASEST removes at rest):
+    offset_residual: float = 0.02
+    #: Sensitivity and cross-axis (choice: 15 %, i.e. ±0.45 % scale and ±0.3 % cross-axis: a
+    #: six-position calibration leaves a few tenths of a percent; 15 % gives the module paper's
+    #: spread of length errors on 100 m walks, docs/sensor-errors.md). 1.0 for both simulates
+    #: raw, uncalibrated chips.
+    scale_residual: float = 0.15
     #: Master switches, so the categories of error can be turned off one by one.
     offsets: bool = True  #: turn-on offsets (bias) of acc and gyro
     scale_errors: bool = True  #: sensitivity and cross-axis errors
@@ -146,6 +196,9 @@ class SensorConfig:
     drift: bool = True  #: bias random walk
     temperature_effects: bool = True  #: temperature dependence of offsets and sensitivities
     mag_disturbance: bool = True  #: hard/soft iron and indoor deviation
+    g_sensitivity: bool = True  #: gyro sensitivity to linear acceleration
+    misalignment: bool = True  #: each chip's small rotation from its nominal mounting
+    impacts: bool = True  #: board ringing after each heel strike
 
     @classmethod
     def ideal(cls, keep_delays: bool = False) -> SensorConfig:

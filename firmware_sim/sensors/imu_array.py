@@ -16,10 +16,21 @@ registers of the four chips, all sampled at the same instant t_k = k / rate:
    magnetometer's axes, new every 1/100 s and held in between, ±4095.
 
 Everything is computed once, in numpy, when the source is made (or when
-``set_dlpf`` changes the filter); ``read(index)`` hands out views. Every random
-draw comes from ``numpy.random.default_rng(seed)``, in a fixed order, so the
-same (scenario, config, seed, rate) gives the same registers bit for bit.
-Past the end of the scenario ``read`` returns None.
+``set_dlpf`` changes the filter); ``read(index)`` hands out views.
+
+Two generators, each drawn from in a fixed order:
+
+* the **module's** (:func:`module_rng`, from its identity ``module``): what
+  belongs to the device and stays with it from walk to walk (turn-on offsets,
+  scale and cross-axis, misalignment, g-sensitivity, temperature coefficients,
+  the shoe's iron);
+* the **walk's** (``numpy.random.default_rng(seed)``): noise, in-run drift and
+  bias instability, the heel strikes' ringing, the building's field.
+
+Without a module number the module is the seed's own (``module = seed``), so
+each seed is a new module. The same (scenario, config, seed, module, rate)
+gives the same registers bit for bit. Past the end of the scenario ``read``
+returns None.
 """
 
 from __future__ import annotations
@@ -31,32 +42,43 @@ from firmware_sim.mcu.imu_bus import RawSample
 
 from .config import DEFAULT_CONFIG, G0, SensorConfig
 from .gait import WALKING, GaitParams, Trajectory
+from .impacts import ringing
 from .magnetic import MagneticWorld
-from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, white_sigma
+from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, gauss_markov, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 from .replay import Recording
 from .scenarios import list_scenarios, trajectory
 from .truth import GroundTruth, Kinematics, cross, rotate
 
-__all__ = ["SimulatedSource", "make_source", "list_scenarios"]
+__all__ = ["SimulatedSource", "make_source", "list_scenarios", "module_rng"]
+
+#: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
+_MODULE_STREAM = 0x4D4F44  # "MOD"
+
+
+def module_rng(module: int) -> np.random.Generator:
+    """The generator of module *module*'s own errors (the same for every walk of that module)."""
+    return np.random.default_rng([_MODULE_STREAM, int(module)])
 
 
 class SimulatedSource:
     """Raw registers of the 4-IMU array on a simulated foot (see the module docstring).
 
-    Attributes: ``rate_hz``, ``truth`` (:class:`GroundTruth` at the sample
-    times), ``imu`` int16 (n, 4, 6), ``temp`` int16 (n, 4), ``mag`` int16
-    (n, 4, 3), ``chips`` the drawn :class:`ChipErrors`, ``clipped`` the
-    number of saturated accelerometer/gyro registers.
+    Attributes: ``rate_hz``, ``seed`` (the walk's), ``module`` (the module's
+    identity), ``truth`` (:class:`GroundTruth` at the sample times), ``imu``
+    int16 (n, 4, 6), ``temp`` int16 (n, 4), ``mag`` int16 (n, 4, 3), ``chips``
+    the module's :class:`ChipErrors`, ``clipped`` the number of saturated
+    accelerometer/gyro registers.
     """
 
     def __init__(self, motion: Trajectory | str = "default", config: SensorConfig | None = None,
                  seed: int = 0, rate_hz: float = 1000.0, geometry: BoardGeometry = MIMU22BT,
-                 params: GaitParams = WALKING):
+                 params: GaitParams = WALKING, module: int | None = None):
         self.config = config or DEFAULT_CONFIG
         self.name = motion if isinstance(motion, str) else "<trajectory>"
         self.trajectory = trajectory(motion, params) if isinstance(motion, str) else motion
         self.seed = seed
+        self.module = seed if module is None else int(module)
         self.rate_hz = float(rate_hz)
         self.geometry = geometry
         cfg = self.config
@@ -65,9 +87,10 @@ class SimulatedSource:
         t = self.truth.t
 
         # --- every random draw, in a fixed order ---------------------------------------------
+        device = module_rng(self.module)
+        self.chips = [ChipErrors.draw(device, cfg) for _ in range(chips)]
         rng = np.random.default_rng(seed)
-        self.chips = [ChipErrors.draw(rng, cfg) for _ in range(chips)]
-        self.magnetic = MagneticWorld.draw(rng, cfg)
+        self.magnetic = MagneticWorld.draw(rng, device, cfg)
         sa = white_sigma(cfg.accel.noise_density_g, self.rate_hz) if cfg.noise else 0.0
         sg = white_sigma(cfg.gyro.noise_density_rad_s, self.rate_hz) if cfg.noise else 0.0
         sm = cfg.mag.noise_ut if cfg.noise else 0.0
@@ -79,6 +102,14 @@ class SimulatedSource:
         # random part of each register before the DLPF: white noise + bias random walk
         noise_acc += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_a * step), axis=0)
         noise_gyro += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_g * step), axis=0)
+        # + bias instability (first-order Gauss–Markov)
+        gm_a = gauss_markov(rng, (n, chips, 3), cfg.accel.bias_instability_g, cfg.accel.bias_correlation_s,
+                            self.rate_hz)
+        gm_g = gauss_markov(rng, (n, chips, 3), cfg.gyro.bias_instability_rad_s, cfg.gyro.bias_correlation_s,
+                            self.rate_hz)
+        if cfg.drift:
+            noise_acc += gm_a
+            noise_gyro += gm_g
         self._random_acc, self._random_gyro = noise_acc, noise_gyro
 
         # --- temperature ----------------------------------------------------------------------
@@ -98,14 +129,17 @@ class SimulatedSource:
         field_chip = np.stack([rotate(axes @ m, field_b) for m in mount], axis=1) + noise_mag
         self.mag = mag_to_lsb(field_chip, cfg)[which]
 
+        # --- the board's ringing after each heel strike (drawn last: it came last) ------------
+        self._ringing = ringing(rng, t, self.truth.stance_start[1:], cfg)
+
         self.dlpf_cfg = cfg.dlpf.cfg
         self._build_imu()
 
     # -------------------------------------------------------------------------------------------
 
     def __repr__(self) -> str:
-        return (f"SimulatedSource({self.name!r}, seed={self.seed}, rate_hz={self.rate_hz:g}, "
-                f"samples={len(self)}, dlpf_cfg={self.dlpf_cfg})")
+        return (f"SimulatedSource({self.name!r}, seed={self.seed}, module={self.module}, "
+                f"rate_hz={self.rate_hz:g}, samples={len(self)}, dlpf_cfg={self.dlpf_cfg})")
 
     def __len__(self) -> int:
         return len(self.imu)
@@ -135,12 +169,18 @@ class SimulatedSource:
         d_acc, d_gyro = dlpf_delays(cfg, self.dlpf_cfg, self.rate_hz)
         f_chip, w_chip = self.chip_motion(d_acc, d_gyro)
         a_true = f_chip / G0
+        if cfg.impacts:
+            ring_acc, ring_gyro = self._ringing
+            mount = self.geometry.mounting.astype(float)
+            for k, m in enumerate(mount):
+                a_true[:, k] += rotate(m, ring_acc)
+                w_chip[:, k] += rotate(m, ring_gyro)
         dtemp = self.die_temp_c - cfg.temperature.reference_c
         acc = np.empty_like(a_true)
         gyro = np.empty_like(w_chip)
         for k, chip in enumerate(self.chips):
             acc[:, k] = chip.apply_accel(a_true[:, k], dtemp[:, k])
-            gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k])
+            gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k], a_true[:, k])
         acc += self._random_acc
         gyro += self._random_gyro
         if cfg.dlpf.enabled and not cfg.dlpf.delays_only:
@@ -181,6 +221,13 @@ class SimulatedSource:
 
 
 def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
-                config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT) -> SimulatedSource:
-    """A simulated 4-IMU source for a named scenario (``list_scenarios()``) or a recipe."""
-    return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry)
+                config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
+                module: int | None = None) -> SimulatedSource:
+    """A simulated 4-IMU source for a named scenario (``list_scenarios()``) or a recipe.
+
+    *seed* draws the walk (noise, drift, ringing); *module* is the module's
+    identity, which draws its own systematic errors (None: the seed's own, so
+    each seed is a new module).
+    """
+    return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry,
+                           module=module)

@@ -11,7 +11,8 @@
 * Shoe: soft iron (a matrix I + S) and hard iron (a constant vector h) in the
   board frame: m_b = (I + S) Rᵀ (m_n + d(p)) + h.
 
-Every random part is drawn once, from the source's seeded generator.
+The building's field is drawn once per walk (from the walk's seed), the shoe's
+iron once per module (from its identity).
 """
 
 from __future__ import annotations
@@ -48,7 +49,10 @@ class MagneticWorld:
     indoor_radius_m: float = 0.0
 
     @classmethod
-    def draw(cls, rng: np.random.Generator, config: SensorConfig) -> MagneticWorld:
+    def draw(cls, rng: np.random.Generator, device: np.random.Generator,
+             config: SensorConfig) -> MagneticWorld:
+        """The building's field from the walk's generator *rng*, the shoe's iron from the
+        module's own generator *device* (the module is fixed in its shoe)."""
         m = config.mag
         direction = rng.normal(size=(_MODES, 3))
         direction[:, 2] *= 0.3  # buildings vary mostly along the floor
@@ -56,8 +60,8 @@ class MagneticWorld:
         k = direction * (2 * np.pi / m.indoor_length_m) * rng.uniform(0.5, 1.5, (_MODES, 1))
         amp = rng.normal(size=(_MODES, 3)) * m.indoor_rms_ut * np.sqrt(2.0 / _MODES)
         phase = rng.uniform(0, 2 * np.pi, _MODES)
-        soft = np.eye(3) + rng.uniform(-1, 1, (3, 3)) * m.soft_iron_bound
-        hard = rng.uniform(-1, 1, 3) * m.hard_iron_bound_ut
+        soft = np.eye(3) + device.uniform(-1, 1, (3, 3)) * m.soft_iron_bound
+        hard = device.uniform(-1, 1, 3) * m.hard_iron_bound_ut
         if not config.mag_disturbance:
             amp = np.zeros_like(amp)
             soft = np.eye(3)

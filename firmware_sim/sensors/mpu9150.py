@@ -2,19 +2,23 @@
 
 Per chip, in the chip's raw axes (all numbers from :mod:`.config`):
 
-    a_meas = (I + E_a)(1 + s_a·ΔT) a_true + b_a + c_a·ΔT + w_a(t) + n_a   [g]
-    ω_meas = (I + E_g)(1 + s_g·ΔT) ω_true + b_g + c_g·ΔT + w_g(t) + n_g   [rad/s]
+    a_meas = (I + E_a) M (1 + s_a·ΔT) a_true + b_a + c_a·ΔT + w_a(t) + n_a   [g]
+    ω_meas = (I + E_g) M (1 + s_g·ΔT) ω_true + G a_true + b_g + c_g·ΔT + w_g(t) + n_g   [rad/s]
 
 with E a scale/cross-axis matrix (diagonal ±sensitivity tolerance, off-diagonal
-±cross-axis), b the turn-on offset (E and b scaled by the calibration residual
-of the configuration: the module is calibrated), c and s the temperature coefficients of
-offset and sensitivity, ΔT the die temperature minus the 25 °C reference,
-w(t) a bias random walk (in-run drift) and n white noise of the datasheet
-noise density (one-sided; per-sample σ = density·√(f_s/2)). Then the DLPF
-(:func:`dlpf_filter`), then round to nearest and saturate to int16.
+±cross-axis) and b the turn-on offset, both scaled by the calibration residuals
+of the configuration (the module is calibrated); M the chip's small rotation
+from its nominal mounting (misalignment); G the gyro's sensitivity to linear
+acceleration; c and s the temperature coefficients of offset and sensitivity,
+ΔT the die temperature minus the 25 °C reference; w(t) the in-run bias (a
+random walk plus a first-order Gauss–Markov bias instability) and n white
+noise of the datasheet noise density (one-sided; per-sample σ =
+density·√(f_s/2)), plus the board's ringing after heel strikes
+(:mod:`.impacts`). Then the DLPF (:func:`dlpf_filter`), then round to nearest
+and saturate to int16.
 
-:class:`ChipErrors` are drawn once per chip from the source's seeded
-generator, always in the same order (so switching one kind of error off does
+:class:`ChipErrors` are drawn once per chip from the generator of the module's
+identity, always in the same order (so switching one kind of error off does
 not change the others).
 """
 
@@ -27,7 +31,7 @@ import numpy as np
 from .config import G0, SensorConfig
 from .truth import rotate
 
-__all__ = ["ChipErrors", "dlpf_filter", "dlpf_delays", "one_pole_alpha"]
+__all__ = ["ChipErrors", "dlpf_filter", "dlpf_delays", "gauss_markov", "one_pole_alpha", "small_rotation"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,6 +47,7 @@ class ChipErrors:
     gyro_offset_tempco: np.ndarray  #: (3,) rad/s per °C
     gyro_sens_tempco: np.ndarray  #: (3,) per °C
     temp_offset_c: float  #: this die's temperature offset
+    gyro_g_matrix: np.ndarray  #: (3, 3) rad/s per g of specific force (g-sensitivity)
 
     @classmethod
     def draw(cls, rng: np.random.Generator, config: SensorConfig) -> ChipErrors:
@@ -60,21 +65,29 @@ class ChipErrors:
         gyr_m, gyr_b = matrix(g.sensitivity_tol, g.cross_axis), u(g.offset_bound_rad_s)
         gyr_tc, gyr_stc = u(g.offset_tempco_rad_s_per_c), u(g.sensitivity_tempco_per_c)
         temp_off = float(u(config.temperature.chip_spread_c, 1)[0])
+        g_sens = u(g.g_sensitivity_rad_s_per_g, (3, 3))
+        tilt = u(config.array.misalignment_rad)
         on = config.scale_errors
         off = config.offsets
         tc = config.temperature_effects
-        res = config.calibration_residual
-        acc_m, acc_b, gyr_m, gyr_b = acc_m * res, acc_b * res, gyr_m * res, gyr_b * res
+        acc_m, gyr_m = acc_m * config.scale_residual, gyr_m * config.scale_residual
+        acc_b, gyr_b = acc_b * config.offset_residual, gyr_b * config.offset_residual
+        acc_matrix = np.eye(3) + (acc_m if on else 0.0)
+        gyro_matrix = np.eye(3) + (gyr_m if on else 0.0)
+        if config.misalignment:
+            mount = small_rotation(tilt)
+            acc_matrix, gyro_matrix = acc_matrix @ mount, gyro_matrix @ mount
         return cls(
-            acc_matrix=np.eye(3) + (acc_m if on else 0.0),
+            acc_matrix=acc_matrix,
             acc_offset_g=acc_b if off else np.zeros(3),
             acc_offset_tempco_g=acc_tc if tc else np.zeros(3),
             acc_sens_tempco=acc_stc if tc else np.zeros(3),
-            gyro_matrix=np.eye(3) + (gyr_m if on else 0.0),
+            gyro_matrix=gyro_matrix,
             gyro_offset=gyr_b if off else np.zeros(3),
             gyro_offset_tempco=gyr_tc if tc else np.zeros(3),
             gyro_sens_tempco=gyr_stc if tc else np.zeros(3),
             temp_offset_c=temp_off,
+            gyro_g_matrix=g_sens if config.g_sensitivity else np.zeros((3, 3)),
         )
 
     def apply_accel(self, a_true_g: np.ndarray, dtemp: np.ndarray) -> np.ndarray:
@@ -87,15 +100,55 @@ class ChipErrors:
             out += dtemp[:, None] * self.acc_offset_tempco_g
         return out
 
-    def apply_gyro(self, w_true: np.ndarray, dtemp: np.ndarray) -> np.ndarray:
-        """Deterministic part of the gyro model, (n, 3) in rad/s."""
+    def apply_gyro(self, w_true: np.ndarray, dtemp: np.ndarray, a_true_g: np.ndarray) -> np.ndarray:
+        """Deterministic part of the gyro model, (n, 3) in rad/s; *a_true_g* is the chip's
+        specific force [g], which the gyro feels through its g-sensitivity."""
         out = rotate(self.gyro_matrix, w_true)
         if np.any(self.gyro_sens_tempco):
             out *= 1.0 + dtemp[:, None] * self.gyro_sens_tempco
+        if np.any(self.gyro_g_matrix):
+            out += a_true_g @ self.gyro_g_matrix.T
         out += self.gyro_offset
         if np.any(self.gyro_offset_tempco):
             out += dtemp[:, None] * self.gyro_offset_tempco
         return out
+
+
+def small_rotation(angles: np.ndarray) -> np.ndarray:
+    """The rotation matrix of the rotation vector *angles* [rad] (Rodrigues), for small tilts."""
+    theta = float(np.linalg.norm(angles))
+    if theta == 0.0:
+        return np.eye(3)
+    k = np.asarray(angles, dtype=float) / theta
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + np.sin(theta) * kx + (1.0 - np.cos(theta)) * (kx @ kx)
+
+
+def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, correlation_s: float,
+                 rate_hz: float) -> np.ndarray:
+    """A first-order Gauss–Markov process along axis 0, stationary with sd *sigma*.
+
+    b[k] = φ·b[k−1] + σ√(1 − φ²)·w[k], φ = exp(−1/(τ·f_s)), b[0] ~ N(0, σ²):
+    the bias instability of a MEMS sensor. The recursion runs as the same prefix
+    scan as :func:`dlpf_filter`. Draws ``shape`` normals from *rng* even when
+    *sigma* is 0, so that the draws after it do not depend on it.
+    """
+    w = rng.standard_normal(shape)
+    phi = float(np.exp(-1.0 / (correlation_s * rate_hz)))
+    x = w * (sigma * np.sqrt(1.0 - phi * phi))
+    x[0] = w[0] * sigma
+    return _first_order_scan(x, phi)
+
+
+def _first_order_scan(y: np.ndarray, beta: float) -> np.ndarray:
+    """In place: y[k] ← y[k] + β·y[k−1] for every k, in order (y[k] = Σ_j β^j x[k−j])."""
+    d, bd = 1, beta
+    n = len(y)
+    while d < n and bd > 1e-18:
+        y[d:] += bd * y[:-d].copy()
+        d *= 2
+        bd *= bd
+    return y
 
 
 def white_sigma(density: float, rate_hz: float) -> float:
@@ -139,13 +192,7 @@ def dlpf_filter(x: np.ndarray, bandwidth_hz: float, rate_hz: float) -> np.ndarra
     beta = 1.0 - alpha
     y = x * alpha
     y[0] += beta * x[0]  # the state before the first sample: at rest on x[0]
-    d, bd = 1, beta
-    n = len(y)
-    while d < n and bd > 1e-18:
-        y[d:] += bd * y[:-d].copy()
-        d *= 2
-        bd *= bd
-    return y
+    return _first_order_scan(y, beta)
 
 
 def specific_force_to_g(f: np.ndarray) -> np.ndarray:

@@ -183,6 +183,20 @@ class GroundTruth:
         """(m, 3) where the foot rested, NED [m]."""
         return self.stance_poses[:, :3]
 
+    def stances_in_start_frame(self) -> np.ndarray:
+        """(m, 3) the rests of the foot in the frame a track starts in: origin at the first rest,
+        x along the initial heading (the module's yaw is 0 at its alignment), z down."""
+        stances = self.stance_positions
+        psi0 = float(self.euler[0, 2])
+        c, s = np.cos(-psi0), np.sin(-psi0)
+        rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return (stances - stances[0]) @ rot.T
+
+    def heading_change(self) -> float:
+        """The foot's heading at its last rest minus at its first [rad], wrapped to [−π, π]."""
+        yaw = self.stance_poses[:, 5]
+        return math.remainder(float(yaw[-1] - yaw[0]), 2.0 * math.pi)
+
     def distance_m(self) -> float:
         """Length of the path from rest to rest (sum of the straight lines between stances)."""
         p = self.stance_positions

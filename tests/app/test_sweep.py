@@ -50,7 +50,7 @@ def test_the_command_line_spec_is_the_product_sorted_by_run_key():
     assert spec.settings[0][1] == (20000, 10000)
     keys = [r.key for r in spec.runs()]
     assert len(keys) == 2 * 2 * 2 * 2 == len(set(keys)) and keys == sorted(keys)
-    assert keys[0] == ("scenario", "stand", 0, 10000, 0.0)
+    assert keys[0] == ("scenario", "stand", 0, 0, 10000, 0.0)  # module 0 (the seed's own), seed 0
     assert spec.runs()[0].name == "stand_seed0_zupt_threshold=10000_byte_loss=0.0"
 
 

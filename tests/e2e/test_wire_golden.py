@@ -6,7 +6,14 @@ was before the packages were reorganised into layers. Each is checked through
 the compiled path and through the pure-Python reference.
 
 A change that is *meant* to change the module's bytes (new navigation, new
-sensor errors) updates these figures in the same commit and says why.
+sensor errors) updates these figures in the same commit and says why:
+
+* the default scenario's bytes changed with the realistic sensor errors (module
+  identity, g-sensitivity, misalignment, bias instability, heel-strike ringing,
+  scale residuals: ``docs/sensor-errors.md``);
+* the error-free default scenario (``SensorConfig.ideal()``) is pinned too, at
+  the figure it had before those errors came: error-free replays do not depend
+  on the sensor error model, nor on the seed.
 """
 
 from __future__ import annotations
@@ -18,11 +25,13 @@ import pytest
 from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.nav import fastpath
+from firmware_sim.sensors.config import IDEAL_CONFIG
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.replay import ReplaySource
 from tests.conftest import WALK_IDS, requires_walks, walk_path
 
-DEFAULT_SCENARIO_SHA256 = "bd98290896fea2e374be1570b56d85d45f9e498c9a088c33da657e13fab0f0af"
+DEFAULT_SCENARIO_SHA256 = "1b5c5f1f25bd0f427dca5311c033b15cb03bdbab2da9c0fd0745fa96741c2f85"
+IDEAL_DEFAULT_SCENARIO_SHA256 = "c8179aaa1ac593496a9330a894fa8689445b0d1fccaec0e539d2c10fd455f433"
 WALK_SHA256 = {
     "2": "e93cfeec7b704ced10a66d544fda952f4b2aeedd17ee0cc0160ba80496bef639",
     "3": "6e030a8f55d207e746abe3e088bec036a7e9d4a6c42253c18045236786b98f55",
@@ -49,6 +58,13 @@ def sha256_of_replay(source, compiled: bool) -> str:
 def test_default_scenario_replay_is_byte_identical(compiled):
     source = make_source("default", seed=0, rate_hz=1000.0)
     assert sha256_of_replay(source, compiled) == DEFAULT_SCENARIO_SHA256
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [0, 7])
+def test_error_free_default_scenario_is_byte_identical_for_any_seed(seed):
+    source = make_source("default", seed=seed, rate_hz=1000.0, config=IDEAL_CONFIG)
+    assert sha256_of_replay(source, compiled=fastpath.available()) == IDEAL_DEFAULT_SCENARIO_SHA256
 
 
 @requires_walks

@@ -111,7 +111,8 @@ def test_running_heel_strikes_clip_at_16_g_and_walking_does_not():
 
 
 def test_offsets_and_scale_errors_stay_within_the_datasheet_bounds():
-    raw_chips = replace(IDEAL_CONFIG, offsets=True, scale_errors=True, calibration_residual=1.0)
+    raw_chips = replace(IDEAL_CONFIG, offsets=True, scale_errors=True, offset_residual=1.0,
+                        scale_residual=1.0)
     src = make_source("stand:1", seed=11, config=raw_chips)
     for chip in src.chips:
         assert np.all(np.abs(chip.acc_offset_g) <= [0.080, 0.080, 0.150])
