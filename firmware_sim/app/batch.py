@@ -17,7 +17,8 @@ When the source runs out the process sequence is emptied (the foot stops being
 sensed) and the loop keeps running until the packet queue has drained, so the
 last step is on the wire too. ``--scenario NAME`` replays a simulated walk
 (:func:`firmware_sim.sensors.imu_array.make_source`, 1 kHz by default) instead and
-writes its ground truth beside OUT (``OUT.truth.csv``).
+writes its ground truth beside OUT (``OUT.truth.csv``); ``--module N`` makes it module N's walk
+(module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module).
 
 ``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
 of ``--seeds A:B`` — into ``DIR/<name>.bin`` (:mod:`firmware_sim.app.replay_cli`); each file's
@@ -43,7 +44,8 @@ from protocol.stream import StreamDecoder
 
 from .progress import progress_bar, say
 
-__all__ = ["START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "check_arguments", "main"]
+__all__ = ["MODULE_HELP", "START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "check_arguments",
+           "main", "module_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -166,6 +168,22 @@ def _step(module: Module) -> int:
 # command line (wired into `openshoe-emu` by firmware_sim.app.cli)
 
 
+#: The help of ``--module`` (replay, serve, the demo).
+MODULE_HELP = ("the simulated module's identity: its own systematic errors (offsets, scale, misalignment, "
+               "g-sensitivity, shoe iron) stay the same across seeds; default: the seed's own module")
+
+
+def module_number(text: str) -> int:
+    """The argparse type of ``--module``: a module identity, an integer >= 0."""
+    try:
+        number = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a module number >= 0, got {text!r}") from None
+    if number < 0:
+        raise argparse.ArgumentTypeError(f"a module number is >= 0, got {number}")
+    return number
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="*", type=Path, metavar="FILE",
                    help="recording(s) to replay (OpenShoe walk .txt or our CSV), each at its own rate")
@@ -178,6 +196,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                      help="replay every FILE (or the scenario with every seed of --seeds) in this process, "
                           "writing DIR/<name>.bin each, and print a summary table")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
+    p.add_argument("--module", type=module_number, metavar="N", default=None, help=MODULE_HELP)
     p.add_argument("--seeds", metavar="A:B",
                    help="with --scenario and --wire-dir: seeds A … B-1 (also N or N,M,…)")
     p.add_argument("--rate", type=float, default=1000.0,
@@ -197,6 +216,8 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--seeds and --table go with --wire-dir"
     if args.seeds is not None and args.scenario is None:
         return "--seeds goes with --scenario"
+    if args.module is not None and args.scenario is None:
+        return "--module goes with --scenario: a recording carries its own module's sensors"
     return None
 
 
@@ -209,9 +230,10 @@ def main(args: argparse.Namespace) -> int:
         if args.scenario is not None:
             from firmware_sim.sensors.imu_array import make_source
 
-            source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate)
+            source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate, module=args.module)
             truth = source.truth
-            name = f"scenario {args.scenario!r} (seed {args.seed}, {args.rate:g} Hz)"
+            module = "" if args.module is None else f"module {args.module}, "
+            name = f"scenario {args.scenario!r} ({module}seed {args.seed}, {args.rate:g} Hz)"
         else:
             source = ReplaySource.from_file(args.files[0])
             name = str(args.files[0])

@@ -3,7 +3,8 @@
 ``openshoe-emu replay FILE --wire OUT`` (or ``--scenario NAME --wire OUT``) is one replay
 (:mod:`firmware_sim.app.batch`). ``openshoe-emu replay FILE... --wire-dir DIR`` replays every
 file in this process, and ``--scenario NAME --seeds A:B --wire-dir DIR`` the scenario with
-every seed A … B−1: each run writes ``DIR/<name>.bin`` (a scenario also ``<name>.bin.truth.csv``),
+every seed A … B−1 (with ``--module N``, one module walked with every seed: ``<name>_moduleN_seedS``):
+each run writes ``DIR/<name>.bin`` (a scenario also ``<name>.bin.truth.csv``),
 byte for byte what a replay of it alone writes, and a table of the runs goes to stdout: steps,
 distance, closure (for closed loops) and time (:mod:`firmware_sim.app.runs`). The compiled
 tracking path is prepared once, before the first run; a reader thread reads the next file
@@ -41,7 +42,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2
     if args.scenario is not None:
-        runs = scenario_runs([args.scenario], seeds, rate_hz=args.rate)
+        runs = scenario_runs([args.scenario], seeds, rate_hz=args.rate, module=args.module)
     else:
         runs = file_runs(args.files)
     return replay_many(runs, args.wire_dir, table=args.table, quiet=args.quiet)

@@ -42,6 +42,7 @@ from typing import Any, TextIO
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 
+from .batch import MODULE_HELP, module_number
 from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_module import ServedModule
@@ -97,6 +98,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                      "when the module first reads its sensors (a host starts tracking), then stands still")
     src.add_argument("--replay", metavar="FILE", help="replay a recording (OpenShoe text or CSV) instead")
     m.add_argument("--seed", type=int, default=0, help="seed of the sensors and the link (default 0)")
+    m.add_argument("--module", type=module_number, metavar="N", default=None,
+                   help=MODULE_HELP + "; with --modules K, module i is N + i")
     m.add_argument("--command-set", choices=["2014", "2015"], default="2015",
                    help="command numbering (default 2015; 2014 for old vendor apps)")
     m.add_argument("--speed", type=float, default=1.0,
@@ -163,7 +166,8 @@ class ServeSettings:
 def settings_from_args(args: argparse.Namespace) -> ServeSettings:
     """The options of :func:`add_arguments` as settings; SettingsError for a refused value."""
     emulator = EmulatorSettings(
-        scenario=args.scenario, replay=args.replay or "", seed=args.seed, command_set=args.command_set,
+        scenario=args.scenario, replay=args.replay or "", seed=args.seed, module=args.module,
+        command_set=args.command_set,
         speed=args.speed, interface=args.interface, link=args.link or args.interface,
         loss=args.loss, corrupt=args.corrupt, stall_rate=args.stall_rate,
         disconnect_rate=args.disconnect_rate, pty=args.pty or "", tcp=args.tcp, rfc2217=args.rfc2217,

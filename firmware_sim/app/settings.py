@@ -9,8 +9,11 @@ pairs, applied on top of the defaults by :func:`apply`:
 ``sensors.<field>[.<field>]``
     any number or switch of :class:`~firmware_sim.sensors.config.SensorConfig`, e.g.
     ``sensors.noise`` (white noise on/off), ``sensors.drift``, ``sensors.offsets``,
-    ``sensors.scale_errors``, ``sensors.temperature_effects``, ``sensors.accel.noise_density_g``,
-    ``sensors.gyro.noise_density_rad_s``, ``sensors.gyro.bias_random_walk_rad_s_per_sqrt_s``.
+    ``sensors.scale_errors``, ``sensors.temperature_effects``, ``sensors.g_sensitivity``,
+    ``sensors.misalignment``, ``sensors.impacts``, ``sensors.scale_residual``,
+    ``sensors.accel.noise_density_g``, ``sensors.gyro.noise_density_rad_s``,
+    ``sensors.gyro.g_sensitivity_rad_s_per_g``, ``sensors.gyro.bias_random_walk_rad_s_per_sqrt_s``
+    (the whole budget, with sources: ``docs/sensor-errors.md``).
     Simulated scenarios only: a recording carries its own sensor errors.
 ``link.profile``
     ``ideal`` (default), ``bt`` or ``usb``: the Bluetooth interface's link model;

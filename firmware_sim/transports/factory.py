@@ -9,6 +9,8 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
 
     scenario     sensor scenario name or recipe (firmware_sim.sensors.make_source), "default"
     seed         seed of the sensors and the link's jitter/faults, 0 (module i of several: seed + i)
+    module       the simulated module's identity: its own systematic errors, the same whatever the
+                 seed (firmware_sim.sensors.make_source); None: the seed's own (module i: module + i)
     link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
@@ -53,7 +55,7 @@ from .tcp import TcpEndpoint
 Address = tuple[str, int]
 
 #: The settings an ``openshoe://`` URL may give, in the order its error messages list them.
-URL_OPTIONS = ("scenario", "seed", "link", "interface", "command_set", "speed", "loss", "corrupt")
+URL_OPTIONS = ("scenario", "seed", "module", "link", "interface", "command_set", "speed", "loss", "corrupt")
 
 _NO_VALUE = object()
 
@@ -90,6 +92,7 @@ class EmulatorSettings:
 
     scenario: str = "default"
     seed: int = 0
+    module: int | None = None  #: the simulated module's identity; None: the seed's own
     link: str = "ideal"
     interface: str = ""
     command_set: str = "2015"
@@ -119,6 +122,12 @@ class EmulatorSettings:
             raise SettingsError("{} must be >= 0", "speed", got=self.speed)
         if self.modules < 1:
             raise SettingsError("{} must be >= 1", "modules", got=self.modules)
+        if self.module is not None:
+            if self.module < 0:
+                raise SettingsError("{} must be >= 0", "module", got=self.module)
+            if self.replay:
+                raise SettingsError("{} goes with a scenario, not {} FILE: a recording carries its own "
+                                    "sensors", "module", "replay")
 
     def _check_link(self) -> None:
         if self.served_interface not in ("usb", "bt"):
@@ -176,7 +185,7 @@ class EmulatorSettings:
                 raise ValueError(f"unknown option {key!r} in {url!r}; known: {', '.join(URL_OPTIONS)}")
             raw = values[-1]
             try:
-                if types[key] in ("int", int):
+                if types[key] in ("int", int, "int | None"):
                     kw[key] = int(raw)
                 elif types[key] in ("float", float):
                     kw[key] = float(raw)
@@ -187,15 +196,16 @@ class EmulatorSettings:
         return cls(**kw)  # type: ignore[arg-type]
 
 
-def make_sensors(scenario: str, seed: int, rate_hz: float) -> SensorSource:
-    """The sensor source of a scenario as a served module plays it.
+def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = None) -> SensorSource:
+    """The sensor source of a scenario as a served module plays it: module *module* (None: the
+    seed's own) walking the scenario with seed *seed*.
 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
     so a host never meets silent sensors after a short scenario.
     """
     try:
-        source = make_source(scenario, seed=seed, rate_hz=rate_hz)
+        source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
     return served_source(source)
@@ -309,25 +319,26 @@ def _links(settings: EmulatorSettings, seed: int) -> dict[str, Link]:
     return links
 
 
-def _sensors(settings: EmulatorSettings, seed: int) -> SensorSource:
+def _sensors(settings: EmulatorSettings, seed: int, module: int | None) -> SensorSource:
     if settings.replay:
         from firmware_sim.sensors.replay import ReplaySource
 
         return served_source(ReplaySource.from_file(settings.replay))
-    return make_sensors(settings.scenario, seed, DEFAULT_RATE_HZ)
+    return make_sensors(settings.scenario, seed, DEFAULT_RATE_HZ, module)
 
 
 def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource | None = None) -> BuiltModule:
     """Module *index* of *settings*: its sensors, links, the module and the endpoints asked for.
 
-    Module *index* has seed ``settings.seed + index``. It runs at its sensors' rate (1 kHz
-    for a scenario, a recording's own). *sensors*: a source to play as it is, instead of
+    Module *index* has seed ``settings.seed + index`` and, when ``settings.module`` is given,
+    identity ``settings.module + index`` (else the seed's own). It runs at its sensors' rate
+    (1 kHz for a scenario, a recording's own). *sensors*: a source to play as it is, instead of
     the settings' scenario or recording. Refused settings of the sensors (an unknown
     scenario, a bad recording) raise ValueError; endpoints that cannot open, OSError.
     """
     seed = settings.seed + index
     if sensors is None:
-        sensors = _sensors(settings, seed)
+        sensors = _sensors(settings, seed, None if settings.module is None else settings.module + index)
     links = _links(settings, seed)
     config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace)
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}

@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import socket
 import sys
+from dataclasses import fields
 
+import numpy as np
 import pytest
 
 from firmware_sim.links.link import Link
 from firmware_sim.mcu.imu_bus import ScriptedSource
+from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead
 from firmware_sim.transports.factory import (
     ENDPOINT_KINDS,
     URL_OPTIONS,
@@ -104,6 +107,22 @@ def test_a_url_gives_only_its_own_options():
         EmulatorSettings.from_url("openshoe://?loss=2")
 
 
+def test_a_url_names_the_simulated_module():
+    assert EmulatorSettings.from_url("openshoe://?scenario=stand&seed=1&module=3").module == 3
+    assert EmulatorSettings.from_url("openshoe://?seed=1").module is None, "default: the seed's own module"
+    with pytest.raises(SettingsError, match="module must be >= 0, got -1") as caught:
+        EmulatorSettings.from_url("openshoe://?module=-1")
+    assert caught.value.options == ("module",)
+    with pytest.raises(ValueError, match="module='x' .* is not a number"):
+        EmulatorSettings.from_url("openshoe://?module=x")
+
+
+def test_a_module_identity_goes_with_a_scenario_not_a_recording():
+    with pytest.raises(SettingsError, match="module goes with a scenario, not replay") as caught:
+        EmulatorSettings(replay="walk.txt", module=2)
+    assert caught.value.options == ("module", "replay")
+
+
 def test_endpoint_requests_list_only_what_is_asked_for():
     s = EmulatorSettings(interface="bt", pty="/tmp/p", tcp=LOCAL, usb_tcp=("h", 5))
     assert s.endpoint_requests() == {"bt": {"pty": "/tmp/p", "tcp": LOCAL}, "usb": {"tcp": ("h", 5)}}
@@ -124,8 +143,6 @@ def test_without_endpoints_the_served_interface_has_the_link_and_the_other_is_un
 
 
 def test_a_given_sensor_source_is_played_as_it_is():
-    import numpy as np
-
     source = ScriptedSource(np.zeros((10, 4, 6), np.int16), rate_hz=250.0)
     b = build(EmulatorSettings(scenario="never-built"), sensors=source)
     assert b.module.sensors is source and b.module.clock.rate_hz == 250.0
@@ -133,6 +150,33 @@ def test_a_given_sensor_source_is_played_as_it_is():
 
 def test_module_index_adds_to_the_seed():
     assert build(quick(link="bt", seed=4), 2).link.seed == build(quick(link="bt", seed=6)).link.seed
+
+
+def _simulated(built):
+    """The simulated source a built module plays (under served_source's wrappers)."""
+    held = built.module.sensors
+    assert isinstance(held, HoldLastSource) and isinstance(held.source, StartOnFirstRead)
+    return held.source.source
+
+
+def test_several_modules_of_one_identity_count_up_from_it_as_seeds_do():
+    settings = quick(seed=10, module=5, modules=2)
+    sources = [_simulated(build(settings, i)) for i in range(2)]
+    assert [(s.module, s.seed) for s in sources] == [(5, 10), (6, 11)]
+    assert_chips_equal(sources[1], _simulated(build(quick(seed=0, module=6))))
+
+
+def test_without_a_module_identity_each_seed_is_its_own_module():
+    sources = [_simulated(build(quick(seed=10, modules=2), i)) for i in range(2)]
+    assert [(s.module, s.seed) for s in sources] == [(10, 10), (11, 11)]
+
+
+def assert_chips_equal(a, b) -> None:
+    """*a* and *b* have the same chips' errors (the same module)."""
+    assert len(a.chips) == len(b.chips)
+    for ca, cb in zip(a.chips, b.chips, strict=True):
+        for f in fields(ca):
+            assert np.array_equal(getattr(ca, f.name), getattr(cb, f.name)), f.name
 
 
 def test_every_endpoint_kind_has_an_opener():
