@@ -109,6 +109,11 @@ class StateId(IntEnum):
     DP = 0x31
     STEP_COUNTER = 0x32
     FILTER_RESET_FLAG = 0x33
+    # Emulator extensions in the free range (firmware.md §2: new states below 0xB0); a real
+    # OpenShoe firmware has none of them.
+    SWING_TIME = 0x34
+    THETA_INIT = 0x35
+    THETA_GROUND = 0x36
 
 
 IMU_RAW_BASE = 0x40
@@ -168,6 +173,8 @@ class ProcId(IntEnum):
     ZUPT_UPDATE = 0x22
     FRONTEND_INITIAL_ALIGNMENT = 0x23
     STEPWISE_SYSTEM_RESET = 0x24
+    #: Emulator extension (free id below 0x30): the step's height from the ground's slope.
+    HEIGHT_COMPENSATION = 0x25
 
 
 class OutputMode(IntFlag):

@@ -80,6 +80,13 @@ _NAMED: list[StateSpec] = [
     _spec(StateId.DP, "DP", ">f4", (10,), doc="upper triangle of the 4×4 covariance of DX"),
     _spec(StateId.STEP_COUNTER, "STEP_COUNTER", ">u2", doc="steps since 0x34"),
     _spec(StateId.FILTER_RESET_FLAG, "FILTER_RESET_FLAG", "?", doc="true in the cycle of a reset"),
+    # emulator extensions (free ids; a real module answers them as unknown states)
+    _spec(StateId.SWING_TIME, "SWING_TIME", ">f4",
+          doc="seconds without ZUPT between the last two resets: the swing time of the step in DX"),
+    _spec(StateId.THETA_INIT, "THETA_INIT", ">f4", (2,),
+          doc="foot pitch, roll [rad] standing on level ground, from the initial alignment (settable)"),
+    _spec(StateId.THETA_GROUND, "THETA_GROUND", ">f4", (2,),
+          doc="the ground's slope [rad] along and across the foot, low-passed from stance to stance"),
 ]
 
 

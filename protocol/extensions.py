@@ -1,0 +1,54 @@
+"""The emulator's extensions of the protocol, and the commands a host sends to use them.
+
+They live in the free id ranges firmware.md §2 leaves for new functions and states
+(a real OpenShoe module does not have them, and answers their ids as unknown):
+
+* processing function 0x25 HEIGHT_COMPENSATION — the step's height from the ground's slope
+  (shared/spec/aids.md §5), a measurement in the module's own filter;
+* state 0x34 SWING_TIME — seconds without ZUPT in the step just reported (float32);
+* state 0x35 THETA_INIT — the foot's pitch and roll [rad] on level ground, from the initial
+  alignment (2 × float32; a host may set it);
+* state 0x36 THETA_GROUND — the ground's slope along and across the foot [rad], low-passed
+  from stance to stance (2 × float32).
+
+A host uses them through the ordinary commands, as it would any function or state; this
+module declares those commands once, for the host SDK and the emulator's replayed host:
+
+* :func:`height_compensation_on` — RUN_PROC putting HEIGHT_COMPENSATION in the last-but-one
+  free slot of the tracking sequence (:data:`HEIGHT_COMPENSATION_SLOT`). It acts on the
+  *running* sequence, so a host sends it once tracking runs, i.e. when the first step packet
+  after 0x34 arrives (before, the alignment sequence runs and the tracking sequence waits in
+  storage).
+* :func:`fusion_output_setup` — STATE_IF_SETUP that makes every step packet carry what the
+  host-side aids need besides DX, DP and the step counter: the swing time (drift correction).
+  Sent right after 0x34, which sets up the plain step output.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .ids import Command, OutputMode, ProcId, StateId
+
+__all__ = ["FUSION_STEP_STATES", "HEIGHT_COMPENSATION_SLOT", "fusion_output_setup", "height_compensation_on"]
+
+#: The slot HEIGHT_COMPENSATION runs in: after STATE_OUTPUT_IF (slot 9) of the tracking
+#: sequence that 0x34 sets up; slots 10 and 11 are empty there.
+HEIGHT_COMPENSATION_SLOT = 10
+
+#: The states of a step packet with the host-side aids' set-up, in the order asked for.
+FUSION_STEP_STATES: tuple[int, ...] = (StateId.DX, StateId.DP, StateId.STEP_COUNTER, StateId.SWING_TIME)
+
+
+def height_compensation_on() -> tuple[Command, dict[str, Any]]:
+    """The command (meaning and payload fields) that turns height compensation on."""
+    return Command.RUN_PROC, {"proc_id": int(ProcId.HEIGHT_COMPENSATION), "slot": HEIGHT_COMPENSATION_SLOT}
+
+
+def fusion_output_setup() -> tuple[Command, dict[str, Any]]:
+    """The command (meaning and payload fields) of the step output the host-side aids need:
+    the flag and mode 0x34 uses (FILTER_RESET_FLAG, pull), and :data:`FUSION_STEP_STATES`.
+    The firmware also takes the frame's checksum bytes as two more ids (protocol.md §9)."""
+    ids = [int(s) for s in FUSION_STEP_STATES] + [0] * (8 - len(FUSION_STEP_STATES))
+    return Command.STATE_IF_SETUP, {"flag_id": int(StateId.FILTER_RESET_FLAG), "mode": int(OutputMode.PULL),
+                                    "state_ids": ids}
