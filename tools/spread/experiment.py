@@ -1,0 +1,58 @@
+"""The walks of a spread experiment: one route, many seeds, new modules or one module.
+
+A walk is a run of :mod:`firmware_sim.app.runs` (:func:`~firmware_sim.app.runs.scenario_runs`,
+:func:`~firmware_sim.app.runs.run_one`); the runs go through
+:func:`firmware_sim.app.cluster.execute`, on a local Dask cluster or one after the other in this
+process, as ``openshoe-emu sweep`` runs them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+__all__ = ["Group", "check_route", "walk_groups", "walk_routes"]
+
+#: Seeds to walk and the module that walks them (None: each seed its own, a new module per walk).
+Group = tuple[Sequence[int], int | None]
+
+
+def check_route(route: str) -> None:
+    """Raise ValueError unless *route* is a scenario name (``list_scenarios()``) or a recipe of
+    pieces that :func:`firmware_sim.sensors.imu_array.make_source` accepts."""
+    from firmware_sim.sensors import scenarios
+
+    try:
+        scenarios.trajectory(route)  # what make_source builds first; milliseconds even for track400
+    except (KeyError, ValueError) as e:
+        raise ValueError(e.args[0] if e.args else f"bad route {route!r}") from None
+
+
+def walk_groups(route: str, groups: Sequence[Group], workers: int = 2, scheduler: str | None = None,
+                quiet: bool = True) -> list[list[dict[str, Any]]]:
+    """The rows of every group's walks of *route*, group by group, each in the order of its seeds;
+    all on one cluster (*scheduler*'s, or a local one of *workers* processes), or here in turn
+    when *workers* is 0 and there is no *scheduler*."""
+    from firmware_sim.app import cluster
+    from firmware_sim.app.runs import scenario_runs
+
+    specs = [scenario_runs([route], list(seeds), module=module) for seeds, module in groups]
+    flat = [spec for group in specs for spec in group]
+    if workers == 0 and scheduler is None:
+        cluster.prepare_process()
+        rows = cluster.execute(flat, quiet=quiet)
+    else:
+        with cluster.open_client(workers, scheduler) as client:
+            rows = cluster.execute(flat, client, quiet=quiet)
+    out, start = [], 0
+    for group in specs:
+        out.append(rows[start:start + len(group)])
+        start += len(group)
+    return out
+
+
+def walk_routes(route: str, seeds: Sequence[int], module: int | None = None, workers: int = 2,
+                scheduler: str | None = None, quiet: bool = True) -> list[dict[str, Any]]:
+    """The rows of *route* walked once per seed: by *module* every time, or (None) by a new
+    module each walk; see :func:`walk_groups`."""
+    return walk_groups(route, [(seeds, module)], workers, scheduler, quiet)[0]
