@@ -30,7 +30,8 @@ angular acceleration α_b from the Euler-angle rates. Evaluation is
 vectorised over any array of times (:meth:`Trajectory.evaluate`).
 
 :class:`GaitBuilder` composes motions — standing, straight and curved walks,
-slopes, stairs, turns on the spot, side and back steps, running — from
+slopes and ramps walked at an angle to their fall line, stairs, turns on the
+spot, side and back steps, running — from
 :class:`GaitParams` (stride length, stance and swing time (so cadence and
 speed), clearance, pitch profile, impact). Named scenarios live in
 :mod:`firmware_sim.sensors.scenarios`.
@@ -46,7 +47,8 @@ from numpy.polynomial import polynomial as P
 
 from .truth import GroundTruth, Kinematics
 
-__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "GaitBuilder", "Trajectory"]
+__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "GaitBuilder", "Trajectory",
+           "flat_on", "ramp_normal"]
 
 DEG = math.pi / 180.0
 STANCE, SWING = 0, 1
@@ -170,6 +172,37 @@ class Pose:
         c, s = math.cos(self.yaw), math.sin(self.yaw)
         return replace(self, x=self.x + c * forward - s * right, y=self.y + s * forward + c * right,
                        z=self.z + down, **attitude)
+
+    def ground_normal(self) -> np.ndarray:
+        """The normal of the ground this foot lies flat on: its z axis in NED (down into the ground)."""
+        cr, sr = math.cos(self.roll), math.sin(self.roll)
+        cp, sp = math.cos(self.pitch), math.sin(self.pitch)
+        cy, sy = math.cos(self.yaw), math.sin(self.yaw)
+        return np.array([cy * sp * cr + sy * sr, sy * sp * cr - cy * sr, cp * cr])
+
+
+def ramp_normal(slope_deg: float, uphill_yaw: float) -> np.ndarray:
+    """Unit normal (NED, pointing down into the ground) of a plane rising at *slope_deg*
+    towards the heading *uphill_yaw* [rad]."""
+    a = slope_deg * DEG
+    return np.array([math.sin(a) * math.cos(uphill_yaw), math.sin(a) * math.sin(uphill_yaw), math.cos(a)])
+
+
+def flat_on(normal: np.ndarray, yaw: float) -> tuple[float, float]:
+    """(roll, pitch) of a foot heading *yaw* that lies flat on a plane of unit *normal* (NED, down).
+
+    The foot's x axis lies in the plane above the heading, so tan θ = (n_x cos ψ + n_y sin ψ)/n_z
+    (nose up where the plane rises ahead); its z axis is the normal, so with n' the normal in the
+    heading frame (Rz(−ψ) n = (sin θ cos φ, −sin φ, cos θ cos φ)), tan φ = −n'_y cos θ / n_z
+    (positive, right side down, where the plane falls to the right). On a plane of slope α whose
+    uphill direction lies β to the left of the heading: θ = atan(tan α cos β),
+    φ = atan(tan α sin β cos θ). Level ground gives exactly (0, 0).
+    """
+    c, s = math.cos(yaw), math.sin(yaw)
+    nx, ny, nz = (float(v) for v in normal)
+    pitch = math.atan2(nx * c + ny * s, nz)
+    roll = math.atan2((s * nx - c * ny) * math.cos(pitch), nz)
+    return roll + 0.0, pitch + 0.0  # + 0.0: level ground gives +0, never −0
 
 
 # ---------------------------------------------------------------------------------------------
@@ -319,14 +352,41 @@ class GaitBuilder:
 
     def walk(self, distance: float, *, slope_deg: float = 0.0,
              params: GaitParams | None = None) -> GaitBuilder:
-        """Walk straight ahead *distance* metres along the ground (uphill for slope > 0)."""
+        """Walk straight ahead *distance* metres along the ground (uphill for slope > 0).
+
+        The foot lands flat on the slope: pitch = slope, roll 0; each step rises
+        tan(slope) × its horizontal length.
+        """
         p = params or self.params
         n = max(1, round(abs(distance) / p.stride_length))
         step = distance / n
         slope = slope_deg * DEG
         for _ in range(n):
             self.step_to(self.pose.moved(forward=step * math.cos(slope), down=-step * math.sin(slope),
-                                         pitch=slope), p)
+                                         pitch=slope, roll=0.0), p)
+        return self
+
+    def ramp(self, distance: float, slope_deg: float, across_deg: float = 0.0,
+             params: GaitParams | None = None) -> GaitBuilder:
+        """Walk straight ahead *distance* metres along a plane of slope *slope_deg* whose uphill
+        direction lies *across_deg* to the left of the walking direction (0: straight up the fall
+        line, 90: along the contour with the ground falling to the right, 180: straight down).
+
+        The plane begins where the foot stands (it passes through its position) and the walk keeps
+        the current heading; the foot lands flat on it (:func:`flat_on`: pitch θ = atan(tan α cos β),
+        roll φ = atan(tan α sin β cos θ), right side down for 0 < β < 180°), and each step rises
+        tan α cos β × its horizontal length (the distance is measured along the ground, like
+        :meth:`walk`). Arcs, stairs, side and back steps are level-ground motions: they land the
+        foot level.
+        """
+        p = params or self.params
+        n = max(1, round(abs(distance) / p.stride_length))
+        step = distance / n
+        yaw = self.pose.yaw
+        roll, pitch = flat_on(ramp_normal(slope_deg, yaw - across_deg * DEG), yaw)
+        for _ in range(n):
+            self.step_to(self.pose.moved(forward=step * math.cos(pitch), down=-step * math.sin(pitch),
+                                         pitch=pitch, roll=roll), p)
         return self
 
     def arc(self, radius: float, angle_deg: float, params: GaitParams | None = None) -> GaitBuilder:
@@ -340,15 +400,22 @@ class GaitBuilder:
             mid = self.pose.moved()  # heading along the chord is the mean heading
             mid = replace(mid, yaw=self.pose.yaw + dpsi / 2.0)
             target = mid.moved(forward=chord)
-            self.step_to(replace(target, yaw=self.pose.yaw + dpsi, pitch=0.0), p)
+            self.step_to(replace(target, yaw=self.pose.yaw + dpsi, pitch=0.0, roll=0.0), p)
         return self
 
     def turn_on_spot(self, angle_deg: float, max_step_deg: float = 45.0,
                      params: GaitParams = SHUFFLE) -> GaitBuilder:
-        """Turn in place (positive: right), at most *max_step_deg* per stride."""
+        """Turn in place (positive: right), at most *max_step_deg* per stride.
+
+        The foot stays flat on the ground it stands on: on a slope its pitch and roll follow
+        the plane as the heading turns (a half turn on a 6° ramp goes from +6° to −6° pitch).
+        """
         n = max(1, math.ceil(abs(angle_deg) / max_step_deg))
+        normal = self.pose.ground_normal()
         for _ in range(n):
-            self.step_to(replace(self.pose, yaw=self.pose.yaw + angle_deg * DEG / n), params)
+            yaw = self.pose.yaw + angle_deg * DEG / n
+            roll, pitch = flat_on(normal, yaw)
+            self.step_to(replace(self.pose, yaw=yaw, roll=roll, pitch=pitch), params)
         return self
 
     def stairs(self, n_stairs: int, up: bool = True, rise: float = 0.17, tread: float = 0.28,
@@ -361,14 +428,14 @@ class GaitBuilder:
             left -= k
             # going up, lift higher to clear the stair edge
             p = replace(params, clearance=params.clearance + (0.5 * k * rise if up else 0.0))
-            self.step_to(self.pose.moved(forward=k * tread, down=sign * k * rise, pitch=0.0), p)
+            self.step_to(self.pose.moved(forward=k * tread, down=sign * k * rise, pitch=0.0, roll=0.0), p)
         return self
 
     def side_steps(self, n: int, right: bool = True, width: float = 0.35,
                    params: GaitParams = SHUFFLE) -> GaitBuilder:
         """Step sideways *n* times without turning."""
         for _ in range(n):
-            self.step_to(self.pose.moved(right=width if right else -width, pitch=0.0), params)
+            self.step_to(self.pose.moved(right=width if right else -width, pitch=0.0, roll=0.0), params)
         return self
 
     def back_steps(self, n: int, length: float = 0.5, params: GaitParams = SHUFFLE) -> GaitBuilder:
@@ -376,7 +443,7 @@ class GaitBuilder:
         p = replace(params, toe_off_pitch_deg=-params.heel_strike_pitch_deg,
                     heel_strike_pitch_deg=-params.toe_off_pitch_deg, impact_forward=-params.impact_forward)
         for _ in range(n):
-            self.step_to(self.pose.moved(forward=-length, pitch=0.0), p)
+            self.step_to(self.pose.moved(forward=-length, pitch=0.0, roll=0.0), p)
         return self
 
     def run(self, distance: float, params: GaitParams = RUNNING) -> GaitBuilder:

@@ -8,10 +8,20 @@ Pieces (arguments optional, defaults in brackets):
 
 =====================  ===========================================================
 ``stand[:s=3]``        foot flat and still for s seconds
-``walk[:m=10[:deg=0]]`` straight walk of m metres, on a slope of deg (uphill > 0)
+``walk[:m=10[:deg=0]]`` straight walk of m metres (along the ground), on a slope of deg
+                       (uphill > 0): the foot lands flat, pitch = deg, roll 0
+``ramp[:m=50[:deg=6[:across=0]]]`` straight walk of m metres (along the ground) on a plane
+                       of slope deg whose uphill direction lies ``across`` degrees to
+                       the left of the walking direction (0: up the fall line, 90:
+                       along the contour with the ground falling to the right, 180:
+                       down). The foot lands flat on the plane: pitch θ = atan(tan deg
+                       · cos across), roll φ = atan(tan deg · sin across · cos θ)
+                       (right side down > 0); it rises tan deg · cos across per
+                       horizontal metre
 ``run[:m=50]``         straight run (short stance, heel strikes clip at ±16 g)
 ``arc[:r=2[:deg=90]]`` walk along an arc of radius r, turning deg (right > 0)
-``turn[:deg=90]``      turn on the spot (right > 0)
+``turn[:deg=90]``      turn on the spot (right > 0), the foot flat on the ground it
+                       stands on (on a slope, pitch and roll follow the plane)
 ``stairs_up[:n=12]``   climb n stairs (rise 0.17 m, tread 0.28 m)
 ``stairs_down[:n=12]`` descend n stairs
 ``side[:n=4[:dir=1]]`` n side steps, to the right (dir 1) or left (dir −1)
@@ -60,6 +70,16 @@ SCENARIOS: dict[str, str] = {
     "run": "stand:3+run:100+stand:2",
     "mixed": "stand:3+walk:10+turn:90+side:3+back:3+arc:3:-90+stairs_up:8+walk:2+stairs_down:8"
              "+run:20+stand:2",
+    # the roads of the foot-angle height experiment (aids.md §5: 0°, 2.5°, 6.1°, 7.5°): from
+    # level ground 50 m (along the road) up, a half turn on the spot on the slope, 50 m back
+    # down to where the slope began; ramp_6 is the 6.1° road
+    "ramp_0": "stand:3+walk:50:0+turn:180+walk:50:0+stand:2",
+    "ramp_2.5": "stand:3+walk:50:2.5+turn:180+walk:50:-2.5+stand:2",
+    "ramp_6": "stand:3+walk:50:6.1+turn:180+walk:50:-6.1+stand:2",
+    "ramp_7.5": "stand:3+walk:50:7.5+turn:180+walk:50:-7.5+stand:2",
+    # the diagonal walks: 50 m up a 7.8° road at 45° to its fall line (uphill ahead-left),
+    # a half turn on the slope, and back the same way
+    "ramp_diagonal": "stand:3+ramp:50:7.8:45+turn:180+ramp:50:7.8:-135+stand:2",
 }
 
 
@@ -70,6 +90,7 @@ def _pace(b: GaitBuilder, v: float = 1.55) -> None:
 PIECES: dict[str, Callable[..., object]] = {
     "stand": lambda b, s=3.0: b.stand(s),
     "walk": lambda b, m=10.0, deg=0.0: b.walk(m, slope_deg=deg),
+    "ramp": lambda b, m=50.0, deg=6.0, across=0.0: b.ramp(m, deg, across),
     "run": lambda b, m=50.0: b.run(m, RUNNING),
     "arc": lambda b, r=2.0, deg=90.0: b.arc(r, deg),
     "turn": lambda b, deg=90.0: b.turn_on_spot(deg),

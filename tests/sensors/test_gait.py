@@ -116,7 +116,8 @@ def test_stairs_slopes_side_and_back_steps_go_where_they_say():
 def test_scenarios_are_registered_and_composable():
     names = list_scenarios()
     for required in ("default", "stand", "walk", "rectangle", "track400", "turn_on_spot", "stairs_up",
-                     "stairs_down", "slope", "side_steps", "back_steps", "run"):
+                     "stairs_down", "slope", "side_steps", "back_steps", "run", "ramp_0", "ramp_2.5",
+                     "ramp_6", "ramp_7.5", "ramp_diagonal"):
         assert required in names
     tr = trajectory("walk:5+turn:90")  # stands added at both ends
     assert tr.stances[0][1] - tr.stances[0][0] == pytest.approx(3.0)
