@@ -176,3 +176,32 @@ ALIGNMENT_SAMPLES = 256
 #: steady-state var(v_x) under ZUPT (≈ √(QR) ≈ 2.8e-4) never falls below the reset threshold 1e-4
 #: and no step would ever be sent.
 NOMINAL_PERIOD = F32(1e-3)
+
+# ---------------------------------------------------------------------------------------------
+# HEIGHT_COMPENSATION (0x25, an emulator extension): the step's height from the ground's slope
+# (shared/spec/aids.md §5; docs/protocol-extensions.md)
+
+#: Shortest stance [s] whose foot angle updates the slope estimate: shorter "stances" are blips
+#: of the zero-velocity detector, not a foot lying on the ground.
+MIN_SLOPE_STANCE_S = F32(0.05)
+#: Shortest time [s] without ZUPT before a stance whose first loop takes the slope measurement: a
+#: shorter gap is a blip of the zero-velocity detector within one stance (at the foot's landing it
+#: breaks the stance into pieces a few ms apart), and the measurement is one per stance.
+MIN_SLOPE_SWING_S = F32(0.05)
+#: Blocks [s] in which a stance's specific force is summed; the stance's last one to two blocks
+#: are left out of its foot angle: the zero-velocity detector holds ZUPT 30–50 ms past the end of
+#: the stance (its window's half and its hold-over), into the push-off, where the heel has lifted.
+SLOPE_TRIM_S = F32(0.05)
+#: Steepest ground [rad] a stance's foot angle is taken as: 15°, beyond the steepest roads (about
+#: 11°, 20 %) and ramps (4.8°, 1:12, for wheelchairs); a steeper "slope" is a foot that did not lie
+#: flat (a turn on the toes, a foot on a stair's edge) and would throw the estimate off.
+MAX_SLOPE = F32(15.0 * math.pi / 180.0)
+#: Low-pass gain of the slope estimate, per stance: one bad stance moves it half way; a new
+#: slope is 7/8 learnt after three stances.
+SLOPE_LOWPASS = F32(0.5)
+#: σ [m] of the slope model's height of a step: the foot's angle varies by about 0.4° from
+#: stance to stance, 1 cm over a 1.4 m step.
+SIGMA_SLOPE_HEIGHT = F32(0.01)
+#: Largest |innovation| [m] the slope measurement is applied with: the rise of a step of
+#: stairs is ≥ 0.15 m by building codes, and the slope model does not hold there.
+SLOPE_GATE_M = F32(0.10)

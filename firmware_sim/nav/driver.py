@@ -6,14 +6,20 @@ reading and writing the states exactly as the processing functions do around the
 the module's Python objects — a sensor source's other registers, the conditional output, an
 edit of the sequence, the clock, the interfaces — stays with the caller
 (:class:`firmware_sim.nav.fastpath.FastNav`). The kernels get typed records
-(:mod:`~firmware_sim.nav.records`): the state memory, and the work of the front end, of the INS
-and of READ_INERTIAL; :func:`run_loops` takes them as their bytes (numba recognises a byte
-array at once, a record array only after comparing its whole type: µs on every call).
+(:mod:`~firmware_sim.nav.records`): the state memory, and the work of the front end, of the INS,
+of READ_INERTIAL and of HEIGHT_COMPENSATION; :func:`run_loops` takes them as their bytes (numba
+recognises a byte array at once, a record array only after comparing its whole type: µs on every
+call).
 
-The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP in all three):
+The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP in all four):
 
 * :data:`TRACKING` — step-wise dead reckoning (0x34) after the alignment: STEPWISE_SYSTEM_RESET,
   MECHANIZATION, TIME_UPDATE, ZUPT_UPDATE, then STATE_OUTPUT_IF (the caller's);
+* :data:`TRACKING_HEIGHT` — the same with HEIGHT_COMPENSATION after STATE_OUTPUT_IF (slot 10).
+  In a loop in which no step ends the step output does nothing (and any output only names
+  states, read when the loop transmits), so HEIGHT_COMPENSATION runs here; in the loop in which
+  a step ends :func:`run_loops` returns before it, and the caller runs the output and then
+  HEIGHT_COMPENSATION (:data:`HEIGHT_AFTER_OUTPUT`), in the slots' order;
 * :data:`FULL_RATE_INS` — the ZUPT-aided INS (0x33) after the alignment: MECHANIZATION,
   TIME_UPDATE, ZUPT_UPDATE;
 * :data:`ALIGNMENT` — both modes until the alignment is done: INITIAL_ALIGNMENT, then
@@ -29,20 +35,33 @@ from protocol.ids import NR_IMUS
 from .frontend import FrontendWork
 from .frontend_kernels import biasest, convcomp, preproc, statdet
 from .inertial import InertialWork, latch_registers
-from .ins import InsWork
-from .ins_kernels import initial_alignment, mechanization, stepwise_reset, time_update, zupt_update
+from .ins import HeightWork, InsWork
+from .ins_kernels import (
+    clear_stance,
+    height_compensation,
+    initial_alignment,
+    mechanization,
+    stepwise_reset,
+    time_update,
+    zupt_update,
+)
 from .jit import compiled_reference, kernel
 from .records import STATE_RECORD
 
-__all__ = ["ALIGNMENT", "FULL_RATE_INS", "NO_SAMPLES", "TRACKING", "run_loops"]
+__all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "TRACKING", "TRACKING_HEIGHT",
+           "run_loops"]
 
-TRACKING, ALIGNMENT, FULL_RATE_INS = 1, 2, 3
+TRACKING, ALIGNMENT, FULL_RATE_INS, TRACKING_HEIGHT = 1, 2, 3, 4
+#: Not a sequence: HEIGHT_COMPENSATION alone, of the loop of TRACKING_HEIGHT in which a step ended
+#: (the caller runs it after that loop's STATE_OUTPUT_IF).
+HEIGHT_AFTER_OUTPUT = 5
 #: An empty register block: the caller has read the loop's sample itself.
 NO_SAMPLES = np.zeros((0, NR_IMUS, 6), dtype=np.int16)
 
 _latch_registers = compiled_reference(latch_registers)
 #: The work records' types (compiled code takes a dtype, not a class).
 _FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK = FrontendWork.DTYPE, InsWork.DTYPE, InertialWork.DTYPE
+_HEIGHT_WORK = HeightWork.DTYPE
 
 
 @kernel
@@ -63,18 +82,22 @@ def front_end(s, fw):
 
 
 @kernel
-def alignment(s, iw):
-    """INITIAL_ALIGNMENT (*iw*: the INS's work); sets INIT_DONE and returns True when complete."""
-    done = initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p)
+def alignment(s, iw, hw):
+    """INITIAL_ALIGNMENT (*iw*: the INS's work); sets INIT_DONE, clears HEIGHT_COMPENSATION's stance
+    (*hw*) and returns True when complete."""
+    done = initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p,
+                             s.theta_init, s.theta_ground)
     if done:
         s.init_done[0] = True
+        clear_stance(hw)
     return done
 
 
 @kernel
 def step_reset(s, iw):
     """STEPWISE_SYSTEM_RESET: FILTER_RESET_FLAG, and STEP_COUNTER + 1 when a step ends; returns the flag."""
-    flag = stepwise_reset(s.zupt[0] != 0, s.dt[0], iw, s.position, s.quaternion, s.p, s.dx, s.dp)
+    flag = stepwise_reset(s.zupt[0] != 0, s.dt[0], iw, s.position, s.quaternion, s.p, s.dx, s.dp,
+                          s.swing_time)
     s.filter_reset_flag[0] = flag
     if flag:
         s.step_counter[0] = (np.int64(s.step_counter[0]) + 1) & 0xFFFF
@@ -91,33 +114,49 @@ def navigation(s, iw):
 
 
 @kernel
-def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work, ins_work, inertial_work):
+def slope_height(s, iw, hw):
+    """HEIGHT_COMPENSATION (*hw*: its work)."""
+    height_compensation(s.zupt[0] != 0, s.u_k[0:3], s.dt[0], hw, s.position, s.velocity, s.quaternion, s.p,
+                        iw.p_full, s.theta_init, s.theta_ground)
+
+
+@kernel
+def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work, ins_work, inertial_work,
+              height_work):
     """The numeric slots of up to *n* loops of the sequence *kind*; returns the loops run.
 
     Loop i reads the registers ``imu[i]`` (READ_INERTIAL: the accelerometer one read late,
     IMU_TS the cycle counter at ``first_wake + i·period + ts_offset``); with no registers
     (:data:`NO_SAMPLES`) the caller has read the one loop's sample. Stops after a loop in which
-    a step ends (TRACKING) or the alignment completes (ALIGNMENT). *memory* is the bytes of the
-    state memory's arena, the work arguments the bytes of the FrontendWork, InsWork and
-    InertialWork records (uint8 arrays; a numpy.recarray of them in plain Python).
+    a step ends (TRACKING, TRACKING_HEIGHT: before that loop's HEIGHT_COMPENSATION) or the
+    alignment completes (ALIGNMENT). *kind* :data:`HEIGHT_AFTER_OUTPUT` runs only that
+    HEIGHT_COMPENSATION (no sample; returns 1). *memory* is the bytes of the state memory's
+    arena, the work arguments the bytes of the FrontendWork, InsWork, InertialWork and
+    HeightWork records (uint8 arrays; a numpy.recarray of them in plain Python).
     """
     s = memory.view(STATE_RECORD)[0]
     fw = frontend_work.view(_FRONTEND_WORK)[0]
     iw = ins_work.view(_INS_WORK)[0]
     rw = inertial_work.view(_INERTIAL_WORK)[0]
+    hw = height_work.view(_HEIGHT_WORK)[0]
+    if kind == HEIGHT_AFTER_OUTPUT:
+        slope_height(s, iw, hw)
+        return 1
     for i in range(n):
         if len(imu):
             _latch_registers(imu[i], s.imu_raw, rw.prev_acc, rw.have_prev)
             s.imu_ts[0] = (first_wake + i * period + ts_offset) & 0xFFFFFFFF
         front_end(s, fw)
         if kind == ALIGNMENT:
-            if alignment(s, iw):
+            if alignment(s, iw, hw):
                 return i + 1
-        elif kind == TRACKING:
+        elif kind == TRACKING or kind == TRACKING_HEIGHT:
             step_ended = step_reset(s, iw)
             navigation(s, iw)
             if step_ended:
                 return i + 1
+            if kind == TRACKING_HEIGHT:
+                slope_height(s, iw, hw)
         else:
             navigation(s, iw)
     return n

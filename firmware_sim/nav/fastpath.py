@@ -3,16 +3,19 @@
 The processing functions (:mod:`~firmware_sim.nav.inertial`, :mod:`~firmware_sim.nav.frontend`,
 :mod:`~firmware_sim.nav.ins`, :mod:`~firmware_sim.mcu.sequence_control`) are the reference. When
 a module runs one of the sequences the compiled path knows, with those functions registered —
-the alignment of both INS modes, the tracking of step-wise dead reckoning (0x34), the full-rate
-ZUPT-aided INS (0x33) — its numeric slots run as compiled kernels (:mod:`~firmware_sim.nav.driver`),
-operation for operation as the reference: the wire bytes and every state are identical
-(tests/nav/test_fastpath.py, test_kernels.py and tests/e2e/test_wire_golden.py check it).
+the alignment of both INS modes, the tracking of step-wise dead reckoning (0x34) with or without
+HEIGHT_COMPENSATION in slot 10, the full-rate ZUPT-aided INS (0x33) — its numeric slots run as
+compiled kernels (:mod:`~firmware_sim.nav.driver`), operation for operation as the reference:
+the wire bytes and every state are identical (tests/nav/test_fastpath.py, test_kernels.py and
+tests/e2e/test_wire_golden.py check it).
 
 :class:`FastNav` binds that to one module:
 
 * :meth:`FastNav.sequence_tick` — the process sequence of one loop: READ_INERTIAL and the slots
   that act on the module (STATE_OUTPUT_IF, RESTORE_PROC_SEQU_IF) in Python, the numeric slots
-  compiled.
+  compiled (a HEIGHT_COMPENSATION after STATE_OUTPUT_IF runs after it in the loop in which a
+  step ends, as in the slots' order; in the other loops the step output does nothing, and the
+  driver runs it compiled).
 * :meth:`FastNav.run_quiet` — whole loops while nothing but the sequence happens (nothing
   received, no output due, a waiting packet not due for a resend, no byte in flight reaching
   the µC or the host; :meth:`FastNav.quiet_ticks`), up to the loop in which a step ends or the
@@ -45,13 +48,22 @@ from protocol.ids import (
 )
 
 from . import frontend, inertial, ins, jit
-from .driver import ALIGNMENT, FULL_RATE_INS, NO_SAMPLES, TRACKING, run_loops
+from .driver import (
+    ALIGNMENT,
+    FULL_RATE_INS,
+    HEIGHT_AFTER_OUTPUT,
+    NO_SAMPLES,
+    TRACKING,
+    TRACKING_HEIGHT,
+    run_loops,
+)
 
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
 
-__all__ = ["ALIGNMENT_SLOTS", "COMPILED_PATH", "FULL_RATE_INS_SLOTS", "TRACKING_SLOTS", "FastNav",
-           "available", "disable", "numba_version", "pure_requested", "reason_unavailable"]
+__all__ = ["ALIGNMENT_SLOTS", "COMPILED_PATH", "FULL_RATE_INS_SLOTS", "TRACKING_HEIGHT_SLOTS",
+           "TRACKING_SLOTS", "FastNav", "available", "disable", "numba_version", "pure_requested",
+           "reason_unavailable"]
 
 P = ProcId
 _FRONT_END = (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST,
@@ -59,6 +71,9 @@ _FRONT_END = (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEN
 #: The running slots of step-wise dead reckoning after the initial alignment.
 TRACKING_SLOTS = [int(p) for p in _FRONT_END + (P.STEPWISE_SYSTEM_RESET, P.MECHANIZATION, P.TIME_UPDATE,
                                                  P.ZUPT_UPDATE, P.STATE_OUTPUT_IF)] + [0] * 2
+#: The tracking slots with HEIGHT_COMPENSATION in slot 10, after STATE_OUTPUT_IF (a host's
+#: RUN_PROC(0x25, 10) once tracking runs: protocol.extensions.height_compensation_on).
+TRACKING_HEIGHT_SLOTS = TRACKING_SLOTS[:10] + [int(P.HEIGHT_COMPENSATION), 0]
 #: The running slots of the full-rate ZUPT-aided INS after the initial alignment.
 FULL_RATE_INS_SLOTS = [int(p) for p in _FRONT_END + (P.MECHANIZATION, P.TIME_UPDATE, P.ZUPT_UPDATE)] + [0] * 4
 #: The running slots of both INS modes until the initial alignment is done.
@@ -75,6 +90,7 @@ _REFERENCE = {
     P.MECHANIZATION: ins.ins_mechanization,
     P.TIME_UPDATE: ins.ins_time_update,
     P.ZUPT_UPDATE: ins.ins_zupt_update,
+    P.HEIGHT_COMPENSATION: ins.ins_height_compensation,
     P.STATE_OUTPUT_IF: utility.state_output_if,
     P.FRONTEND_INITIAL_ALIGNMENT: ins.frontend_initial_alignment,
     P.RESTORE_PROC_SEQU_IF: utility.restore_proc_sequ_if,
@@ -84,7 +100,7 @@ _WRITTEN = frozenset(
     {StateId.IMU_TS, StateId.U_NEW, StateId.U_K, StateId.U_INT_K, StateId.T_INT_K, StateId.DT, StateId.T1S2F,
      StateId.T2S2F, StateId.ZUPT, StateId.ZARU, StateId.POSITION, StateId.VELOCITY, StateId.QUATERNION,
      StateId.P, StateId.INIT_DONE, StateId.DX, StateId.DP, StateId.STEP_COUNTER, StateId.FILTER_RESET_FLAG,
-     StateId.INTERRUPT_COUNTER, StateId.GP_DT}
+     StateId.SWING_TIME, StateId.THETA_INIT, StateId.THETA_GROUND, StateId.INTERRUPT_COUNTER, StateId.GP_DT}
     | {base + i for base in (IMU_RAW_BASE, IMU_TEMP_BASE, IMU_MAG_BASE) for i in range(NR_IMUS)}
     | set(range(PS_DT_BASE, PS_DT_BASE + NR_SLOTS)))
 _U32 = 0xFFFFFFFF
@@ -113,16 +129,21 @@ def disable(reason: str) -> None:
 class KnownSequence:
     """A running sequence the compiled path knows: its slots, and what the driver leaves to Python."""
 
-    kind: int  #: driver.TRACKING, FULL_RATE_INS or ALIGNMENT
+    kind: int  #: driver.TRACKING, TRACKING_HEIGHT, FULL_RATE_INS or ALIGNMENT
     slots: list[int]  #: the 12 running slots
     #: The slots after the numeric ones, which act on the module: run in Python every loop.
     tail: tuple[int, ...]
     #: The flag state true after a loop that ends a quiet run (a step's end, the alignment's).
     ends_with: int | None
+    #: Numeric slots after the tail (HEIGHT_COMPENSATION): compiled in the driver's loop, but in
+    #: the loop that ends a run, where the tail acts, run after it (driver.HEIGHT_AFTER_OUTPUT).
+    after_tail: tuple[int, ...] = ()
 
 
 SEQUENCES = (
     KnownSequence(TRACKING, TRACKING_SLOTS, (P.STATE_OUTPUT_IF,), StateId.FILTER_RESET_FLAG),
+    KnownSequence(TRACKING_HEIGHT, TRACKING_HEIGHT_SLOTS, (P.STATE_OUTPUT_IF,), StateId.FILTER_RESET_FLAG,
+                  (P.HEIGHT_COMPENSATION,)),
     KnownSequence(FULL_RATE_INS, FULL_RATE_INS_SLOTS, (), None),
     KnownSequence(ALIGNMENT, ALIGNMENT_SLOTS, (P.RESTORE_PROC_SEQU_IF,), StateId.INIT_DONE),
 )
@@ -136,8 +157,11 @@ class _Timing:
         costs = {p: funcs[p].cycles + module.costs.slot_call for p in seq.slots if p}
         self.read = costs[P.READ_INERTIAL]
         self.tail = sum(costs[p] for p in seq.tail)
+        #: the numeric slots after the tail
+        self.after = sum(costs[p] for p in seq.after_tail)
         self.total = sum(costs.values())
-        self.numeric = self.total - self.read - self.tail
+        #: the numeric slots before the tail
+        self.numeric = self.total - self.read - self.tail - self.after
         #: PS_DT: the occupied slots and their costs.
         self.ps_slots = np.array([j for j, p in enumerate(seq.slots) if p], dtype=np.intp)
         self.ps_values = np.array([costs[p] for p in seq.slots if p], dtype=np.uint32)
@@ -148,7 +172,7 @@ class FastNav:
 
     def __init__(self, module: Module):
         records = (module.memory.arena, frontend.frontend_work(module).record, ins.ins_work(module).record,
-                   inertial.inertial_work(module).record)
+                   inertial.inertial_work(module).record, ins.height_work(module).record)
         # the records' bytes (driver.run_loops); in plain Python a recarray, for their fields by name
         as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if jit.COMPILING else (
             lambda r: r.view(np.ndarray).view(np.uint8).view(np.recarray))
@@ -162,8 +186,8 @@ class FastNav:
     # -------------------------------------------------------------- eligibility
     @staticmethod
     def kind(module: Module) -> int:
-        """Which known sequence runs (TRACKING, FULL_RATE_INS or ALIGNMENT) with the reference
-        functions registered, else 0 (the pure-Python sequence runs)."""
+        """Which known sequence runs (TRACKING, TRACKING_HEIGHT, FULL_RATE_INS or ALIGNMENT) with the
+        reference functions registered, else 0 (the pure-Python sequence runs)."""
         slots = module.sequence.slots
         seq = next((s for s in SEQUENCES if s.slots == slots), None)
         if seq is None:
@@ -201,8 +225,16 @@ class FastNav:
         for pid in seq.tail:
             _REFERENCE[pid](module)
         clock.spend(timing.tail)
+        self._after_tail(module, seq)
+        clock.spend(timing.after)
         module.memory.ps_dt[timing.ps_slots] = timing.ps_values
         self.ticks_single += 1
+
+    def _after_tail(self, module: Module, seq: KnownSequence) -> None:
+        """The numeric slots after the tail, in a loop that ends a run (a step's end): the driver
+        returned before them, so that they run after the tail, as the slots' order has it."""
+        if seq.after_tail and seq.ends_with is not None and module.memory.flag(seq.ends_with):
+            run_loops(HEIGHT_AFTER_OUTPUT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
 
     # ------------------------------------------------------------------ quiet runs
     def quiet_ticks(self, module: Module, max_ticks: int) -> int:
@@ -262,7 +294,7 @@ class FastNav:
         """Whether the sequence's own Python slots stay silent until the run's end: no conditional
         output that could fire, no restore but the alignment's."""
         memory = module.memory
-        if kind == TRACKING:
+        if kind in (TRACKING, TRACKING_HEIGHT):
             cond = module.cond_output
             return not (cond.from_mask and cond.flag_id != StateId.FILTER_RESET_FLAG
                         and (cond.flag_id in _WRITTEN or memory.flag(cond.flag_id)))
@@ -309,6 +341,7 @@ class FastNav:
         if ended:
             for pid in seq.tail:
                 _REFERENCE[pid](module)
+            self._after_tail(module, seq)
             module.finish_loop()
         self.ticks_quiet += done
         return done

@@ -2,8 +2,9 @@
 
 :data:`OPENSHOE` is the image a MIMU22BT runs (firmware.md §2): the runtime's
 sequence control (0x01–0x07), READ_INERTIAL, the integer front end
-(0x10–0x15), the ZUPT-aided INS (0x20–0x24), the front end's power-on
-thresholds, and the compiled path of the tracking sequences
+(0x10–0x15), the ZUPT-aided INS (0x20–0x24), the emulator's slope height
+compensation (0x25, in no default sequence: docs/protocol-extensions.md), the
+front end's power-on thresholds, and the compiled path of the tracking sequences
 (:mod:`firmware_sim.nav.fastpath`). :func:`build_module` is a
 :class:`~firmware_sim.mcu.module.Module` running it — what every user of the
 emulator means by "a module".
@@ -29,7 +30,7 @@ NAVIGATION_FUNCTIONS = (
     frontend.frontend_preproc, frontend.frontend_statdet, frontend.frontend_biasest,
     frontend.frontend_convcomp, frontend.frontend_conv16,
     ins.frontend_initial_alignment, ins.ins_mechanization, ins.ins_time_update, ins.ins_zupt_update,
-    ins.ins_stepwise_system_reset,
+    ins.ins_stepwise_system_reset, ins.ins_height_compensation,
 )
 
 

@@ -1,4 +1,5 @@
-"""The ZUPT-aided INS and the step-wise reset (firmware.md §4), float32 throughout.
+"""The ZUPT-aided INS and the step-wise reset (firmware.md §4), float32 throughout; and the emulator's
+slope height compensation (function 0x25, docs/protocol-extensions.md), a measurement in the same filter.
 
 Navigation frame x north, y east, z down. State: position p (0x20), velocity v
 (0x21), attitude quaternion q (0x22) and the 9×9 error covariance P of
@@ -19,7 +20,9 @@ Conventions (the spec leaves them open; these are ours, used consistently):
 
 Every arithmetic operation is single precision: inputs are the float32 states,
 constants are the ``numpy.float32`` values of :mod:`firmware_sim.nav.config`,
-transcendental functions are numpy's on float32 scalars. The array-level functions are
+transcendental functions are the C library's double ones rounded to float32
+(``_sinf``, ``_cosf``, ``_tanf``, ``_atan2f``; the alignment's attitude alone uses
+numpy's float32 functions, as it always did). The array-level functions are
 plain functions over arrays and scalars; their compiled counterparts, of the same names
 and arguments, are in :mod:`firmware_sim.nav.ins_kernels` (which compiles some of them, and
 the scalar helpers :func:`rot_rows`, :func:`quat_product`, :func:`inv3_sym_upper`, as written).
@@ -42,7 +45,9 @@ if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
 
 __all__ = [
+    "HeightWork",
     "InsWork",
+    "height_work",
     "ins_work",
     "P_IU",
     "P24_INDEX",
@@ -62,6 +67,11 @@ __all__ = [
     "inv3_sym",
     "inv3_sym_upper",
     "stepwise_reset",
+    "foot_angles",
+    "slope_height_update",
+    "height_compensation",
+    "clear_stance",
+    "start_stance",
 ]
 
 F32 = np.float32
@@ -95,13 +105,14 @@ class InsWork(WorkRecord):
     mechanization (TIME_UPDATE's F); ``align_sum`` / ``align_count``: the
     alignment's running accelerometer sum over consecutive stationary samples;
     ``t_since_reset``, ``t_pending`` [s] and ``pending``: the step-wise reset's
-    timers; ``p_full``: room for the full 9×9 P (the updates' scratch).
+    timers; ``p_full``: room for the full 9×9 P (the updates' scratch); ``t_swing`` [s]: the
+    time without ZUPT since the last reset (SWING_TIME at the next one).
     """
 
     FIELDS = (
         ("f_n", np.float32, (3,)), ("align_sum", np.float32, (3,)), ("align_count", np.int32, (1,)),
         ("t_since_reset", np.float32, (1,)), ("t_pending", np.float32, (1,)), ("pending", np.bool_, (1,)),
-        ("p_full", np.float32, (9, 9)),
+        ("p_full", np.float32, (9, 9)), ("t_swing", np.float32, (1,)),
     )
 
     def __repr__(self) -> str:
@@ -112,6 +123,28 @@ class InsWork(WorkRecord):
 def ins_work(module: Module) -> InsWork:
     """The module's INS state (created on first use)."""
     return module.work("ins", InsWork)
+
+
+class HeightWork(WorkRecord):
+    """HEIGHT_COMPENSATION's private state: ``in_stance`` (ZUPT held in its last loop),
+    ``f_sum`` (the specific force summed over the current stance but its last blocks) and
+    ``t_sum`` [s] (the time it covers), ``f_prev`` / ``f_block`` (the last complete block of
+    SLOPE_TRIM_S and the one being summed, not yet in ``f_sum``), ``t_block`` [s] (the current
+    block's time), ``t_stance`` [s] (the stance's duration so far) and ``t_moving`` [s] (the time
+    without ZUPT since the last stance)."""
+
+    FIELDS = (("in_stance", np.bool_, (1,)), ("f_sum", np.float32, (3,)), ("t_sum", np.float32, (1,)),
+              ("f_prev", np.float32, (3,)), ("t_prev", np.float32, (1,)), ("f_block", np.float32, (3,)),
+              ("t_block", np.float32, (1,)),
+              ("t_stance", np.float32, (1,)), ("t_moving", np.float32, (1,)))
+
+    def __repr__(self) -> str:
+        return f"HeightWork(in_stance={bool(self.in_stance[0])}, t_stance={float(self.t_stance[0]):.3f} s)"
+
+
+def height_work(module: Module) -> HeightWork:
+    """The module's HEIGHT_COMPENSATION state (created on first use)."""
+    return module.work("height", HeightWork)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -192,6 +225,12 @@ def _atan2f(y: np.float32, x: np.float32) -> np.float32:
     return F32(math.nan) if math.isnan(vy) or math.isnan(vx) else F32(math.atan2(vy, vx))
 
 
+def _tanf(x: np.float32) -> np.float32:
+    """tan of a float32, rounded from the C library's double tan (as :func:`_sinf`)."""
+    v = _double(x)
+    return F32(v - v) if math.isinf(v) else F32(math.tan(v))
+
+
 def _normalise(q: np.ndarray) -> np.ndarray:
     return q / np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
 
@@ -231,13 +270,24 @@ def alignment_quaternion(f_mean: np.ndarray) -> np.ndarray:
     return np.array([sr * cp, cr * sp, -sr * sp, cr * cp], dtype=np.float32)
 
 
+def foot_angles(f: np.ndarray) -> tuple:
+    """Pitch atan2(f_x, √(f_y²+f_z²)) and roll atan2(−f_y, −f_z) of a specific force at rest
+    (the alignment's formulas; two float32)."""
+    pitch = _atan2f(f[0], np.sqrt(f[1] * f[1] + f[2] * f[2]))
+    roll = _atan2f(-f[1], -f[2])
+    return pitch, roll
+
+
 def initial_alignment(f: np.ndarray, zupt: bool, w: InsWork, pos: np.ndarray, vel: np.ndarray,
-                      quat: np.ndarray, p45: np.ndarray) -> bool:
+                      quat: np.ndarray, p45: np.ndarray, theta_init: np.ndarray,
+                      theta_ground: np.ndarray) -> bool:
     """INITIAL_ALIGNMENT: average f over ALIGNMENT_SAMPLES consecutive ZUPT samples.
 
     Motion restarts the count. When the count is complete: attitude from the
     mean specific force (yaw 0), p = v = 0, P = diag(σ²_p0, σ²_v0, σ²_θ0);
-    returns True (INIT_DONE).
+    THETA_INIT = (pitch, roll) of the mean specific force (:func:`foot_angles`: the
+    foot standing on level ground), THETA_GROUND = 0, the swing timer 0; returns True
+    (INIT_DONE).
     """
     if not zupt:
         w.align_count[0] = 0
@@ -249,6 +299,10 @@ def initial_alignment(f: np.ndarray, zupt: bool, w: InsWork, pos: np.ndarray, ve
         return False
     f_mean = w.align_sum / F32(cfg.ALIGNMENT_SAMPLES)
     quat[:] = alignment_quaternion(f_mean)
+    pitch, roll = foot_angles(f_mean)
+    theta_init[0] = pitch
+    theta_init[1] = roll
+    theta_ground[:] = _0
     pos[:] = _0
     vel[:] = _0
     pm = np.zeros((9, 9), dtype=np.float32)
@@ -260,6 +314,7 @@ def initial_alignment(f: np.ndarray, zupt: bool, w: InsWork, pos: np.ndarray, ve
     w.t_since_reset[0] = _0
     w.t_pending[0] = _0
     w.pending[0] = False
+    w.t_swing[0] = _0
     return True
 
 
@@ -356,15 +411,18 @@ def zupt_update(pos: np.ndarray, vel: np.ndarray, quat: np.ndarray, p45: np.ndar
 
 
 def stepwise_reset(zupt: bool, dt: np.float32, w: InsWork, pos: np.ndarray, quat: np.ndarray,
-                   p45: np.ndarray, dx_out: np.ndarray, dp_out: np.ndarray) -> bool:
+                   p45: np.ndarray, dx_out: np.ndarray, dp_out: np.ndarray, swing_out: np.ndarray) -> bool:
     """STEPWISE_SYSTEM_RESET; returns True in the cycle of a reset (FILTER_RESET_FLAG).
 
     Pending when P[24] = var(v_x) < 1e-4 and more than 0.75 s since the last
     reset; a pending reset happens at the end of the stance (ZUPT false) or
     after 0.25 s pending. On reset: DX = [p, yaw], DP = the (p, yaw) covariance
     (10 numbers), p ← 0, yaw ← 0 (roll, pitch kept), every covariance term of
-    position and yaw ← 0.
+    position and yaw ← 0; SWING_TIME (``swing_out[0]``) = the time without ZUPT
+    since the last reset (every call counts its dt while ZUPT is false, this one's too).
     """
+    if not zupt:
+        w.t_swing[0] = w.t_swing[0] + dt
     w.t_since_reset[0] = w.t_since_reset[0] + dt
     if not w.pending[0]:
         if p45[P24_INDEX] < cfg.RESET_COV_THRESHOLD and w.t_since_reset[0] > cfg.MIN_TIME_BETWEEN_RESETS:
@@ -384,10 +442,104 @@ def stepwise_reset(zupt: bool, dt: np.float32, w: InsWork, pos: np.ndarray, quat
     half = -yaw * _HALF  # q ← q_z(−ψ) ⊗ q
     quat[:] = _normalise(quat_mul(np.array([_0, _0, _sinf(half), _cosf(half)], dtype=np.float32), quat))
     p45[_RESET_MASK] = _0
+    swing_out[0] = w.t_swing[0]
+    w.t_swing[0] = _0
     w.t_since_reset[0] = _0
     w.t_pending[0] = _0
     w.pending[0] = False
     return True
+
+
+_R_SLOPE = cfg.SIGMA_SLOPE_HEIGHT * cfg.SIGMA_SLOPE_HEIGHT
+
+
+def slope_height_update(pos: np.ndarray, vel: np.ndarray, quat: np.ndarray, p45: np.ndarray, pm: np.ndarray,
+                        theta_ground: np.ndarray) -> None:
+    """The slope measurement of HEIGHT_COMPENSATION: the step so far (p, since the last reset)
+    lies on the ground of slope THETA_GROUND (along, across the foot).
+
+    With ψ the heading, along = p_x cos ψ + p_y sin ψ and across = p_y cos ψ − p_x sin ψ, the
+    pseudo-measurement h = p_z + tan θ·along − tan φ·across is 0 (z down: forward on a nose-up
+    slope climbs); H = [tan θ cos ψ + tan φ sin ψ, tan θ sin ψ − tan φ cos ψ, 1, 0…], R = σ²_slope.
+    Skipped when |h| > SLOPE_GATE_M (a stair) or h is no number; else K = P Hᵀ/S, p, v and q
+    corrected as ZUPT_UPDATE corrects them, P ← P − K (H P).
+    """
+    r = quat_to_rot(quat)
+    yaw = rot_to_yaw(r)
+    c, s = _cosf(yaw), _sinf(yaw)
+    t_along, t_across = _tanf(theta_ground[0]), _tanf(theta_ground[1])
+    along = pos[0] * c + pos[1] * s
+    across = pos[1] * c - pos[0] * s
+    innovation = pos[2] + t_along * along - t_across * across
+    if not abs(innovation) <= cfg.SLOPE_GATE_M:
+        return
+    h = np.zeros(9, dtype=np.float32)
+    h[0] = t_along * c + t_across * s
+    h[1] = t_along * s - t_across * c
+    h[2] = _1
+    unpack_p(p45, pm)
+    ph = _mv(pm, h)  # P Hᵀ (= (H P)ᵀ: P is symmetric)
+    hph = h[0] * ph[0]
+    for i in range(1, 9):
+        hph = hph + h[i] * ph[i]
+    k = ph / (hph + _R_SLOPE)
+    dx = k * innovation  # estimated error of [p, v, θ]
+    pos[:] = pos - dx[0:3]
+    vel[:] = vel - dx[3:6]
+    dq = np.array([-dx[6] * _HALF, -dx[7] * _HALF, -dx[8] * _HALF, _1], dtype=np.float32)
+    quat[:] = _normalise(quat_mul(_normalise(dq), quat))
+    updated = pm - _mm(k.reshape(9, 1), ph.reshape(1, 9))
+    pack_p(updated, p45)
+
+
+def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork, pos: np.ndarray,
+                        vel: np.ndarray, quat: np.ndarray, p45: np.ndarray, pm: np.ndarray,
+                        theta_init: np.ndarray, theta_ground: np.ndarray) -> None:
+    """HEIGHT_COMPENSATION: the ground's slope from the foot's angle in stance, and the step's
+    height from the slope.
+
+    At the first loop of a stance (ZUPT after a loop without) the slope measurement
+    (:func:`slope_height_update`) is applied — if MIN_SLOPE_SWING_S or more passed without ZUPT
+    before it (a shorter gap is a detector blip within the same stance, measured already) — and
+    the stance's sums start; every ZUPT loop adds f and dt to the current block, and each block of
+    SLOPE_TRIM_S goes into the stance's sum one block later, so that the stance's last one to two
+    blocks never do: the detector holds ZUPT a few tens of ms into the push-off, when the foot no
+    longer lies flat. At the first loop after the stance, if the sum covers MIN_SLOPE_STANCE_S or
+    more, the foot's pitch and roll of the summed f minus THETA_INIT is the slope seen in this
+    stance, and THETA_GROUND moves SLOPE_LOWPASS of the way to it — unless either is steeper than
+    MAX_SLOPE (the foot did not lie flat on walkable ground, e.g. it turned on its toes).
+    """
+    if zupt:
+        if not w.in_stance[0]:
+            w.in_stance[0] = True
+            if w.t_moving[0] >= cfg.MIN_SLOPE_SWING_S:
+                slope_height_update(pos, vel, quat, p45, pm, theta_ground)
+            start_stance(w)
+        w.f_block[:] = w.f_block + f
+        w.t_block[0] = w.t_block[0] + dt
+        w.t_stance[0] = w.t_stance[0] + dt
+        if w.t_block[0] >= cfg.SLOPE_TRIM_S:
+            w.f_sum[:] = w.f_sum + w.f_prev
+            w.t_sum[0] = w.t_sum[0] + w.t_prev[0]
+            if w.t_stance[0] > w.t_block[0]:
+                w.f_prev[:] = w.f_block
+                w.t_prev[0] = w.t_block[0]
+            else:  # the stance's first block: the foot is still settling from its landing
+                w.f_prev[:] = _0
+                w.t_prev[0] = _0
+            w.f_block[:] = _0
+            w.t_block[0] = _0
+        return
+    w.t_moving[0] = w.t_moving[0] + dt
+    if w.in_stance[0]:
+        w.in_stance[0] = False
+        if w.t_sum[0] >= cfg.MIN_SLOPE_STANCE_S:
+            pitch, roll = foot_angles(w.f_sum)
+            slope, side = pitch - theta_init[0], roll - theta_init[1]
+            if abs(slope) <= cfg.MAX_SLOPE and abs(side) <= cfg.MAX_SLOPE:
+                alpha = cfg.SLOPE_LOWPASS
+                theta_ground[0] = theta_ground[0] + alpha * (slope - theta_ground[0])
+                theta_ground[1] = theta_ground[1] + alpha * (side - theta_ground[1])
 
 
 # ---------------------------------------------------------------------------------------------
@@ -400,8 +552,27 @@ def frontend_initial_alignment(module: Module) -> None:
     mem = module.memory
     if initial_alignment(mem[StateId.U_K][0:3], bool(mem[StateId.ZUPT]), ins_work(module),
                          mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION],
-                         mem[StateId.P]):
+                         mem[StateId.P], mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND]):
         mem[StateId.INIT_DONE][...] = True
+        clear_stance(height_work(module))
+
+
+def clear_stance(w: HeightWork) -> None:
+    """A new alignment: HEIGHT_COMPENSATION starts with no stance (its work cleared)."""
+    w.in_stance[0] = False
+    start_stance(w)
+
+
+def start_stance(w: HeightWork) -> None:
+    """A stance's sums start from zero, and so does the time without ZUPT."""
+    w.f_sum[:] = _0
+    w.t_sum[0] = _0
+    w.f_prev[:] = _0
+    w.t_prev[0] = _0
+    w.f_block[:] = _0
+    w.t_block[0] = _0
+    w.t_stance[0] = _0
+    w.t_moving[0] = _0
 
 
 @processing_function(ProcId.MECHANIZATION, cycles=7000)
@@ -435,7 +606,18 @@ def ins_stepwise_system_reset(module: Module) -> None:
     mem = module.memory
     flag = stepwise_reset(bool(mem[StateId.ZUPT]), mem[StateId.DT][()], ins_work(module),
                           mem[StateId.POSITION], mem[StateId.QUATERNION], mem[StateId.P],
-                          mem[StateId.DX], mem[StateId.DP])
+                          mem[StateId.DX], mem[StateId.DP], mem[StateId.SWING_TIME].reshape(1))
     mem[StateId.FILTER_RESET_FLAG][...] = flag
     if flag:
         mem[StateId.STEP_COUNTER][...] = (int(mem[StateId.STEP_COUNTER]) + 1) & 0xFFFF
+
+
+@processing_function(ProcId.HEIGHT_COMPENSATION, cycles=3000)
+def ins_height_compensation(module: Module) -> None:
+    """0x25 (an emulator extension): the step's height from the ground's slope, a measurement in
+    the INS's filter once per stance; learns the slope (THETA_GROUND) from the foot's angle."""
+    mem = module.memory
+    height_compensation(bool(mem[StateId.ZUPT]), mem[StateId.U_K][0:3], mem[StateId.DT][()],
+                        height_work(module), mem[StateId.POSITION], mem[StateId.VELOCITY],
+                        mem[StateId.QUATERNION], mem[StateId.P], ins_work(module).p_full,
+                        mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND])

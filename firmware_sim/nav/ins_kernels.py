@@ -4,10 +4,11 @@ included).
 
 Compiled as written (:func:`~firmware_sim.nav.jit.compiled_reference`), the helpers they call
 going to kernels: ``initial_alignment`` and ``stepwise_reset`` (a few arrays made per call, only
-at the end of an alignment or of a step), ``quat_to_rot``, ``quat_mul``, ``rot_to_yaw``,
-``_normalise``, the scalar helpers ``rot_rows``, ``quat_product``, ``inv3_sym_upper``, and
-``_sinf``, ``_cosf``, ``_atan2f`` — float32 of the C library's double sin, cos and atan2, with
-the reference's answer on ±0, ±inf and NaN.
+at the end of an alignment or of a step), ``height_compensation`` and its
+``slope_height_update`` (arrays made once per stance), ``foot_angles``, ``quat_to_rot``,
+``quat_mul``, ``rot_to_yaw``, ``_normalise``, ``_mv``, ``_mm``, the scalar helpers ``rot_rows``,
+``quat_product``, ``inv3_sym_upper``, and ``_sinf``, ``_cosf``, ``_tanf``, ``_atan2f`` — float32
+of the C library's double sin, cos, tan and atan2, with the reference's answer on ±0, ±inf and NaN.
 
 Written again as loops over scalars, in the reference's order of operations, so that a sample
 makes no array: ``mechanization``, ``time_update``, ``zupt_update``, ``unpack_p``, ``pack_p``
@@ -30,7 +31,8 @@ from . import config as cfg
 from . import ins
 from .jit import compiled_reference, kernel, objmode
 
-__all__ = ["initial_alignment", "mechanization", "pack_p", "stepwise_reset", "time_update", "unpack_p",
+__all__ = ["clear_stance", "foot_angles", "height_compensation", "initial_alignment", "mechanization",
+           "pack_p", "slope_height_update", "start_stance", "stepwise_reset", "time_update", "unpack_p",
            "zupt_update"]
 
 _0 = np.float32(0.0)
@@ -50,6 +52,9 @@ _double = compiled_reference(ins._double)
 _sinf = compiled_reference(ins._sinf, _double=_double)
 _cosf = compiled_reference(ins._cosf, _double=_double)
 _atan2f = compiled_reference(ins._atan2f, _double=_double)
+_tanf = compiled_reference(ins._tanf, _double=_double)
+_mv = compiled_reference(ins._mv)
+_mm = compiled_reference(ins._mm)
 _normalise = compiled_reference(ins._normalise)
 rot_rows = compiled_reference(ins.rot_rows)
 quat_product = compiled_reference(ins.quat_product)
@@ -90,10 +95,19 @@ def alignment_quaternion(f_mean):
     return q
 
 
+foot_angles = compiled_reference(ins.foot_angles, _atan2f=_atan2f)
 initial_alignment = compiled_reference(ins.initial_alignment, alignment_quaternion=alignment_quaternion,
-                                       pack_p=pack_p)
+                                       pack_p=pack_p, foot_angles=foot_angles)
 stepwise_reset = compiled_reference(ins.stepwise_reset, quat_to_rot=quat_to_rot, rot_to_yaw=rot_to_yaw,
                                     quat_mul=quat_mul, _normalise=_normalise, _sinf=_sinf, _cosf=_cosf)
+slope_height_update = compiled_reference(ins.slope_height_update, quat_to_rot=quat_to_rot,
+                                         rot_to_yaw=rot_to_yaw, _cosf=_cosf, _sinf=_sinf, _tanf=_tanf,
+                                         unpack_p=unpack_p, _mv=_mv, _normalise=_normalise, quat_mul=quat_mul,
+                                         _mm=_mm, pack_p=pack_p)
+start_stance = compiled_reference(ins.start_stance)
+clear_stance = compiled_reference(ins.clear_stance, start_stance=start_stance)
+height_compensation = compiled_reference(ins.height_compensation, slope_height_update=slope_height_update,
+                                         foot_angles=foot_angles, start_stance=start_stance)
 
 
 @kernel

@@ -28,7 +28,9 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, TypeVar
 
+import firmware_sim.mcu.memory
 import protocol.ids
+import protocol.states
 
 __all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compiled_reference", "kernel", "numba_version", "objmode",
            "plain", "pure_requested"]
@@ -60,8 +62,11 @@ COMPILING = numba is not None
 
 _HERE = Path(__file__).resolve().parent
 #: The sources whose contents stamp every cached kernel: the navigation package (kernels,
-#: reference functions, constants) and the ids it sizes its arrays by.
-SOURCES = (*sorted(_HERE.glob("*.py")), Path(protocol.ids.__file__).resolve())
+#: reference functions, constants), the ids it sizes its arrays by, and the state table and
+#: memory that lay out the state record the kernels read (records.STATE_RECORD: a new state
+#: moves the others).
+SOURCES = (*sorted(_HERE.glob("*.py")),
+           *(Path(m.__file__).resolve() for m in (protocol.ids, protocol.states, firmware_sim.mcu.memory)))
 
 
 def numba_version() -> str | None:

@@ -220,3 +220,61 @@ def test_run_proc_slot_out_of_range_not_ignored_is_caught():
     iface._execute = wrapping_slots
     v = _verdicts(_driver(module), ["run-proc", "store-restore"])
     assert v == {"run-proc": Status.FAIL, "store-restore": Status.PASS}
+
+
+# --------------------------------------------------------------------------- emulator extensions
+
+EXTENSION_CHECKS = ["ext-states", "ext-height-compensation"]
+
+
+def test_the_emulator_has_its_extensions():
+    report = run(_driver(build_module()), EXTENSION_CHECKS)
+    assert {r.name: r.status for r in report.results} == dict.fromkeys(EXTENSION_CHECKS, Status.PASS)
+    assert "PS_DT10 = 3020 cycles" in report.results[1].message  # the function's 3000 + the slot call
+    assert all(CHECKS[name].group == "extensions" for name in EXTENSION_CHECKS)
+
+
+def _module_without_extensions() -> Module:
+    """A module as a real one answers: no function 0x25, states 0x34–0x36 unknown ids."""
+    import dataclasses
+
+    from firmware_sim.mcu.sequence import FunctionTable
+    from firmware_sim.mcu.sequence_control import RUNTIME_FUNCTIONS
+    from firmware_sim.nav import ins
+    from firmware_sim.nav.firmware import NAVIGATION_FUNCTIONS, OPENSHOE
+
+    functions = [f for f in NAVIGATION_FUNCTIONS if f is not ins.ins_height_compensation]
+    firmware = dataclasses.replace(OPENSHOE, functions=FunctionTable.of(*RUNTIME_FUNCTIONS, *functions))
+    module = build_module(firmware=firmware)
+    exists = module.memory.exists
+    module.memory.exists = lambda sid: sid not in (0x34, 0x35, 0x36) and exists(sid)
+    return module
+
+
+def test_a_module_without_the_extensions_reports_them_absent_and_conforms():
+    """A real module lacks the extensions: ABSENT, which is no failure of the protocol."""
+    report = run(_driver(_module_without_extensions()), ["ping", *EXTENSION_CHECKS])
+    assert [r.status for r in report.results] == [Status.PASS, Status.ABSENT, Status.ABSENT]
+    assert report.ok and "CONFORMS" in report.summary() and "2 absent" in report.summary()
+    assert "unknown ids" in report.results[1].message and "slot 10 empty" in report.results[2].message
+    assert "ABSENT ext-states" in report.results[1].render()
+
+
+def test_an_extension_state_of_the_wrong_size_is_caught():
+    module = build_module()
+    read_wire = module.memory.read_wire
+    module.memory.read_wire = lambda sid: read_wire(sid)[:4] if sid == 0x35 else read_wire(sid)
+    report = run(_driver(module), ["ext-states"])
+    assert report.results[0].status is Status.FAIL
+    assert "0x35 answers with 4 bytes, expected 8" in report.results[0].message
+
+
+def test_extension_checks_skip_in_the_2014_numbering():
+    report = run(_driver(build_module(ModuleConfig(command_set="2014")), "2014"), EXTENSION_CHECKS)
+    assert [r.status for r in report.results] == [Status.SKIP, Status.SKIP]
+
+
+def test_cli_lists_the_extension_group(capsys):
+    assert main(["--list"]) == 0
+    out = capsys.readouterr().out
+    assert "(extensions) emulator extension function 0x25 HEIGHT_COMPENSATION" in out

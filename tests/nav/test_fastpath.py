@@ -28,6 +28,7 @@ from protocol.ids import Command, StateId
 from protocol.states import STATES
 from protocol.stream import StreamDecoder
 from tests.conftest import WALK_IDS, walk_path
+from tests.nav.helpers import run_stepwise_host
 from tools.bench.driver import START_STEPWISE, run_session
 
 REPO = Path(__file__).resolve().parents[2]
@@ -239,6 +240,42 @@ def test_an_alignment_restored_on_another_flag_runs_as_the_reference(compiled_pa
     assert not mods[1].memory.flag(StateId.INIT_DONE), "tracking began before the alignment was done"
     assert np.isfinite(mods[1].memory[StateId.QUATERNION]).all()
     assert mods[1]._fast.ticks_quiet > 0.5 * len(source), compiled_path
+
+
+#: A host's step output that also carries the position, the slope and the swing time: the states
+#: HEIGHT_COMPENSATION writes, read at the step's packet (the flag and mode 0x34 sets up).
+SLOPE_STEP_OUTPUT = build_command(Command.STATE_IF_SETUP, flag_id=StateId.FILTER_RESET_FLAG, mode=0x20,
+                                  state_ids=[StateId.DX, StateId.DP, StateId.STEP_COUNTER, StateId.POSITION,
+                                             StateId.THETA_GROUND, StateId.SWING_TIME, 0, 0])
+
+
+def test_height_compensation_on_a_slope_same_wire_bytes_and_state(compiled_path: str) -> None:
+    """Tracking with HEIGHT_COMPENSATION in slot 10 (turned on after the first step packet) on a walk up a
+    6° slope, the step packets also carrying POSITION, THETA_GROUND and SWING_TIME: the compiled path in
+    quiet stretches — each ending with a step, whose output runs before the loop's HEIGHT_COMPENSATION —
+    sends the reference's bytes and leaves the same states, clock and counters."""
+    source = make_source("stand:3+walk:20:6+stand:2", seed=1)
+    runs = [run_stepwise_host(source, compiled=c, height=True, setup=SLOPE_STEP_OUTPUT)
+            for c in (False, True)]
+    assert runs[0].wire == runs[1].wire
+    _assert_same_module(runs[0].module, runs[1].module)
+    assert runs[1].slots == fastpath.TRACKING_HEIGHT_SLOTS
+    # (plus the states the set-up's checksum bytes name: protocol.md §9)
+    assert len(runs[1].packets) >= 15 and min(len(p.payload) for p in runs[1].packets) >= 58 + 12 + 8 + 4
+    slope = runs[1].module.memory[StateId.THETA_GROUND][0]
+    assert abs(np.degrees(slope) - 6) < 1, "the slope was learnt"
+    assert runs[1].module._fast.ticks_quiet > 0.8 * len(source), compiled_path
+
+
+def test_height_compensation_loop_by_loop_on_a_bluetooth_link_matches(compiled_path: str) -> None:
+    """The same loop by loop over a Bluetooth link model (the loops in which a step ends run one at a
+    time: the output, then HEIGHT_COMPENSATION)."""
+    source = make_source("stand:3+walk:8:6+stand:1", seed=2)
+    runs = [run_stepwise_host(source, compiled=c, height=True, setup=SLOPE_STEP_OUTPUT, loop_by_loop=True,
+                              bt_port=make_link("bt", seed=4)) for c in (False, True)]
+    assert runs[0].wire == runs[1].wire and len(runs[0].packets) >= 6
+    _assert_same_module(runs[0].module, runs[1].module)
+    assert runs[1].module._fast.ticks_single > 0.9 * len(source), compiled_path
 
 
 def test_pure_path_selected_by_environment() -> None:

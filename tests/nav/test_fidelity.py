@@ -96,7 +96,12 @@ def test_closed_loop_closes_within_0_5_percent():
 
 @pytest.mark.slow
 def test_stepwise_sum_reproduces_the_full_rate_ins():
-    """Steps summed on the host end where the full-rate INS (0x33) ends, to 1 cm after 100 m."""
+    """Steps summed on the host end where the full-rate INS (0x33) ends, to 2 cm after 100 m.
+
+    The two are not the same filter (each reset zeroes position and heading and their
+    covariance), so with a real module's gyro errors (g-sensitivity, bias instability:
+    docs/sensor-errors.md) they part by about a centimetre per 100 m; error-free they agree to
+    millimetres."""
     src = make_source("walk", seed=1, rate_hz=250.0)
     _, tracker = replay_track(src)
     full = build_module(reference_config(250.0), sensors=src)
@@ -104,4 +109,4 @@ def test_stepwise_sum_reproduces_the_full_rate_ins():
     full.run(len(src))
     pos = full.memory[StateId.POSITION]
     assert float(np.hypot(*tracker.position[:2])) > 99.0
-    assert float(np.hypot(*(pos[:2] - tracker.position[:2]))) <= 0.01
+    assert float(np.hypot(*(pos[:2] - tracker.position[:2]))) <= 0.02

@@ -279,7 +279,7 @@ def test_convcomp_kernel_matches_the_reference_across_the_counter_wrap(compiled,
 @kernel_settings
 @given(x=f32_scalar(-100, 100), y=f32_scalar(-100, 100))
 def test_trigonometry_matches_the_reference_on_signed_zeros_infinities_and_nan(compiled, x, y):
-    for name in ("_sinf", "_cosf"):
+    for name in ("_sinf", "_cosf", "_tanf"):
         assert_same_call(getattr(ins, name), form(getattr(ik, name), compiled), x)
     assert_same_call(ins._atan2f, form(ik._atan2f, compiled), x, y)
 
@@ -341,6 +341,7 @@ def reset_timers(draw):
     w.t_since_reset[0] = draw(st.one_of(_floats32(0.7, 0.8), f32_scalar(0, 2)))
     w.t_pending[0] = draw(st.one_of(_floats32(0.2, 0.3), f32_scalar(0, 1)))
     w.pending[0] = draw(st.booleans())
+    w.t_swing[0] = draw(f32_scalar(0, 2))
     return w
 
 
@@ -350,9 +351,10 @@ def reset_timers(draw):
        p45=covariances(), var_vx=st.sampled_from([F32(1e-5), F32(1e-4), F32(2e-4)]))
 def test_stepwise_reset_kernel_matches_the_reference_at_the_end_of_a_step(compiled, zupt, dt, w, pos, quat,
                                                                            p45, var_vx):
+    """The same step (DX, DP), swing time (SWING_TIME, counted while ZUPT is false), timers and P."""
     p45[ins.P24_INDEX] = var_vx
     assert_same_call(ins.stepwise_reset, form(ik.stepwise_reset, compiled), zupt, dt, w, pos, quat, p45,
-                     np.zeros(4, np.float32), np.zeros(10, np.float32))
+                     np.zeros(4, np.float32), np.zeros(10, np.float32), np.full(1, 7, np.float32))
 
 
 @pytest.mark.parametrize("compiled", FORMS)
@@ -369,18 +371,90 @@ def test_initial_alignment_kernel_matches_the_reference_through_completion(compi
     ref_w = ins.InsWork()
     ref_w.align_count[0] = count
     ref_w.align_sum[...] = np.array([0.5, -0.3, -9.7], np.float32) * np.float32(count)
+    ref_w.t_swing[0] = F32(0.4)
     k_w = ins.InsWork()
     k_w.record[...] = ref_w.record
-    ref = [pos.copy(), np.ones(3, np.float32), quat.copy(), np.zeros(45, np.float32)]
+    ref = [pos.copy(), np.ones(3, np.float32), quat.copy(), np.zeros(45, np.float32),
+           np.full(2, 0.25, np.float32), np.full(2, -0.5, np.float32)]
     got = [a.copy() for a in ref]
+    completed = False
     for i, zupt in enumerate([*still, True, True, True, True, True, True]):
         with np.errstate(all="ignore"):
             done = ins.initial_alignment(f[i % 6], zupt, ref_w, *ref)
             k_done = kernel(f[i % 6], zupt, k_w.record[0], *got)
         assert bool(k_done) == bool(done)
-        for name, g, e in zip(("position", "velocity", "quaternion", "P"), got, ref, strict=True):
+        completed = completed or bool(done)
+        names = ("position", "velocity", "quaternion", "P", "THETA_INIT", "THETA_GROUND")
+        for name, g, e in zip(names, got, ref, strict=True):
             assert_same(g, e, f"{name} after sample {i}")
         assert k_w.record.tobytes() == ref_w.record.tobytes()
+    if completed:
+        assert ref_w.t_swing[0] == 0 and not ref[5].any(), "the alignment clears the swing time and the slope"
+
+
+# ------------------------------------------------------------------------- HEIGHT_COMPENSATION
+def slopes(specials=True):
+    """THETA_GROUND or THETA_INIT: angles of real ground (±0.3 rad), sometimes special."""
+    return f32_arrays(2, -0.3, 0.3, specials=1 if specials else 0)
+
+
+@pytest.mark.parametrize("compiled", FORMS)
+@kernel_settings
+@given(f=f32_arrays(3, -12, 12), f_sum=f32_arrays(3, -6000, 6000))
+def test_foot_angles_kernel_matches_the_reference(compiled, f, f_sum):
+    assert_same_call(ins.foot_angles, form(ik.foot_angles, compiled), f)
+    assert_same_call(ins.foot_angles, form(ik.foot_angles, compiled), f_sum)
+
+
+@pytest.mark.parametrize("compiled", FORMS)
+@kernel_settings
+@given(pos=st.one_of(f32_arrays(3, -0.1, 0.1, specials=0), f32_arrays(3, -2, 2)), vel=f32_arrays(3, -1, 1),
+       quat=quaternions(), p45=covariances(), theta_ground=st.one_of(slopes(specials=False), slopes()))
+def test_slope_height_update_kernel_matches_the_reference_in_and_out_of_the_gate(compiled, pos, vel, quat,
+                                                                                  p45, theta_ground):
+    """The slope measurement: applied (small |h|) or gated (a stair's rise, or h no number) alike."""
+    assert_same_call(ins.slope_height_update, form(ik.slope_height_update, compiled), pos, vel, quat, p45,
+                     np.zeros((9, 9), np.float32), theta_ground, scratch=(4,))
+
+
+@st.composite
+def stances(draw):
+    """HEIGHT_COMPENSATION's work: in a stance or not, its timers near the shortest stance counted and
+    the shortest swing before a measured stance."""
+    w = ins.HeightWork()
+    w.in_stance[0] = draw(st.booleans())
+    w.f_sum[...] = draw(f32_arrays(3, -500, 500, specials=1))
+    w.t_stance[0] = draw(st.one_of(_floats32(0.045, 0.055), f32_scalar(0, 1)))
+    w.t_moving[0] = draw(st.one_of(_floats32(0.045, 0.055), f32_scalar(0, 1)))
+    return w
+
+
+@pytest.mark.parametrize("compiled", FORMS)
+@kernel_settings
+@given(w=stances(), loops=st.lists(st.tuples(st.booleans(), f32_arrays(3, -12, 12, specials=1)), min_size=1,
+                                   max_size=8),
+       dt=dts(), pos=f32_arrays(3, -0.2, 0.2), vel=f32_arrays(3, -1, 1), quat=quaternions(),
+       p45=covariances(), theta_init=slopes(), theta_ground=slopes())
+def test_height_compensation_kernel_matches_the_reference_over_stances(compiled, w, loops, dt, pos, vel, quat,
+                                                                       p45, theta_init, theta_ground):
+    """Loops in and out of stance: the slope measurement at a stance's first loop after a swing, the
+    stance's sums, the slope learnt at its end — the same work, position, velocity, attitude, P and
+    THETA_GROUND after every loop."""
+    kernel = form(ik.height_compensation, compiled)
+    k_w = ins.HeightWork()
+    k_w.record[...] = w.record
+    ref = [pos.copy(), vel.copy(), quat.copy(), p45.copy(), np.zeros((9, 9), np.float32), theta_init.copy(),
+           theta_ground.copy()]
+    got = [a.copy() for a in ref]
+    names = ("position", "velocity", "quaternion", "P", "scratch", "THETA_INIT", "THETA_GROUND")
+    for i, (zupt, f) in enumerate(loops):
+        with np.errstate(all="ignore"):
+            ins.height_compensation(zupt, f, dt, w, *ref)
+            kernel(zupt, f, dt, k_w.record[0], *got)
+        for name, g, e in zip(names, got, ref, strict=True):
+            if name != "scratch":
+                assert_same(g, e, f"{name} after loop {i}")
+        assert_same(k_w.record.tobytes(), w.record.tobytes(), f"work after loop {i}")
 
 
 # ------------------------------------------------------------------------------- one NaN, strictly
@@ -422,14 +496,15 @@ def test_a_nan_keeps_its_sign_and_payload_as_in_the_reference(compiled, data, na
     pos, p = _one_nan(data, nan, finite(3), p45)
     p[ins.P24_INDEX] = F32(1e-5)
     assert_same_call(ins.stepwise_reset, form(ik.stepwise_reset, compiled), data.draw(st.booleans()), dt, w,
-                     pos, quat, p, np.zeros(4, np.float32), np.zeros(10, np.float32), **strict)
+                     pos, quat, p, np.zeros(4, np.float32), np.zeros(10, np.float32), np.zeros(1, np.float32),
+                     **strict)
     gyro_bias, bias_p = _one_nan(data, nan, finite(3, -0.1, 0.1), np.array([1e-4], np.float32))
     u_int_k = data.draw(ints(np.int32, (6,)))
     assert_same_call(fe.biasest, form(fk.biasest, compiled), u_int_k, True, gyro_bias, bias_p, **strict)
     assert_same_call(fe.convcomp, form(fk.convcomp, compiled), u_int_k, 7, gyro_bias,
                      np.array([3], np.uint32), np.zeros(6, np.float32), np.zeros((), np.float32), **strict)
     x = np.array(nan, np.uint32).view(np.float32)[()]
-    for name in ("_sinf", "_cosf"):
+    for name in ("_sinf", "_cosf", "_tanf"):
         assert_same_call(getattr(ins, name), form(getattr(ik, name), compiled), x, **strict)
     assert_same_call(ins._atan2f, form(ik._atan2f, compiled), x, dt, **strict)
     assert_same_call(ins._atan2f, form(ik._atan2f, compiled), dt, x, **strict)
@@ -443,6 +518,6 @@ def test_every_cached_kernel_is_renewed_when_any_kernel_source_changes():
 
     sources = {p.name for p in jit.SOURCES}
     assert {"driver.py", "frontend_kernels.py", "ins_kernels.py", "frontend.py", "ins.py", "config.py",
-            "ids.py"} <= sources
+            "ids.py", "states.py", "memory.py"} <= sources
     for k in (driver.run_loops, fk.statdet, ik.time_update, ik.stepwise_reset):
         assert k._cache._impl.locator.get_source_stamp() == jit._sources_stamp()

@@ -3,7 +3,8 @@
 URL is anything pyserial opens: a device path (/dev/rfcomm0, /dev/ttyACM0,
 COM5), a pty of the emulator, ``socket://HOST:PORT``, ``rfc2217://HOST:PORT``,
 or ``openshoe://`` (an in-process emulator). Exit status 0 when every check
-passes (skips are fine), 1 when any fails, 2 on bad usage or an unopenable URL.
+passes (skips are fine, and so is ABSENT: an emulator extension the device lacks, as a real
+module does), 1 when any fails, 2 on bad usage or an unopenable URL.
 """
 
 from __future__ import annotations
@@ -44,7 +45,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         width = max(len(n) for n in CHECKS)
         for chk in CHECKS.values():
             needs = f" (needs {', '.join(m.name for m in chk.needs)})" if chk.needs else ""
-            print(f"{chk.name:<{width}}  [{chk.duration}] {chk.description}{needs}")
+            group = "" if chk.group == "protocol" else f"({chk.group}) "
+            print(f"{chk.name:<{width}}  [{chk.duration}] {group}{chk.description}{needs}")
         return 0
     if not args.url:
         print("openshoe-conformance: a URL is required (or --list)", file=sys.stderr)

@@ -39,6 +39,11 @@ class CheckSkipped(Exception):
     """A check does not apply (e.g. the command set lacks the commands it needs)."""
 
 
+class ExtensionAbsent(Exception):
+    """The device lacks an emulator extension the check looks for (a real module lacks them all:
+    not a failure of the protocol)."""
+
+
 @dataclass(frozen=True)
 class Received:
     """One frame the device sent, its bytes on the wire, and when the driver saw it."""

@@ -14,6 +14,8 @@ class Status(str, Enum):
     PASS = "PASS"
     FAIL = "FAIL"
     SKIP = "SKIP"  #: not applicable (e.g. a command the chosen numbering lacks)
+    #: an emulator extension the device does not have (a real module has none): not a failure
+    ABSENT = "ABSENT"
     ERROR = "ERROR"  #: the check itself broke (link closed, bug); counts as a failure
 
 
