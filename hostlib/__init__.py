@@ -11,6 +11,8 @@ matplotlib only for :mod:`hostlib.plot`), so it talks to a real module on
   :class:`StepEvent`, :class:`GapEvent`, :class:`LinkEvent` (:mod:`hostlib.events`);
 * :class:`StepTracker`, :class:`Track` — step-wise dead reckoning with covariance
   (:mod:`hostlib.tracking`);
+* :mod:`hostlib.drift` — closed-loop drift correction of one module (calibrate from closed
+  loops walked with the fusion set-up, apply to its later tracks);
 * :mod:`hostlib.export` (CSV, GeoJSON), :mod:`hostlib.plot` (PNG), :mod:`hostlib.cli`.
 """
 

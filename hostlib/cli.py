@@ -5,6 +5,14 @@
     openshoe-host log   socket://localhost:5000 --raw capture.bin --duration 10
     openshoe-host replay capture.bin --csv walk.csv
 
+Closed-loop drift correction (one module; hostlib.drift): record closed loops with the fusion
+set-up, calibrate from them, then correct the module's later walks::
+
+    openshoe-host log /dev/rfcomm0 --start --fusion --raw loop1.bin --duration 120
+    openshoe-host drift calibrate loop1.bin -o cal.json
+    openshoe-host replay walk.bin --csv walk.csv --drift cal.json
+    openshoe-host track /dev/rfcomm0 --fusion --drift cal.json --csv walk.csv
+
 URL is anything pyserial opens: a device path (``/dev/rfcomm0``, ``/dev/ttyACM0``,
 ``COM5``), ``socket://host:port``, ``loop://``, or the emulator's ``openshoe://``.
 """
@@ -21,8 +29,9 @@ from typing import Any, TextIO
 from protocol.ids import OutputMode, StateId
 
 from .device import Device
+from .drift import DriftCalibration, DriftError, calibrate, loop_closure, serial_text
 from .errors import HostError
-from .tracking import StepTracker
+from .tracking import StepTracker, Track
 
 __all__ = ["heading_deg", "main", "summary_line"]
 
@@ -36,6 +45,15 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="command numbering of the module's firmware (default 2015)")
     p.add_argument("--baudrate", type=int, default=115200, help="UART baud rate (ignored by URLs and USB)")
     p.add_argument("--ack-timeout", type=float, default=1.0, help="seconds to wait for each command ack")
+
+
+def _setup_options(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--fusion", action="store_true",
+                   help="after 0x34 also ask for each step's swing time and the module's serial number "
+                        "(protocol.extensions.FUSION_SETUP; needed by --drift and by drift calibrate)")
+    p.add_argument("--height-compensation", action="store_true",
+                   help="turn the module's height compensation (function 0x25) on at the first step "
+                        "packet (an emulator extension)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -55,12 +73,16 @@ def build_parser() -> argparse.ArgumentParser:
                    help="do not send 0x34: sum the steps of a module that is already tracking")
     t.add_argument("--heading", type=float, default=0.0,
                    help="initial heading in degrees from north towards east (default 0)")
+    _setup_options(t)
+    t.add_argument("--drift", metavar="CAL.json",
+                   help="correct the track with this module's drift calibration (needs --fusion)")
 
     lg = sub.add_parser("log", help="capture the module's byte stream to a file (packets still acked)")
     _common(lg)
     lg.add_argument("--raw", required=True, help="file to write every received byte to")
     lg.add_argument("--duration", type=float, default=None, help="seconds to capture (default: until Ctrl-C)")
     lg.add_argument("--start", action="store_true", help="send 0x34 (step-wise dead reckoning) first")
+    _setup_options(lg)
 
     i = sub.add_parser("info", help="ping the module and read its MCU serial number")
     _common(i)
@@ -73,6 +95,17 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
     r.add_argument("--png", help="plot the track to this PNG (needs matplotlib)")
     r.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
+    r.add_argument("--drift", metavar="CAL.json",
+                   help="correct the track with this module's drift calibration (`drift calibrate`)")
+
+    d = sub.add_parser("drift", help="closed-loop drift correction of one module (hostlib.drift)")
+    dsub = d.add_subparsers(dest="drift_cmd", required=True)
+    dc = dsub.add_parser("calibrate", help="the module's drift velocity from closed-loop captures")
+    dc.add_argument("captures", nargs="+", metavar="CAPTURE",
+                    help="captures (log --raw, openshoe-emu replay --wire) of closed loops walked with the "
+                         "fusion set-up, one loop each, all with one module")
+    dc.add_argument("-o", "--output", required=True, metavar="CAL.json", help="calibration file to write")
+    dc.add_argument("--command-set", choices=("2014", "2015"), default="2015")
     return parser
 
 
@@ -82,18 +115,25 @@ def heading_deg(chi: float) -> float:
     return (round(math.degrees(chi), 1) % 360.0) + 0.0
 
 
-def summary_line(dev: Device) -> str:
+def summary_line(dev: Device, drift: DriftCalibration | None = None) -> str:
     """One line: step packets, steps with motion, distance, position, heading, 1σ, gaps.
 
     The module sends a step packet at every INS reset, also while the wearer stands
     still; "steps" counts only those that moved the foot (hostlib.tracking.is_motion_step).
+    With *drift* the position is the drift-corrected one (refused for another module, or a
+    step without a swing time: :class:`~hostlib.drift.DriftError`).
     """
     tr = dev.track_snapshot()
     x, y, z, chi = tr.final_pose
+    corrected = ""
+    if drift is not None and len(tr):
+        drift.check_module(dev.session.mcu_serial)
+        x, y, z = tr.final_pose[:3] + drift.offsets(tr)[-1]
+        corrected = " (drift-corrected)"
     st = dev.stats
     return (
         f"packets {len(tr):5d} | steps {tr.motion_steps:5d} | {tr.distance:8.2f} m "
-        f"| x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m | heading {heading_deg(chi):5.1f}° "
+        f"| x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m{corrected} | heading {heading_deg(chi):5.1f}° "
         f"| 1σ {tr.closure_sigma():6.3f} m | gaps {len(tr.gaps)} (missing {tr.missing}) "
         f"| garbage {st['garbage_bytes']}"
     )
@@ -143,39 +183,95 @@ def _remaining(deadline: float | None, cap: float = 0.5) -> float:
     return cap if deadline is None else max(0.0, min(cap, deadline - time.monotonic()))
 
 
+class _HostSetup:
+    """What the host sends besides 0x34, each command once the one before was acked: the fusion
+    set-up right after 0x34 (``--fusion``), height compensation at the first step packet
+    (``--height-compensation``)."""
+
+    def __init__(self, dev: Device, fusion: bool, height_compensation: bool):
+        self.dev = dev
+        self.fusion = fusion
+        self.height_compensation_pending = height_compensation
+
+    def after_start(self) -> None:
+        """Right after 0x34 (or, attaching, at once)."""
+        if self.fusion:
+            self.dev.fusion_setup()
+
+    def poll(self) -> None:
+        """Between reads: turn height compensation on once the first step packet came."""
+        if self.height_compensation_pending and self.dev.session.stats.steps > 0:
+            self.height_compensation_pending = False
+            self.dev.height_compensation_on()
+
+
+def _await_serial(dev: Device, timeout: float) -> None:
+    """Wait up to *timeout* s for the packet with the module's serial number (the fusion set-up's
+    MCU_ID), reading packets meanwhile."""
+    deadline = time.monotonic() + timeout
+    while dev.session.mcu_serial is None and time.monotonic() < deadline:
+        dev.recv_packet(timeout=_remaining(deadline))
+
+
+def _drift_needs_fusion(args: argparse.Namespace) -> bool:
+    if args.drift and not args.fusion:
+        print("openshoe-host track: --drift needs --fusion: the drift correction needs every step's swing "
+              "time and the module's serial number, which the fusion set-up asks the module for",
+              file=sys.stderr)
+        return True
+    return False
+
+
 def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
+    if _drift_needs_fusion(args):
+        return 2
+    drift = DriftCalibration.load(args.drift) if args.drift else None
     origin = None
     if args.origin:
         origin = [float(v) for v in args.origin.split(",")]
     tracker = StepTracker(heading=math.radians(args.heading), last_counter=None if args.attach else 0)
     with _open(args, tracker=tracker) as dev:
+        setup = _HostSetup(dev, args.fusion, args.height_compensation)
         if not args.attach:
             dev.start_stepwise_dead_reckoning()
+        setup.after_start()
         print(f"tracking on {dev.name} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
         deadline = _deadline(args.duration)
         live = _LiveLine(out)
-        live.show(summary_line(dev), key=len(tracker))
         try:
+            if drift is not None:  # refuse another module's calibration before the walk starts
+                _await_serial(dev, max(2.0, 2 * args.ack_timeout))
+                if dev.session.mcu_serial is not None:
+                    drift.check_module(dev.session.mcu_serial)
+            live.show(summary_line(dev, drift), key=len(tracker))
             while deadline is None or time.monotonic() < deadline:
                 dev.recv_step(timeout=_remaining(deadline))
-                live.show(summary_line(dev), key=len(tracker))
+                setup.poll()
+                live.show(summary_line(dev, drift), key=len(tracker))
         except KeyboardInterrupt:
             pass
-        if not args.leave_running:
-            try:
-                dev.output_all_off()
-            except HostError as exc:
-                print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
+        finally:
+            if not args.leave_running:
+                try:
+                    dev.output_all_off()
+                except HostError as exc:
+                    print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
         # the last line counts every step, also those that came while the outputs went off
-        live.show(summary_line(dev), key=len(tracker))
+        live.show(summary_line(dev, drift), key=len(tracker))
         live.close()
         track = dev.track_snapshot()
+        if drift is not None:
+            corrected = drift.apply(track, module_serial=dev.session.mcu_serial)
+            moved = corrected.final_pose[:3] - track.final_pose[:3]
+            print(f"drift correction ({drift}): the end moved by "
+                  f"[{', '.join(f'{v:+.3f}' for v in moved)}] m", file=out)
+            track = corrected
         _write_outputs(args, track, origin)
         print(repr(track), file=out)
     return 0
 
 
-def _write_outputs(args: argparse.Namespace, track, origin) -> None:
+def _write_outputs(args: argparse.Namespace, track: Track, origin: list[float] | None) -> None:
     if args.csv:
         from .export import write_csv
 
@@ -192,13 +288,16 @@ def _write_outputs(args: argparse.Namespace, track, origin) -> None:
 
 def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
     with open(args.raw, "wb") as raw, _open(args, raw_log=raw) as dev:
+        setup = _HostSetup(dev, args.fusion, args.height_compensation)
         if args.start:
             dev.start_stepwise_dead_reckoning()
+        setup.after_start()
         deadline = _deadline(args.duration)
         live = _LiveLine(out, every_s=LOG_LINE_EVERY_S)
         try:
             while deadline is None or time.monotonic() < deadline:
                 dev.recv_packet(timeout=_remaining(deadline))
+                setup.poll()
                 st = dev.stats
                 live.show(f"bytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
                           f"step packets {st['steps']:5d} | garbage {st['garbage_bytes']}")
@@ -228,9 +327,18 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
-    from .replay import replay_capture
+    from .replay import replay_capture_session
 
-    track, stats = replay_capture(args.capture, command_set=args.command_set)
+    drift = DriftCalibration.load(args.drift) if args.drift else None
+    session = replay_capture_session(args.capture, command_set=args.command_set)
+    track, stats = session.tracker.track, session.stats
+    if drift is not None:
+        corrected = drift.apply(track, module_serial=session.mcu_serial, what=args.capture)
+        print(f"drift correction: {drift}", file=out)
+        print(f"closure {track.closure_error():.3f} m uncorrected → {corrected.closure_error():.3f} m "
+              f"corrected (horizontal; 3-D {track.closure_error(False):.3f} → "
+              f"{corrected.closure_error(False):.3f} m)", file=out)
+        track = corrected
     origin = [float(v) for v in args.origin.split(",")] if args.origin else None
     _write_outputs(args, track, origin)
     print(repr(track), file=out)
@@ -239,18 +347,43 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def cmd_drift(args: argparse.Namespace, out: TextIO) -> int:
+    """``drift calibrate CAPTURE... -o CAL.json``: each capture one closed loop of one module."""
+    from .replay import replay_capture_session
+
+    sessions = [replay_capture_session(path, command_set=args.command_set) for path in args.captures]
+    serials = {s.mcu_serial for s in sessions}
+    if len(serials) > 1:
+        which = "; ".join(f"{path}: {serial_text(s.mcu_serial)}" for path, s in zip(args.captures, sessions,
+                                                                                   strict=True))
+        raise DriftError(f"the captures come from different modules ({which}): a drift calibration "
+                         "belongs to one module")
+    tracks = [s.tracker.track for s in sessions]
+    cal = calibrate(tracks, serials.pop(), names=args.captures)
+    for path, track in zip(args.captures, tracks, strict=True):
+        loop = loop_closure(track, path)
+        dp = ", ".join(f"{v:+.3f}" for v in loop.dp)
+        print(f"{path}: {loop.steps} steps, {loop.distance_m:.2f} m, T_swing {loop.t_swing_s:.3f} s, "
+              f"closure {loop.closure_m:.3f} m (Δp = [{dp}] m)", file=out)
+    print(cal, file=out)
+    cal.save(args.output)
+    print(f"→ {args.output}", file=out)
+    return 0
+
+
 def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
     out = sys.stdout if out is None else out
     try:
-        commands = {"track": cmd_track, "log": cmd_log, "info": cmd_info, "replay": cmd_replay}
+        commands = {"track": cmd_track, "log": cmd_log, "info": cmd_info, "replay": cmd_replay,
+                    "drift": cmd_drift}
         return commands[args.cmd](args, out)
     except HostError as exc:
         print(f"openshoe-host: {exc}", file=sys.stderr)
         return 1
     except (OSError, ValueError) as exc:
-        what = getattr(args, "url", None) or args.capture
+        what = getattr(args, "url", None) or getattr(args, "capture", None) or " ".join(args.captures)
         print(f"openshoe-host: cannot use {what}: {exc}", file=sys.stderr)
         return 1
 

@@ -173,6 +173,17 @@ class CommandMethods:
         """STEPWISE_DEAD_RECKONING (0x34; 0x14 in 2014): lossless step packets, counter from 0."""
         return self.command(Command.STEPWISE_DEAD_RECKONING, **kw)
 
+    # -- the emulator's extensions (protocol.extensions) ---------------------------
+
+    def height_compensation_on(self, **kw: Unpack[AckOptions]) -> CommandAckEvent:
+        """RUN_PROC putting HEIGHT_COMPENSATION (0x25) in the tracking sequence
+        (:func:`protocol.extensions.height_compensation_on`): send it once tracking runs, i.e.
+        when the first step packet after 0x34 arrived."""
+        from protocol.extensions import height_compensation_on
+
+        meaning, fields = height_compensation_on()
+        return self.command(meaning, **fields, **kw)
+
     def normal_imu(self, mode: int = 1, **kw: Unpack[AckOptions]) -> CommandAckEvent:
         """NORMAL_IMU (0x40): plain IMU mode, timestamp and U_K output per *mode*."""
         return self.command(Command.NORMAL_IMU, mode=int(mode), **kw)

@@ -288,6 +288,17 @@ class Device(CommandMethods):
                 self._cond.wait(deadline - now)
             return True
 
+    def fusion_setup(self, *, timeout: float | None = None,
+                     retries: int | None = None) -> list[CommandAckEvent]:
+        """Send :data:`protocol.extensions.FUSION_SETUP`, each command once the one before was
+        acked; returns their acks. Every step packet then carries the step's swing time
+        (``StepEvent.swing_time``, ``track.swing_times``) and the module outputs its serial number
+        once (``session.mcu_serial``). Send it right after 0x34 (:meth:`start_stepwise_dead_reckoning`)."""
+        from protocol.extensions import FUSION_SETUP
+
+        return [self.command(meaning, timeout=timeout, retries=retries, **fields)
+                for meaning, fields in FUSION_SETUP]
+
     def send_raw(self, data: bytes) -> None:
         """Write bytes as they are (no framing, no ack wait): for tests and old host apps."""
         self._write(bytes(data))

@@ -18,6 +18,7 @@ an event is printed).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING
@@ -96,6 +97,9 @@ class StepEvent:
     pose: np.ndarray  #: [x, y, z, χ] after this step
     covariance: np.ndarray  #: 4×4 covariance of that pose
     index: int  #: 1-based index of the step in the track
+    #: the step's swing time [s] (state 0x34 SWING_TIME, :data:`protocol.extensions.FUSION_SETUP`);
+    #: NaN when the packet did not carry it
+    swing_time: float = math.nan
 
     def __repr__(self) -> str:
         x, y, z, chi = self.pose

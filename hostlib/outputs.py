@@ -11,6 +11,14 @@ wait behind unacknowledged data: when a command is *sent*, the states it may
 turn on become candidates at once and lossless mode is assumed on if the command
 turns it on (acking a lossy module is harmless, missing acks stalls a lossless
 one); when the module *acknowledges* it, the exact new set and flag take effect.
+
+A packet whose length several subsets of those states fit is split as the
+conditional output (0x34, STATE_IF_SETUP) when that fits it: the module sends
+the conditional states together, all those that exist on it — a real module
+has none of the emulator's extension states (:data:`protocol.extensions.EXTENSION_STATES`),
+so the conditional set without them fits too. This is what tells IMU_TS riding
+along by the checksum quirk from SWING_TIME (both 4 bytes) on a real module,
+which sends the first and not the second.
 """
 
 from __future__ import annotations
@@ -19,6 +27,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
+from protocol.extensions import EXTENSION_STATES
 from protocol.ids import (
     IMU_MAG_BASE,
     IMU_RAW_BASE,
@@ -36,11 +45,16 @@ __all__ = ["STEP_STATES", "OutputPlan", "match_layout"]
 STEP_STATES: frozenset[int] = frozenset({StateId.DX, StateId.DP, StateId.STEP_COUNTER})
 
 
+#: An :class:`_Effect` that leaves the conditional output as it is.
+_UNCHANGED: tuple[int, ...] = (-1,)
+
+
 @dataclass(frozen=True)
 class _Effect:
     outputs: frozenset[int]
     lossless: bool | None  # None: unchanged
     restart_steps: bool = False
+    conditional: tuple[int, ...] | None = _UNCHANGED  # the conditional output's states; None: off
 
 
 class OutputPlan:
@@ -55,6 +69,8 @@ class OutputPlan:
     def __init__(self, outputs: frozenset[int] = STEP_STATES, lossless: bool | None = None):
         self.outputs: frozenset[int] = frozenset(outputs)
         self.lossless: bool | None = lossless
+        #: the states of the conditional output (ascending), None when it is off or unknown
+        self.conditional: tuple[int, ...] | None = tuple(sorted(outputs)) if outputs == STEP_STATES else None
         self._pending: dict[int, _Effect] = {}
 
     @property
@@ -74,6 +90,10 @@ class OutputPlan:
             self.lossless = True
         return eff.restart_steps
 
+    def awaiting(self, wire_id: int) -> bool:
+        """True while a command with this wire id was sent and its ack has not come."""
+        return wire_id in self._pending
+
     def acked(self, wire_id: int) -> None:
         """The module acknowledged the command with this wire id: its effect is now fact."""
         eff = self._pending.pop(wire_id, None)
@@ -82,13 +102,15 @@ class OutputPlan:
         self.outputs = eff.outputs
         if eff.lossless is not None:
             self.lossless = eff.lossless
+        if eff.conditional is not _UNCHANGED:
+            self.conditional = eff.conditional
 
     def _effect(self, meaning: Command, f: dict[str, Any], frame: bytes) -> _Effect | None:
         cur = set(self.outputs)
         if meaning is Command.STEPWISE_DEAD_RECKONING:
-            return _Effect(STEP_STATES, True, restart_steps=True)
+            return _Effect(STEP_STATES, True, restart_steps=True, conditional=tuple(sorted(STEP_STATES)))
         if meaning in (Command.OUTPUT_ALL_OFF, Command.RESET_ZUPT_AIDED_INS):
-            return _Effect(frozenset(), None)
+            return _Effect(frozenset(), None, conditional=None)
         if meaning is Command.MCU_ID:
             return _Effect(frozenset(cur | {StateId.MCU_ID}), None)
         if meaning is Command.OUTPUT_STATE:
@@ -100,7 +122,7 @@ class OutputPlan:
             # Quirk §9: the firmware reads 10 ids, the 8 given and the frame's checksum bytes.
             ck = frame[-2:]
             ids = [i for i in list(f["state_ids"]) + list(ck) if i in STATES]
-            return _Effect(frozenset(cur | set(ids)), None)
+            return _Effect(frozenset(cur | set(ids)), None, conditional=tuple(sorted(set(ids))))
         if meaning is Command.OUTPUT_IMU_RD:
             mode = f["mode"]
             ids = {StateId.IMU_TS}
@@ -115,15 +137,24 @@ class OutputPlan:
             return _Effect(_switch(cur, sorted(ids), mode), bool(mode & OutputMode.LOSSLESS))
         if meaning in (Command.NORMAL_IMU, Command.NORMAL_IMU_WITH_BIAS_EST):
             mode = f["mode"]
-            return _Effect(frozenset({StateId.IMU_TS, StateId.U_K}), bool(mode & OutputMode.LOSSLESS))
+            return _Effect(frozenset({StateId.IMU_TS, StateId.U_K}), bool(mode & OutputMode.LOSSLESS),
+                           conditional=None)
         if meaning is Command.SETUP_DEBUG_PROC:
             ids = [i for i in f["state_ids"] if i in STATES]
-            return _Effect(frozenset(cur | set(ids)), None)
+            return _Effect(frozenset(cur | set(ids)), None, conditional=tuple(sorted(set(ids))))
         return None
 
     def layout(self, payload_len: int) -> tuple[int, ...] | None:
-        """The state ids (ascending) in a packet with this payload length, if exactly one fits."""
-        return match_layout(self.candidates, payload_len)
+        """The state ids (ascending) in a packet with this payload length: the one subset of the
+        candidates that fits, else the conditional output if it fits (with or without the
+        extension states), else None."""
+        ids = match_layout(self.candidates, payload_len)
+        if ids is not None or self.conditional is None:
+            return ids
+        for cond in (self.conditional, tuple(i for i in self.conditional if i not in EXTENSION_STATES)):
+            if sum(STATES[i].size for i in cond) == payload_len:
+                return cond
+        return None
 
     def __repr__(self) -> str:
         ids = " ".join(f"{i:02X}" for i in sorted(self.outputs))

@@ -4,33 +4,74 @@ The capture holds what the module sent (command acks and state packets, with
 any garbage and resends the link produced). The same :class:`HostSession`
 that runs live decodes it here, without sending anything back, so a capture
 gives the same steps, gaps and counters as the live session did.
+
+A capture does not show what the host asked for, only the module's acks of it.
+The replay takes the acks of the commands an openshoe host sends after 0x34
+(:data:`CAPTURE_HOST_COMMANDS`: the fusion set-up, :data:`protocol.extensions.FUSION_SETUP`)
+as those commands, so the step packets of a fusion capture are split into their
+states (with the swing time) and its module serial number is read. Both
+``openshoe-host log --raw`` and ``openshoe-emu replay --wire`` write such a
+capture: every byte the module transmitted, in order.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
+
+from protocol.commands import command_set as _command_set
+from protocol.extensions import FUSION_SETUP
+from protocol.ids import Command
 
 from .session import HostSession, SessionStats
 from .tracking import StepTracker, Track
 
-__all__ = ["replay_bytes", "replay_capture"]
+__all__ = ["CAPTURE_HOST_COMMANDS", "replay_bytes", "replay_capture", "replay_capture_session",
+           "replay_session"]
+
+#: The commands a capture's host is taken to have sent when the module acknowledges them:
+#: those of the fusion set-up (STATE_IF_SETUP, MCU_ID).
+CAPTURE_HOST_COMMANDS: tuple[tuple[Command, Mapping[str, Any]], ...] = FUSION_SETUP
 
 
-def replay_bytes(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
-                 tracker: StepTracker | None = None) -> tuple[Track, SessionStats]:
-    """Sum the steps in a module → host byte stream; returns the track and the session counters.
+def _implied(command_set: str) -> dict[int, tuple[Command, Mapping[str, Any]]]:
+    cs = _command_set(command_set)
+    return {cs.spec(meaning).wire_id: (meaning, fields) for meaning, fields in CAPTURE_HOST_COMMANDS
+            if cs.supports(meaning)}
+
+
+def replay_session(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
+                   tracker: StepTracker | None = None) -> HostSession:
+    """The host session after the module → host byte stream *data*: its track
+    (``session.tracker.track``), counters (``session.stats``) and the module's serial number
+    (``session.mcu_serial``, None when the capture has no MCU_ID packet).
 
     The step counter before the first step is taken as unknown (a capture may
     start mid-walk), so no gap is reported before the first step seen.
     """
     session = HostSession(command_set, ack_policy="never",
-                          tracker=tracker if tracker is not None else StepTracker(last_counter=None))
+                          tracker=tracker if tracker is not None else StepTracker(last_counter=None),
+                          implied_commands=_implied(command_set))
     for i in range(0, len(data), chunk):
         session.feed(data[i : i + chunk])
     session.finish()
+    return session
+
+
+def replay_bytes(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
+                 tracker: StepTracker | None = None) -> tuple[Track, SessionStats]:
+    """Sum the steps in a module → host byte stream; returns the track and the session counters
+    (:func:`replay_session`)."""
+    session = replay_session(data, command_set=command_set, chunk=chunk, tracker=tracker)
     return session.tracker.track, session.stats
 
 
 def replay_capture(path: str | Path, **kwargs) -> tuple[Track, SessionStats]:
     """:func:`replay_bytes` of a capture file."""
     return replay_bytes(Path(path).read_bytes(), **kwargs)
+
+
+def replay_capture_session(path: str | Path, **kwargs) -> HostSession:
+    """:func:`replay_session` of a capture file."""
+    return replay_session(Path(path).read_bytes(), **kwargs)

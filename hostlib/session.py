@@ -11,8 +11,14 @@ stream, without any I/O, so it can be tested byte by byte:
 * suppress resends: in lossless mode only the oldest packet is sent, so a resend
   carries the same number as the packet just before it (stop-and-wait);
 * split each new packet into its states (:class:`hostlib.outputs.OutputPlan`),
-  recognise steps, sum them (:class:`hostlib.tracking.StepTracker`), report
-  step-counter gaps.
+  recognise steps, sum them (:class:`hostlib.tracking.StepTracker`) with their
+  swing time when the packet carries one (state 0x34 SWING_TIME, after
+  :data:`protocol.extensions.FUSION_SETUP`), report step-counter gaps;
+* note the module's serial number when a packet carries it (state 0x04 MCU_ID).
+
+Replaying a capture, the session sees only the module's bytes: *implied_commands*
+tells it which commands the capture's host sent, so that the module's ack of one
+has that command's effect on the expected outputs (:mod:`hostlib.replay`).
 
 The events it reports are declared in :mod:`hostlib.events`.
 
@@ -22,6 +28,8 @@ moves bytes between the port and this object.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -80,7 +88,9 @@ class HostSession:
     is ``"auto"``, ``"always"`` or ``"never"``. *tracker* sums the steps (a new
     :class:`StepTracker` at the origin by default; it counts from step 0 as
     after 0x34 — pass ``StepTracker(last_counter=None)`` to attach to a module
-    already tracking).
+    already tracking). *implied_commands* maps wire ids to the (meaning, fields)
+    of commands someone else sent (a capture's host): when the module acknowledges
+    one this session did not send, it takes effect as if sent here.
     """
 
     def __init__(
@@ -90,6 +100,7 @@ class HostSession:
         ack_policy: AckPolicy = "auto",
         tracker: StepTracker | None = None,
         plan: OutputPlan | None = None,
+        implied_commands: Mapping[int, tuple[Command, Mapping[str, Any]]] | None = None,
     ):
         if ack_policy not in ("auto", "always", "never"):
             raise ValueError(f"ack_policy must be 'auto', 'always' or 'never', not {ack_policy!r}")
@@ -99,6 +110,9 @@ class HostSession:
         self.plan = plan if plan is not None else OutputPlan()
         self.decoder = StreamDecoder(self.command_set)
         self.stats = SessionStats()
+        self.implied_commands = dict(implied_commands or {})
+        #: the module's serial number (state 0x04), once a packet carried it
+        self.mcu_serial: bytes | None = None
         self._last_number: int | None = None
         self._resend_seen = False
 
@@ -165,6 +179,9 @@ class HostSession:
         for frame in frames:
             if isinstance(frame, CommandAck):
                 self.stats.command_acks += 1
+                implied = self.implied_commands.get(frame.command_id)
+                if implied is not None and not self.plan.awaiting(frame.command_id):
+                    self.encode_command(implied[0], **implied[1])
                 self.plan.acked(frame.command_id)
                 events.append(CommandAckEvent(frame.command_id))
             elif isinstance(frame, StatePacket):
@@ -179,6 +196,7 @@ class HostSession:
             self._resend_seen = True  # only a lossless module resends
         states = None
         step = None
+        swing_time = math.nan
         if not duplicate:
             layout = self.plan.layout(len(pkt.payload))
             if layout is not None:
@@ -190,6 +208,10 @@ class HostSession:
                 step = Step(
                     dx=states[StateId.DX], dp=states[StateId.DP], counter=int(states[StateId.STEP_COUNTER])
                 )
+                if StateId.SWING_TIME in states:
+                    swing_time = float(states[StateId.SWING_TIME])
+            if states is not None and StateId.MCU_ID in states:
+                self.mcu_serial = bytes(states[StateId.MCU_ID].astype("u1"))
         if self.lossless or (step is not None and self.ack_policy == "auto"):
             # Step output is lossless by construction (0x34): ack even if we did not see 0x34 sent.
             out += build_packet_ack(pkt.number)
@@ -205,11 +227,11 @@ class HostSession:
             self.stats.undecoded_packets += 1
         events.append(PacketEvent(pkt.number, pkt.payload, states))
         if step is not None:
-            self._step(step, pkt.number, events)
+            self._step(step, pkt.number, events, swing_time)
 
-    def _step(self, step: Step, number: int, events: list[StreamEvent]) -> None:
+    def _step(self, step: Step, number: int, events: list[StreamEvent], swing_time: float) -> None:
         n_gaps = len(self.tracker.gaps)
-        outcome = self.tracker.add(step)
+        outcome = self.tracker.add(step, swing_time)
         if outcome is StepOutcome.DUPLICATE:
             self.stats.duplicate_steps += 1
             return
@@ -220,7 +242,8 @@ class HostSession:
             events.append(gap)
         track = self.tracker.track
         events.append(
-            StepEvent(step, number, outcome, track._poses[-1].copy(), track._covs[-1].copy(), len(track))
+            StepEvent(step, number, outcome, track._poses[-1].copy(), track._covs[-1].copy(), len(track),
+                      swing_time)
         )
 
     def __repr__(self) -> str:

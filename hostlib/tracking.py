@@ -23,6 +23,11 @@ summed is ignored (and counted). A jump in the counter (it is a uint16 and wraps
 means steps were lost; the gap is recorded as a :class:`GapEvent` and the pose
 continues from the last summed step (the lost displacement is unknown).
 
+Each step may come with its swing time [s] (state 0x34 SWING_TIME, when the host
+asked for it: :data:`protocol.extensions.FUSION_SETUP`); the track keeps it beside
+the step (NaN when the step had none) for the aids that need it
+(:mod:`hostlib.drift`). It changes nothing in the summation.
+
 This module is pure computation: no I/O, no protocol decoding. It accepts any
 object with ``dx`` (4,), ``dp`` (4×4) and ``counter`` attributes, such as
 :class:`protocol.codec.Step`. Its gap records and step outcomes are the types
@@ -147,14 +152,17 @@ class Track:
         self._covs: list[np.ndarray] = [np.array(cov0, dtype=np.float64)]
         self._steps: list[np.ndarray] = []
         self._counters: list[int] = []
+        self._swing_times: list[float] = []
         self.distance: float = 0.0  #: sum of the horizontal step lengths [m]
         self.gaps: list[GapEvent] = []  #: every gap in the step counter, in order
 
-    def _append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int) -> None:
+    def _append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int,
+                swing_time: float = math.nan) -> None:
         self._poses.append(pose)
         self._covs.append(cov)
         self._steps.append(dx)
         self._counters.append(counter)
+        self._swing_times.append(float(swing_time))
         self.distance += math.hypot(float(dx[0]), float(dx[1]))
 
     @classmethod
@@ -165,12 +173,14 @@ class Track:
         steps: np.ndarray | None = None,
         counters: Iterable[int] | None = None,
         start_counter: int | None = 0,
+        swing_times: Iterable[float] | None = None,
     ) -> Track:
         """A track from stored arrays (e.g. read back from CSV): poses (n+1, 4), covariances (n+1, 4, 4).
 
         *steps* (n, 4) default to the pose differences in each previous frame;
         *counters* (n,) default to 1..n; *start_counter* is the counter before the
-        first step (None: unknown). Distance and gaps are recomputed.
+        first step (None: unknown); *swing_times* (n,) [s] default to NaN (none).
+        Distance and gaps are recomputed.
         """
         poses = np.asarray(poses, dtype=np.float64)
         covs = np.asarray(covariances, dtype=np.float64)
@@ -188,12 +198,15 @@ class Track:
         cnt = list(range(1, n + 1)) if counters is None else [int(c) for c in counters]
         if len(cnt) != n:
             raise ValueError(f"{n} steps but {len(cnt)} counters")
+        swings = [math.nan] * n if swing_times is None else [float(t) for t in swing_times]
+        if len(swings) != n:
+            raise ValueError(f"{n} steps but {len(swings)} swing times")
         track = cls(poses[0], covs[0], start_counter)
         prev: int | None = start_counter
         for k in range(n):
             if prev is not None and counter_delta(prev, cnt[k]) > 1:
                 track.gaps.append(GapEvent(prev, cnt[k], counter_delta(prev, cnt[k]) - 1, k + 1))
-            track._append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k])
+            track._append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k], swings[k])
             prev = cnt[k]
         return track
 
@@ -205,6 +218,7 @@ class Track:
         t._covs = [c.copy() for c in self._covs[: n + 1]]
         t._steps = [s.copy() for s in self._steps[:n]]
         t._counters = list(self._counters[:n])
+        t._swing_times = list(self._swing_times[:n])
         t.distance = self.distance
         t.gaps = list(self.gaps)
         return t
@@ -242,6 +256,11 @@ class Track:
     def counters(self) -> np.ndarray:
         """(n,) uint16: the summed steps' counters."""
         return np.array(self._counters, dtype=np.uint16)
+
+    @property
+    def swing_times(self) -> np.ndarray:
+        """(n,) float64: each summed step's swing time [s] (state 0x34), NaN where it had none."""
+        return np.array(self._swing_times, dtype=np.float64)
 
     @property
     def motion_steps(self) -> int:
@@ -383,12 +402,16 @@ class StepTracker:
 
     # -- summation -----------------------------------------------------------
 
-    def add(self, step: StepLike) -> StepOutcome:
-        """Sum one step unless it is a resend; returns what was done with it."""
-        return self.add_step(step.dx, step.dp, step.counter)
+    def add(self, step: StepLike, swing_time: float = math.nan) -> StepOutcome:
+        """Sum one step unless it is a resend; returns what was done with it.
 
-    def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int) -> StepOutcome:
-        """Sum one step given as arrays: *dx* (4,), *dp* (4×4), *counter* (uint16)."""
+        *swing_time* [s] is kept beside the step (:attr:`Track.swing_times`); NaN: none."""
+        return self.add_step(step.dx, step.dp, step.counter, swing_time)
+
+    def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int,
+                 swing_time: float = math.nan) -> StepOutcome:
+        """Sum one step given as arrays: *dx* (4,), *dp* (4×4), *counter* (uint16), and its
+        *swing_time* [s] (NaN: none)."""
         counter = int(counter)
         if not 0 <= counter < COUNTER_MODULUS:
             raise ValueError(f"step counter {counter} is not a uint16")
@@ -406,7 +429,7 @@ class StepTracker:
                 self.track.gaps.append(GapEvent(self._last, counter, delta - 1, len(self.track) + 1))
                 outcome = StepOutcome.SUMMED_AFTER_GAP
         pose, cov = propagate(self.track._poses[-1], self.track._covs[-1], dxa, dpa)
-        self.track._append(pose, cov, dxa.copy(), counter)
+        self.track._append(pose, cov, dxa.copy(), counter, swing_time)
         self._last = counter
         return outcome
 

@@ -22,15 +22,33 @@ module declares those commands once, for the host SDK and the emulator's replaye
 * :func:`fusion_output_setup` — STATE_IF_SETUP that makes every step packet carry what the
   host-side aids need besides DX, DP and the step counter: the swing time (drift correction).
   Sent right after 0x34, which sets up the plain step output.
+* :data:`FUSION_SETUP` — everything a host using the host-side aids sends after the ack of
+  0x34, one command at a time (each after the ack of the one before): that STATE_IF_SETUP, then
+  MCU_ID (the module's serial number, which a per-module calibration is checked against).
+  ``openshoe-host track --fusion`` and the emulator's replayed host (``--host fusion``) send
+  exactly these.
+* :func:`fusion_step_ids` — the states a step packet carries after that set-up, as the firmware
+  assembles them: :data:`FUSION_STEP_STATES` plus the states the STATE_IF_SETUP frame's two
+  checksum bytes name (protocol.md §9), in ascending id order.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from types import MappingProxyType
 from typing import Any
 
+from .codec import fitting_ids
+from .commands import CommandSet
+from .frames import build_command
 from .ids import Command, OutputMode, ProcId, StateId
 
-__all__ = ["FUSION_STEP_STATES", "HEIGHT_COMPENSATION_SLOT", "fusion_output_setup", "height_compensation_on"]
+__all__ = ["EXTENSION_STATES", "FUSION_SETUP", "FUSION_STEP_STATES", "HEIGHT_COMPENSATION_SLOT",
+           "fusion_output_setup", "fusion_step_ids", "height_compensation_on"]
+
+#: The emulator's extension states: a real OpenShoe module has none of them, and leaves them
+#: out of every output it is asked for (an id with no state is ignored, protocol.md §4).
+EXTENSION_STATES: frozenset[int] = frozenset({StateId.SWING_TIME, StateId.THETA_INIT, StateId.THETA_GROUND})
 
 #: The slot HEIGHT_COMPENSATION runs in: after STATE_OUTPUT_IF (slot 9) of the tracking
 #: sequence that 0x34 sets up; slots 10 and 11 are empty there.
@@ -52,3 +70,25 @@ def fusion_output_setup() -> tuple[Command, dict[str, Any]]:
     ids = [int(s) for s in FUSION_STEP_STATES] + [0] * (8 - len(FUSION_STEP_STATES))
     return Command.STATE_IF_SETUP, {"flag_id": int(StateId.FILTER_RESET_FLAG), "mode": int(OutputMode.PULL),
                                     "state_ids": ids}
+
+
+#: The commands (meaning, payload fields) a host using the host-side aids sends after the ack of
+#: 0x34, in order, each once the module acknowledged the one before: the fusion step output
+#: (:func:`fusion_output_setup`), then MCU_ID (0x04: the module outputs its serial number once,
+#: in a packet of its own, before its first step).
+FUSION_SETUP: tuple[tuple[Command, Mapping[str, Any]], ...] = tuple(
+    (meaning, MappingProxyType({k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}))
+    for meaning, fields in (fusion_output_setup(), (Command.MCU_ID, {}))
+)
+
+
+def fusion_step_ids(command_set: CommandSet | None = None) -> tuple[int, ...]:
+    """The states of a step packet after :data:`FUSION_SETUP`, in payload order, as the firmware
+    assembles them: the 8 ids of the STATE_IF_SETUP frame and its two checksum bytes taken as
+    ids (protocol.md §9), those with a state, ascending. With the current numbering the checksum
+    is ``01 3D``: IMU_TS (0x01) rides along, 0x3D has no state.
+
+    A real module, which lacks :data:`EXTENSION_STATES`, sends the same without them."""
+    meaning, fields = fusion_output_setup()
+    frame = build_command(meaning, command_set=command_set, **fields)
+    return tuple(fitting_ids([*fields["state_ids"], frame[-2], frame[-1]]))

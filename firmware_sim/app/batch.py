@@ -20,6 +20,16 @@ last step is on the wire too. ``--scenario NAME`` replays a simulated walk
 writes its ground truth beside OUT (``OUT.truth.csv``); ``--module N`` makes it module N's walk
 (module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module).
 
+The replayed host may also use the emulator's extensions, as a host app would:
+``--host fusion`` sends :data:`protocol.extensions.FUSION_SETUP` after the ack of 0x34 (the
+step packets then carry each step's swing time, and the module outputs its serial number
+once), and ``--height-compensation`` turns the module's height compensation on when the first
+step packet arrives (:func:`protocol.extensions.height_compensation_on`). Each command goes
+out once the module acknowledged the one before; frames are built by the host session
+(:class:`hostlib.session.HostSession`). Without them the host sends ``34 00 34`` only, and
+the bytes are those of before. A module made with ``--module N`` has the MCU serial number
+``OSEMU-M`` + N in 8 digits (:func:`firmware_sim.transports.factory.module_serial`).
+
 ``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
 of ``--seeds A:B`` — into ``DIR/<name>.bin`` (:mod:`firmware_sim.app.replay_cli`); each file's
 bytes are the ones a replay of it alone writes.
@@ -30,27 +40,33 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections.abc import Callable
+from collections import deque
+from collections.abc import Callable, Mapping
 from pathlib import Path
+from typing import Any
 
 from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
+from firmware_sim.transports.factory import MAX_MODULE, module_serial
+from protocol.extensions import FUSION_SETUP, height_compensation_on
 from protocol.frames import StatePacket, build_packet_ack
 from protocol.ids import Command
 from protocol.stream import StreamDecoder
 
 from .progress import progress_bar, say
 
-__all__ = ["MODULE_HELP", "START_STEPWISE", "ReplayResult", "run_replay", "add_arguments", "check_arguments",
-           "main", "module_number"]
+__all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "ReplayResult", "run_replay", "add_arguments",
+           "check_arguments", "main", "module_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
 #: Loop cycles allowed for the queue to drain after the source ended.
 DRAIN_TICKS = 2000
+#: The replayed hosts: "plain" sends 0x34 only; "fusion" then the fusion set-up (FUSION_SETUP).
+HOSTS = ("plain", "fusion")
 
 
 class ReplayResult(bytes):
@@ -76,7 +92,8 @@ def _source_length(source: SensorSource) -> int | None:
 def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                progress: Callable[[int, int | None], None] | None = None,
                progress_every: int = 5000, announce: Announce | None = to_stderr,
-               bt_port: Port | None = None) -> ReplayResult:
+               bt_port: Port | None = None, host: str = "plain",
+               height_compensation: bool = False) -> ReplayResult:
     """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
 
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
@@ -84,36 +101,43 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     *progress_every* loops. *announce* hears about a slow first start (the compiled
     path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
     *bt_port* is the Bluetooth interface's port (default: an ideal one; a link model
-    with faults makes the host receive what that link delivers).
+    with faults makes the host receive what that link delivers). *host* is the replayed host
+    (:data:`HOSTS`); *height_compensation*: it turns height compensation on at the first step.
     """
+    if host not in HOSTS:
+        raise ValueError(f"host must be one of {', '.join(HOSTS)}, not {host!r}")
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
     module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
-    host = _LosslessHost(module)
-    host.run_source(_source_length(source), progress, progress_every)
-    host.drain()
-    result = ReplayResult(bytes(host.out))
-    result.ticks = host.ticks
-    result.packets = host.packets
+    replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation)
+    replayed.run_source(_source_length(source), progress, progress_every)
+    replayed.drain()
+    result = ReplayResult(bytes(replayed.out))
+    result.ticks = replayed.ticks
+    result.packets = replayed.packets
     total = _source_length(source)
-    result.samples = host.ticks if total is None else min(total, host.ticks)
+    result.samples = replayed.ticks if total is None else min(total, replayed.ticks)
     result.module = module
     return result
 
 
 class _LosslessHost:
     """The host side of a batch replay: starts step-wise tracking over Bluetooth, keeps every
-    byte the module sends and acknowledges each state packet, as a lossless host does."""
+    byte the module sends and acknowledges each state packet, as a lossless host does.
 
-    def __init__(self, module: Module):
+    With *fusion* or *height_compensation* it also sends the extensions' commands
+    (:class:`_HostSetup`)."""
+
+    def __init__(self, module: Module, *, fusion: bool = False, height_compensation: bool = False):
         self.module = module
         self.port = module.bt.port
         self.decoder = StreamDecoder()
         self.out = bytearray()
         self.packets = 0
         self.ticks = 0
-        self.port.host_write(START_STEPWISE)
+        self.setup = _HostSetup(fusion, height_compensation) if fusion or height_compensation else None
+        self.port.host_write(START_STEPWISE if self.setup is None else self.setup.start())
 
     def loop_once(self, max_ticks: int = 1) -> int:
         """Run up to *max_ticks* loops (quiet stretches compiled, when available), then read and
@@ -128,6 +152,10 @@ class _LosslessHost:
             if isinstance(frame, StatePacket):
                 self.port.host_write(build_packet_ack(frame.number))
                 self.packets += 1
+        if self.setup is not None:
+            command = self.setup.received(data)
+            if command:
+                self.port.host_write(command)
         return len(data)
 
     def run_source(self, total: int | None, progress: Callable[[int, int | None], None] | None,
@@ -164,6 +192,47 @@ def _step(module: Module) -> int:
     return 1
 
 
+class _HostSetup:
+    """The commands the replayed host sends besides its packet acks, one at a time: 0x34, then
+    (*fusion*) :data:`~protocol.extensions.FUSION_SETUP` once 0x34 is acked, and
+    (*height_compensation*) :func:`~protocol.extensions.height_compensation_on` once the first
+    step packet came; each waits for the ack of the command before it.
+
+    A host session (:class:`hostlib.session.HostSession`, sending nothing itself) builds the
+    frames and follows the module's bytes: acks, and packets split by what was asked for."""
+
+    def __init__(self, fusion: bool, height_compensation: bool):
+        from hostlib.session import HostSession
+
+        self.session = HostSession(ack_policy="never")
+        self.queue: deque[tuple[Command, Mapping[str, Any]]] = deque(FUSION_SETUP if fusion else ())
+        self.height_compensation = height_compensation
+        self.awaiting: int | None = None  #: wire id of the command sent and not yet acked
+
+    def start(self) -> bytes:
+        """The first frame: 0x34."""
+        return self._send(Command.STEPWISE_DEAD_RECKONING, {})
+
+    def _send(self, meaning: Command, fields: Mapping[str, Any]) -> bytes:
+        self.awaiting = self.session.wire_id(meaning)
+        return self.session.encode_command(meaning, **fields)
+
+    def received(self, data: bytes) -> bytes:
+        """Follow the module's *data*; the next command's frame when it is due, else b""."""
+        from hostlib.events import CommandAckEvent, StepEvent
+
+        events, _acks = self.session.feed(data)
+        for event in events:
+            if isinstance(event, CommandAckEvent) and event.command_id == self.awaiting:
+                self.awaiting = None
+            elif isinstance(event, StepEvent) and self.height_compensation:
+                self.height_compensation = False
+                self.queue.append(height_compensation_on())
+        if self.awaiting is None and self.queue:
+            return self._send(*self.queue.popleft())
+        return b""
+
+
 # ---------------------------------------------------------------------------------------------
 # command line (wired into `openshoe-emu` by firmware_sim.app.cli)
 
@@ -181,6 +250,9 @@ def module_number(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a module number >= 0, got {text!r}") from None
     if number < 0:
         raise argparse.ArgumentTypeError(f"a module number is >= 0, got {number}")
+    if number > MAX_MODULE:
+        raise argparse.ArgumentTypeError(f"a module number is at most {MAX_MODULE} (its serial number has "
+                                         f"8 digits), got {number}")
     return number
 
 
@@ -201,6 +273,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --scenario and --wire-dir: seeds A … B-1 (also N or N,M,…)")
     p.add_argument("--rate", type=float, default=1000.0,
                    help="loop/sample rate of a simulated scenario [Hz] (default 1000)")
+    p.add_argument("--host", choices=HOSTS, default="plain",
+                   help="the replayed host: plain sends 0x34 only (default); fusion then asks for each "
+                        "step's swing time and the module's serial number (protocol.extensions.FUSION_SETUP)")
+    p.add_argument("--height-compensation", action="store_true",
+                   help="the replayed host turns the module's height compensation (function 0x25) on when "
+                        "the first step packet arrives")
     p.add_argument("--table", type=Path, metavar="CSV",
                    help="with --wire-dir: also write the summary, one row per run, as CSV")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
@@ -245,7 +323,9 @@ def main(args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
                       unit_scale=True) as bar:
-        data = run_replay(source, progress=lambda done, _total: bar.update(done - bar.n), announce=announce)
+        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(args.module))
+        data = run_replay(source, config=config, progress=lambda done, _total: bar.update(done - bar.n),
+                          announce=announce, host=args.host, height_compensation=args.height_compensation)
     args.wire.write_bytes(data)
     if truth is not None:
         truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))

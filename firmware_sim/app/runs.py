@@ -58,8 +58,12 @@ class RunSpec:
     rate_hz: float = 1000.0  #: sample rate of a simulated scenario
     settings: tuple[tuple[str, Any], ...] = ()
     name: str = ""  #: output file stem, unique within a batch
-    #: the simulated module's identity (its own errors); None: the seed's own module
+    #: the simulated module's identity (its own errors, its serial number); None: the seed's own module
     module: int | None = None
+    #: the replayed host (:data:`firmware_sim.app.batch.HOSTS`) and whether it turns height
+    #: compensation on; they change the wire bytes, not the row's columns
+    host: str = "plain"
+    height_compensation: bool = False
 
     @property
     def key(self) -> tuple:
@@ -185,13 +189,16 @@ def run_one(spec: RunSpec, wire_dir: Path | None = None) -> dict[str, Any]:
 def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[str, Any]:
     """The rest of :func:`run_one` once the source is :func:`load`-ed: run, write, measure."""
     from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.transports.factory import module_serial
 
     from .batch import run_replay
 
     t1 = time.perf_counter()
     source, truth, applied = loaded.source, loaded.truth, loaded.applied
-    config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=applied.initial_states)
-    data = run_replay(source, config=config, announce=None, bt_port=applied.make_link(spec.seed))
+    config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=applied.initial_states,
+                          mcu_serial=module_serial(spec.module))
+    data = run_replay(source, config=config, announce=None, bt_port=applied.make_link(spec.seed),
+                      host=spec.host, height_compensation=spec.height_compensation)
     t2 = time.perf_counter()
     if wire_dir is not None:
         wire = Path(wire_dir) / f"{spec.name}.bin"

@@ -10,7 +10,9 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
     scenario     sensor scenario name or recipe (firmware_sim.sensors.make_source), "default"
     seed         seed of the sensors and the link's jitter/faults, 0 (module i of several: seed + i)
     module       the simulated module's identity: its own systematic errors, the same whatever the
-                 seed (firmware_sim.sensors.make_source); None: the seed's own (module i: module + i)
+                 seed (firmware_sim.sensors.make_source), and its MCU serial number
+                 (:func:`module_serial`); None: the seed's own errors, the default serial
+                 (module i: module + i)
     link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
@@ -40,6 +42,7 @@ from urllib.parse import parse_qs, urlsplit
 from firmware_sim.links.link import PROFILES, Link, LinkFaults, make_link
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
 from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
@@ -58,6 +61,23 @@ Address = tuple[str, int]
 URL_OPTIONS = ("scenario", "seed", "module", "link", "interface", "command_set", "speed", "loss", "corrupt")
 
 _NO_VALUE = object()
+
+
+#: The largest module number: its serial number has 8 digits.
+MAX_MODULE = 99_999_999
+
+
+def module_serial(module: int | None) -> bytes:
+    """The MCU serial number (state 0x04, 15 bytes) of simulated module *module*:
+    ``OSEMU-M`` and the number in 8 digits; None (no identity given): the default serial.
+
+    A host tells modules apart by it (``MCU_ID``), e.g. to refuse one module's drift
+    calibration for another (:mod:`hostlib.drift`)."""
+    if module is None:
+        return DEFAULT_MCU_SERIAL
+    if not 0 <= module <= MAX_MODULE:
+        raise ValueError(f"a module number is 0..{MAX_MODULE}, got {module}")
+    return b"OSEMU-M" + f"{module:08d}".encode()
 
 
 class SettingsError(ValueError):
@@ -125,6 +145,9 @@ class EmulatorSettings:
         if self.module is not None:
             if self.module < 0:
                 raise SettingsError("{} must be >= 0", "module", got=self.module)
+            if self.module + self.modules - 1 > MAX_MODULE:
+                raise SettingsError(f"{{}} + one per module must stay <= {MAX_MODULE} (the serial number has "
+                                    f"8 digits)", "module", got=self.module)
             if self.replay:
                 raise SettingsError("{} goes with a scenario, not {} FILE: a recording carries its own "
                                     "sensors", "module", "replay")
@@ -337,10 +360,12 @@ def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource |
     scenario, a bad recording) raise ValueError; endpoints that cannot open, OSError.
     """
     seed = settings.seed + index
+    identity = None if settings.module is None else settings.module + index
     if sensors is None:
-        sensors = _sensors(settings, seed, None if settings.module is None else settings.module + index)
+        sensors = _sensors(settings, seed, identity)
     links = _links(settings, seed)
-    config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace)
+    config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace,
+                          mcu_serial=module_serial(identity))
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
     module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints, ready = open_endpoints(settings, links, index)

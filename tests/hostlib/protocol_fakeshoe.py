@@ -4,19 +4,29 @@ Registered by the tests with ``serial.protocol_handler_packages.append("tests.ho
 On 0x34 it acks, then sends N step packets (1 m north each), stop-and-wait: the
 next one only after the host acked the previous one, as a lossless module does.
 On 0x04 it sends the MCU id packet.
+
+``fakeshoe://N/fusion`` is a module with the emulator's extensions: after 0x34 it
+"aligns" until the host's MCU_ID (0x04, the last command of the fusion set-up),
+then walks; its step packets carry the conditional output a STATE_IF_SETUP set up
+(the 8 ids and the frame's checksum bytes, protocol.md §9), each step with a swing
+time of :data:`SWING_TIME_S`. Every port made is kept in :data:`PORTS`.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from protocol.codec import encode_state, encode_step
+from protocol.codec import STEP_IDS, encode_state, encode_states, fitting_ids
 from protocol.frames import build_command_ack, build_state_packet
 from protocol.ids import StateId
 
 from .fakes import FakeModulePort
 
 MCU_ID = bytes(range(0x10, 0x1F))
+#: The swing time of every step of a ``/fusion`` module [s].
+SWING_TIME_S = 0.5
+#: Every port opened, in order (a test reads what the host sent from the last one).
+PORTS: list[Serial] = []
 
 
 class Serial(FakeModulePort):
@@ -25,12 +35,17 @@ class Serial(FakeModulePort):
         self.timeout = timeout
         self.is_open = False
         self._steps_left = 0
+        self._step_counter = 0
         self._number = 0
         self.on_command = self._reply
+        self.fusion = False
+        self._output_ids: tuple[int, ...] = STEP_IDS
+        PORTS.append(self)
 
     def open(self):
-        n = str(self.port).split("://", 1)[1] or "3"
+        n, _, variant = (str(self.port).split("://", 1)[1] or "3").partition("/")
         self._steps_total = int(n)
+        self.fusion = variant == "fusion"
         self.is_open = True
 
     def _next_number(self) -> int:
@@ -42,9 +57,15 @@ class Serial(FakeModulePort):
         if frame[0] == 0x34:
             self._steps_left = self._steps_total
             self._step_counter = 0
-            out += self._next_step()
+            self._output_ids = STEP_IDS
+            if not self.fusion:
+                out += self._next_step()
+        elif frame[0] == 0x23:  # quirk: the frame's checksum bytes are ids 9 and 10
+            self._output_ids = tuple(fitting_ids([*frame[3:11], frame[-2], frame[-1]]))
         elif frame[0] == 0x04:
             out += build_state_packet(self._next_number(), encode_state(StateId.MCU_ID, MCU_ID))
+            if self.fusion and self._step_counter == 0:
+                out += self._next_step()
         return out
 
     def _next_step(self) -> bytes:
@@ -53,8 +74,10 @@ class Serial(FakeModulePort):
         self._steps_left -= 1
         self._step_counter += 1
         self._pending = self._next_number()
-        return build_state_packet(self._pending, encode_step(np.array([1.0, 0, 0, 0]), np.eye(4) * 1e-4,
-                                                             self._step_counter))
+        values = {StateId.DX: np.array([1.0, 0, 0, 0]), StateId.DP: (np.eye(4) * 1e-4)[np.triu_indices(4)],
+                  StateId.STEP_COUNTER: self._step_counter, StateId.SWING_TIME: SWING_TIME_S,
+                  StateId.IMU_TS: 64_000 * self._step_counter}
+        return build_state_packet(self._pending, encode_states(self._output_ids, values))
 
     def _run_parser(self) -> None:
         before = len(self.packet_acks)
