@@ -1,0 +1,66 @@
+"""`openshoe-accuracy`: what height compensation and drift correction gain, per walk and on slopes."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import pytest
+
+from tests.conftest import WALK_IDS, requires_walks, walk_path
+from tools.accuracy import main
+from tools.accuracy.slopes import slope_rows, summary_lines
+from tools.accuracy.walks import VARIANTS, table_lines, walk_results
+
+
+def run(argv: list[str]) -> tuple[int, str]:
+    out = io.StringIO()
+    return main(argv, out), out.getvalue()
+
+
+def test_a_short_ramp_is_walked_with_and_without_compensation_and_summarised():
+    rows = slope_rows([1], workers=0, scenarios=("stand:3+walk:8:6+stand:2",))
+    assert [r["height_compensation"] for r in rows] == [False, True]
+    top = rows[0]["true_top_m"]
+    assert top == pytest.approx(8 * math.sin(math.radians(6)), rel=1e-6)
+    for r in rows:  # the track climbs the ramp to within a few centimetres either way
+        assert abs(r["top_error_m"]) < 0.1 and abs(r["end_error_m"]) < 0.1
+    lines = summary_lines(rows)
+    assert "height error at the top" in lines[0] and "stand:3+walk:8:6+stand:2" in lines[2]
+
+
+def test_leave_one_out_needs_two_walks():
+    with pytest.raises(ValueError, match="at least two"):
+        walk_results(["only_one.txt"], workers=0)
+
+
+@pytest.mark.parametrize("argv", [["walks", "no_such_walk.txt", "other.txt"], ["slopes", "--seeds", "5:1"],
+                                  ["slopes", "--workers", "-1"]])
+def test_bad_arguments_exit_2(argv, capsys):
+    code, _ = run(argv)
+    assert code == 2 and "openshoe-accuracy:" in capsys.readouterr().err
+
+
+@requires_walks
+def test_each_walk_is_corrected_by_the_others_and_never_by_itself(tmp_path):
+    paths = [walk_path(w) for w in WALK_IDS[:3]]
+    results = walk_results(paths, workers=0)
+    assert [r.name for r in results] == [p.stem for p in paths]
+    for r in results:
+        assert set(r.horizontal_pct) == {v[0] for v in VARIANTS}
+        # drift correction moves positions only: the distance walked is the plain track's
+        assert r.tracks["drift"].distance == pytest.approx(r.tracks["plain"].distance)
+        assert r.horizontal_pct["plain"] != r.horizontal_pct["drift"]
+    # with a calibration from itself a loop would close exactly; leave-one-out does not
+    assert all(r.closure_3d_pct["drift"] > 0.01 for r in results)
+    table = table_lines(results)
+    assert table[-2].startswith("mean") and len(table) == len(results) + 3
+
+
+@requires_walks
+def test_the_walks_table_and_picture_are_written(tmp_path):
+    code, text = run(["walks", *map(str, (walk_path(w) for w in WALK_IDS[:2])), "--workers", "0",
+                      "--out", str(tmp_path)])
+    assert code == 0 and "mean" in text
+    assert (tmp_path / "walks.csv").read_text().count("\n") == 3
+    assert (tmp_path / "height-walk.png").stat().st_size > 10_000

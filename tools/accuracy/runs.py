@@ -1,0 +1,47 @@
+"""One replay of a recording or a simulated walk with the fusion host, summed as a host sums it.
+
+:func:`replay_track` is the whole path a user runs: ``openshoe-emu replay --host fusion
+[--height-compensation]`` (:func:`firmware_sim.app.batch.run_replay`) into the capture bytes,
+then ``openshoe-host replay`` (:func:`hostlib.replay.replay_session`) into the track, the step
+swing times and the module's serial number.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["Replayed", "replay_track", "height_profile"]
+
+
+@dataclass
+class Replayed:
+    """A replayed walk as the host saw it."""
+
+    track: Any  #: hostlib.tracking.Track (with swing times)
+    serial: bytes | None  #: the module's MCU serial number
+    truth: Any = None  #: the simulated walk's GroundTruth (None for a recording)
+
+
+def replay_track(source: Any, height_compensation: bool, module: int | None = None,
+                 truth: Any = None) -> Replayed:
+    """Replay *source* (a sensor source) through the module with the fusion host."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.transports.factory import module_serial
+    from hostlib.replay import replay_session
+
+    config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(module))
+    data = run_replay(source, config=config, announce=None, host="fusion",
+                      height_compensation=height_compensation)
+    session = replay_session(bytes(data))
+    return Replayed(session.tracker.track, session.mcu_serial, truth)
+
+
+def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(distance walked [m], height [m], up positive) at every pose of *track*."""
+    pos = track.positions
+    d = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pos[:, :2], axis=0).T))])
+    return d, -pos[:, 2]
