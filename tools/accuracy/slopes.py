@@ -56,15 +56,15 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per scenario, off and on: the height error at the top and at the end, mean and largest |·|."""
     lines = [f"{'scenario':<15}{'true top':>9}  {'height error at the top [m]':>31}  "
              f"{'height error at the end [m]':>31}",
-             f"{'':<15}{'[m]':>9}  {'off: mean (max|·|)':>16}{'on: mean (max|·|)':>16}  "
-             f"{'off: mean (max|·|)':>16}{'on: mean (max|·|)':>16}"]
+             f"{'':<15}{'[m]':>9}  {'off: mean (max)':>16}{'on: mean (max)':>17}  "
+             f"{'off: mean (max)':>16}{'on: mean (max)':>17}"]
     for scenario in dict.fromkeys(r["scenario"] for r in rows):
         cell = ""
         for key in ("top_error_m", "end_error_m"):
             for hc in (False, True):
                 v = np.array([r[key] for r in rows if r["scenario"] == scenario
                               and r["height_compensation"] == hc])
-                cell += f"{v.mean():>+8.3f} ({np.abs(v).max():.3f})"
+                cell += f"{v.mean():>+8.3f} ({np.abs(v).max():.3f}) "
             cell += "  "
         top = next(r["true_top_m"] for r in rows if r["scenario"] == scenario)
         lines.append(f"{scenario:<15}{top:>9.2f}  {cell}")
