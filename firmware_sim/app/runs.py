@@ -66,9 +66,17 @@ class RunSpec:
     height_compensation: bool = False
 
     @property
+    def walking_module(self) -> int | None:
+        """The module that walks a scenario (:attr:`module`, else the seed's own); None for a
+        recording, which carries its own module's sensors."""
+        if self.kind == "file":
+            return None
+        return self.seed if self.module is None else self.module
+
+    @property
     def key(self) -> tuple:
         """What rows are sorted by: source, module, seed, then the settings' values in their order."""
-        module = self.seed if self.module is None else self.module
+        module = self.seed if self.walking_module is None else self.walking_module
         return (self.kind, self.source, module, self.seed, *(v for _, v in self.settings))
 
 
@@ -207,8 +215,7 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
             truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
     t3 = time.perf_counter()
     row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
-                           "module": None if spec.kind == "file" else spec.seed if spec.module is None
-                           else spec.module}
+                           "module": spec.walking_module}
     row.update(spec.settings)
     row.update(_metrics(data, data.samples, truth))
     row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
