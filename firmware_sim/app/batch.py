@@ -38,6 +38,7 @@ bytes are the ones a replay of it alone writes.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from collections import deque
@@ -49,6 +50,7 @@ from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import Port
 from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.profiles import PROFILES, profile_for
 from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 from firmware_sim.transports.factory import MAX_MODULE, module_serial
 from protocol.extensions import FUSION_SETUP, height_compensation_on
@@ -96,7 +98,9 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                height_compensation: bool = False) -> ReplayResult:
     """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
 
-    *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``.
+    *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``; without its own ``ins`` noise
+    figures the module navigates with the source's sensor profile
+    (:func:`firmware_sim.nav.profiles.profile_for`).
     *progress(samples_done, samples_total_or_None)* is called every
     *progress_every* loops. *announce* hears about a slow first start (the compiled
     path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
@@ -108,6 +112,8 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
         raise ValueError(f"host must be one of {', '.join(HOSTS)}, not {host!r}")
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
+    if config.ins is None:
+        config = dataclasses.replace(config, ins=profile_for(source).ins)
     module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
     replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation)
@@ -279,6 +285,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height-compensation", action="store_true",
                    help="the replayed host turns the module's height compensation (function 0x25) on when "
                         "the first step packet arrives")
+    p.add_argument("--profile", choices=sorted(PROFILES), default=None,
+                   help="the sensor profile (the filter's noise figures) to navigate with; default: the "
+                        "recording's sensor (an OpenShoe walk: 3dm-gx2; a CSV: the module's own, mimu22bt), "
+                        "a simulated module's own for --scenario. Printed with the run")
     p.add_argument("--table", type=Path, metavar="CSV",
                    help="with --wire-dir: also write the summary, one row per run, as CSV")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
@@ -319,11 +329,15 @@ def main(args: argparse.Namespace) -> int:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2
     announce = None if args.quiet else say
+    profile = profile_for(source, args.profile)
+    if not args.quiet:
+        print(f"{name}: {profile.summary()}", file=sys.stderr)
     prepare_compiled_path(announce)  # before the clock: the time below is the replay's own
     t0 = time.monotonic()
     with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
                       unit_scale=True) as bar:
-        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(args.module))
+        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(args.module),
+                              ins=profile.ins)
         data = run_replay(source, config=config, progress=lambda done, _total: bar.update(done - bar.n),
                           announce=announce, host=args.host, height_compensation=args.height_compensation)
     args.wire.write_bytes(data)

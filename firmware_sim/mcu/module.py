@@ -55,6 +55,9 @@ class ModuleConfig:
     start_cycles: int = 0
     #: Front-end configuration (calibration, detector windows) for firmware_sim.nav.frontend; None = default.
     frontend: Any = None
+    #: The INS's noise figures for firmware_sim.nav (nav.config.InsNoise): a recording of another
+    #: sensor brings its own (nav.profiles); None = the module's own (firmware.md §4).
+    ins: Any = None
     #: Initial states written at boot, id → value (e.g. thresholds {0x19: 300000}).
     initial_states: dict[int, Any] = field(default_factory=dict)
     #: Run the firmware's compiled path (Firmware.compiled_path; numba for navigation): None = when

@@ -177,6 +177,28 @@ ALIGNMENT_SAMPLES = 256
 #: and no step would ever be sent.
 NOMINAL_PERIOD = F32(1e-3)
 
+
+@dataclass(frozen=True)
+class InsNoise:
+    """The filter's noise figures: σ_acc [m/s²] and σ_gyro [rad/s] of TIME_UPDATE, σ_zupt [m/s] of
+    ZUPT_UPDATE, each per loop cycle of *period* [s]. At a loop of dt the filter uses
+    Q = dt·period·σ² and R = σ²_zupt·period/dt: the figures' own at dt = period, the same noise per
+    second at any other rate. The module's own (:data:`MODULE_INS_NOISE`) are firmware.md §4's at
+    1 kHz; a recording of another sensor brings its own (:mod:`firmware_sim.nav.profiles`)."""
+
+    sigma_acc: float
+    sigma_gyro: float
+    sigma_zupt: float
+    period: float
+
+    def as_array(self) -> np.ndarray:
+        """The figures as the filter reads them: float32 [σ_acc, σ_gyro, σ_zupt, period]."""
+        return np.array([self.sigma_acc, self.sigma_gyro, self.sigma_zupt, self.period], dtype=np.float32)
+
+
+#: The module's own noise figures (firmware.md §4 default tuning, per 1 kHz loop cycle).
+MODULE_INS_NOISE = InsNoise(float(SIGMA_ACC), float(SIGMA_GYRO), float(SIGMA_ZUPT), float(NOMINAL_PERIOD))
+
 # ---------------------------------------------------------------------------------------------
 # HEIGHT_COMPENSATION (0x25, an emulator extension): the step's height from the ground's slope
 # (shared/spec/aids.md §5; docs/protocol-extensions.md)

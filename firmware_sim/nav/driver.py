@@ -108,9 +108,9 @@ def step_reset(s, iw):
 def navigation(s, iw):
     """MECHANIZATION, TIME_UPDATE, and ZUPT_UPDATE while ZUPT."""
     mechanization(s.u_k, s.dt[0], s.zaru[0] != 0, s.position, s.velocity, s.quaternion, iw.f_n)
-    time_update(iw.f_n, s.dt[0], s.zaru[0] != 0, s.p, iw.p_full)
+    time_update(iw.f_n, s.dt[0], s.zaru[0] != 0, s.p, iw.p_full, iw.noise)
     if s.zupt[0] != 0:
-        zupt_update(s.position, s.velocity, s.quaternion, s.p, iw.p_full, s.dt[0])
+        zupt_update(s.position, s.velocity, s.quaternion, s.p, iw.p_full, s.dt[0], iw.noise)
 
 
 @kernel

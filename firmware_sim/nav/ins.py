@@ -49,6 +49,7 @@ __all__ = [
     "InsWork",
     "height_work",
     "ins_work",
+    "new_ins_work",
     "P_IU",
     "P24_INDEX",
     "POS_YAW_TRIANGLE",
@@ -106,13 +107,14 @@ class InsWork(WorkRecord):
     alignment's running accelerometer sum over consecutive stationary samples;
     ``t_since_reset``, ``t_pending`` [s] and ``pending``: the step-wise reset's
     timers; ``p_full``: room for the full 9×9 P (the updates' scratch); ``t_swing`` [s]: the
-    time without ZUPT since the last reset (SWING_TIME at the next one).
+    time without ZUPT since the last reset (SWING_TIME at the next one); ``noise``: the filter's
+    noise figures (:meth:`~firmware_sim.nav.config.InsNoise.as_array`), set when the record is made.
     """
 
     FIELDS = (
         ("f_n", np.float32, (3,)), ("align_sum", np.float32, (3,)), ("align_count", np.int32, (1,)),
         ("t_since_reset", np.float32, (1,)), ("t_pending", np.float32, (1,)), ("pending", np.bool_, (1,)),
-        ("p_full", np.float32, (9, 9)), ("t_swing", np.float32, (1,)),
+        ("p_full", np.float32, (9, 9)), ("t_swing", np.float32, (1,)), ("noise", np.float32, (4,)),
     )
 
     def __repr__(self) -> str:
@@ -120,9 +122,16 @@ class InsWork(WorkRecord):
                 f"t_since_reset={float(self.t_since_reset[0]):.3f} s, pending={bool(self.pending[0])})")
 
 
+def new_ins_work(noise: cfg.InsNoise | None = None) -> InsWork:
+    """A fresh INS state whose filter uses *noise* (default: the module's own figures)."""
+    w = InsWork()
+    w.noise[:] = (noise or cfg.MODULE_INS_NOISE).as_array()
+    return w
+
+
 def ins_work(module: Module) -> InsWork:
-    """The module's INS state (created on first use)."""
-    return module.work("ins", InsWork)
+    """The module's INS state (created on first use, with ``module.config.ins`` noise figures)."""
+    return module.work("ins", lambda: new_ins_work(getattr(getattr(module, "config", None), "ins", None)))
 
 
 class HeightWork(WorkRecord):
@@ -348,10 +357,12 @@ def mechanization(u_k: np.ndarray, dt: np.float32, zaru: bool, pos: np.ndarray, 
     quat[:] = _normalise(quat_mul(quat, dq))
 
 
-def time_update(f_n: np.ndarray, dt: np.float32, zaru: bool, p45: np.ndarray, pm: np.ndarray) -> None:
+def time_update(f_n: np.ndarray, dt: np.float32, zaru: bool, p45: np.ndarray, pm: np.ndarray,
+                noise: np.ndarray) -> None:
     """TIME_UPDATE: P ← F P Fᵀ + Q, F = I + [[0, I, 0], [0, 0, −[f_n×]], [0, 0, 0]]·dt,
-    Q = dt·T₀·diag(0, σ²_acc I, σ²_gyro I) — dt²·diag(…) at the module's 1 kHz (T₀ = 1 ms),
-    the same noise per second at any other loop rate (nav_config). While ZARU position
+    Q = dt·T₀·diag(0, σ²_acc I, σ²_gyro I) with *noise* = [σ_acc, σ_gyro, σ_zupt, T₀]
+    (:class:`~firmware_sim.nav.config.InsNoise`) — dt²·diag(…) at the figures' own rate (the
+    module's: 1 kHz), the same noise per second at any other loop rate. While ZARU position
     and yaw do not grow (no δp' = δv coupling, no yaw noise)."""
     unpack_p(p45, pm)
     fm = np.eye(9, dtype=np.float32)
@@ -359,9 +370,9 @@ def time_update(f_n: np.ndarray, dt: np.float32, zaru: bool, p45: np.ndarray, pm
         fm[0, 3] = fm[1, 4] = fm[2, 5] = dt
     fm[3:6, 6:9] = -_skew(f_n) * dt
     pm = _mm(_mm(fm, pm), fm.T)
-    dt2 = dt * cfg.NOMINAL_PERIOD  # = dt² at the module's 1 kHz (see nav_config)
-    qa = dt2 * cfg.SIGMA_ACC * cfg.SIGMA_ACC
-    qg = dt2 * cfg.SIGMA_GYRO * cfg.SIGMA_GYRO
+    dt2 = dt * noise[3]  # = dt² at the figures' own rate (see nav_config.InsNoise)
+    qa = dt2 * noise[0] * noise[0]
+    qg = dt2 * noise[1] * noise[1]
     pm[3, 3] += qa
     pm[4, 4] += qa
     pm[5, 5] += qa
@@ -391,16 +402,16 @@ def inv3_sym(s: np.ndarray) -> np.ndarray:
     return np.array([[i00, i01, i02], [i01, i11, i12], [i02, i12, i22]], dtype=np.float32)
 
 
-_R_ZUPT = np.eye(3, dtype=np.float32) * (cfg.SIGMA_ZUPT * cfg.SIGMA_ZUPT)
+_EYE3 = np.eye(3, dtype=np.float32)
 
 
 def zupt_update(pos: np.ndarray, vel: np.ndarray, quat: np.ndarray, p45: np.ndarray, pm: np.ndarray,
-                dt: np.float32 = cfg.NOMINAL_PERIOD) -> None:
-    """ZUPT_UPDATE: pseudo-measurement v = 0 (H = [0 I 0], R = σ²_zupt·(T₀/dt)·I); correct p, v, q;
-    P ← P − K H P. R is σ²_zupt at the module's 1 kHz loop (T₀ = 1 ms), see nav_config."""
+                dt: np.float32, noise: np.ndarray) -> None:
+    """ZUPT_UPDATE: pseudo-measurement v = 0 (H = [0 I 0], R = σ²_zupt·(T₀/dt)·I, *noise* as
+    :func:`time_update`'s); correct p, v, q; P ← P − K H P. R is σ²_zupt at the figures' own rate."""
     unpack_p(p45, pm)
     ph = pm[:, 3:6]  # P Hᵀ (9×3)
-    k = _mm(ph, inv3_sym(pm[3:6, 3:6] + _R_ZUPT * (cfg.NOMINAL_PERIOD / dt)))
+    k = _mm(ph, inv3_sym(pm[3:6, 3:6] + _EYE3 * (noise[2] * noise[2]) * (noise[3] / dt)))
     dx = _mv(k, vel)  # estimated error of [p, v, θ] (estimate minus truth)
     pos[:] = pos - dx[0:3]
     vel[:] = vel - dx[3:6]
@@ -588,7 +599,7 @@ def ins_time_update(module: Module) -> None:
     """0x21: covariance propagation."""
     mem = module.memory
     w = ins_work(module)
-    time_update(w.f_n, mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.P], w.p_full)
+    time_update(w.f_n, mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.P], w.p_full, w.noise)
 
 
 @processing_function(ProcId.ZUPT_UPDATE, cycles=15000)
@@ -596,8 +607,9 @@ def ins_zupt_update(module: Module) -> None:
     """0x22: zero-velocity measurement update while ZUPT."""
     mem = module.memory
     if bool(mem[StateId.ZUPT]):
+        w = ins_work(module)
         zupt_update(mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
-                    ins_work(module).p_full, mem[StateId.DT][()])
+                    w.p_full, mem[StateId.DT][()], w.noise)
 
 
 @processing_function(ProcId.STEPWISE_SYSTEM_RESET, cycles=2500)

@@ -27,7 +27,6 @@ import math
 
 import numpy as np
 
-from . import config as cfg
 from . import ins
 from .jit import compiled_reference, kernel, objmode
 
@@ -39,8 +38,6 @@ _0 = np.float32(0.0)
 _1 = np.float32(1.0)
 _HALF = np.float32(0.5)
 _GRAVITY_N = ins._GRAVITY_N
-_R_ZUPT = ins._R_ZUPT
-_T0 = cfg.NOMINAL_PERIOD
 #: Row and column of each element of P's 45-element triangle, and each (row, column)'s element.
 _ROW = np.ascontiguousarray(ins.P_IU[0], dtype=np.int64)
 _COL = np.ascontiguousarray(ins.P_IU[1], dtype=np.int64)
@@ -200,7 +197,7 @@ def _finite_terms(f):
 
 
 @kernel
-def time_update(f_n, dt, zaru, p45, pm):
+def time_update(f_n, dt, zaru, p45, pm, noise):
     """TIME_UPDATE: P ← F P Fᵀ + Q (see :func:`ins.time_update`), F's products summed only
     where F can be other than +0, left to right as the reference sums all nine.
 
@@ -245,9 +242,9 @@ def time_update(f_n, dt, zaru, p45, pm):
             if dense or _negative_zero(s):
                 s = _fpft_in_full(f, pm, i, j)
             p45[_TRI[i, j]] = s
-    dt2 = dt * _T0  # dt·T₀ (= dt² at the module's 1 kHz)
-    qa = dt2 * cfg.SIGMA_ACC * cfg.SIGMA_ACC
-    qg = dt2 * cfg.SIGMA_GYRO * cfg.SIGMA_GYRO
+    dt2 = dt * noise[3]  # dt·T₀ (= dt² at the figures' own rate)
+    qa = dt2 * noise[0] * noise[0]
+    qg = dt2 * noise[1] * noise[1]
     for d in range(3, 9):
         if d < 6:
             p45[_DIAG[d]] += qa
@@ -256,14 +253,15 @@ def time_update(f_n, dt, zaru, p45, pm):
 
 
 @kernel
-def zupt_update(pos, vel, quat, p45, pm, dt=cfg.NOMINAL_PERIOD):
-    """ZUPT_UPDATE: pseudo-measurement v = 0, R = σ²_zupt·(T₀/dt)·I; correct p, v, q;
-    P ← P − K H P (see :func:`ins.zupt_update`), K one row at a time."""
+def zupt_update(pos, vel, quat, p45, pm, dt, noise):
+    """ZUPT_UPDATE: pseudo-measurement v = 0, R = σ²_zupt·(T₀/dt)·I with *noise* = [σ_acc, σ_gyro,
+    σ_zupt, T₀]; correct p, v, q; P ← P − K H P (see :func:`ins.zupt_update`), K one row at a time."""
     unpack_p(p45, pm)
-    scale = _T0 / dt
+    scale = noise[3] / dt
+    r = noise[2] * noise[2] * scale  # R's diagonal
+    z = _0 * scale  # R's off-diagonal: +0, as the reference's 0·scale
     i00, i01, i02, i11, i12, i22 = inv3_sym_upper(
-        pm[3, 3] + _R_ZUPT[0, 0] * scale, pm[3, 4] + _R_ZUPT[0, 1] * scale, pm[3, 5] + _R_ZUPT[0, 2] * scale,
-        pm[4, 4] + _R_ZUPT[1, 1] * scale, pm[4, 5] + _R_ZUPT[1, 2] * scale, pm[5, 5] + _R_ZUPT[2, 2] * scale)
+        pm[3, 3] + r, pm[3, 4] + z, pm[3, 5] + z, pm[4, 4] + r, pm[4, 5] + z, pm[5, 5] + r)
     v0, v1, v2 = vel[0], vel[1], vel[2]
     e6 = e7 = e8 = _0  # the attitude error
     for a in range(9):

@@ -80,6 +80,8 @@ class SimulatedSource:
         self.seed = seed
         self.module = seed if module is None else int(module)
         self.rate_hz = float(rate_hz)
+        #: The simulated sensor, as a sensor profile's name: the module's own array.
+        self.sensor = "mimu22bt"
         self.geometry = geometry
         cfg = self.config
         self.truth: GroundTruth = self.trajectory.sample(self.rate_hz, gravity=cfg.gravity)

@@ -26,6 +26,7 @@ class HoldLastSource:
     def __init__(self, source: SensorSource):
         self.source = source
         self.rate_hz = source.rate_hz
+        self.sensor = getattr(source, "sensor", None)
         self._last: RawSample | None = None
         #: sample index at which the wrapped source ran out (None while it has not)
         self.ended_at: int | None = None
@@ -73,6 +74,7 @@ class StartOnFirstRead:
     def __init__(self, source: SensorSource):
         self.source = source
         self.rate_hz = source.rate_hz
+        self.sensor = getattr(source, "sensor", None)
         self.start: int | None = None
 
     def read(self, index: int) -> RawSample | None:

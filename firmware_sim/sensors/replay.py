@@ -76,6 +76,7 @@ from .truth import is_signed_permutation, rotate
 __all__ = [
     "OPENSHOE_HEADER",
     "OPENSHOE_RATE_HZ",
+    "OPENSHOE_SENSOR",
     "Z_UP_TO_BOARD",
     "CSV_HEADER",
     "CSV_HEADER_MAG",
@@ -90,6 +91,8 @@ __all__ = [
 
 #: Nominal sample rate of the OpenShoe walk recordings [Hz].
 OPENSHOE_RATE_HZ = 250.0
+#: The sensor of the OpenShoe walk format (a sensor profile's name): the MicroStrain 3DM-GX2 logger's.
+OPENSHOE_SENSOR = "3dm-gx2"
 #: Body frame z up (sensor's own) → board frame z down: 180° about x.
 Z_UP_TO_BOARD = np.diag([1.0, -1.0, -1.0])
 #: The OpenShoe header line, whitespace-normalised.
@@ -160,6 +163,9 @@ class Recording:
     nr: np.ndarray | None = None
     #: A last line without a line end (a row cut off by the end of the recording), unparsed.
     partial_tail: str | None = None
+    #: The sensor that recorded it, as a sensor profile's name (firmware_sim.nav.profiles), when the
+    #: format tells; None: unknown (a replay then uses the module's own figures unless told).
+    sensor: str | None = None
 
     def __post_init__(self) -> None:
         n = len(self.t)
@@ -272,6 +278,7 @@ def _openshoe_recording(path: Path, cols: np.ndarray, tail: str | None) -> Recor
         format="openshoe",
         nr=cols[:, 7].astype(np.int64),
         partial_tail=tail,
+        sensor=OPENSHOE_SENSOR,
     )
 
 
@@ -460,6 +467,8 @@ class ReplaySource:
         self.recording = recording
         self.config = config
         self.rate_hz = float(recording.rate_hz)
+        #: The sensor profile's name of the recording's sensor (None: unknown).
+        self.sensor = recording.sensor
         self.dlpf_cfg = config.dlpf.cfg
         mount = np.asarray(geometry.mounting, dtype=np.float64)  # (chips, 3, 3)
         n, chips = len(recording), mount.shape[0]

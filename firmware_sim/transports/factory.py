@@ -46,6 +46,7 @@ from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.profiles import profile_for
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
 from protocol.commands import COMMAND_SETS
@@ -365,7 +366,7 @@ def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource |
         sensors = _sensors(settings, seed, identity)
     links = _links(settings, seed)
     config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace,
-                          mcu_serial=module_serial(identity))
+                          mcu_serial=module_serial(identity), ins=profile_for(sensors).ins)
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
     module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints, ready = open_endpoints(settings, links, index)

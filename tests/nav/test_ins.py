@@ -12,6 +12,8 @@ from firmware_sim.nav import ins
 from protocol.states import DP_INDEX, P_INDEX
 
 F32 = np.float32
+#: The module's own noise figures, as the filter reads them.
+NOISE = cfg.MODULE_INS_NOISE.as_array()
 G = float(cfg.GRAVITY)
 
 
@@ -53,8 +55,8 @@ def test_kernels_keep_float32_throughout():
     ins.mechanization(u_k, F32(0.001), False, pos, vel, q, f_n)
     fn = ins.quat_to_rot(q) @ u_k[0:3]
     assert fn.dtype == np.float32
-    ins.time_update(f_n, F32(0.001), False, p45, pm)
-    ins.zupt_update(pos, vel, q, p45, pm, F32(0.001))
+    ins.time_update(f_n, F32(0.001), False, p45, pm, NOISE)
+    ins.zupt_update(pos, vel, q, p45, pm, F32(0.001), NOISE)
     theta_init, theta_ground = np.zeros(2, F32), np.array([0.1, -0.02], F32)
     ins.slope_height_update(np.array([0.5, 0.1, -0.04], F32), vel, q, p45, pm, theta_ground)
     w = ins.HeightWork()
@@ -130,7 +132,7 @@ def test_zaru_freezes_heading_and_position():
     assert float(ins.rot_to_yaw(ins.quat_to_rot(q))) == 0.0
     p45 = p45_diag([1e-4] * 9)
     pm = np.zeros((9, 9), F32)
-    ins.time_update(f_n, F32(0.01), True, p45, pm)
+    ins.time_update(f_n, F32(0.01), True, p45, pm, NOISE)
     ins.unpack_p(p45, pm)
     assert pm[0, 0] == F32(1e-4) and pm[8, 8] == F32(1e-4)
     assert pm[3, 3] > F32(1e-4) and pm[6, 6] > F32(1e-4)
@@ -155,8 +157,8 @@ def test_zupts_remove_a_tilt_error():
     pm = np.zeros((9, 9), F32)
     for _ in range(2000):
         ins.mechanization(u, F32(0.001), False, pos, vel, q, f_n)
-        ins.time_update(f_n, F32(0.001), False, p45, pm)
-        ins.zupt_update(pos, vel, q, p45, pm, F32(0.001))
+        ins.time_update(f_n, F32(0.001), False, p45, pm, NOISE)
+        ins.zupt_update(pos, vel, q, p45, pm, F32(0.001), NOISE)
     rr = ins.quat_to_rot(q)
     assert math.atan2(rr[2, 1], rr[2, 2]) == pytest.approx(true_roll, abs=1e-3)
 

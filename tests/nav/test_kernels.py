@@ -22,6 +22,8 @@ from firmware_sim.nav import frontend as fe
 from firmware_sim.nav import frontend_kernels as fk
 from firmware_sim.nav import ins, jit
 from firmware_sim.nav import ins_kernels as ik
+from firmware_sim.nav.config import MODULE_INS_NOISE
+from firmware_sim.nav.profiles import PROFILES
 from firmware_sim.nav.records import WorkRecord
 from protocol.ids import NR_IMUS
 
@@ -315,23 +317,28 @@ def test_mechanization_kernel_matches_the_reference_bit_for_bit(compiled, u_k, d
                      np.zeros(3, np.float32))
 
 
+#: The filter's noise figures of every sensor profile (the module's own and the recordings').
+noise_figures = st.sampled_from([p.ins.as_array() for p in PROFILES.values()])
+
+
 @pytest.mark.parametrize("compiled", FORMS)
 @kernel_settings
-@given(f_n=f32_arrays(3, -30, 30), dt=dts(), zaru=st.booleans(), p45=covariances())
+@given(f_n=f32_arrays(3, -30, 30), dt=dts(), zaru=st.booleans(), p45=covariances(), noise=noise_figures)
 def test_time_update_kernel_matches_the_reference_with_zeroed_terms_and_specials(compiled, f_n, dt, zaru,
-                                                                                  p45):
+                                                                                  p45, noise):
     """P after F P Fᵀ + Q — the kernel sums F's non-zero terms only — equals the full product's,
     signed zeros included (P's position and yaw terms zeroed by a reset make many of them)."""
     assert_same_call(ins.time_update, form(ik.time_update, compiled), f_n, dt, zaru, p45,
-                     np.zeros((9, 9), np.float32), scratch=(4,))
+                     np.zeros((9, 9), np.float32), noise, scratch=(4,))
 
 
 @pytest.mark.parametrize("compiled", FORMS)
 @kernel_settings
-@given(p45=covariances(), pos=f32_arrays(3, -50, 50), vel=f32_arrays(3, -5, 5), quat=quaternions(), dt=dts())
-def test_zupt_update_kernel_matches_the_reference_bit_for_bit(compiled, p45, pos, vel, quat, dt):
+@given(p45=covariances(), pos=f32_arrays(3, -50, 50), vel=f32_arrays(3, -5, 5), quat=quaternions(), dt=dts(),
+       noise=noise_figures)
+def test_zupt_update_kernel_matches_the_reference_bit_for_bit(compiled, p45, pos, vel, quat, dt, noise):
     assert_same_call(ins.zupt_update, form(ik.zupt_update, compiled), pos, vel, quat, p45,
-                     np.zeros((9, 9), np.float32), dt)
+                     np.zeros((9, 9), np.float32), dt, noise)
 
 
 @st.composite
@@ -486,11 +493,12 @@ def test_a_nan_keeps_its_sign_and_payload_as_in_the_reference(compiled, data, na
     assert_same_call(ins.mechanization, form(ik.mechanization, compiled), u_k, dt, zaru, pos, vel, q,
                      np.zeros(3, np.float32), **strict)
     (p,) = _one_nan(data, nan, p45)
+    noise = MODULE_INS_NOISE.as_array()
     assert_same_call(ins.time_update, form(ik.time_update, compiled), finite(3, -10, 10), dt, zaru, p,
-                     np.zeros((9, 9), np.float32), scratch=(4,), **strict)
+                     np.zeros((9, 9), np.float32), noise, scratch=(4,), **strict)
     (pos,) = _one_nan(data, nan, finite(3))
     assert_same_call(ins.zupt_update, form(ik.zupt_update, compiled), pos, finite(3, -1, 1), quat, p45,
-                     np.zeros((9, 9), np.float32), dt, **strict)
+                     np.zeros((9, 9), np.float32), dt, noise, **strict)
     w = ins.InsWork()
     w.t_since_reset[0], w.pending[0] = F32(0.8), data.draw(st.booleans())
     pos, p = _one_nan(data, nan, finite(3), p45)
