@@ -304,6 +304,8 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--seeds and --table go with --wire-dir"
     if args.seeds is not None and args.scenario is None:
         return "--seeds goes with --scenario"
+    if getattr(args, "profile", None) is not None and args.wire_dir is not None:
+        return "--profile goes with --wire (one replay); many runs take each recording's own sensor profile"
     if args.module is not None and args.scenario is None:
         return "--module goes with --scenario: a recording carries its own module's sensors"
     return None

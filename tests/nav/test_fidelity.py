@@ -8,23 +8,24 @@ the horizontal closure error as % of the distance walked (sum of horizontal
 step lengths). The OpenShoe MATLAB implementation (GLRT detector, W = 3,
 γ = 0.3e5, σ_a = 0.01 m/s², σ_g = 0.1 °/s; filter σ_acc = 0.5 m/s²,
 σ_gyro = 0.5 °/s, σ_vel = 0.01 m/s; full-rate INS) gets the figures of
-``REFERENCE``. Ours must be within 0.05 percentage points of their mean and
-≤ 0.95 % on every walk, with one set of constants for all walks (no per-walk
-tuning). Measured with the constants of firmware_sim.nav.config (pure-Python
-reference path):
+``REFERENCE`` (tests/oracle reproduces them). The module navigates a walk with the
+recording's sensor profile (firmware_sim.nav.profiles: the 3DM-GX2's published
+noise figures), with the module's own detector and thresholds. Ours must close
+within 0.55 % on average and 0.80 % on every walk, with one set of constants for
+all walks (no per-walk tuning). Measured (pure-Python reference path):
 
     walk   ref %   ours %
-    2      0.903   0.939
-    3      0.770   0.787
-    30     0.620   0.667
-    31     0.502   0.385
-    32     0.352   0.361
-    33     0.548   0.432
-    mean   0.616   0.595
+    2      0.903   0.719
+    3      0.770   0.407
+    30     0.620   0.577
+    31     0.502   0.234
+    32     0.352   0.279
+    33     0.548   0.386
+    mean   0.616   0.434
 
-The detector thresholds were chosen on these walks (nav_config documents the
-sweep): TH_ZUPT 8172 (one window at γσ_a²) gives mean 0.57 % but 1.2 % on walk 2;
-16000 reproduces the reference's per-walk pattern.
+With the module's own noise figures scaled to 250 Hz (before the profiles) it was
+0.595 % on average and 0.939 % on walk 2: docs/accuracy.md has the trace against
+the oracle that found why.
 """
 
 from __future__ import annotations
@@ -42,8 +43,8 @@ from .helpers import closure_percent, reference_config, replay_track
 
 #: OpenShoe MATLAB reference closure errors [%] of the six shared walks.
 REFERENCE = {"2": 0.903, "3": 0.770, "30": 0.620, "31": 0.502, "32": 0.352, "33": 0.548}
-MEAN_TOLERANCE_PP = 0.05
-MAX_PER_WALK = 0.95
+MAX_MEAN = 0.55
+MAX_PER_WALK = 0.80
 
 
 @pytest.fixture(scope="module")
@@ -61,7 +62,7 @@ def walk_results():
 @pytest.mark.slow
 @pytest.mark.walks
 @requires_walks
-def test_every_walk_closes_within_0_95_percent(walk_results):
+def test_every_walk_closes_within_0_80_percent(walk_results):
     for w, (err, steps, dist) in walk_results.items():
         assert steps > 40 and 70 < dist < 90, (w, steps, dist)  # ~1 min loops of ~78 m
         assert err <= MAX_PER_WALK, f"walk {w}: {err:.3f} %"
@@ -70,10 +71,11 @@ def test_every_walk_closes_within_0_95_percent(walk_results):
 @pytest.mark.slow
 @pytest.mark.walks
 @requires_walks
-def test_mean_closure_matches_the_openshoe_reference(walk_results):
+def test_mean_closure_is_within_0_55_percent_and_no_worse_than_the_openshoe_reference(walk_results):
     ours = np.mean([walk_results[w][0] for w in WALK_IDS])
     ref = np.mean(list(REFERENCE.values()))
-    assert abs(ours - ref) <= MEAN_TOLERANCE_PP, f"ours {ours:.3f} % vs reference {ref:.3f} %"
+    assert ours <= MAX_MEAN, f"ours {ours:.3f} %"
+    assert ours <= ref, f"ours {ours:.3f} % vs reference {ref:.3f} %"
 
 
 @pytest.mark.slow

@@ -1,0 +1,93 @@
+"""The emulated firmware traced loop by loop, in the oracle's terms.
+
+:func:`trace_module` runs a module on a sensor source as a host that sent ``STEPWISE_DEAD_RECKONING``
+and acknowledges every packet, and records after every loop the detector's flags (ZUPT, ZARU), the
+INS's velocity, and the pose a host holds (the summed steps composed with the INS's pose since the
+last reset). :func:`align` finds the filter's delay against the sensors (N/2 samples of the
+detector's window, and the accelerometer's one-sample delay) by matching stance flags with the
+oracle's, so that index k of both refers to the same recorded sample.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav.profiles import profile_for
+from protocol.frames import StatePacket, build_command, build_packet_ack
+from protocol.ids import Command, StateId
+from protocol.stream import StreamDecoder
+
+__all__ = ["FirmwareTrace", "trace_module", "align"]
+
+
+@dataclass
+class FirmwareTrace:
+    """Per loop of the module (index = loop number): what the oracle is compared with."""
+
+    zupt: np.ndarray  #: (n,) bool
+    zaru: np.ndarray  #: (n,) bool
+    velocity: np.ndarray  #: (n, 3) [m/s], the INS's
+    position: np.ndarray  #: (n, 3) the host's pose: summed steps + the INS's position since the reset
+    heading: np.ndarray  #: (n,) [rad], likewise
+    reset: np.ndarray  #: (n,) bool, a step-wise reset in this loop
+    t1: np.ndarray  #: (n,) the detector's T1 [LSB_f²]
+    t2: np.ndarray  #: (n,) the detector's T2 [LSB_f²]
+    aligned: bool = False  #: True once :func:`align` shifted it onto the sensors' samples
+
+
+def _yaw(q: np.ndarray) -> float:
+    x, y, z, w = (float(c) for c in q)
+    return float(np.arctan2(2 * (x * y + z * w), 1 - 2 * (y * y + z * z)))
+
+
+def trace_module(source, profile: str | None = None) -> FirmwareTrace:
+    """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
+    navigates with the sensor profile *profile* (default: the source's, as a replay does)."""
+    cfg = ModuleConfig(rate_hz=float(source.rate_hz), ins=profile_for(source, profile).ins)
+    module = build_module(cfg, sensors=source)
+    port = module.bt.port
+    port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
+    decoder = StreamDecoder()
+    mem = module.memory
+    n = len(source)
+    zupt, zaru, reset = (np.zeros(n, bool) for _ in range(3))
+    vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
+    heading, t1, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
+    base_p, base_chi = np.zeros(3), 0.0
+    for k in range(n):
+        module.step()
+        for frame in decoder.feed(port.host_read()):
+            if isinstance(frame, StatePacket):
+                port.host_write(build_packet_ack(frame.number))
+        zupt[k] = mem.flag(StateId.ZUPT)
+        zaru[k] = mem.flag(StateId.ZARU)
+        t1[k] = float(mem[StateId.T1S2F])
+        t2[k] = float(mem[StateId.T2S2F])
+        vel[k] = mem[StateId.VELOCITY]
+        reset[k] = mem.flag(StateId.FILTER_RESET_FLAG)
+        if reset[k]:
+            dx = np.asarray(mem[StateId.DX], dtype=np.float64)
+            c, s = np.cos(base_chi), np.sin(base_chi)
+            base_p = base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
+            base_chi += float(dx[3])
+        p = np.asarray(mem[StateId.POSITION], dtype=np.float64)
+        c, s = np.cos(base_chi), np.sin(base_chi)
+        pos[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
+        heading[k] = base_chi + _yaw(mem[StateId.QUATERNION])
+    return FirmwareTrace(zupt, zaru, vel, pos, heading, reset, t1, t2)
+
+
+def align(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64) -> tuple[FirmwareTrace, int]:
+    """Shift *trace* back by the lag (loops) that best matches its ZUPT flags with *oracle_stance*;
+    the shifted trace's index k is the recorded sample k (the last *lag* samples are lost)."""
+    n = min(len(trace.zupt), len(oracle_stance))
+    best = max(range(max_lag + 1),
+               key=lambda lag: int(np.sum(trace.zupt[lag:n] == oracle_stance[:n - lag])))
+    shifted = FirmwareTrace(*(getattr(trace, f)[best:] for f in
+                              ("zupt", "zaru", "velocity", "position", "heading", "reset", "t1", "t2")),
+                            aligned=True)
+    return shifted, best
