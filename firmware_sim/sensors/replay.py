@@ -53,6 +53,18 @@ The magnetometer (gauss → µT) goes the same way and then into the AK8975's
 own axes (``config.mag.axes``); a missing reading holds the previous one. The
 DLPF setting is ignored (the recording is already filtered); the temperature
 register holds the reference temperature of the configuration.
+
+**Timing.** A recording holds specific force and rate measured at the same instants. The
+firmware's READ_INERTIAL delays the accelerometer triple by one sample (to match the MPU9150
+gyro's filter delay), and its MECHANIZATION rotates the specific force with the attitude before
+this loop's rate is applied: the attitude it uses is half a sample behind the specific force. On
+the module's own 1 kHz data that is 0.5 ms; a 250 Hz recording served as recorded makes the
+pairing half a sample (2 ms) early, served one sample ahead half a sample late — on an error-free
+simulated 100 m walk replayed at 250 Hz, ±0.26 m in height and 0.03–0.15 m in length either way.
+So the accelerometer is served **half a sample ahead** (the mean of each sample and the next, the
+last kept): after the firmware's delay each rate is paired with the specific force at the middle
+of its own interval, and that walk ends within 0.03 m of the truth
+(tests/sensors/test_replay_timing.py; docs/accuracy.md).
 """
 
 from __future__ import annotations
@@ -440,6 +452,13 @@ def load_recording(path: str | Path) -> Recording:
 # replay
 
 
+def _half_sample_ahead(v: np.ndarray) -> np.ndarray:
+    """*v* (n, …) half a sample later in time: the mean of each sample and the next (the last kept)."""
+    out = v.copy()
+    out[:-1] = 0.5 * (v[:-1] + v[1:])
+    return out
+
+
 def _to_chips(mount: np.ndarray, v: np.ndarray, *factors: np.ndarray) -> np.ndarray:
     """(n, chips, 3): each board vector *v[n]* in each chip's axes, ``mount[k] @ v[n]``.
 
@@ -475,7 +494,7 @@ class ReplaySource:
         acc = _to_chips(mount, recording.board_acc_g())
         gyro = _to_chips(mount, recording.board_gyro())
         imu = np.empty((n, chips, 6), dtype=np.int16)
-        imu[..., :3] = accel_to_lsb(acc, config)
+        imu[..., :3] = accel_to_lsb(_half_sample_ahead(acc), config)
         imu[..., 3:] = gyro_to_lsb(gyro, config)
         self.imu = imu
         # magnetometer: gauss → µT; a missing reading holds the previous one (0 before the first)

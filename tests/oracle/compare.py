@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .firmware_trace import FirmwareTrace, align, trace_module
+from .firmware_trace import FirmwareTrace, align, best_lag, trace_module
 from .reference_ins import ReferenceRun, run_reference, stance_phases
 
 __all__ = ["WalkComparison", "compare_walk", "closure_pct"]
@@ -38,7 +38,7 @@ def closure_pct(position: np.ndarray, stance: np.ndarray) -> tuple[float, float]
 @dataclass
 class WalkComparison:
     name: str
-    lag: int  #: loops the firmware's filter runs behind the sensors
+    lag: int  #: the lag (loops) at which the firmware's stance flags match the oracle's best
     agreement: float  #: fraction of samples with the same stance decision
     oracle_only: int  #: samples stationary for the oracle only
     firmware_only: int  #: samples stationary for the firmware only
@@ -93,7 +93,9 @@ def compare_walk(path: str | Path) -> WalkComparison:
 
     rec = load_recording(path)
     oracle = run_reference(rec.acc_g, rec.gyro, rec.rate_hz)
-    fw, lag = align(trace_module(ReplaySource(rec)), oracle.stance)
+    trace = trace_module(ReplaySource(rec))
+    lag = best_lag(trace, oracle.stance)
+    fw = align(trace)
     n = len(fw.zupt)
     o_st, f_st = oracle.stance[:n], fw.zupt
     o_ph, f_ph = stance_phases(o_st), stance_phases(f_st)

@@ -3,9 +3,9 @@
 :func:`trace_module` runs a module on a sensor source as a host that sent ``STEPWISE_DEAD_RECKONING``
 and acknowledges every packet, and records after every loop the detector's flags (ZUPT, ZARU), the
 INS's velocity, and the pose a host holds (the summed steps composed with the INS's pose since the
-last reset). :func:`align` finds the filter's delay against the sensors (N/2 samples of the
-detector's window, and the accelerometer's one-sample delay) by matching stance flags with the
-oracle's, so that index k of both refers to the same recorded sample.
+last reset). :func:`align` shifts it by the filter's delay against the sensors (N/2 samples of the
+detector's window, and the accelerometer's one-sample delay), so that index k of the trace and of
+the oracle refer to the same recorded sample; :func:`best_lag` checks that delay on the stance flags.
 """
 
 from __future__ import annotations
@@ -15,13 +15,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import config as nav_cfg
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import profile_for
 from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
-__all__ = ["FirmwareTrace", "trace_module", "align"]
+__all__ = ["FirmwareTrace", "trace_module", "align", "best_lag", "DESIGN_LAG"]
 
 
 @dataclass
@@ -81,13 +82,20 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
     return FirmwareTrace(zupt, zaru, vel, pos, heading, reset, t1, t2)
 
 
-def align(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64) -> tuple[FirmwareTrace, int]:
-    """Shift *trace* back by the lag (loops) that best matches its ZUPT flags with *oracle_stance*;
-    the shifted trace's index k is the recorded sample k (the last *lag* samples are lost)."""
+#: Loops the filter runs behind the sensors by design: the middle of the detector's N-sample
+#: buffer, and the accelerometer's one-sample delay (firmware.md §3).
+DESIGN_LAG = nav_cfg.N // 2 + 1
+
+
+def best_lag(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64) -> int:
+    """The lag (loops) at which the trace's ZUPT flags agree best with *oracle_stance*."""
     n = min(len(trace.zupt), len(oracle_stance))
-    best = max(range(max_lag + 1),
-               key=lambda lag: int(np.sum(trace.zupt[lag:n] == oracle_stance[:n - lag])))
-    shifted = FirmwareTrace(*(getattr(trace, f)[best:] for f in
-                              ("zupt", "zaru", "velocity", "position", "heading", "reset", "t1", "t2")),
-                            aligned=True)
-    return shifted, best
+    return max(range(max_lag + 1), key=lambda lag: int(np.sum(trace.zupt[lag:n] == oracle_stance[:n - lag])))
+
+
+def align(trace: FirmwareTrace, lag: int = DESIGN_LAG) -> FirmwareTrace:
+    """*trace* shifted back by *lag* loops: index k is then the recorded sample k (the last *lag*
+    samples are lost)."""
+    return FirmwareTrace(*(getattr(trace, f)[lag:] for f in
+                           ("zupt", "zaru", "velocity", "position", "heading", "reset", "t1", "t2")),
+                         aligned=True)

@@ -10,6 +10,7 @@ import pytest
 from tests.conftest import WALK_IDS, requires_walks, walk_path
 from tools.accuracy import main
 from tools.accuracy.slopes import slope_rows, summary_lines
+from tools.accuracy.speeds import SPEEDS_KMH, speed_run
 from tools.accuracy.walks import VARIANTS, table_lines, walk_results
 
 
@@ -34,7 +35,25 @@ def test_leave_one_out_needs_two_walks():
         walk_results(["only_one.txt"], workers=0)
 
 
+def test_an_error_free_module_walks_100_m_at_5_km_h_to_within_a_decimetre():
+    """At its own 1 kHz, the length is right to 0.05 % and the height to 0.1 % (the mechanization's
+    half-sample skew: docs/accuracy.md)."""
+    row = speed_run((5.0, 1000.0, None))
+    assert row["seed"] == "ideal" and row["steps"] >= 60
+    assert abs(row["along"]) < 0.05 and abs(row["across"]) < 0.05 and abs(row["height"]) < 0.1
+
+
+def test_the_speed_table_has_a_row_per_speed_and_rate(tmp_path):
+    code, text = run(["speeds", "--seeds", "1:2", "--workers", "0", "--out", str(tmp_path)])
+    assert code == 0
+    lines = text.splitlines()
+    assert "error-free" in lines[0] and len(lines) == 2 + 2 * len(SPEEDS_KMH)
+    assert lines[1].split()[:3] == ["3", "km/h", "1000"] and lines[-2].split()[:2] == ["run", "250"]
+    assert (tmp_path / "speeds.csv").is_file()
+
+
 @pytest.mark.parametrize("argv", [["walks", "no_such_walk.txt", "other.txt"], ["slopes", "--seeds", "5:1"],
+                                  ["speeds", "--seeds", "x"],
                                   ["slopes", "--workers", "-1"]])
 def test_bad_arguments_exit_2(argv, capsys):
     code, _ = run(argv)

@@ -27,7 +27,10 @@ def build_parser() -> argparse.ArgumentParser:
     s = sub.add_parser("slopes",
                        help="simulated ramps up and down, height error with and without compensation")
     s.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated modules (default 1:6, five)")
-    for q in (w, s):
+    v = sub.add_parser("speeds", help="simulated 100 m straight at 3–8 km/h and running, at 1 kHz and "
+                                      "250 Hz: the error-free module's and the modules' end errors")
+    v.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated modules (default 1:6, five)")
+    for q in (w, s, v):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -65,15 +68,11 @@ def _walks(args: argparse.Namespace, out) -> int:
 
 
 def _slopes(args: argparse.Namespace, out) -> int:
-    from firmware_sim.app.runs import parse_seeds
-
     from . import slopes
     from .figure import plot_heights
 
-    try:
-        seeds = parse_seeds(args.seeds)
-    except ValueError as e:
-        print(f"{PROG}: {e}", file=sys.stderr)
+    seeds = _seeds(args)
+    if seeds is None:
         return 2
     rows = slopes.slope_rows(seeds, workers=args.workers)
     for line in slopes.summary_lines(rows):
@@ -83,6 +82,30 @@ def _slopes(args: argparse.Namespace, out) -> int:
     png = plot_heights(args.out / "height-ramp.png", f"ramp_6 (6.1°, 50 m up and back), module {seeds[0]}",
                        off, on, truth=_true_profile("ramp_6"))
     print(f"results: {_write_csv(args.out / 'slopes.csv', rows)}, {png}", file=out)
+    return 0
+
+
+def _seeds(args: argparse.Namespace) -> list[int] | None:
+    """The seeds of ``--seeds``; None (said on stderr) when they do not parse."""
+    from firmware_sim.app.runs import parse_seeds
+
+    try:
+        return parse_seeds(args.seeds)
+    except ValueError as e:
+        print(f"{PROG}: {e}", file=sys.stderr)
+        return None
+
+
+def _speeds(args: argparse.Namespace, out) -> int:
+    from . import speeds
+
+    seeds = _seeds(args)
+    if seeds is None:
+        return 2
+    rows = speeds.speed_rows(seeds, workers=args.workers)
+    for line in speeds.summary_lines(rows):
+        print(line, file=out)
+    print(f"results: {_write_csv(args.out / 'speeds.csv', rows)}", file=out)
     return 0
 
 
@@ -100,4 +123,4 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.workers < 0:
         print(f"{PROG}: --workers must be ≥ 0, got {args.workers}", file=sys.stderr)
         return 2
-    return _walks(args, out) if args.experiment == "walks" else _slopes(args, out)
+    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds}[args.experiment](args, out)

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Replayed", "replay_track", "height_profile"]
+__all__ = ["Replayed", "replay_track", "height_profile", "map_runs"]
 
 
 @dataclass
@@ -38,6 +38,17 @@ def replay_track(source: Any, height_compensation: bool, module: int | None = No
                       height_compensation=height_compensation)
     session = replay_session(bytes(data))
     return Replayed(session.tracker.track, session.mcu_serial, truth)
+
+
+def map_runs(run: Any, jobs: list, workers: int) -> list:
+    """``[run(job) for job in jobs]``, here one after the other (*workers* 0) or on a local Dask
+    cluster of *workers* processes, in the jobs' order either way."""
+    if workers == 0 or len(jobs) == 1:
+        return [run(j) for j in jobs]
+    from firmware_sim.app import cluster
+
+    with cluster.open_client(workers) as client:
+        return client.gather(client.map(run, jobs, pure=False))
 
 
 def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from .runs import height_profile, replay_track
+from .runs import height_profile, map_runs, replay_track
 
 __all__ = ["RAMPS", "FLAT", "slope_run", "slope_rows", "summary_lines"]
 
@@ -44,12 +44,7 @@ def slope_rows(seeds: Sequence[int], workers: int = 2, scenarios: Sequence[str] 
                ) -> list[dict[str, Any]]:
     """Every scenario × seed × (off, on), in that order."""
     jobs = [(s, seed, hc) for s in scenarios for seed in seeds for hc in (False, True)]
-    if workers == 0:
-        return [slope_run(j) for j in jobs]
-    from firmware_sim.app import cluster
-
-    with cluster.open_client(workers) as client:
-        return client.gather(client.map(slope_run, jobs, pure=False))
+    return map_runs(slope_run, jobs, workers)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -16,7 +16,7 @@ from typing import Any
 
 import numpy as np
 
-from .runs import Replayed, replay_track
+from .runs import Replayed, map_runs, replay_track
 
 __all__ = ["VARIANTS", "WalkResult", "replay_walk", "walk_results", "table_lines"]
 
@@ -43,15 +43,6 @@ class WalkResult:
     tracks: dict[str, Any]  #: variant → the (corrected) Track
 
 
-def _map(jobs: list, workers: int) -> list:
-    if workers == 0 or len(jobs) == 1:
-        return [replay_walk(j) for j in jobs]
-    from firmware_sim.app import cluster
-
-    with cluster.open_client(workers) as client:
-        return client.gather(client.map(replay_walk, jobs, pure=False))
-
-
 def walk_results(paths: Sequence[str | Path], workers: int = 2) -> list[WalkResult]:
     """Replay every recording both ways and correct each with the others' drift calibration."""
     from hostlib.drift import calibrate
@@ -59,7 +50,7 @@ def walk_results(paths: Sequence[str | Path], workers: int = 2) -> list[WalkResu
     if len(paths) < 2:
         raise ValueError("leave-one-out drift correction needs at least two walks")
     jobs = [(str(p), hc) for p in paths for hc in (False, True)]
-    replayed = dict(zip(jobs, _map(jobs, workers), strict=True))
+    replayed = dict(zip(jobs, map_runs(replay_walk, jobs, workers), strict=True))
     out = []
     for i, path in enumerate(map(str, paths)):
         tracks: dict[str, Any] = {}
