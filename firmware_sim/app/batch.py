@@ -38,7 +38,6 @@ bytes are the ones a replay of it alone writes.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 import time
 from collections import deque
@@ -100,7 +99,7 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
 
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``; without its own ``ins`` noise
     figures the module navigates with the source's sensor profile
-    (:func:`firmware_sim.nav.profiles.profile_for`).
+    (:func:`firmware_sim.nav.profiles.profile_for`, :meth:`~.SensorProfile.configure`).
     *progress(samples_done, samples_total_or_None)* is called every
     *progress_every* loops. *announce* hears about a slow first start (the compiled
     path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
@@ -113,7 +112,7 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
     if config.ins is None:
-        config = dataclasses.replace(config, ins=profile_for(source).ins)
+        config = profile_for(source).configure(config)
     module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
     replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation)
@@ -338,8 +337,8 @@ def main(args: argparse.Namespace) -> int:
     t0 = time.monotonic()
     with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
                       unit_scale=True) as bar:
-        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(args.module),
-                              ins=profile.ins)
+        config = profile.configure(ModuleConfig(rate_hz=float(source.rate_hz),
+                                                mcu_serial=module_serial(args.module)))
         data = run_replay(source, config=config, progress=lambda done, _total: bar.update(done - bar.n),
                           announce=announce, host=args.host, height_compensation=args.height_compensation)
     args.wire.write_bytes(data)

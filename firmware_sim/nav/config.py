@@ -135,6 +135,11 @@ class FrontendConfig:
 
     calibration: np.ndarray = field(default_factory=_default_calibration)
     bias: np.ndarray = field(default_factory=lambda: np.zeros(6, dtype=np.int32))
+    #: BIASEST's a-priori variance of the gyro bias [(rad/s)²] and its growth per loop cycle: the
+    #: module's own (BIAS_P0, BIAS_Q) for its uncalibrated MPU9150s; 0 and 0 for a sensor whose
+    #: rates are already bias-compensated (nav.profiles), which it then leaves as they are.
+    gyro_bias_p0: float = float(BIAS_P0)
+    gyro_bias_q: float = float(BIAS_Q)
 
     def __post_init__(self) -> None:
         cal = np.asarray(self.calibration)

@@ -77,7 +77,7 @@ def front_end(s, fw):
     s.zupt[0] = out[2] != 0
     s.zaru[0] = out[3] != 0
     s.t_int_k[0] = out[4]
-    biasest(s.u_int_k, s.zaru[0] != 0, fw.gyro_bias, fw.bias_p)
+    biasest(s.u_int_k, s.zaru[0] != 0, fw.gyro_bias, fw.bias_p, fw.bias_q)
     convcomp(s.u_int_k, np.int64(s.t_int_k[0]), fw.gyro_bias, fw.t_prev, s.u_k, s.dt)
 
 

@@ -105,6 +105,7 @@ class FrontendWork(WorkRecord):
         ("zupt_cd", np.uint32, (4,)),
         ("gyro_bias", np.float32, (3,)),  # BIASEST estimate [rad/s]
         ("bias_p", np.float32, (1,)),
+        ("bias_q", np.float32, (1,)),  # BIASEST's growth of bias_p per loop cycle
         ("t_prev", np.uint32, (1,)),  # CONVCOMP's previous T_INT_K
         ("stat_out", np.uint32, (5,)),  # STATDET's T1, T2, ZUPT, ZARU, T_INT_K
     )
@@ -114,7 +115,8 @@ class FrontendWork(WorkRecord):
         self.config = config
         self.cal[...] = config.calibration  # (chips, 2, 3, 3)
         self.bias[...] = config.bias  # (6,)
-        self.bias_p[0] = cfg.BIAS_P0
+        self.bias_p[0] = config.gyro_bias_p0
+        self.bias_q[0] = config.gyro_bias_q
 
     def __repr__(self) -> str:
         return f"FrontendWork(N={cfg.N}, M={cfg.M}, newest={int(self.newest[0])})"
@@ -252,9 +254,9 @@ def statdet(u_new: np.ndarray, ts: int, buf32: np.ndarray, buf16: np.ndarray, no
     out[4] = tsbuf[k]
 
 
-def biasest(u_int_k: np.ndarray, zaru: bool, gyro_bias: np.ndarray, p: np.ndarray) -> None:
-    """BIASEST: P += Q; while ZARU: K = P/(P+R), b += K(ω − b), P *= 1 − K (float32)."""
-    p[0] = p[0] + cfg.BIAS_Q
+def biasest(u_int_k: np.ndarray, zaru: bool, gyro_bias: np.ndarray, p: np.ndarray, q: np.ndarray) -> None:
+    """BIASEST: P += Q (*q*[0]); while ZARU: K = P/(P+R), b += K(ω − b), P *= 1 − K (float32)."""
+    p[0] = p[0] + q[0]
     if zaru:
         omega = u_int_k[3:6].astype(np.float32) * cfg.GYRO_SCALE
         k = p[0] / (p[0] + cfg.BIAS_R)
@@ -312,7 +314,7 @@ def frontend_biasest(module: Module) -> None:
     """0x12: gyro bias estimation while the foot is perfectly still (ZARU)."""
     w = frontend_work(module)
     mem = module.memory
-    biasest(mem[StateId.U_INT_K], bool(mem[StateId.ZARU]), w.gyro_bias, w.bias_p)
+    biasest(mem[StateId.U_INT_K], bool(mem[StateId.ZARU]), w.gyro_bias, w.bias_p, w.bias_q)
 
 
 @processing_function(ProcId.FRONTEND_CONVCOMP, cycles=600)

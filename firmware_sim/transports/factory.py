@@ -365,8 +365,9 @@ def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource |
     if sensors is None:
         sensors = _sensors(settings, seed, identity)
     links = _links(settings, seed)
-    config = ModuleConfig(rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace,
-                          mcu_serial=module_serial(identity), ins=profile_for(sensors).ins)
+    config = profile_for(sensors).configure(ModuleConfig(
+        rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace,
+        mcu_serial=module_serial(identity)))
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
     module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints, ready = open_endpoints(settings, links, index)

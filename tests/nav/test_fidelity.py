@@ -10,19 +10,20 @@ step lengths). The OpenShoe MATLAB implementation (GLRT detector, W = 3,
 σ_gyro = 0.5 °/s, σ_vel = 0.01 m/s; full-rate INS) gets the figures of
 ``REFERENCE`` (tests/oracle reproduces them). The module navigates a walk with the
 recording's sensor profile (firmware_sim.nav.profiles: the 3DM-GX2's published
-noise figures) and the recording served time-centred (sensors/replay.py, Timing),
+noise figures, its rates bias-compensated) and the recording served time-centred
+(sensors/replay.py, Timing),
 with the module's own detector and thresholds. Ours must close
 within 0.55 % on average and 0.80 % on every walk, with one set of constants for
 all walks (no per-walk tuning). Measured (pure-Python reference path):
 
     walk   ref %   ours %
-    2      0.903   0.717
-    3      0.770   0.454
-    30     0.620   0.607
-    31     0.502   0.179
-    32     0.352   0.260
-    33     0.548   0.339
-    mean   0.616   0.426
+    2      0.903   0.483
+    3      0.770   0.535
+    30     0.620   0.384
+    31     0.502   0.238
+    32     0.352   0.087
+    33     0.548   0.316
+    mean   0.616   0.340
 
 With the module's own noise figures scaled to 250 Hz (before the profiles) it was
 0.595 % on average and 0.939 % on walk 2: docs/accuracy.md has the trace against

@@ -222,10 +222,10 @@ def test_convcomp_dt_wraps_modulo_2_32_and_bias_is_removed():
 def test_biasest_converges_to_a_constant_gyro_offset_only_while_zaru():
     w = fe.FrontendWork()
     offset = (np.array([0, 0, 0, 16, -33, 8]) * Q14_ONE).astype(np.int32)  # ≈ 1, −2, 0.5 °/s
-    fe.biasest(offset, False, w.gyro_bias, w.bias_p)
+    fe.biasest(offset, False, w.gyro_bias, w.bias_p, w.bias_q)
     assert not w.gyro_bias.any()
     for _ in range(200):
-        fe.biasest(offset, True, w.gyro_bias, w.bias_p)
+        fe.biasest(offset, True, w.gyro_bias, w.bias_p, w.bias_q)
     expect = np.radians(offset[3:6] / Q14_ONE / 16.4)
     np.testing.assert_allclose(w.gyro_bias, expect, rtol=1e-3)
     assert w.gyro_bias.dtype == np.float32 and w.bias_p.dtype == np.float32

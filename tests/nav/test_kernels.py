@@ -263,7 +263,8 @@ def test_isqrt64_kernel_is_the_floor_root_over_all_of_uint64(compiled, x):
 @given(u_int_k=ints(np.int32, (6,)), zaru=st.booleans(), bias=f32_arrays(3, -0.1, 0.1),
        p=f32_arrays(1, 0, 1e-3))
 def test_biasest_kernel_matches_the_reference(compiled, u_int_k, zaru, bias, p):
-    assert_same_call(fe.biasest, form(fk.biasest, compiled), u_int_k, zaru, bias, p)
+    assert_same_call(fe.biasest, form(fk.biasest, compiled), u_int_k, zaru, bias, p,
+                     np.array([cfg.BIAS_Q], np.float32))
 
 
 @pytest.mark.parametrize("compiled", FORMS)
@@ -508,7 +509,8 @@ def test_a_nan_keeps_its_sign_and_payload_as_in_the_reference(compiled, data, na
                      **strict)
     gyro_bias, bias_p = _one_nan(data, nan, finite(3, -0.1, 0.1), np.array([1e-4], np.float32))
     u_int_k = data.draw(ints(np.int32, (6,)))
-    assert_same_call(fe.biasest, form(fk.biasest, compiled), u_int_k, True, gyro_bias, bias_p, **strict)
+    assert_same_call(fe.biasest, form(fk.biasest, compiled), u_int_k, True, gyro_bias, bias_p,
+                     np.array([cfg.BIAS_Q], np.float32), **strict)
     assert_same_call(fe.convcomp, form(fk.convcomp, compiled), u_int_k, 7, gyro_bias,
                      np.array([3], np.uint32), np.zeros(6, np.float32), np.zeros((), np.float32), **strict)
     x = np.array(nan, np.uint32).view(np.float32)[()]

@@ -64,7 +64,8 @@ def test_the_profile_changes_the_navigation_and_is_printed_with_the_run(tmp_path
     assert cli.main(["replay", str(path), "--wire", str(own)]) == 0
     assert "sensor profile mimu22bt" in capsys.readouterr().err
     assert cli.main(["replay", str(path), "--wire", str(gx2), "--profile", "3dm-gx2"]) == 0
-    assert "sensor profile 3dm-gx2: σ_acc 0.5 m/s²" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert "sensor profile 3dm-gx2: σ_acc 0.5 m/s²" in err and "no gyro bias estimate" in err
     assert own.read_bytes()[:4] == gx2.read_bytes()[:4]  # the same command ack
     assert own.read_bytes() != gx2.read_bytes()
 
@@ -81,3 +82,17 @@ def test_an_openshoe_walk_is_a_3dm_gx2_recording():
     rec = load_recording(walk_path("2"))
     assert rec.sensor == "3dm-gx2"
     assert profile_for(ReplaySource(rec)) is GX2_PROFILE
+
+
+def test_a_3dm_gx2_recording_is_taken_as_bias_compensated_and_the_module_still_estimates_its_own():
+    """BIASEST leaves a 3DM-GX2 profile's rates as they are while the foot is still; the module's
+    own profile estimates the offset of its MPU9150s, as before."""
+    from firmware_sim.nav import frontend as fe
+
+    offset = np.array([0, 0, 0, 16400, -8200, 4100], dtype=np.int32) * 16384  # 1, −0.5, 0.25 °/s
+    for profile, moves in ((GX2_PROFILE, False), (MODULE_PROFILE, True)):
+        module = build_module(profile.configure(ModuleConfig()))
+        w = fe.frontend_work(module)
+        for _ in range(200):
+            fe.biasest(offset, True, w.gyro_bias, w.bias_p, w.bias_q)
+        assert bool(np.any(w.gyro_bias != 0)) == moves, profile.name

@@ -9,7 +9,8 @@ stance that overlaps it most, and reports:
 * the steps: the horizontal displacement and heading change from one stance's end to the next;
 * the height: where the drift builds up (per step, and the end's).
 
-``python -m tests.oracle.compare`` prints the table for the shared walks.
+``python -m tests.oracle.compare [--png DIR]`` prints the table for the shared walks and draws a
+picture of each: the tracks, the height over time, and the stance flags against the oracle's.
 """
 
 from __future__ import annotations
@@ -126,14 +127,63 @@ def compare_walk(path: str | Path) -> WalkComparison:
                           step_dz, (o_closure[0], o_closure[1], f_closure[0], f_closure[1]), oracle, fw)
 
 
-def main() -> None:  # pragma: no cover - a report for a person
+def plot_walk(c: WalkComparison, path: Path, rate_hz: float = 250.0) -> Path:  # pragma: no cover - a picture
+    """One walk's picture: both tracks in plan, their height over time, and ten seconds of the stance
+    flags (the firmware's under the oracle's)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    n = len(c.firmware.zupt)
+    t = np.arange(n) / rate_hz
+    fig = plt.figure(figsize=(11, 8))
+    ax = fig.add_subplot(2, 2, (1, 3))
+    tracks = ((c.oracle.position[:n], "reference oracle"), (c.firmware.position, "emulated firmware"))
+    for pos, label in tracks:
+        ax.plot(pos[:, 1], pos[:, 0], label=label)
+    ax.plot([0], [0], "ko", label="start = true end")
+    ax.set_xlabel("east [m]")
+    ax.set_ylabel("north [m]")
+    ax.set_aspect("equal")
+    ax.legend(loc="best")
+    ax.set_title(f"{c.name}: closure {c.closure[0]:.3f} % (oracle), {c.closure[2]:.3f} % (firmware)")
+    ax = fig.add_subplot(2, 2, 2)
+    ax.plot(t, -c.oracle.position[:n, 2], label="reference oracle")
+    ax.plot(t, -c.firmware.position[:, 2], label="emulated firmware")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("height [m] (up)")
+    ax.legend(loc="best")
+    ax = fig.add_subplot(2, 2, 4)
+    window = slice(int(20 * rate_hz), int(30 * rate_hz))
+    ax.step(t[window], c.oracle.stance[:n][window] + 1.2, where="post", label="oracle stance")
+    ax.step(t[window], c.firmware.zupt[window] * 1.0, where="post", label="firmware ZUPT")
+    ax.set_yticks([0.5, 1.7], ["firmware", "oracle"])
+    ax.set_xlabel("time [s]")
+    ax.set_title(f"stance flags, {100 * c.agreement:.2f} % of samples agree")
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def main(argv: list[str] | None = None) -> None:  # pragma: no cover - a report for a person
+    import argparse
+
     from tests.conftest import WALK_IDS, have_walks, walk_path
 
+    p = argparse.ArgumentParser(prog="python -m tests.oracle.compare", description=__doc__.split("\n\n")[0])
+    p.add_argument("--png", type=Path, metavar="DIR", help="also draw each walk's picture into DIR")
+    args = p.parse_args(argv)
     if not have_walks():
         raise SystemExit("the shared walks are not here (see tests/conftest.py)")
     print(WalkComparison.HEADER)
     for w in WALK_IDS:
-        print(compare_walk(walk_path(w)).row())
+        c = compare_walk(walk_path(w))
+        print(c.row())
+        if args.png is not None:
+            plot_walk(c, args.png / f"{c.name}.png")
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -48,7 +48,7 @@ def _yaw(q: np.ndarray) -> float:
 def trace_module(source, profile: str | None = None) -> FirmwareTrace:
     """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
     navigates with the sensor profile *profile* (default: the source's, as a replay does)."""
-    cfg = ModuleConfig(rate_hz=float(source.rate_hz), ins=profile_for(source, profile).ins)
+    cfg = profile_for(source, profile).configure(ModuleConfig(rate_hz=float(source.rate_hz)))
     module = build_module(cfg, sensors=source)
     port = module.bt.port
     port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
