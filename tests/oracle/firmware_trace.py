@@ -1,7 +1,7 @@
 """The emulated firmware traced loop by loop, in the oracle's terms.
 
 :func:`trace_module` runs a module on a sensor source as a host that sent ``STEPWISE_DEAD_RECKONING``
-and acknowledges every packet, and records after every loop the detector's flags (ZUPT, ZARU), the
+and acknowledges every packet, and records after every loop the detector's ZUPT flag, the
 INS's velocity, and the pose a host holds (the summed steps composed with the INS's pose since the
 last reset). :func:`align` shifts it by the filter's delay against the sensors (N/2 samples of the
 detector's window, and the accelerometer's one-sample delay), so that index k of the trace and of
@@ -30,14 +30,9 @@ class FirmwareTrace:
     """Per loop of the module (index = loop number): what the oracle is compared with."""
 
     zupt: np.ndarray  #: (n,) bool
-    zaru: np.ndarray  #: (n,) bool
     velocity: np.ndarray  #: (n, 3) [m/s], the INS's
     position: np.ndarray  #: (n, 3) the host's pose: summed steps + the INS's position since the reset
     heading: np.ndarray  #: (n,) [rad], likewise
-    reset: np.ndarray  #: (n,) bool, a step-wise reset in this loop
-    t1: np.ndarray  #: (n,) the detector's T1 [LSB_f²]
-    t2: np.ndarray  #: (n,) the detector's T2 [LSB_f²]
-    aligned: bool = False  #: True once :func:`align` shifted it onto the sensors' samples
 
 
 def _yaw(q: np.ndarray) -> float:
@@ -55,9 +50,9 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
     decoder = StreamDecoder()
     mem = module.memory
     n = len(source)
-    zupt, zaru, reset = (np.zeros(n, bool) for _ in range(3))
+    zupt = np.zeros(n, bool)
     vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
-    heading, t1, t2 = np.zeros(n), np.zeros(n), np.zeros(n)
+    heading = np.zeros(n)
     base_p, base_chi = np.zeros(3), 0.0
     for k in range(n):
         module.step()
@@ -65,12 +60,8 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
             if isinstance(frame, StatePacket):
                 port.host_write(build_packet_ack(frame.number))
         zupt[k] = mem.flag(StateId.ZUPT)
-        zaru[k] = mem.flag(StateId.ZARU)
-        t1[k] = float(mem[StateId.T1S2F])
-        t2[k] = float(mem[StateId.T2S2F])
         vel[k] = mem[StateId.VELOCITY]
-        reset[k] = mem.flag(StateId.FILTER_RESET_FLAG)
-        if reset[k]:
+        if mem.flag(StateId.FILTER_RESET_FLAG):
             dx = np.asarray(mem[StateId.DX], dtype=np.float64)
             c, s = np.cos(base_chi), np.sin(base_chi)
             base_p = base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
@@ -79,7 +70,7 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
         c, s = np.cos(base_chi), np.sin(base_chi)
         pos[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
         heading[k] = base_chi + _yaw(mem[StateId.QUATERNION])
-    return FirmwareTrace(zupt, zaru, vel, pos, heading, reset, t1, t2)
+    return FirmwareTrace(zupt, vel, pos, heading)
 
 
 #: Loops the filter runs behind the sensors by design: the middle of the detector's N-sample
@@ -96,6 +87,4 @@ def best_lag(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64)
 def align(trace: FirmwareTrace, lag: int = DESIGN_LAG) -> FirmwareTrace:
     """*trace* shifted back by *lag* loops: index k is then the recorded sample k (the last *lag*
     samples are lost)."""
-    return FirmwareTrace(*(getattr(trace, f)[lag:] for f in
-                           ("zupt", "zaru", "velocity", "position", "heading", "reset", "t1", "t2")),
-                         aligned=True)
+    return FirmwareTrace(trace.zupt[lag:], trace.velocity[lag:], trace.position[lag:], trace.heading[lag:])

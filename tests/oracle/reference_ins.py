@@ -169,7 +169,8 @@ def run_reference(acc_g: np.ndarray, gyro: np.ndarray, rate_hz: float,
     vel = np.zeros((n, 3))
     heading = np.zeros(n)
     nis = np.full(n, np.nan)
-    heading[0] = math.atan2(_q2dcm(q)[1, 0], _q2dcm(q)[0, 0])
+    rot = _q2dcm(q)
+    heading[0] = math.atan2(rot[1, 0], rot[0, 0])
     for k in range(1, n):
         w = gyro[k] * ts
         angle = float(np.linalg.norm(w))
