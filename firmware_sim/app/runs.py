@@ -148,7 +148,8 @@ def load(spec: RunSpec) -> Loaded:
     else:
         from firmware_sim.sensors.imu_array import make_source
 
-        source = make_source(spec.source, seed=spec.seed, rate_hz=spec.rate_hz, config=applied.sensors,
+        source = make_source(spec.source, seed=spec.seed, rate_hz=applied.rate_hz or spec.rate_hz,
+                             config=applied.sensors,
                              module=spec.module)
         truth = source.truth
     return Loaded(source, truth, applied, time.perf_counter() - t0)

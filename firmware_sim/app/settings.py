@@ -15,6 +15,12 @@ pairs, applied on top of the defaults by :func:`apply`:
     ``sensors.gyro.g_sensitivity_rad_s_per_g``, ``sensors.gyro.bias_random_walk_rad_s_per_sqrt_s``
     (the whole budget, with sources: ``docs/sensor-errors.md``).
     Simulated scenarios only: a recording carries its own sensor errors.
+``sensors.model``
+    ``default`` (the sensor-error budget) or ``ideal`` (:meth:`SensorConfig.ideal`: every error
+    off, what the navigation itself loses); the other ``sensors.…`` settings apply on top of it.
+``scenario.rate_hz``
+    the simulated module's loop and sample rate [Hz] (default: the sweep's ``--rate``), e.g.
+    1000 (the module's) against 250 (the recordings'). Scenarios only.
 ``link.profile``
     ``ideal`` (default), ``bt`` or ``usb``: the Bluetooth interface's link model;
 ``link.byte_loss``, ``link.corrupt``, ``link.stall_rate_hz``, ``link.disconnect_rate_hz``
@@ -29,11 +35,12 @@ thresholds, ``true``/``false``/``1``/``0`` for switches, numbers for the rest.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-from firmware_sim.sensors.config import DEFAULT_CONFIG, SensorConfig
+from firmware_sim.sensors.config import DEFAULT_CONFIG, IDEAL_CONFIG, SensorConfig
 from protocol.ids import StateId
 
 __all__ = ["Applied", "LINK_FAULTS", "SettingError", "apply", "check", "parse_value"]
@@ -43,6 +50,11 @@ Settings = tuple[tuple[str, Any], ...]
 THRESHOLDS = {"frontend.zupt_threshold": StateId.TH_ZUPT, "frontend.zaru_threshold": StateId.TH_ZARU}
 LINK_FAULTS = ("byte_loss", "corrupt", "stall_rate_hz", "disconnect_rate_hz")
 LINK_PROFILES = ("ideal", "bt", "usb")
+#: The sensor models a run can start from (``sensors.model``).
+SENSOR_MODELS = {"default": DEFAULT_CONFIG, "ideal": IDEAL_CONFIG}
+#: Settings whose values are words, and the words they take.
+WORDS = {"link.profile": LINK_PROFILES, "sensors.model": tuple(SENSOR_MODELS)}
+RATE = "scenario.rate_hz"
 _TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
 
 
@@ -58,6 +70,7 @@ class Applied:
     sensors: SensorConfig | None = None
     link_profile: str | None = None
     link_faults: dict[str, float] = field(default_factory=dict)
+    rate_hz: float | None = None  #: a simulated module's rate, when a setting says it
 
     def make_link(self, seed: int):
         """The Bluetooth link of the run (None: the ideal port, as a plain replay)."""
@@ -88,14 +101,17 @@ def _sensor_field(name: str) -> tuple[list[str], Any]:
 def _kind(name: str) -> type:
     if name in THRESHOLDS:
         return int
-    if name == "link.profile":
+    if name in WORDS:
         return str
+    if name == RATE:
+        return float
     if name.startswith("link.") and name[5:] in LINK_FAULTS:
         return float
     if name.startswith("sensors."):
         return type(_sensor_field(name)[1])
-    raise SettingError(f"unknown setting {name!r} (known: {', '.join(THRESHOLDS)}, sensors.<field>, "
-                       f"link.profile, {', '.join('link.' + f for f in LINK_FAULTS)})")
+    faults = ", ".join("link." + f for f in LINK_FAULTS)
+    raise SettingError(f"unknown setting {name!r} (known: {', '.join(THRESHOLDS)}, sensors.model, "
+                       f"sensors.<field>, {RATE}, link.profile, {faults})")
 
 
 def parse_value(name: str, value: Any) -> Any:
@@ -115,28 +131,40 @@ def parse_value(name: str, value: Any) -> Any:
                 raise ValueError(value)
             return int(number)
         if kind is float:
-            return float(value)
+            number = float(value)
+            if name == RATE and not (math.isfinite(number) and number > 0):
+                raise ValueError(value)
+            return number
         text = str(value).strip()
-        if text not in LINK_PROFILES:
+        if text not in WORDS[name]:
             raise ValueError(value)
         return text
     except (TypeError, ValueError, OverflowError):
-        raise SettingError(f"setting {name!r} takes {kind.__name__} values, got {value!r}") from None
+        what = ("positive numbers" if name == RATE else f"one of {', '.join(WORDS[name])}" if name in WORDS
+                else f"{kind.__name__} values")
+        raise SettingError(f"setting {name!r} takes {what}, got {value!r}") from None
 
 
 def check(names: Iterable[str], *, recordings: bool) -> None:
     """Refuse unknown names, and sensor settings for recordings (they carry their own errors)."""
     for name in names:
         _kind(name)
-        if recordings and name.startswith("sensors."):
+        if recordings and name.startswith(("sensors.", "scenario.")):
             raise SettingError(f"setting {name!r} applies to simulated scenarios only, not to recordings")
 
 
 def apply(settings: Settings) -> Applied:
     """The changes a run's settings make (values already parsed by :func:`parse_value`)."""
     out = Applied()
+    model = dict(settings).get("sensors.model")
+    if model is not None:
+        out.sensors = SENSOR_MODELS[model]
     for name, value in settings:
-        if name in THRESHOLDS:
+        if name == "sensors.model":
+            continue
+        if name == RATE:
+            out.rate_hz = float(value)
+        elif name in THRESHOLDS:
             out.initial_states[int(THRESHOLDS[name])] = int(value)
         elif name == "link.profile":
             out.link_profile = value

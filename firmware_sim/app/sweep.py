@@ -9,6 +9,9 @@ same, and the command line adds to it::
     recordings = ["walks/walk_100521_2.txt"]     # or: scenarios = ["rectangle", "walk"]
     seeds = "0:8"                                # A:B, N, or a list
     rate_hz = 1000.0                             # of the scenarios
+    leave_one_out = "closure_pct"                # optional: choose on all sources but one
+    group_by = ["source", "sensors.model"]       # optional: mean ± sd per group
+    group_metrics = ["end_along_m", "end_height_m"]
     [settings]
     "frontend.zupt_threshold" = [8000, 16000, 32000]
     "link.byte_loss" = [0.0, 1e-3]
@@ -20,6 +23,11 @@ matplotlib is installed), and prints the table. The runs go to a local Dask clus
 ``--workers`` processes (default 2), to an existing one (``--scheduler tcp://HOST:PORT``), or
 one after the other in this process (``--workers 0``); the table is the same every way, but for
 the timing columns.
+
+Two readings of the table (:mod:`firmware_sim.app.sweep_summary`) can go with it:
+``--leave-one-out METRIC`` chooses the settings on all sources but one and scores the one left
+out, for each (``OUT/leave_one_out.csv``); ``--group-by COLUMN,…`` gives the mean ± sd of
+``--group-metrics`` per group of runs (``OUT/groups.csv``).
 """
 
 from __future__ import annotations
@@ -39,6 +47,10 @@ from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv
 __all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "write_tables"]
 
 
+#: What a grouped table averages unless told otherwise: the end error against the truth.
+DEFAULT_GROUP_METRICS = ("end_along_m", "end_across_m", "end_height_m", "closure_pct")
+
+
 @dataclass(frozen=True)
 class SweepSpec:
     """What a sweep runs: sources × seeds × every combination of the settings' values."""
@@ -48,6 +60,11 @@ class SweepSpec:
     seeds: tuple[int, ...] = (0,)
     rate_hz: float = 1000.0
     settings: tuple[tuple[str, tuple[Any, ...]], ...] = ()
+    #: how to read the table: the metric a leave-one-out minimises (None: none)
+    leave_one_out: str | None = None
+    #: columns to group the runs by (empty: no grouped table), and the metrics averaged per group
+    group_by: tuple[str, ...] = ()
+    group_metrics: tuple[str, ...] = DEFAULT_GROUP_METRICS
 
     @property
     def setting_names(self) -> tuple[str, ...]:
@@ -61,6 +78,15 @@ class SweepSpec:
         for what, values in [("seeds", self.seeds), *self.settings]:
             if not values or len(set(values)) != len(values):
                 raise ValueError(f"{what}: give each value once, and at least one")
+        known = set(columns(self.setting_names))
+        for what, names in (("--leave-one-out", [self.leave_one_out] if self.leave_one_out else []),
+                            ("--group-by", self.group_by), ("--group-metrics", self.group_metrics)):
+            unknown = [n for n in names if n not in known]
+            if unknown:
+                raise ValueError(f"{what}: no column {', '.join(unknown)} in the table "
+                                 f"(columns: {', '.join(columns(self.setting_names))})")
+        if self.leave_one_out and not self.settings:
+            raise ValueError("--leave-one-out needs a setting with several values to choose from (--set)")
 
     def runs(self) -> list[RunSpec]:
         """Every run, sorted by run key."""
@@ -98,7 +124,8 @@ def load_spec_file(path: Path) -> SweepSpec:
         data = tomllib.loads(text)
     else:
         data = json.loads(text)
-    unknown = set(data) - {"recordings", "scenarios", "seeds", "rate_hz", "settings"}
+    unknown = set(data) - {"recordings", "scenarios", "seeds", "rate_hz", "settings", "leave_one_out",
+                           "group_by", "group_metrics"}
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
     seeds = data.get("seeds", [0])
@@ -108,11 +135,18 @@ def load_spec_file(path: Path) -> SweepSpec:
         seeds=tuple(parse_seeds(seeds) if isinstance(seeds, str) else [int(s) for s in _as_list(seeds)]),
         rate_hz=float(data.get("rate_hz", 1000.0)),
         settings=tuple((n, _values(n, v)) for n, v in data.get("settings", {}).items()),
+        leave_one_out=data.get("leave_one_out"),
+        group_by=tuple(_as_list(data.get("group_by", []))),
+        group_metrics=tuple(_as_list(data.get("group_metrics", list(DEFAULT_GROUP_METRICS)))),
     )
 
 
 def _as_list(value: Any) -> list[Any]:
     return value if isinstance(value, list) else [value]
+
+
+def _names(text: str | None) -> tuple[str, ...]:
+    return tuple(n.strip() for n in text.split(",") if n.strip()) if text else ()
 
 
 def build_spec(args: argparse.Namespace) -> SweepSpec:
@@ -131,6 +165,9 @@ def build_spec(args: argparse.Namespace) -> SweepSpec:
         seeds=tuple(parse_seeds(args.seeds)) if args.seeds is not None else spec.seeds,
         rate_hz=args.rate if args.rate is not None else spec.rate_hz,
         settings=tuple(settings.items()),
+        leave_one_out=args.leave_one_out or spec.leave_one_out,
+        group_by=_names(args.group_by) or spec.group_by,
+        group_metrics=_names(args.group_metrics) or spec.group_metrics,
     )
     spec.check()
     return spec
@@ -187,6 +224,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     where.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes, 1 thread each (default 2; 0 = serial, here)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask cluster instead")
+    p.add_argument("--leave-one-out", metavar="METRIC",
+                   help="for each source, choose the settings with the least mean |METRIC| on the others "
+                        "and score it there (e.g. closure_pct); OUT/leave_one_out.csv")
+    p.add_argument("--group-by", metavar="COLUMN,…",
+                   help="mean ± sd per group of runs with equal COLUMNs (e.g. source,sensors.model); "
+                        "OUT/groups.csv")
+    p.add_argument("--group-metrics", metavar="METRIC,…",
+                   help=f"what --group-by averages (default {','.join(DEFAULT_GROUP_METRICS)})")
     p.add_argument("--no-plot", action="store_true", help="skip closure.png")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar, no table on stdout")
 
@@ -217,8 +262,29 @@ def main(args: argparse.Namespace) -> int:
             say("closure.png skipped: matplotlib is not installed (the `plot` extra)")
         else:
             written.append(png)
+    lines = summary_lines(rows, spec.setting_names)
+    written += _readings(spec, rows, args.out, lines)
     if not args.quiet:
-        for line in summary_lines(rows, spec.setting_names):
+        for line in lines:
             print(line)
     print("results: " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _readings(spec: SweepSpec, rows: list[dict[str, Any]], out: Path, lines: list[str]) -> list[Path]:
+    """The spec's leave-one-out and grouped tables: written under *out*, their text added to *lines*."""
+    from . import sweep_summary as reading
+
+    written = []
+    if spec.group_by:
+        table = reading.group_table(rows, spec.group_by, spec.group_metrics)
+        lines += ["", *reading.group_lines(table, spec.group_by, spec.group_metrics)]
+        written.append(reading.write_rows(table, out / "groups.csv"))
+    if spec.leave_one_out:
+        folds = reading.leave_one_out(rows, spec.setting_names, spec.leave_one_out)
+        lines += ["", *reading.leave_one_out_lines(folds, spec.setting_names, spec.leave_one_out)]
+        table = [{"held_out": f.held_out, **dict(zip(spec.setting_names, f.chosen, strict=True)),
+                  f"{spec.leave_one_out}_held_out": f.score, f"{spec.leave_one_out}_others": f.others}
+                 for f in folds]
+        written.append(reading.write_rows(table, out / "leave_one_out.csv"))
+    return written

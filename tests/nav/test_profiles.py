@@ -96,3 +96,22 @@ def test_a_3dm_gx2_recording_is_taken_as_bias_compensated_and_the_module_still_e
         for _ in range(200):
             fe.biasest(offset, True, w.gyro_bias, w.bias_p, w.bias_q)
         assert bool(np.any(w.gyro_bias != 0)) == moves, profile.name
+
+
+def test_a_3dm_gx2_replay_boots_with_the_profiles_zupt_threshold_and_a_module_with_its_own():
+    from firmware_sim.nav.config import TH_ZUPT_DEFAULT
+    from protocol.ids import StateId
+
+    replayed = build_module(GX2_PROFILE.configure(ModuleConfig(rate_hz=250.0)))
+    assert int(replayed.memory[StateId.TH_ZUPT]) == GX2_PROFILE.zupt_threshold != TH_ZUPT_DEFAULT
+    booted = build_module(MODULE_PROFILE.configure(ModuleConfig()))
+    assert int(booted.memory[StateId.TH_ZUPT]) == TH_ZUPT_DEFAULT
+    assert "TH_ZUPT 18000" in GX2_PROFILE.summary()
+
+
+def test_a_threshold_the_run_sets_itself_wins_over_the_profiles():
+    """A sweep's ``frontend.zupt_threshold`` (an initial state) is what the replayed module uses."""
+    from protocol.ids import StateId
+
+    config = GX2_PROFILE.configure(ModuleConfig(rate_hz=250.0, initial_states={StateId.TH_ZUPT: 9000}))
+    assert int(build_module(config).memory[StateId.TH_ZUPT]) == 9000

@@ -1,7 +1,7 @@
 """The emulated firmware traced loop by loop, in the oracle's terms.
 
 :func:`trace_module` runs a module on a sensor source as a host that sent ``STEPWISE_DEAD_RECKONING``
-and acknowledges every packet, and records after every loop the detector's ZUPT flag, the
+and acknowledges every packet, and records after every loop the detector's statistic T1 and ZUPT flag, the
 INS's velocity, and the pose a host holds (the summed steps composed with the INS's pose since the
 last reset). :func:`align` shifts it by the filter's delay against the sensors (N/2 samples of the
 detector's window, and the accelerometer's one-sample delay), so that index k of the trace and of
@@ -30,6 +30,7 @@ class FirmwareTrace:
     """Per loop of the module (index = loop number): what the oracle is compared with."""
 
     zupt: np.ndarray  #: (n,) bool
+    t1: np.ndarray  #: (n,) the detector's statistic T1 [LSB_f²] (ZUPT = T1 < TH_ZUPT)
     velocity: np.ndarray  #: (n, 3) [m/s], the INS's
     position: np.ndarray  #: (n, 3) the host's pose: summed steps + the INS's position since the reset
     heading: np.ndarray  #: (n,) [rad], likewise
@@ -40,10 +41,13 @@ def _yaw(q: np.ndarray) -> float:
     return float(np.arctan2(2 * (x * y + z * w), 1 - 2 * (y * y + z * z)))
 
 
-def trace_module(source, profile: str | None = None) -> FirmwareTrace:
+def trace_module(source, profile: str | None = None, th_zupt: int | None = None) -> FirmwareTrace:
     """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
-    navigates with the sensor profile *profile* (default: the source's, as a replay does)."""
-    cfg = profile_for(source, profile).configure(ModuleConfig(rate_hz=float(source.rate_hz)))
+    navigates with the sensor profile *profile* (default: the source's, as a replay does) and boots
+    with the ZUPT threshold *th_zupt* (default: its power-on TH_ZUPT)."""
+    states = {} if th_zupt is None else {StateId.TH_ZUPT: th_zupt}
+    config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=states)
+    cfg = profile_for(source, profile).configure(config)
     module = build_module(cfg, sensors=source)
     port = module.bt.port
     port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
@@ -51,6 +55,7 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
     mem = module.memory
     n = len(source)
     zupt = np.zeros(n, bool)
+    t1 = np.zeros(n, np.int64)
     vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
     heading = np.zeros(n)
     base_p, base_chi = np.zeros(3), 0.0
@@ -60,6 +65,7 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
             if isinstance(frame, StatePacket):
                 port.host_write(build_packet_ack(frame.number))
         zupt[k] = mem.flag(StateId.ZUPT)
+        t1[k] = int(mem[StateId.T1S2F])
         vel[k] = mem[StateId.VELOCITY]
         if mem.flag(StateId.FILTER_RESET_FLAG):
             dx = np.asarray(mem[StateId.DX], dtype=np.float64)
@@ -70,7 +76,7 @@ def trace_module(source, profile: str | None = None) -> FirmwareTrace:
         c, s = np.cos(base_chi), np.sin(base_chi)
         pos[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
         heading[k] = base_chi + _yaw(mem[StateId.QUATERNION])
-    return FirmwareTrace(zupt, vel, pos, heading)
+    return FirmwareTrace(zupt, t1, vel, pos, heading)
 
 
 #: Loops the filter runs behind the sensors by design: the middle of the detector's N-sample
@@ -87,4 +93,5 @@ def best_lag(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64)
 def align(trace: FirmwareTrace, lag: int = DESIGN_LAG) -> FirmwareTrace:
     """*trace* shifted back by *lag* loops: index k is then the recorded sample k (the last *lag*
     samples are lost)."""
-    return FirmwareTrace(trace.zupt[lag:], trace.velocity[lag:], trace.position[lag:], trace.heading[lag:])
+    return FirmwareTrace(trace.zupt[lag:], trace.t1[lag:],
+                         trace.velocity[lag:], trace.position[lag:], trace.heading[lag:])

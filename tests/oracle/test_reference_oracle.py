@@ -99,10 +99,10 @@ def test_the_firmware_runs_half_a_detector_window_and_one_sample_behind_the_sens
 @pytest.mark.walks
 @requires_walks
 def test_the_firmware_detects_the_oracles_stances_within_two_samples_of_their_edges(comparisons):
-    """The module's centred 4-sample window holds a stance 1–2 samples (4–8 ms at 250 Hz) longer at
-    each end than the reference's any-of-three-windows rule."""
+    """The module's centred 4-sample window, at the 3DM-GX2 profile's threshold, holds a stance 1–2
+    samples (4–8 ms at 250 Hz) longer at each end than the reference's any-of-three-windows rule."""
     for w, c in comparisons.items():
-        assert c.agreement > 0.985, (w, c.agreement)
+        assert c.agreement > 0.978, (w, c.agreement)
         assert len(c.start_shift) >= 50
         assert abs(np.median(c.start_shift)) <= 2 and abs(np.median(c.end_shift)) <= 2, w
         assert c.oracle_only < 20, (w, c.oracle_only)  # it misses almost nothing the reference holds still

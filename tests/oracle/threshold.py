@@ -1,0 +1,163 @@
+"""TH_ZUPT from the detector's statistics on walking data, chosen leave-one-out.
+
+The module's detector computes the reference's GLRT statistic (firmware_sim.nav.config: T1 is the
+reference's T times σ_a²) on one window of M samples centred on the sample it judges. A threshold
+trades two errors, both measured against the reference's own decisions (the oracle's stance flags,
+:mod:`.reference_ins`):
+
+* **a missed stance sample**: the oracle says stationary, T1 ≥ TH. The ZUPT loses that sample;
+* **a false alarm in mid-swing**: T1 < TH in the middle 80 % of a swing of at least 0.2 s, where the
+  foot moves at metres per second and a ZUPT is wrong beyond doubt (the swing's edges, heel strike
+  and toe off, are where the two detectors may legitimately differ by a sample).
+
+The threshold is the detector's equal-error point on walking data: where the fraction of stance
+samples missed equals the fraction of mid-swing samples falsely accepted. Leave-one-out: for each
+walk, the point is found on the other five (pooled), and scored on the walk left out: its two error
+rates, its agreement with the oracle, and, replayed at that threshold, its closure. The closure is
+reported, never used to choose. It also reports the miss rate while the module stands still before
+each walk (the oracle's first stance), the other statistic a threshold must respect.
+
+Every walk is traced once (T1 per recorded sample, :mod:`.firmware_trace`): the module's decision
+at any threshold is then ``T1 < TH``, with no further run.
+
+``python -m tests.oracle.threshold`` prints the table.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .firmware_trace import align, trace_module
+from .reference_ins import run_reference, stance_phases
+
+__all__ = ["DetectorSample", "GRID", "detector_sample", "error_rates", "agreement", "choose",
+           "leave_one_out"]
+
+#: Thresholds considered [LSB_f²]: from the reference's γ·σ_a² (8172) halved to five times it.
+GRID = np.arange(4000, 40001, 250)
+
+
+@dataclass
+class DetectorSample:
+    """One walk, as the detectors see it."""
+
+    path: Path
+    t1: np.ndarray  #: (n,) the module's statistic per recorded sample [LSB_f²]
+    oracle: np.ndarray  #: (n,) bool, the reference's stance flag per sample
+    standing: np.ndarray  #: T1 over the oracle's first stance (standing still before the walk)
+    stance: np.ndarray  #: T1 over the oracle's walking stances (all but the first and the last)
+    swing: np.ndarray  #: T1 over the middle 80 % of the oracle's swings of at least 0.2 s
+
+
+#: Shortest gap between two oracle stances counted as a swing [s] (a running swing lasts ~0.4 s).
+MIN_SWING_S = 0.2
+
+
+def detector_sample(path: str | Path) -> DetectorSample:
+    """Trace the module's statistic on the recording *path* and run the reference's detector on it."""
+    from firmware_sim.sensors.replay import ReplaySource, load_recording
+
+    rec = load_recording(path)
+    oracle = run_reference(rec.acc_g, rec.gyro, rec.rate_hz)
+    t1 = align(trace_module(ReplaySource(rec))).t1
+    stance = oracle.stance[:len(t1)]
+    phases = stance_phases(stance)
+    first, last = phases[0]
+    walking = [t1[a:b + 1] for a, b in phases[1:-1]]
+    swings = []
+    for (_, end), (start, _) in zip(phases[:-1], phases[1:], strict=True):
+        gap = start - end - 1
+        if gap >= MIN_SWING_S * rec.rate_hz:
+            swings.append(t1[end + 1 + gap // 10:start - gap // 10])
+    return DetectorSample(Path(path), t1, stance, t1[first:last + 1], np.concatenate(walking),
+                          np.concatenate(swings))
+
+
+def error_rates(walks: list[DetectorSample], grid: np.ndarray = GRID) -> tuple[np.ndarray, np.ndarray]:
+    """(missed stance samples, mid-swing false alarms) as fractions per threshold, pooled over *walks*."""
+    stance = np.sort(np.concatenate([w.stance for w in walks]))
+    swing = np.sort(np.concatenate([w.swing for w in walks]))
+    missed = 1 - np.searchsorted(stance, grid, side="left") / len(stance)
+    false_alarm = np.searchsorted(swing, grid, side="left") / len(swing)
+    return missed, false_alarm
+
+
+def agreement(walk: DetectorSample, grid: np.ndarray = GRID) -> np.ndarray:
+    """(len(grid),) samples on which ``T1 < TH`` equals the oracle's flag, per threshold."""
+    t1 = np.sort(walk.t1)
+    below = np.searchsorted(t1, grid, side="left")  # samples with T1 < TH
+    # agree = stationary for both + moving for both, from two counts per threshold
+    t1_stance = np.sort(walk.t1[walk.oracle])
+    both_stationary = np.searchsorted(t1_stance, grid, side="left")
+    n_stance = len(t1_stance)
+    firmware_only = below - both_stationary
+    oracle_only = n_stance - both_stationary
+    return len(walk.t1) - firmware_only - oracle_only
+
+
+def choose(walks: list[DetectorSample], grid: np.ndarray = GRID) -> int:
+    """The equal-error threshold of *walks*: the first on *grid* at which the mid-swing false-alarm
+    rate reaches the missed-stance rate (the miss rate falls and the false-alarm rate rises with TH)."""
+    missed, false_alarm = error_rates(walks, grid)
+    return int(grid[int(np.argmax(false_alarm >= missed))])
+
+
+@dataclass
+class Fold:
+    held_out: Path
+    threshold: int  #: chosen on the other walks
+    missed: float  #: the held-out walk's missed-stance rate at that threshold
+    false_alarm: float  #: and its mid-swing false-alarm rate
+    agreement: float  #: the held-out walk's, at that threshold
+    agreement_default: float  #: the held-out walk's, at the power-on TH_ZUPT
+    standing_max: int  #: the held-out walk's largest T1 while standing still
+
+
+def leave_one_out(walks: list[DetectorSample], default: int) -> list[Fold]:
+    """Choose on all but one walk, score that one; one fold per walk."""
+    folds = []
+    for i, w in enumerate(walks):
+        th = choose(walks[:i] + walks[i + 1:])
+        at = agreement(w, np.array([th, default]))
+        n = len(w.t1)
+        missed, false_alarm = error_rates([w], np.array([th]))
+        folds.append(Fold(w.path, th, float(missed[0]), float(false_alarm[0]), float(at[0]) / n,
+                          float(at[1]) / n, int(w.standing.max())))
+    return folds
+
+
+def main(argv: list[str] | None = None) -> None:  # pragma: no cover - a report for a person
+    import argparse
+
+    from firmware_sim.nav import config as nav_cfg
+    from firmware_sim.nav.profiles import GX2_PROFILE
+    from firmware_sim.sensors.replay import ReplaySource, load_recording
+    from tests.conftest import WALK_IDS, have_walks, walk_path
+
+    from .compare import closure_pct
+
+    p = argparse.ArgumentParser(prog="python -m tests.oracle.threshold", description=__doc__.split("\n\n")[0])
+    p.parse_args(argv)
+    if not have_walks():
+        raise SystemExit("the shared walks are not here (see tests/conftest.py)")
+    walks = [detector_sample(walk_path(w)) for w in WALK_IDS]
+    default = GX2_PROFILE.zupt_threshold
+    print(f"all six: equal-error TH_ZUPT {choose(walks)} (profile {default}, module power-on "
+          f"{nav_cfg.TH_ZUPT_DEFAULT}); "
+          f"best agreement with the oracle at {GRID[np.argmax(sum(agreement(w) for w in walks))]}")
+    print("held out  | chosen on five | missed / false alarm % | agreement there / at profile's % "
+          "| standing T1 max | closure h / 3-D %")
+    for f in leave_one_out(walks, default):
+        trace = align(trace_module(ReplaySource(load_recording(f.held_out)), th_zupt=f.threshold))
+        h, d = closure_pct(trace.position, trace.zupt)
+        rates = f"{100 * f.missed:6.3f} / {100 * f.false_alarm:6.3f}"
+        print(f"{f.held_out.stem[5:]:9s} | {f.threshold:14d} | {rates}"
+              f"       | {100 * f.agreement:6.2f} / {100 * f.agreement_default:6.2f}"
+              f"                 | {f.standing_max:15d} | {h:.3f} / {d:.3f}")
+
+
+if __name__ == "__main__":  # pragma: no cover
+    main()
