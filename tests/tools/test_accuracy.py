@@ -83,3 +83,26 @@ def test_the_walks_table_and_picture_are_written(tmp_path):
     assert code == 0 and "mean" in text
     assert (tmp_path / "walks.csv").read_text().count("\n") == 3
     assert (tmp_path / "height-walk.png").stat().st_size > 10_000
+
+
+def test_the_speed_tables_sweep_spec_is_the_tools_product_and_gives_its_row():
+    """``openshoe-emu sweep --spec tools/accuracy/speeds.toml`` runs the same recipes, rates and
+    sensor models as ``openshoe-accuracy speeds``, and a run of it gives the tool's figures."""
+    from pathlib import Path
+
+    from firmware_sim.app import runs
+    from firmware_sim.app.sweep import load_spec_file
+    from tools.accuracy.speeds import RATES_HZ, speed_recipe
+
+    spec = load_spec_file(Path(__file__).parents[2] / "tools" / "accuracy" / "speeds.toml")
+    spec.check()
+    assert spec.scenarios == tuple(speed_recipe(v) for v in SPEEDS_KMH)
+    settings = dict(spec.settings)
+    assert settings["scenario.rate_hz"] == RATES_HZ and set(settings["sensors.model"]) == {"ideal", "default"}
+    assert spec.group_by == ("source", "scenario.rate_hz", "sensors.model")
+    (ideal_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 1
+                     and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "ideal"}]
+    row = runs.run_one(ideal_5kmh)
+    tool = speed_run((5.0, 250.0, None))
+    for k in ("along", "across", "height"):
+        assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # metres on 100 m = % of it
