@@ -5,16 +5,10 @@ heading χ from north towards east. GeoJSON and most GIS tools want east, north,
 up, so the local export maps ``(x, y, z) → (east, north, up) = (y, x, −z)``.
 
 Geographic export. Given an *origin* (latitude, longitude [deg], altitude [m],
-WGS84) the local offsets are turned into longitude/latitude with the local
-flat-earth (tangent-plane) approximation on the WGS84 ellipsoid::
-
-    R_N = a / sqrt(1 − e² sin²φ₀)              (prime vertical radius)
-    R_M = a (1 − e²) / (1 − e² sin²φ₀)^{3/2}   (meridian radius)
-    φ = φ₀ + north / (R_M + h₀),  λ = λ₀ + east / ((R_N + h₀) cos φ₀),  h = h₀ + up
-
-Its error grows with the square of the distance from the origin: below a
-millimetre within 1 km, a few centimetres within 10 km — far below a
-foot-mounted system's drift. It is not valid near the poles (cos φ₀ → 0).
+WGS84) the local offsets are east, north, up in the tangent plane at the origin,
+and are turned into longitude, latitude and altitude on the WGS84 ellipsoid
+exactly (through Earth-centred coordinates) by ``pymap3d``; GPS fixes come in
+the other way (:mod:`hostlib.gps`) through the same functions.
 """
 
 from __future__ import annotations
@@ -34,16 +28,13 @@ __all__ = [
     "CSV_COLUMNS",
     "enu_to_geodetic",
     "geodetic_to_enu",
+    "parse_origin",
     "read_csv",
     "read_geojson",
     "to_geojson",
     "write_csv",
     "write_geojson",
 ]
-
-#: WGS84 semi-major axis [m] and first eccentricity squared.
-WGS84_A = 6378137.0
-WGS84_E2 = 6.69437999014e-3
 
 _COV_NAMES = ("x", "y", "z", "chi")
 #: CSV columns: row 0 is the initial pose (no step); positions [m], angles [rad].
@@ -125,38 +116,36 @@ def enu_to_ned(enu: np.ndarray) -> np.ndarray:
     return np.stack([enu[..., 1], enu[..., 0], -enu[..., 2]], axis=-1)
 
 
-def _radii(lat0_deg: float) -> tuple[float, float]:
-    s = math.sin(math.radians(lat0_deg))
-    w = 1.0 - WGS84_E2 * s * s
-    return WGS84_A * (1.0 - WGS84_E2) / w**1.5, WGS84_A / math.sqrt(w)  # R_M, R_N
-
-
 def enu_to_geodetic(enu: np.ndarray, origin: Sequence[float]) -> np.ndarray:
-    """(…, 3) local east, north, up [m] → longitude, latitude [deg], altitude [m] (flat-earth WGS84)."""
-    lat0, lon0, h0 = _origin(origin)
-    if abs(lat0) > 89.0:
-        raise ValueError(f"origin latitude {lat0}° is too close to a pole for the local approximation")
-    rm, rn = _radii(lat0)
+    """(…, 3) local east, north, up [m] → longitude, latitude [deg], altitude [m] (WGS84, pymap3d)."""
+    import pymap3d
+
+    lat0, lon0, h0 = parse_origin(origin)
     enu = np.asarray(enu, dtype=np.float64)
-    lat = lat0 + np.degrees(enu[..., 1] / (rm + h0))
-    lon = lon0 + np.degrees(enu[..., 0] / ((rn + h0) * math.cos(math.radians(lat0))))
-    return np.stack([lon, lat, h0 + enu[..., 2]], axis=-1)
+    lat, lon, alt = pymap3d.enu2geodetic(enu[..., 0], enu[..., 1], enu[..., 2], lat0, lon0, h0)
+    return np.stack(np.broadcast_arrays(lon, lat, alt), axis=-1)
 
 
 def geodetic_to_enu(lonlath: np.ndarray, origin: Sequence[float]) -> np.ndarray:
     """Inverse of :func:`enu_to_geodetic`."""
-    lat0, lon0, h0 = _origin(origin)
-    rm, rn = _radii(lat0)
+    import pymap3d
+
+    lat0, lon0, h0 = parse_origin(origin)
     g = np.asarray(lonlath, dtype=np.float64)
-    north = np.radians(g[..., 1] - lat0) * (rm + h0)
-    east = np.radians(g[..., 0] - lon0) * (rn + h0) * math.cos(math.radians(lat0))
-    return np.stack([east, north, g[..., 2] - h0], axis=-1)
+    e, n, u = pymap3d.geodetic2enu(g[..., 1], g[..., 0], g[..., 2], lat0, lon0, h0)
+    return np.stack(np.broadcast_arrays(e, n, u), axis=-1)
 
 
-def _origin(origin: Sequence[float]) -> tuple[float, float, float]:
-    o = [float(v) for v in origin]
-    if len(o) not in (2, 3):
-        raise ValueError(f"origin is (latitude, longitude[, altitude]), got {origin!r}")
+def parse_origin(origin: Sequence[float] | str) -> tuple[float, float, float]:
+    """(latitude, longitude, altitude) from a sequence of 2 or 3 numbers or ``"LAT,LON[,ALT]"``
+    (altitude 0 when left out); a ``ValueError`` naming the form otherwise."""
+    try:
+        o = [float(v) for v in (origin.split(",") if isinstance(origin, str) else origin)]
+    except (TypeError, ValueError):
+        o = []
+    if len(o) not in (2, 3) or not all(math.isfinite(v) for v in o) or abs(o[0]) > 90 or abs(o[1]) > 180:
+        raise ValueError(f"origin is LAT,LON[,ALT] in degrees and metres (|LAT| ≤ 90, |LON| ≤ 180), "
+                         f"got {origin!r}")
     return o[0], o[1], (o[2] if len(o) == 3 else 0.0)
 
 
@@ -184,7 +173,7 @@ def to_geojson(track: Track, origin: Sequence[float] | None = None, *, points: b
         "crs": "local-enu-m" if origin is None else "wgs84-lonlat",
     }
     if origin is not None:
-        lat0, lon0, h0 = _origin(origin)
+        lat0, lon0, h0 = parse_origin(origin)
         line_props["origin"] = {"lat": lat0, "lon": lon0, "alt": h0}
     features: list[dict[str, Any]] = [
         {

@@ -12,7 +12,9 @@ Every import counts: at module level, inside functions, and under
 * link models never import transports or the applications, and transports
   never import the applications;
 * the host SDK's data path (``hostlib`` but its plot and command line) uses only
-  the standard library, ``protocol``, pyserial and numpy;
+  the standard library, ``protocol``, pyserial, numpy, and the maintained libraries
+  for what it reads and converts: pynmea2 (NMEA), pymap3d (geodesy) and
+  pygeomag (the World Magnetic Model);
 * no two project modules import each other, directly or round a longer cycle;
 * no project module is named like a standard-library module.
 """
@@ -121,8 +123,9 @@ def test_a_layer_never_imports_the_layers_above_it(layer, forbidden):
     assert violations(layer, forbidden) == []
 
 
-def test_the_host_sdk_data_path_uses_only_protocol_pyserial_and_numpy():
-    allowed_third_party = {"serial", "numpy", "typing_extensions"}  # the last for type checkers only
+def test_the_host_sdk_data_path_uses_only_protocol_pyserial_numpy_and_its_format_libraries():
+    allowed_third_party = {"serial", "numpy", "pynmea2", "pymap3d", "pygeomag",
+                           "typing_extensions"}  # the last for type checkers only
     stdlib = set(sys.stdlib_module_names)
     found = []
     for mod in project_modules():

@@ -288,6 +288,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the sensor profile (the filter's noise figures) to navigate with; default: the "
                         "recording's sensor (an OpenShoe walk: 3dm-gx2; a CSV: the module's own, mimu22bt), "
                         "a simulated module's own for --scenario. Printed with the run")
+    p.add_argument("--gps", type=Path, metavar="OUT.nmea",
+                   help="with --scenario and --wire: also write what a GPS receiver on the walker says, "
+                        "GGA and RMC at 1 Hz (firmware_sim/sensors/gps.py: a few metres RMS, correlated over "
+                        "minutes)")
+    p.add_argument("--origin", metavar="LAT,LON[,ALT]", default=None,
+                   help="where the scenario is on the globe (WGS84; default 59.3498,18.0707,30: KTH, "
+                        "Stockholm)")
+    p.add_argument("--gps-outage", action="append", default=[], metavar="START:END",
+                   help="seconds of the walk without a fix (END may be 'end'); repeatable")
     p.add_argument("--table", type=Path, metavar="CSV",
                    help="with --wire-dir: also write the summary, one row per run, as CSV")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
@@ -307,7 +316,33 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--profile goes with --wire (one replay); many runs take each recording's own sensor profile"
     if args.module is not None and args.scenario is None:
         return "--module goes with --scenario: a recording carries its own module's sensors"
+    gps = getattr(args, "gps", None) is not None
+    if gps and (args.scenario is None or args.wire is None):
+        return "--gps goes with --scenario and --wire: the receiver follows a simulated walk's truth"
+    if not gps and (getattr(args, "origin", None) is not None or getattr(args, "gps_outage", None)):
+        return "--origin and --gps-outage go with --gps"
     return None
+
+
+def _gps_errors(args: argparse.Namespace):
+    """The receiver's origin and errors from the command line (ValueError naming the problem)."""
+    from firmware_sim.sensors.gps import DEFAULT_ORIGIN, GpsErrors, parse_outages
+    from hostlib.export import parse_origin
+
+    origin = DEFAULT_ORIGIN if args.origin is None else parse_origin(args.origin)
+    return origin, GpsErrors(outages=parse_outages(args.gps_outage))
+
+
+def _write_gps(args: argparse.Namespace, truth) -> None:
+    from firmware_sim.sensors.gps import simulate_fixes, write_nmea
+
+    origin, errors = _gps_errors(args)
+    fixes = simulate_fixes(truth.t, truth.pos, truth.vel, origin, errors, seed=args.seed)
+    write_nmea(args.gps, fixes, errors=errors)
+    if not args.quiet:
+        valid = sum(f.valid for f in fixes)
+        print(f"GPS: {valid} fixes, {len(fixes) - valid} epochs without a fix, origin "
+              f"{origin[0]:.6f},{origin[1]:.6f},{origin[2]:g} → {args.gps}", file=sys.stderr)
 
 
 def main(args: argparse.Namespace) -> int:
@@ -319,6 +354,8 @@ def main(args: argparse.Namespace) -> int:
         if args.scenario is not None:
             from firmware_sim.sensors.imu_array import make_source
 
+            if getattr(args, "gps", None) is not None:
+                _gps_errors(args)  # a bad origin or outage is refused before the run
             source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate, module=args.module)
             truth = source.truth
             module = "" if args.module is None else f"module {args.module}, "
@@ -344,6 +381,8 @@ def main(args: argparse.Namespace) -> int:
     args.wire.write_bytes(data)
     if truth is not None:
         truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
+    if getattr(args, "gps", None) is not None:
+        _write_gps(args, truth)
     if not args.quiet:
         elapsed = time.monotonic() - t0
         print(f"{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "

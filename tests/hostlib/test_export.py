@@ -86,8 +86,10 @@ def test_geojson_geographic_round_trip_and_scale(tmp_path):
     assert g[1] - origin[0] == pytest.approx(1000 / 111_360, rel=2e-3)
     assert g[0] - origin[1] == pytest.approx(1000 / (111_412 * math.cos(math.radians(origin[0]))), rel=3e-3)
     np.testing.assert_allclose(geodetic_to_enu(g, origin), [1000.0, 1000.0, 0.0], atol=1e-6)
-    with pytest.raises(ValueError, match="pole"):
-        enu_to_geodetic(np.zeros(3), (89.5, 0.0))
+    near_pole = enu_to_geodetic(np.array([[100.0, -50.0, 2.0]]), (89.5, 0.0))  # exact, poles included
+    np.testing.assert_allclose(geodetic_to_enu(near_pole, (89.5, 0.0)), [[100.0, -50.0, 2.0]], atol=1e-6)
+    with pytest.raises(ValueError, match="LAT,LON"):
+        enu_to_geodetic(np.zeros(3), (95.0, 0.0))
 
 
 def test_ellipse_of_north_uncertainty_is_vertical():

@@ -1,0 +1,162 @@
+"""GPS fixes for the host: NMEA 0183 read with ``pynmea2``, placed in the track's frame with ``pymap3d``.
+
+A receiver (a serial device, or a file of its sentences) talks GGA and RMC. :class:`NmeaReader`
+takes its lines one at a time, as they arrive, and gives a :class:`GpsFix` for every GGA with a
+position. Nothing it meets stops it, and nothing is lost without being counted
+(:class:`NmeaStats`):
+
+* a line that is not a sentence, or whose checksum is wrong, is **garbled**: skipped and counted,
+  and the first few are kept with their line numbers for the report;
+* a GGA with fix quality 0 (the receiver has no position) is a **missing fix**: counted;
+* other sentences (RMC, GSA, GSV, …) are counted as **other**; RMC's date is kept, so fixes get a
+  full UTC time once the receiver has said the date.
+
+:func:`read_nmea` reads a whole file; :func:`local_positions` turns fixes into north, east, down
+metres about an origin (the first fix's position unless given), the frame a host fuses them in.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "read_nmea", "local_positions"]
+
+#: Garbled lines kept (with their numbers) for the report; the rest are only counted.
+KEEP_GARBLED = 10
+
+
+@dataclass(frozen=True)
+class GpsFix:
+    """A position the receiver gave."""
+
+    line: int  #: line number of its GGA (1-based)
+    time: dt.time  #: UTC time of day
+    date: dt.date | None  #: UTC date, once an RMC has said it
+    lat_deg: float
+    lon_deg: float
+    alt_m: float  #: above mean sea level, as GGA reports it
+    quality: int  #: GGA fix quality (1 GPS, 2 DGPS, …)
+    satellites: int
+    hdop: float  #: NaN when not given
+
+    @property
+    def utc(self) -> dt.datetime | None:
+        """Date and time, when the date is known."""
+        if self.date is None:
+            return None
+        return dt.datetime.combine(self.date, self.time).replace(tzinfo=dt.timezone.utc)
+
+
+@dataclass
+class NmeaStats:
+    """What a reader met."""
+
+    lines: int = 0
+    fixes: int = 0
+    missing_fix: int = 0
+    garbled: int = 0
+    other: int = 0
+    #: (line number, reason) of the first :data:`KEEP_GARBLED` garbled lines
+    garbled_lines: list[tuple[int, str]] = field(default_factory=list)
+
+    def summary(self) -> str:
+        first = "; first: " + ", ".join(f"line {n} ({why})" for n, why in self.garbled_lines[:3]) \
+            if self.garbled_lines else ""
+        return (f"{self.lines} NMEA lines: {self.fixes} fixes, {self.missing_fix} without a fix, "
+                f"{self.garbled} garbled (skipped){first}, {self.other} other sentences")
+
+
+class NmeaReader:
+    """Lines in, fixes out (module docstring); no I/O of its own."""
+
+    def __init__(self) -> None:
+        self.stats = NmeaStats()
+        self._date: dt.date | None = None
+
+    def _garbled(self, why: str) -> None:
+        self.stats.garbled += 1
+        if len(self.stats.garbled_lines) < KEEP_GARBLED:
+            self.stats.garbled_lines.append((self.stats.lines, why))
+
+    def feed(self, line: str | bytes) -> GpsFix | None:
+        """One line (with or without its line end); the fix it carries, if any."""
+        import pynmea2
+
+        self.stats.lines += 1
+        if isinstance(line, bytes):
+            line = line.decode("ascii", errors="replace")
+        text = line.strip()
+        if not text:
+            self._garbled("empty line")
+            return None
+        try:
+            msg = pynmea2.parse(text, check=True)
+        except pynmea2.ChecksumError:
+            self._garbled("bad checksum")
+            return None
+        except (pynmea2.ParseError, ValueError, AttributeError, TypeError):
+            self._garbled("not an NMEA sentence")
+            return None
+        kind = getattr(msg, "sentence_type", "")
+        if kind == "RMC":
+            self._date = getattr(msg, "datestamp", None) or self._date
+            self.stats.other += 1
+            return None
+        if kind != "GGA":
+            self.stats.other += 1
+            return None
+        return self._gga(msg)
+
+    def _gga(self, msg) -> GpsFix | None:
+        try:
+            quality = int(msg.gps_qual or 0)
+            if quality == 0:
+                self.stats.missing_fix += 1
+                return None
+            lat, lon = float(msg.latitude), float(msg.longitude)
+            alt = float(msg.altitude) if msg.altitude not in (None, "") else math.nan
+            sats = int(msg.num_sats or 0)
+            hdop = float(msg.horizontal_dil) if msg.horizontal_dil else math.nan
+            when = msg.timestamp
+            if when is None or not (math.isfinite(lat) and math.isfinite(lon)):
+                raise ValueError
+        except (TypeError, ValueError, AttributeError):
+            self._garbled("GGA fields out of form")
+            return None
+        self.stats.fixes += 1
+        return GpsFix(self.stats.lines, when.replace(tzinfo=None), self._date, lat, lon, alt, quality, sats,
+                      hdop)
+
+    def feed_all(self, lines: Iterable[str | bytes]) -> list[GpsFix]:
+        return [fix for fix in map(self.feed, lines) if fix is not None]
+
+
+def read_nmea(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:
+    """Every fix in a file of NMEA sentences, and what the reader met."""
+    reader = NmeaReader()
+    with Path(path).open("rb") as f:
+        fixes = reader.feed_all(f)
+    return fixes, reader.stats
+
+
+def local_positions(fixes: Sequence[GpsFix], origin: Sequence[float] | None = None) -> np.ndarray:
+    """(n, 3) north, east, down [m] of *fixes* about *origin* (lat, lon[, alt]; default the first fix)."""
+    import pymap3d
+
+    from .export import parse_origin
+
+    if not fixes:
+        return np.zeros((0, 3))
+    lat0, lon0, h0 = parse_origin(origin if origin is not None else
+                                  (fixes[0].lat_deg, fixes[0].lon_deg, fixes[0].alt_m))
+    lat = np.array([f.lat_deg for f in fixes])
+    lon = np.array([f.lon_deg for f in fixes])
+    alt = np.array([f.alt_m for f in fixes])
+    n, e, d = pymap3d.geodetic2ned(lat, lon, alt, lat0, lon0, h0)
+    return np.stack([n, e, d], axis=-1)
