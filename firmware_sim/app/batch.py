@@ -333,10 +333,9 @@ def _gps_errors(args: argparse.Namespace):
     return origin, GpsErrors(outages=parse_outages(args.gps_outage))
 
 
-def _write_gps(args: argparse.Namespace, truth) -> None:
+def _write_gps(args: argparse.Namespace, truth, origin, errors) -> None:
     from firmware_sim.sensors.gps import simulate_fixes, write_nmea
 
-    origin, errors = _gps_errors(args)
     fixes = simulate_fixes(truth.t, truth.pos, truth.vel, origin, errors, seed=args.seed)
     write_nmea(args.gps, fixes, errors=errors)
     if not args.quiet:
@@ -349,13 +348,13 @@ def main(args: argparse.Namespace) -> int:
     """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT``."""
     from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
 
-    truth = None
+    truth = gps = None
     try:
         if args.scenario is not None:
             from firmware_sim.sensors.imu_array import make_source
 
             if getattr(args, "gps", None) is not None:
-                _gps_errors(args)  # a bad origin or outage is refused before the run
+                gps = _gps_errors(args)  # a bad origin or outage is refused before the run
             source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate, module=args.module)
             truth = source.truth
             module = "" if args.module is None else f"module {args.module}, "
@@ -381,8 +380,8 @@ def main(args: argparse.Namespace) -> int:
     args.wire.write_bytes(data)
     if truth is not None:
         truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
-    if getattr(args, "gps", None) is not None:
-        _write_gps(args, truth)
+    if gps is not None:
+        _write_gps(args, truth, *gps)
     if not args.quiet:
         elapsed = time.monotonic() - t0
         print(f"{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "

@@ -38,7 +38,7 @@ from typing import Any
 from . import settings as run_settings
 
 __all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "file_runs", "finish", "load",
-           "parse_seeds", "run_one", "scenario_runs", "summary_lines", "write_csv"]
+           "parse_seeds", "run_one", "scenario_runs", "summary_lines", "write_csv", "write_rows"]
 
 #: The columns every row has, after the run's identity and its settings.
 METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "end_along_m",
@@ -262,13 +262,19 @@ def columns(setting_names: Sequence[str] = ()) -> list[str]:
 
 
 def write_csv(rows: list[dict[str, Any]], path: Path, setting_names: tuple[str, ...] = ()) -> Path:
-    """The rows as CSV: identity, settings, metrics, timings; floats in shortest round-trip form."""
-    header = columns(setting_names)
+    """The rows as CSV: identity, settings, metrics, timings (:func:`write_rows`)."""
+    return write_rows(rows, path, columns(setting_names))
+
+
+def write_rows(rows: Sequence[dict[str, Any]], path: Path, header: Sequence[str] | None = None) -> Path:
+    """*rows* as CSV, the columns *header* (default: the first row's keys); floats (numpy's too) in
+    shortest round-trip form, None as an empty cell."""
+    header = list(rows[0]) if header is None and rows else list(header or ())
     path.parent.mkdir(parents=True, exist_ok=True)
     with path.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         for row in rows:
-            w.writerow(["" if v is None else repr(v) if isinstance(v, float) else v
+            w.writerow(["" if v is None else float.__repr__(v) if isinstance(v, float) else v
                         for v in (row[k] for k in header)])
     return path

@@ -42,7 +42,7 @@ from typing import Any
 
 from . import settings as run_settings
 from .progress import say
-from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv
+from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv, write_rows
 
 __all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "write_tables"]
 
@@ -279,12 +279,12 @@ def _readings(spec: SweepSpec, rows: list[dict[str, Any]], out: Path, lines: lis
     if spec.group_by:
         table = reading.group_table(rows, spec.group_by, spec.group_metrics)
         lines += ["", *reading.group_lines(table, spec.group_by, spec.group_metrics)]
-        written.append(reading.write_rows(table, out / "groups.csv"))
+        written.append(write_rows(table, out / "groups.csv"))
     if spec.leave_one_out:
         folds = reading.leave_one_out(rows, spec.setting_names, spec.leave_one_out)
         lines += ["", *reading.leave_one_out_lines(folds, spec.setting_names, spec.leave_one_out)]
         table = [{"held_out": f.held_out, **dict(zip(spec.setting_names, f.chosen, strict=True)),
                   f"{spec.leave_one_out}_held_out": f.score, f"{spec.leave_one_out}_others": f.others}
                  for f in folds]
-        written.append(reading.write_rows(table, out / "leave_one_out.csv"))
+        written.append(write_rows(table, out / "leave_one_out.csv"))
     return written

@@ -13,7 +13,6 @@ they are the same whichever way the sweep ran.
 
 from __future__ import annotations
 
-import csv
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -22,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Fold", "leave_one_out", "leave_one_out_lines", "group_table", "group_lines", "write_rows"]
+__all__ = ["Fold", "leave_one_out", "leave_one_out_lines", "group_table", "group_lines"]
 
 
 @dataclass(frozen=True)
@@ -121,14 +120,3 @@ def group_lines(table: Sequence[dict[str, Any]], by: Sequence[str], metrics: Seq
     return ["  ".join(c.ljust(w) if i < len(by) else c.rjust(w)
                       for i, (c, w) in enumerate(zip(row, widths, strict=True))) for row in cells]
 
-
-def write_rows(rows: Sequence[dict[str, Any]], path: Path) -> Path:
-    """*rows* (dicts with the same keys) as CSV; floats in shortest round-trip form."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
-        w = csv.writer(f)
-        header = list(rows[0]) if rows else []
-        w.writerow(header)
-        for r in rows:
-            w.writerow([repr(v) if isinstance(v, float) else v for v in (r[k] for k in header)])
-    return path

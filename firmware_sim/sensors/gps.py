@@ -133,14 +133,15 @@ def simulate_fixes(t: np.ndarray, pos: np.ndarray, vel: np.ndarray, origin: Sequ
     return fixes
 
 
-def _ddmm(value: float, degree_digits: int) -> tuple[str, str]:
-    """|value| as NMEA ``(d)ddmm.mmmmm`` and its hemisphere index (0 positive, 1 negative)."""
+def _ddmm(value: float, degree_digits: int, hemispheres: str) -> tuple[str, str]:
+    """|value| as NMEA ``(d)ddmm.mmmmm``, and its hemisphere: ``hemispheres[0]`` (e.g. N) when
+    positive, ``hemispheres[1]`` (S) when negative."""
     a = abs(value)
     deg = int(a)
     minutes = round((a - deg) * 60.0, 5)
     if minutes >= 60.0:
         deg, minutes = deg + 1, 0.0
-    return f"{deg:0{degree_digits}d}{minutes:08.5f}", "0" if value >= 0 else "1"
+    return f"{deg:0{degree_digits}d}{minutes:08.5f}", hemispheres[value < 0]
 
 
 def nmea_lines(fixes: Sequence[Fix], start: dt.datetime = DEFAULT_START,
@@ -154,9 +155,8 @@ def nmea_lines(fixes: Sequence[Fix], start: dt.datetime = DEFAULT_START,
         hhmmss = when.strftime("%H%M%S") + f".{when.microsecond // 10000:02d}"
         ddmmyy = when.strftime("%d%m%y")
         if fix.valid:
-            lat, ns = _ddmm(fix.lat_deg, 2)
-            lon, ew = _ddmm(fix.lon_deg, 3)
-            ns, ew = "NS"[int(ns)], "EW"[int(ew)]
+            lat, ns = _ddmm(fix.lat_deg, 2, "NS")
+            lon, ew = _ddmm(fix.lon_deg, 3, "EW")
             gga = (hhmmss, lat, ns, lon, ew, "1", f"{errors.satellites:02d}", f"{errors.hdop:.1f}",
                    f"{fix.alt_m:.2f}", "M", "0.0", "M", "", "")
             rmc = (hhmmss, "A", lat, ns, lon, ew, f"{fix.speed_m_s * KNOTS_PER_M_S:.2f}",

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -39,13 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
-    path.parent.mkdir(parents=True, exist_ok=True)
-    keys = [k for k in rows[0] if k != "profile"]
-    with path.open("w", newline="") as f:
-        w = csv.DictWriter(f, keys, extrasaction="ignore")
-        w.writeheader()
-        w.writerows(rows)
-    return path
+    """*rows* as CSV, without the height profiles they carry for the pictures."""
+    from firmware_sim.app.runs import write_rows
+
+    return write_rows(rows, path, [k for k in rows[0] if k != "profile"])
 
 
 def _walks(args: argparse.Namespace, out) -> int:
