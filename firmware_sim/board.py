@@ -8,7 +8,8 @@ accelerometer reads f = (0, 0, −g)).
 
 Chips 0 and 1 are on the top side, 2 and 3 on the bottom side; the bottom pair
 is mounted upside down, a 180° rotation about the board's x axis (sensors.md).
-These positions are our documented choice (the board is 22.5 × 20 mm); they are
+The turns are declared in :mod:`protocol.board` (a host needs them to read the
+magnetometer states); the positions are our documented choice (the board is 22.5 × 20 mm); both are
 configurable through :class:`BoardGeometry`.
 """
 
@@ -18,17 +19,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from protocol.board import CHIP_MOUNTING
 from protocol.ids import NR_IMUS
 
 #: Q14 fixed point: 16384 = 1.0 (calibration matrices of firmware.md §3).
 Q14_ONE = 1 << 14
 
-_UPRIGHT = np.eye(3, dtype=np.int64)
-_UPSIDE_DOWN = np.diag([1, -1, -1]).astype(np.int64)  # 180° about x
-
 
 def _default_mounting() -> np.ndarray:
-    return np.stack([_UPRIGHT, _UPRIGHT, _UPSIDE_DOWN, _UPSIDE_DOWN])
+    return np.array(CHIP_MOUNTING, dtype=np.int64)  # declared once, for the host too
 
 
 def _default_lever_arms() -> np.ndarray:

@@ -56,6 +56,45 @@ def _setup_options(p: argparse.ArgumentParser) -> None:
                         "packet (an emulator extension)")
 
 
+def _aid_options(p: argparse.ArgumentParser) -> None:
+    g = p.add_argument_group("heading aids (hostlib.fusion; the capture needs the --fusion set-up)")
+    g.add_argument("--compass", action="store_true",
+                   help="one compass update per step from the magnetometers and attitude at the end of "
+                        "each stance")
+    g.add_argument("--compass-sigma", type=float, default=None, metavar="DEG",
+                   help="1σ of one compass reading (the local deviation; default 20, indoors; "
+                        "outdoors about 5)")
+    g.add_argument("--gps", metavar="FILE.nmea",
+                   help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
+                        "and the CSV gets lat_deg, lon_deg, alt_m")
+    g.add_argument("--mag-cal", metavar="CAL.json",
+                   help="the shoe's magnetometer calibration (hard/soft iron)")
+    g.add_argument("--declination", type=float, default=None, metavar="DEG",
+                   help="magnetic declination, east positive (default: the World Magnetic Model at the "
+                        "first fix or at --origin)")
+
+
+def _uses_aids(args: argparse.Namespace) -> bool:
+    return bool(args.compass or args.gps)
+
+
+def _prepare_aids(args: argparse.Namespace, last_counter: int | None):
+    """The fusion tracker the aid options ask for (hostlib.aids)."""
+    from .aids import prepare_aids
+    from .export import parse_origin
+    from .fusion import FusionSettings
+    from .magcal import MagCalibration
+
+    settings = FusionSettings()
+    if args.compass_sigma is not None:
+        settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
+    cal = MagCalibration.load(args.mag_cal) if args.mag_cal else None
+    origin = parse_origin(args.origin) if args.origin else None
+    return prepare_aids(compass=args.compass, gps_path=args.gps, mag_calibration=cal,
+                        declination=args.declination, origin=origin, settings=settings,
+                        last_counter=last_counter)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="openshoe-host", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
@@ -95,6 +134,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
     r.add_argument("--png", help="plot the track to this PNG (needs matplotlib)")
     r.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
+    _aid_options(r)
     r.add_argument("--drift", metavar="CAL.json",
                    help="correct the track with this module's drift calibration (`drift calibrate`)")
 
@@ -271,11 +311,26 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
-def _write_outputs(args: argparse.Namespace, track: Track, origin: list[float] | None) -> None:
+def _fusion_line(tracker) -> str:
+    """What the aids did, for the summary (a FusionTracker)."""
+    f = tracker.fusion
+    if tracker.settings.compass and f.compass_updates == 0 and not f.heading_aligned_by:
+        return ("fusion: no step packet carried the magnetometers and attitude — record with the fusion "
+                "set-up (--fusion); the track is the plain sum")
+    aligned = f"heading aligned by {f.heading_aligned_by}" if f.heading_aligned_by else \
+        "heading not aligned (the module's initial frame)"
+    return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped), "
+            f"{f.gps_updates} GPS updates ({f.gps_skipped} fixes between updates, "
+            f"{f.gps_before_alignment} before alignment); {aligned}; declination "
+            f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°")
+
+
+def _write_outputs(args: argparse.Namespace, track: Track, origin: list[float] | None,
+                   geographic_csv: bool = False) -> None:
     if args.csv:
         from .export import write_csv
 
-        write_csv(track, args.csv)
+        write_csv(track, args.csv, origin if geographic_csv else None)
     if args.geojson:
         from .export import write_geojson
 
@@ -330,8 +385,19 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     from .replay import replay_capture_session
 
     drift = DriftCalibration.load(args.drift) if args.drift else None
-    session = replay_capture_session(args.capture, command_set=args.command_set)
+    aids = _prepare_aids(args, last_counter=None) if _uses_aids(args) else None
+    session = replay_capture_session(args.capture, command_set=args.command_set,
+                                     tracker=None if aids is None else aids.tracker)
     track, stats = session.tracker.track, session.stats
+    origin = [float(v) for v in args.origin.split(",")] if args.origin else None
+    if aids is not None:
+        cal = aids.tracker.settings.mag_calibration
+        if cal is not None:
+            cal.check_module(serial_text(session.mcu_serial) if session.mcu_serial else "")
+        print(f"aids: {aids.describe()}", file=out)
+        print(_fusion_line(aids.tracker), file=out)
+        if aids.origin is not None and args.gps:
+            origin = list(aids.origin)
     if drift is not None:
         corrected = drift.apply(track, module_serial=session.mcu_serial, what=args.capture)
         print(f"drift correction: {drift}", file=out)
@@ -339,11 +405,12 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
               f"corrected (horizontal; 3-D {track.closure_error(False):.3f} → "
               f"{corrected.closure_error(False):.3f} m)", file=out)
         track = corrected
-    origin = [float(v) for v in args.origin.split(",")] if args.origin else None
-    _write_outputs(args, track, origin)
+    _write_outputs(args, track, origin, geographic_csv=bool(getattr(args, "gps", None)))
     print(repr(track), file=out)
     print(f"packets {stats.packets} (+{stats.duplicate_packets} resends) | garbage {stats.garbage_bytes} B | "
-          f"bad frames {stats.bad_frames} | gaps {stats.gaps} (missing {stats.missing_steps})", file=out)
+          f"bad frames {stats.bad_frames} | gaps {stats.gaps} (missing {stats.missing_steps})"
+          + (f" | {stats.undecoded_packets} packets fit no layout the capture's commands set up"
+             if stats.undecoded_packets else ""), file=out)
     return 0
 
 

@@ -43,6 +43,8 @@ CSV_COLUMNS: tuple[str, ...] = (
     "dx_m", "dy_m", "dz_m", "dpsi_rad",
     *(f"P_{_COV_NAMES[r]}_{_COV_NAMES[c]}" for r in range(4) for c in range(r, 4)),
 )
+#: Extra CSV columns of a track placed on the globe (WGS84, from the origin of its frame).
+GEO_COLUMNS: tuple[str, ...] = ("lat_deg", "lon_deg", "alt_m")
 _TRIU = np.triu_indices(4)
 
 
@@ -50,23 +52,28 @@ def _f(v: float) -> str:
     return repr(float(v))  # shortest exact round trip
 
 
-def write_csv(track: Track, path: str | Path) -> None:
+def write_csv(track: Track, path: str | Path, origin: Sequence[float] | None = None) -> None:
     """Write every pose of *track* (initial pose first) with its 4×4 covariance (upper triangle).
 
     Row 0 is the initial pose; its ``counter`` is the counter before the first
     step (0 after 0x34, empty when unknown), so gaps can be recomputed on reading.
+    With *origin* (lat, lon[, alt] of the frame's origin) every row also gets
+    :data:`GEO_COLUMNS`, the pose on the WGS84 ellipsoid.
     """
     poses, covs, steps, counters = track.poses, track.covariances, track.steps, track.counters
+    geo = None if origin is None else enu_to_geodetic(ned_to_enu(poses[:, :3]), origin)
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(CSV_COLUMNS)
+        w.writerow(CSV_COLUMNS + (GEO_COLUMNS if geo is not None else ()))
         for k in range(len(poses)):
+            extra = [] if geo is None else [_f(geo[k, 1]), _f(geo[k, 0]), _f(geo[k, 2])]
             step = [""] * 4 if k == 0 else [_f(v) for v in steps[k - 1]]
             if k == 0:
                 counter = "" if track.start_counter is None else str(track.start_counter)
             else:
                 counter = str(int(counters[k - 1]))
-            w.writerow([k, counter, *(_f(v) for v in poses[k]), *step, *(_f(v) for v in covs[k][_TRIU])])
+            w.writerow([k, counter, *(_f(v) for v in poses[k]), *step, *(_f(v) for v in covs[k][_TRIU]),
+                        *extra])
 
 
 def read_csv(path: str | Path) -> Track:
@@ -76,14 +83,15 @@ def read_csv(path: str | Path) -> Track:
     with open(path, newline="") as fh:
         r = csv.reader(fh)
         header = next(r, None)
-        if header is None or tuple(header) != CSV_COLUMNS:
+        if header is None or tuple(header) not in (CSV_COLUMNS, CSV_COLUMNS + GEO_COLUMNS):
             raise ValueError(
                 f"{path}: line 1: not an OpenShoe track CSV (expected columns {CSV_COLUMNS[:6]}…)"
             )
+        width = len(header)
         for lineno, row in enumerate(r, start=2):
             try:
-                if len(row) != len(CSV_COLUMNS):
-                    raise ValueError(f"expected {len(CSV_COLUMNS)} fields, got {len(row)}")
+                if len(row) != width:
+                    raise ValueError(f"expected {width} fields, got {len(row)}")
                 if int(row[0]) != len(poses):
                     raise ValueError(f"index {row[0]} out of sequence (expected {len(poses)})")
                 poses.append([float(v) for v in row[2:6]])

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "read_nmea", "local_positions"]
+__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "read_nmea", "local_positions", "seconds_since"]
 
 #: Garbled lines kept (with their numbers) for the report; the rest are only counted.
 KEEP_GARBLED = 10
@@ -64,6 +64,8 @@ class NmeaStats:
     other: int = 0
     #: (line number, reason) of the first :data:`KEEP_GARBLED` garbled lines
     garbled_lines: list[tuple[int, str]] = field(default_factory=list)
+    #: UTC time of day of the first GGA, with a fix or not: when the receiver started talking
+    first_time: dt.time | None = None
 
     def summary(self) -> str:
         first = "; first: " + ", ".join(f"line {n} ({why})" for n, why in self.garbled_lines[:3]) \
@@ -114,6 +116,9 @@ class NmeaReader:
         return self._gga(msg)
 
     def _gga(self, msg) -> GpsFix | None:
+        stamp = getattr(msg, "timestamp", None)
+        if self.stats.first_time is None and isinstance(stamp, dt.time):
+            self.stats.first_time = stamp.replace(tzinfo=None)
         try:
             quality = int(msg.gps_qual or 0)
             if quality == 0:
@@ -135,6 +140,16 @@ class NmeaReader:
 
     def feed_all(self, lines: Iterable[str | bytes]) -> list[GpsFix]:
         return [fix for fix in map(self.feed, lines) if fix is not None]
+
+
+def seconds_since(start: dt.time, fixes: Sequence[GpsFix]) -> np.ndarray:
+    """(n,) seconds from the time of day *start* to each fix (across midnight: a walk is shorter
+    than a day)."""
+    def seconds(t: dt.time) -> float:
+        return t.hour * 3600.0 + t.minute * 60.0 + t.second + t.microsecond * 1e-6
+
+    t0 = seconds(start)
+    return np.array([(seconds(f.time) - t0) % 86400.0 for f in fixes], dtype=np.float64)
 
 
 def read_nmea(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:

@@ -27,6 +27,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any
 
+from protocol.codec import STEP_IDS
 from protocol.extensions import EXTENSION_STATES
 from protocol.ids import (
     IMU_MAG_BASE,
@@ -147,12 +148,13 @@ class OutputPlan:
     def layout(self, payload_len: int) -> tuple[int, ...] | None:
         """The state ids (ascending) in a packet with this payload length: the one subset of the
         candidates that fits, else the conditional output if it fits (with or without the
-        extension states), else None."""
+        extension states), else the plain step packet 0x34 sets up if it fits, else None."""
         ids = match_layout(self.candidates, payload_len)
         if ids is not None or self.conditional is None:
             return ids
-        for cond in (self.conditional, tuple(i for i in self.conditional if i not in EXTENSION_STATES)):
-            if sum(STATES[i].size for i in cond) == payload_len:
+        for cond in (self.conditional, tuple(i for i in self.conditional if i not in EXTENSION_STATES),
+                     STEP_IDS):
+            if set(cond) <= self.candidates and sum(STATES[i].size for i in cond) == payload_len:
                 return cond
         return None
 

@@ -227,11 +227,12 @@ class HostSession:
             self.stats.undecoded_packets += 1
         events.append(PacketEvent(pkt.number, pkt.payload, states))
         if step is not None:
-            self._step(step, pkt.number, events, swing_time)
+            self._step(step, pkt.number, events, swing_time, states)
 
-    def _step(self, step: Step, number: int, events: list[StreamEvent], swing_time: float) -> None:
+    def _step(self, step: Step, number: int, events: list[StreamEvent], swing_time: float,
+              states: Mapping[int, Any] | None) -> None:
         n_gaps = len(self.tracker.gaps)
-        outcome = self.tracker.add(step, swing_time)
+        outcome = self.tracker.add(step, swing_time, states)
         if outcome is StepOutcome.DUPLICATE:
             self.stats.duplicate_steps += 1
             return

@@ -37,7 +37,7 @@ declared in :mod:`hostlib.events` (numpy and the standard library only).
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping
 from typing import Protocol
 
 import numpy as np
@@ -55,6 +55,7 @@ __all__ = [
     "is_motion_step",
     "propagate",
     "rotation_z",
+    "step_jacobian",
 ]
 
 #: The step counter is a uint16 on the module (state 0x32).
@@ -81,6 +82,16 @@ def rotation_z(chi: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def step_jacobian(chi: float, dx: np.ndarray) -> np.ndarray:
+    """F = ∂pose_ℓ/∂pose_{ℓ−1} (4×4) of one step *dx* taken at heading *chi*: the identity plus
+    the derivative of R(χ)·dp with respect to χ."""
+    c, s = math.cos(chi), math.sin(chi)
+    f = np.eye(4)
+    f[0, 3] = -s * dx[0] - c * dx[1]
+    f[1, 3] = c * dx[0] - s * dx[1]
+    return f
+
+
 def propagate(
     pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, dp: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -95,15 +106,11 @@ def propagate(
     dx = np.asarray(dx, dtype=np.float64)
     dp = np.asarray(dp, dtype=np.float64)
     chi = float(pose[3])
-    c, s = math.cos(chi), math.sin(chi)
-    r = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    r = rotation_z(chi)
     new = np.empty(4)
     new[:3] = pose[:3] + r @ dx[:3]
     new[3] = chi + dx[3]
-    # F = ∂new/∂pose: identity plus the derivative of R(χ)·dp with respect to χ.
-    f = np.eye(4)
-    f[0, 3] = -s * dx[0] - c * dx[1]
-    f[1, 3] = c * dx[0] - s * dx[1]
+    f = step_jacobian(chi, dx)
     # G = ∂new/∂dx = diag(R(χ), 1).
     g = np.eye(4)
     g[:3, :3] = r
@@ -402,10 +409,13 @@ class StepTracker:
 
     # -- summation -----------------------------------------------------------
 
-    def add(self, step: StepLike, swing_time: float = math.nan) -> StepOutcome:
+    def add(self, step: StepLike, swing_time: float = math.nan,
+            states: Mapping[int, np.ndarray] | None = None) -> StepOutcome:
         """Sum one step unless it is a resend; returns what was done with it.
 
-        *swing_time* [s] is kept beside the step (:attr:`Track.swing_times`); NaN: none."""
+        *swing_time* [s] is kept beside the step (:attr:`Track.swing_times`); NaN: none.
+        *states* are the step packet's decoded states, for trackers that use more than the
+        step (:class:`hostlib.fusion.FusionTracker`); the summation ignores them."""
         return self.add_step(step.dx, step.dp, step.counter, swing_time)
 
     def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int,

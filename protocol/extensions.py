@@ -20,7 +20,10 @@ module declares those commands once, for the host SDK and the emulator's replaye
   after 0x34 arrives (before, the alignment sequence runs and the tracking sequence waits in
   storage).
 * :func:`fusion_output_setup` — STATE_IF_SETUP that makes every step packet carry what the
-  host-side aids need besides DX, DP and the step counter: the swing time (drift correction).
+  host-side aids need besides DX, DP and the step counter: the swing time (drift correction),
+  and the attitude quaternion and three IMUs' magnetometers at the reset, i.e. at the end of the
+  stance (the per-step compass, shared/spec/aids.md §1; the magnetometers are the ordinary IMU
+  states 0x90+i, so a real module answers them too).
   Sent right after 0x34, which sets up the plain step output.
 * :data:`FUSION_SETUP` — everything a host using the host-side aids sends after the ack of
   0x34, one command at a time (each after the ack of the one before): that STATE_IF_SETUP, then
@@ -41,10 +44,10 @@ from typing import Any
 from .codec import fitting_ids
 from .commands import CommandSet
 from .frames import build_command
-from .ids import Command, OutputMode, ProcId, StateId
+from .ids import Command, OutputMode, ProcId, StateId, imu_mag_id
 
-__all__ = ["EXTENSION_STATES", "FUSION_SETUP", "FUSION_STEP_STATES", "HEIGHT_COMPENSATION_SLOT",
-           "fusion_output_setup", "fusion_step_ids", "height_compensation_on"]
+__all__ = ["EXTENSION_STATES", "FUSION_MAG_IMUS", "FUSION_SETUP", "FUSION_STEP_STATES",
+           "HEIGHT_COMPENSATION_SLOT", "fusion_output_setup", "fusion_step_ids", "height_compensation_on"]
 
 #: The emulator's extension states: a real OpenShoe module has none of them, and leaves them
 #: out of every output it is asked for (an id with no state is ignored, protocol.md §4).
@@ -54,8 +57,14 @@ EXTENSION_STATES: frozenset[int] = frozenset({StateId.SWING_TIME, StateId.THETA_
 #: sequence that 0x34 sets up; slots 10 and 11 are empty there.
 HEIGHT_COMPENSATION_SLOT = 10
 
+#: The IMUs whose magnetometer a fusion step packet carries: three, because STATE_IF_SETUP takes
+#: eight ids and the first five are spoken for (averaging three chips' readings divides their noise
+#: by √3; the fourth chip would add little).
+FUSION_MAG_IMUS: tuple[int, ...] = (0, 1, 2)
+
 #: The states of a step packet with the host-side aids' set-up, in the order asked for.
-FUSION_STEP_STATES: tuple[int, ...] = (StateId.DX, StateId.DP, StateId.STEP_COUNTER, StateId.SWING_TIME)
+FUSION_STEP_STATES: tuple[int, ...] = (StateId.DX, StateId.DP, StateId.STEP_COUNTER, StateId.SWING_TIME,
+                                       StateId.QUATERNION, *(imu_mag_id(i) for i in FUSION_MAG_IMUS))
 
 
 def height_compensation_on() -> tuple[Command, dict[str, Any]]:
@@ -68,6 +77,7 @@ def fusion_output_setup() -> tuple[Command, dict[str, Any]]:
     the flag and mode 0x34 uses (FILTER_RESET_FLAG, pull), and :data:`FUSION_STEP_STATES`.
     The firmware also takes the frame's checksum bytes as two more ids (protocol.md §9)."""
     ids = [int(s) for s in FUSION_STEP_STATES] + [0] * (8 - len(FUSION_STEP_STATES))
+    assert len(ids) == 8
     return Command.STATE_IF_SETUP, {"flag_id": int(StateId.FILTER_RESET_FLAG), "mode": int(OutputMode.PULL),
                                     "state_ids": ids}
 
@@ -86,7 +96,8 @@ def fusion_step_ids(command_set: CommandSet | None = None) -> tuple[int, ...]:
     """The states of a step packet after :data:`FUSION_SETUP`, in payload order, as the firmware
     assembles them: the 8 ids of the STATE_IF_SETUP frame and its two checksum bytes taken as
     ids (protocol.md §9), those with a state, ascending. With the current numbering the checksum
-    is ``01 3D``: IMU_TS (0x01) rides along, 0x3D has no state.
+    is ``03 12``: GP_DT (0x03) and T_INT_K (0x12, the timestamp of the measurement the filter
+    processed, which times the step) ride along.
 
     A real module, which lacks :data:`EXTENSION_STATES`, sends the same without them."""
     meaning, fields = fusion_output_setup()

@@ -53,6 +53,10 @@ def _spec(sid: int, name: str, dtype: str, shape: tuple[int, ...] = (), doc: str
     return StateSpec(sid, name, np.dtype(dtype), shape, doc)
 
 
+#: Rate [Hz] of the timestamps the states carry (IMU_TS, T_INT_K, GP_DT, PS_DT…): the
+#: AT32UC3C2512's CPU cycle counter, a uint32 that wraps every ~67 s.
+TIMESTAMP_HZ = 64_000_000
+
 _NAMED: list[StateSpec] = [
     _spec(StateId.IMU_TS, "IMU_TS", ">u4", doc="CPU cycle counter (64 MHz) when the IMUs were read"),
     _spec(StateId.INTERRUPT_COUNTER, "INTERRUPT_COUNTER", ">u4", doc="timer interrupts since boot"),

@@ -334,8 +334,9 @@ def _gps_errors(args: argparse.Namespace):
 
 
 def _write_gps(args: argparse.Namespace, truth, origin, errors) -> None:
-    from firmware_sim.sensors.gps import simulate_fixes, write_nmea
+    from firmware_sim.sensors.gps import scenario_errors, simulate_fixes, write_nmea
 
+    errors = scenario_errors(errors, args.scenario, truth.t, truth.pos)
     fixes = simulate_fixes(truth.t, truth.pos, truth.vel, origin, errors, seed=args.seed)
     write_nmea(args.gps, fixes, errors=errors)
     if not args.quiet:

@@ -54,8 +54,10 @@ from typing import Literal
 
 import numpy as np
 
+from protocol.states import TIMESTAMP_HZ
+
 #: The µC's cycle counter rate (firmware.md §1).
-CLOCK_HZ = 64_000_000
+CLOCK_HZ = TIMESTAMP_HZ
 
 Direction = Literal["to_module", "to_host"]
 DIRECTIONS: tuple[Direction, Direction] = ("to_module", "to_host")

@@ -24,8 +24,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-#: CPU clock of the AT32UC3C2512 [Hz].
-CPU_HZ = 64_000_000
+from protocol.states import TIMESTAMP_HZ
+
+#: CPU clock of the AT32UC3C2512 [Hz] (the timestamps' rate, declared with the states).
+CPU_HZ = TIMESTAMP_HZ
 #: Default main-loop (timer) rate [Hz].
 DEFAULT_RATE_HZ = 1000.0
 _U32 = 0xFFFFFFFF

@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field, replace
 
+from protocol.board import AK8975_AXES, MAG_UT_PER_LSB
+
 #: Standard gravity [m/s²] (the unit "g" of the accelerometer registers).
 G0 = 9.80665
 
@@ -131,13 +133,13 @@ class ImpactConfig:
 class MagConfig:
     """AK8975 magnetometer inside each MPU9150, and the field it sees."""
 
-    ut_per_lsb: float = 0.3  #: datasheet
+    ut_per_lsb: float = MAG_UT_PER_LSB  #: datasheet
     full_scale_lsb: int = 4095  #: datasheet, 13 bit signed (±4095)
     rate_hz: float = 100.0  #: datasheet: up to 100 Hz; a new value is held until the next one
     noise_ut: float = 0.6  #: choice: rms noise per reading (≈ 2 LSB)
     #: Chip magnetometer axes from chip accelerometer/gyro axes (datasheet: the AK8975 die
     #: is turned: x_mag = y_acc, y_mag = x_acc, z_mag = −z_acc).
-    axes: tuple[tuple[int, int, int], ...] = ((0, 1, 0), (1, 0, 0), (0, 0, -1))
+    axes: tuple[tuple[int, int, int], ...] = AK8975_AXES
     # Earth field at the walk (choice: Stockholm, WMM 2020 values rounded)
     intensity_ut: float = 51.5
     inclination_deg: float = 72.5  #: positive: field points down (northern hemisphere)
@@ -150,6 +152,15 @@ class MagConfig:
     indoor_rms_ut: float = 5.0
     indoor_length_m: float = 3.0
     indoor_radius_m: float = 0.0  #: 0: the whole walk is indoors
+    #: Outdoors (a scenario's :class:`~firmware_sim.sensors.scenarios.Environment`): the deviation
+    #: of open ground — pipes, cars, geology — a few degrees varying over tens of metres (choice:
+    #: 0.8 µT per axis against the 15.5 µT horizontal field ≈ 3°, over 50 m).
+    outdoor_rms_ut: float = 0.8
+    outdoor_length_m: float = 50.0
+
+    def outdoors(self) -> MagConfig:
+        """The same magnetometer and Earth field with the deviation of open ground."""
+        return replace(self, indoor_rms_ut=self.outdoor_rms_ut, indoor_length_m=self.outdoor_length_m)
 
 
 @dataclass(frozen=True)

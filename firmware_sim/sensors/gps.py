@@ -26,13 +26,13 @@ from __future__ import annotations
 import datetime as dt
 import math
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 __all__ = ["DEFAULT_ORIGIN", "DEFAULT_START", "GpsErrors", "Fix", "simulate_fixes", "nmea_lines",
-           "write_nmea", "parse_outages"]
+           "write_nmea", "parse_outages", "outage_after_distance", "scenario_errors"]
 
 #: Where a scenario is placed when no origin is given: KTH, Stockholm (where OpenShoe comes from).
 DEFAULT_ORIGIN = (59.3498, 18.0707, 30.0)
@@ -95,6 +95,24 @@ def parse_outages(texts: Sequence[str]) -> tuple[tuple[float, float], ...]:
             raise ValueError(f"a GPS outage is START:END in seconds (END may be 'end'), "
                              f"got {text!r}") from None
     return tuple(out)
+
+
+def outage_after_distance(t: np.ndarray, pos: np.ndarray, metres: float) -> tuple[float, float]:
+    """The outage (start, ∞) that begins once the walker at NED positions *pos* (times *t*) has gone
+    *metres* horizontally (a scenario's ``Environment.gps_outage_after_m``)."""
+    walked = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(np.asarray(pos)[:, :2], axis=0).T))])
+    k = int(np.searchsorted(walked, metres))
+    return (float(t[min(k, len(t) - 1)]), math.inf)
+
+
+def scenario_errors(errors: GpsErrors, scenario: str, t: np.ndarray, pos: np.ndarray) -> GpsErrors:
+    """*errors* with the outage the named *scenario* scripts, if any, added."""
+    from .scenarios import environment
+
+    after = environment(scenario).gps_outage_after_m
+    if after is None:
+        return errors
+    return replace(errors, outages=(*errors.outages, outage_after_distance(t, pos, after)))
 
 
 def simulate_fixes(t: np.ndarray, pos: np.ndarray, vel: np.ndarray, origin: Sequence[float] = DEFAULT_ORIGIN,

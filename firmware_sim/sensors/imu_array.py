@@ -35,6 +35,8 @@ returns None.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from firmware_sim.board import MIMU22BT, BoardGeometry
@@ -47,7 +49,7 @@ from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, gauss_markov, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 from .replay import Recording
-from .scenarios import list_scenarios, trajectory
+from .scenarios import environment, list_scenarios, trajectory
 from .truth import GroundTruth, Kinematics, cross, rotate
 
 __all__ = ["SimulatedSource", "make_source", "list_scenarios", "module_rng"]
@@ -75,6 +77,8 @@ class SimulatedSource:
                  seed: int = 0, rate_hz: float = 1000.0, geometry: BoardGeometry = MIMU22BT,
                  params: GaitParams = WALKING, module: int | None = None):
         self.config = config or DEFAULT_CONFIG
+        if isinstance(motion, str) and environment(motion).outdoors:
+            self.config = replace(self.config, mag=self.config.mag.outdoors())
         self.name = motion if isinstance(motion, str) else "<trajectory>"
         self.trajectory = trajectory(motion, params) if isinstance(motion, str) else motion
         self.seed = seed

@@ -29,22 +29,26 @@ Pieces (arguments optional, defaults in brackets):
 ``rectangle[:l=30[:w=15[:r=1]]]`` once round a rounded rectangle, turning right
 ``track400[:laps=1]``  laps of a 400 m running track (lane 1), turning left
 ``pace[:v=1.55]``      from here on, walk at v m/s (stride length follows)
+``face[:deg=0]``       first piece only: the walker starts facing deg (east of north)
 =====================  ===========================================================
 
 Every scenario starts and ends at rest (a recipe that does not start with
 ``stand`` gets ``stand:3`` in front, so the firmware's initial alignment can
 complete; one that does not end with ``stand`` gets ``stand:2`` at the end).
 :data:`SCENARIOS` names the standard ones; :func:`trajectory` accepts a name
-or a recipe.
+or a recipe. :func:`environment` says where a named scenario is walked: indoors (a
+building's magnetic deviation, the default) or outdoors, and whether its GPS receiver
+loses the sky after some distance.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import dataclass
 
-from .gait import RUNNING, WALKING, GaitBuilder, GaitParams, Trajectory
+from .gait import DEG, RUNNING, WALKING, GaitBuilder, GaitParams, Pose, Trajectory
 
-__all__ = ["SCENARIOS", "PIECES", "list_scenarios", "recipe", "trajectory"]
+__all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "list_scenarios", "recipe", "trajectory"]
 
 _LAP = (
     "walk:36+arc:2:90+walk:16+arc:2:90+walk:8+stairs_up:12+walk:6.28+stairs_down:12+walk:15"
@@ -80,14 +84,42 @@ SCENARIOS: dict[str, str] = {
     # the diagonal walks: 50 m up a 7.8° road at 45° to its fall line (uphill ahead-left),
     # a half turn on the slope, and back the same way
     "ramp_diagonal": "stand:3+ramp:50:7.8:45+turn:180+ramp:50:7.8:-135+stand:2",
+    # NavShoe's outage experiment (aids.md §2): a hilly closed loop of about 1 km outdoors, started
+    # facing north-east; the receiver gives no fix after the first 400 m (ENVIRONMENTS). Sides of
+    # 300 m (a 3° hill up and down; a 2° hill and 99.7 m of flat, the same 299.6 m across) and 200 m
+    # joined by 5 m arcs: 1031 m, back at the start within centimetres
+    "navshoe-outage": "face:50+stand:5+walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90"
+                      "+walk:100:2+walk:100:-2+walk:99.71+arc:5:90+walk:200+arc:5:90+stand:5",
 }
+
+
+@dataclass(frozen=True)
+class Environment:
+    """Where a scenario is walked."""
+
+    #: open ground: the magnetic deviation varies slowly, by a few degrees
+    #: (:meth:`~firmware_sim.sensors.config.MagConfig.outdoors`), not a building's tens of degrees
+    outdoors: bool = False
+    #: the GPS receiver gives no fix once the walker has gone this far [m] (None: never)
+    gps_outage_after_m: float | None = None
+
+
+#: name → environment of the scenarios not walked indoors with the sky always in view.
+ENVIRONMENTS: dict[str, Environment] = {
+    "navshoe-outage": Environment(outdoors=True, gps_outage_after_m=400.0),
+}
+
+
+def environment(name_or_recipe: str) -> Environment:
+    """The environment of a named scenario (a recipe's is the default: indoors, GPS throughout)."""
+    return ENVIRONMENTS.get(name_or_recipe, Environment())
 
 
 def _pace(b: GaitBuilder, v: float = 1.55) -> None:
     b.params = WALKING.with_speed(v)
 
 
-PIECES: dict[str, Callable[..., object]] = {
+PIECES: dict[str, Callable[..., object] | None] = {
     "stand": lambda b, s=3.0: b.stand(s),
     "walk": lambda b, m=10.0, deg=0.0: b.walk(m, slope_deg=deg),
     "ramp": lambda b, m=50.0, deg=6.0, across=0.0: b.ramp(m, deg, across),
@@ -101,6 +133,7 @@ PIECES: dict[str, Callable[..., object]] = {
     "rectangle": lambda b, l=30.0, w=15.0, r=1.0: b.rectangle(l, w, r),
     "track400": lambda b, laps=1: b.track_400m(laps=int(laps)),
     "pace": _pace,
+    "face": None,  # the start's heading: handled by trajectory(), first piece only
 }
 
 
@@ -123,11 +156,20 @@ def recipe(name_or_recipe: str) -> str:
 def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
     """Build the foot trajectory of a named scenario or a recipe."""
     pieces = [p.strip() for p in recipe(name_or_recipe).split("+") if p.strip()]
+    start = Pose()
+    if pieces and pieces[0].split(":")[0] == "face":
+        face, *arg = pieces.pop(0).split(":")
+        try:
+            start = Pose(yaw=float(arg[0]) * DEG if arg else 0.0)
+        except ValueError:
+            raise ValueError(f"piece {face}:{arg[0]}: arguments must be numbers") from None
+    if any(p.split(":")[0] == "face" for p in pieces):
+        raise ValueError(f"{name_or_recipe!r}: 'face' sets the start, so it can only be the first piece")
     if not pieces or not pieces[0].startswith("stand"):
         pieces.insert(0, "stand:3")
     if not pieces[-1].startswith("stand"):
         pieces.append("stand:2")
-    b = GaitBuilder(params)
+    b = GaitBuilder(params, start)
     for piece in pieces:
         name, *args = piece.split(":")
         if name not in PIECES:
@@ -138,7 +180,7 @@ def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
         except ValueError:
             raise ValueError(f"piece {piece!r}: arguments must be numbers") from None
         try:
-            PIECES[name](b, *values)
+            PIECES[name](b, *values)  # type: ignore[misc]
         except TypeError:
             raise ValueError(f"piece {piece!r}: too many arguments") from None
     return b.build()

@@ -61,6 +61,12 @@ def rectangle(v_err: tuple[float, float, float], seed: int = 0, heading0: float 
     return Loop(dx.astype(np.float32).astype(np.float64), swing.astype(np.float32).astype(np.float64))
 
 
+#: The fusion step packet's other states at a level foot facing magnetic north: the loop time, the
+#: attitude and three magnetometers (chips 0 and 1 upright, chip 2 upside down; AK8975 axes).
+STANCE_STATES = {StateId.GP_DT: 5000, StateId.T_INT_K: 0, StateId.QUATERNION: np.array([0.0, 0.0, 0.0, 1.0]),
+                 0x90: [0, 50, -160], 0x91: [0, 50, -160], 0x92: [0, 50, 160]}
+
+
 def fusion_capture(loop: Loop, serial: bytes | None, with_setup: bool = True) -> bytes:
     """The module → host bytes of *loop* walked with the fusion set-up: the acks of 0x34,
     STATE_IF_SETUP and MCU_ID, the serial number packet, then one step packet per step carrying
@@ -77,7 +83,7 @@ def fusion_capture(loop: Loop, serial: bytes | None, with_setup: bool = True) ->
         ids = fusion_step_ids()
     for k, (dx, t) in enumerate(zip(loop.dx, loop.swing, strict=True)):
         number += 1
-        values = {StateId.IMU_TS: 1000 * number, StateId.DX: dx, StateId.DP: DP[np.triu_indices(4)],
-                  StateId.STEP_COUNTER: k + 1, StateId.SWING_TIME: t}
+        values = {**STANCE_STATES, StateId.T_INT_K: 64000 * number, StateId.DX: dx,
+                  StateId.DP: DP[np.triu_indices(4)], StateId.STEP_COUNTER: k + 1, StateId.SWING_TIME: t}
         out += build_state_packet(number, encode_states(ids, values))
     return bytes(out)

@@ -21,6 +21,7 @@ from protocol.frames import build_command_ack, build_state_packet
 from protocol.ids import StateId
 
 from .fakes import FakeModulePort
+from .loops import STANCE_STATES
 
 MCU_ID = bytes(range(0x10, 0x1F))
 #: The swing time of every step of a ``/fusion`` module [s].
@@ -76,7 +77,7 @@ class Serial(FakeModulePort):
         self._pending = self._next_number()
         values = {StateId.DX: np.array([1.0, 0, 0, 0]), StateId.DP: (np.eye(4) * 1e-4)[np.triu_indices(4)],
                   StateId.STEP_COUNTER: self._step_counter, StateId.SWING_TIME: SWING_TIME_S,
-                  StateId.IMU_TS: 64_000 * self._step_counter}
+                  **STANCE_STATES, StateId.T_INT_K: 64_000 * self._step_counter}
         return build_state_packet(self._pending, encode_states(self._output_ids, values))
 
     def _run_parser(self) -> None:

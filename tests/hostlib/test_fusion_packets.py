@@ -1,6 +1,7 @@
 """Step packets with the fusion set-up (protocol.extensions.FUSION_SETUP): DX, DP, STEP_COUNTER,
-SWING_TIME and the states the STATE_IF_SETUP frame's checksum bytes name (protocol.md §9), as the
-host session decodes them live and from a capture; plain 0x34 packets as before."""
+SWING_TIME, QUATERNION, three IMUs' magnetometers and the states the STATE_IF_SETUP frame's
+checksum bytes name (protocol.md §9), as the host session decodes them
+live and from a capture; plain 0x34 packets as before."""
 
 from __future__ import annotations
 
@@ -14,11 +15,11 @@ from hostlib.events import CommandAckEvent, PacketEvent, StepEvent
 from hostlib.replay import replay_bytes, replay_session
 from hostlib.session import HostSession
 from protocol.codec import STEP_IDS, encode_states, encode_step
-from protocol.extensions import EXTENSION_STATES, FUSION_SETUP, FUSION_STEP_STATES, fusion_step_ids
+from protocol.extensions import EXTENSION_STATES, FUSION_SETUP, fusion_step_ids
 from protocol.frames import build_command, build_command_ack, build_packet_ack, build_state_packet
 from protocol.ids import Command, StateId
 
-from .loops import fusion_capture, rectangle
+from .loops import STANCE_STATES, fusion_capture, rectangle
 
 DP_UPPER = (np.eye(4) * 1e-4)[np.triu_indices(4)]
 
@@ -33,8 +34,8 @@ def _fusion_session(**kw) -> HostSession:
 
 
 def _values(counter: int, swing: float = 0.42, dx=(0.7, 0.1, -0.02, 0.05)) -> dict:
-    return {StateId.IMU_TS: 123456, StateId.DX: np.array(dx), StateId.DP: DP_UPPER,
-            StateId.STEP_COUNTER: counter, StateId.SWING_TIME: swing}
+    return {**STANCE_STATES, StateId.T_INT_K: 123456, StateId.DX: np.array(dx), StateId.DP: DP_UPPER,
+            StateId.STEP_COUNTER: counter, StateId.SWING_TIME: swing, 0x92: [-20, 50, -160]}
 
 
 def _steps(events) -> list[StepEvent]:
@@ -44,20 +45,22 @@ def _steps(events) -> list[StepEvent]:
 def test_the_fusion_step_carries_the_states_the_checksum_bytes_name():
     meaning, fields = FUSION_SETUP[0]
     frame = build_command(meaning, **fields)
-    assert frame.hex(" ") == "23 33 20 30 31 32 34 00 00 00 00 01 3d"
-    # the firmware copies 10 ids: the 8 given and 01 3D; 0x01 IMU_TS exists, 0x3D does not
-    assert fusion_step_ids() == (StateId.IMU_TS, *FUSION_STEP_STATES)
+    assert frame.hex(" ") == "23 33 20 30 31 32 34 22 90 91 92 03 12"
+    # the firmware copies 10 ids: the 8 given and 03 12, GP_DT and T_INT_K (the step's time)
+    assert fusion_step_ids() == (StateId.GP_DT, StateId.T_INT_K, StateId.QUATERNION, StateId.DX, StateId.DP,
+                                 StateId.STEP_COUNTER, StateId.SWING_TIME, 0x90, 0x91, 0x92)
     assert FUSION_SETUP[1][0] is Command.MCU_ID
 
 
 def test_a_fusion_step_packet_decodes_with_its_swing_time():
     s = _fusion_session()
     payload = encode_states(fusion_step_ids(), _values(1))
-    assert len(payload) == 66
+    assert len(payload) == 104
     events, acks = s.feed(build_state_packet(1, payload))
     (packet,) = [e for e in events if isinstance(e, PacketEvent)]
-    assert list(packet.states) == [0x01, 0x30, 0x31, 0x32, 0x34]
-    assert int(packet.states[StateId.IMU_TS]) == 123456
+    assert list(packet.states) == [0x03, 0x12, 0x22, 0x30, 0x31, 0x32, 0x34, 0x90, 0x91, 0x92]
+    assert int(packet.states[StateId.T_INT_K]) == 123456
+    np.testing.assert_array_equal(packet.states[0x92], [-20, 50, -160])
     (step,) = _steps(events)
     assert step.swing_time == np.float32(0.42)
     assert step.step.counter == 1 and step.step.dx[0] == np.float32(0.7)
@@ -76,14 +79,14 @@ def test_a_plain_step_packet_decodes_as_before_with_no_swing_time():
 
 
 def test_a_module_without_the_extension_states_still_delivers_its_steps():
-    """A real module has no SWING_TIME: its fusion packets are IMU_TS + DX + DP + STEP_COUNTER,
-    62 bytes, which IMU_TS or SWING_TIME (both 4 bytes) would fit alike."""
+    """A real module has no SWING_TIME: its fusion packets lack those 4 bytes, which GP_DT, T_INT_K
+    or SWING_TIME would fit alike; the session takes the module's own states."""
     s = _fusion_session()
     ids = [i for i in fusion_step_ids() if i not in EXTENSION_STATES]
     events, _ = s.feed(build_state_packet(1, encode_states(ids, _values(1))))
     (step,) = _steps(events)
     assert math.isnan(step.swing_time)
-    assert int(events[0].states[StateId.IMU_TS]) == 123456
+    assert int(events[0].states[StateId.T_INT_K]) == 123456
     assert s.stats.undecoded_packets == 0
 
 
@@ -133,7 +136,7 @@ finite32 = st.floats(width=32, allow_nan=False, allow_infinity=False)
 def test_any_fusion_step_decodes_to_what_was_encoded(dx, dp, counter, swing, imu_ts, number):
     s = _fusion_session()
     s.tracker.restart_counter(None)  # any counter is the first one seen
-    values = {StateId.IMU_TS: imu_ts, StateId.DX: dx, StateId.DP: dp, StateId.STEP_COUNTER: counter,
+    values = {**_values(counter), StateId.T_INT_K: imu_ts, StateId.DX: dx, StateId.DP: dp,
               StateId.SWING_TIME: swing}
     events, acks = s.feed(build_state_packet(number, encode_states(fusion_step_ids(), values)))
     (step,) = _steps(events)
@@ -141,7 +144,7 @@ def test_any_fusion_step_decodes_to_what_was_encoded(dx, dp, counter, swing, imu
     np.testing.assert_array_equal(step.step.dp_upper, np.float32(dp))
     assert step.step.counter == counter and step.packet_number == number
     assert step.swing_time == np.float32(swing)
-    assert int(events[0].states[StateId.IMU_TS]) == imu_ts
+    assert int(events[0].states[StateId.T_INT_K]) == imu_ts
     assert acks == build_packet_ack(number)
     assert s.tracker.track.swing_times[-1] == np.float32(swing)
 

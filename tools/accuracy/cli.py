@@ -29,7 +29,11 @@ def build_parser() -> argparse.ArgumentParser:
     v = sub.add_parser("speeds", help="simulated 100 m straight at 3–8 km/h and running, at 1 kHz and "
                                       "250 Hz: the error-free module's and the modules' end errors")
     v.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated modules (default 1:6, five)")
-    for q in (w, s, v):
+    n = sub.add_parser("navshoe-outage",
+                       help="NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the first "
+                            "400 m; compass + GPS, GPS only, compass only, plain")
+    n.add_argument("--seeds", default="1:21", metavar="A:B", help="simulated walks (default 1:21, twenty)")
+    for q in (w, s, v, n):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -105,6 +109,19 @@ def _speeds(args: argparse.Namespace, out) -> int:
     return 0
 
 
+def _navshoe_outage(args: argparse.Namespace, out) -> int:
+    from . import navshoe
+
+    seeds = _seeds(args)
+    if seeds is None:
+        return 2
+    rows = navshoe.outage_rows(seeds, workers=args.workers)
+    for line in navshoe.summary_lines(rows):
+        print(line, file=out)
+    print(f"results: {_write_csv(args.out / 'navshoe-outage.csv', rows)}", file=out)
+    return 0
+
+
 def _true_profile(scenario: str) -> tuple[np.ndarray, np.ndarray]:
     from firmware_sim.sensors.scenarios import trajectory
 
@@ -119,4 +136,5 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.workers < 0:
         print(f"{PROG}: --workers must be ≥ 0, got {args.workers}", file=sys.stderr)
         return 2
-    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds}[args.experiment](args, out)
+    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds,
+            "navshoe-outage": _navshoe_outage}[args.experiment](args, out)

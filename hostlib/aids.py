@@ -1,0 +1,86 @@
+"""Setting the host-side aids up from what a user has: a GPS log, a place and date, a calibration.
+
+:func:`prepare_aids` turns command-line facts into a ready :class:`~hostlib.fusion.FusionTracker`:
+
+* with a GPS log, the fixes are read (:mod:`hostlib.gps`; garbled lines and missing fixes are
+  skipped and counted), placed north/east of the first fix (pymap3d), and queued on the tracker;
+  the first fix is also the geographic origin of the track and, with its date, where the World
+  Magnetic Model gives the declination prior (:mod:`hostlib.declination`);
+* without GPS, the declination comes from the WMM at *origin* (and *when*) if given, else 0 (the
+  compass then gives magnetic headings, and the summary says so);
+* a magnetometer calibration (:class:`hostlib.magcal.MagCalibration`) is applied to every
+  reading; one fitted on another module is refused once the module names itself.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+from .declination import declination_deg
+from .fusion import FusionSettings, FusionTracker
+from .gps import NmeaStats, local_positions, read_nmea, seconds_since
+from .magcal import MagCalibration
+
+__all__ = ["AidSetup", "prepare_aids"]
+
+
+@dataclass
+class AidSetup:
+    """A tracker with its aids, and what setting them up found."""
+
+    tracker: FusionTracker
+    origin: tuple[float, float, float] | None  #: lat, lon, alt of the track's (0, 0, 0), if known
+    declination_source: str  #: "WMM at the first fix, 2026-06-01", "given", "none (magnetic headings)"
+    gps_stats: NmeaStats | None = None
+
+    def describe(self) -> str:
+        s = self.tracker.settings
+        parts = []
+        if s.compass:
+            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step"
+                         + (" (calibrated)" if s.mag_calibration is not None else ""))
+        parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
+        if self.gps_stats is not None:
+            parts.append(self.gps_stats.summary())
+        return "; ".join(parts)
+
+
+def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
+                 mag_calibration: MagCalibration | None = None, declination: float | None = None,
+                 origin: Sequence[float] | None = None, when: dt.date | None = None,
+                 settings: FusionSettings | None = None, last_counter: int | None = None) -> AidSetup:
+    """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
+    calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
+    place the walk when there is no GPS. Raises OSError for an unreadable GPS log and ValueError
+    when it holds no fix."""
+    base = settings or FusionSettings()
+    fixes, stats = [], None
+    if gps_path is not None:
+        fixes, stats = read_nmea(gps_path)
+        if not fixes:
+            raise ValueError(f"{gps_path}: no GPS fix in {stats.lines} lines ({stats.summary()})")
+        first = fixes[0]
+        origin = (first.lat_deg, first.lon_deg, first.alt_m if math.isfinite(first.alt_m) else 0.0)
+        when = when or next((f.date for f in fixes if f.date is not None), None)
+    place = "the first fix" if fixes else "the origin"
+    if declination is not None:
+        dec, source = float(declination), "given"
+    elif origin is not None:
+        day = when or dt.date.today()
+        lat, lon, *alt = (float(v) for v in origin)
+        dec = declination_deg(lat, lon, alt[0] if alt else 0.0, day)
+        source = f"WMM at {place}, {day.isoformat()}"
+    else:
+        dec, source = 0.0, "none: magnetic headings"
+    cfg = replace(base, compass=compass, gps=bool(fixes), mag_calibration=mag_calibration,
+                  declination_rad=math.radians(dec))
+    tracker = FusionTracker(cfg, last_counter=last_counter)
+    if fixes:
+        assert stats is not None and stats.first_time is not None
+        tracker.add_fixes(seconds_since(stats.first_time, fixes), local_positions(fixes)[:, :2])
+    geo = None if origin is None else tuple(float(v) for v in (*origin, 0.0)[:3])
+    return AidSetup(tracker, geo, source, stats)  # type: ignore[arg-type]

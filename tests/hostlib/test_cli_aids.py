@@ -1,0 +1,89 @@
+"""openshoe-host replay with the heading aids: --compass, --gps FILE, --declination, --mag-cal; the
+CSV keeps its local columns and adds lat/lon/alt with GPS; bad aid inputs are refused clearly."""
+
+from __future__ import annotations
+
+import io
+
+import numpy as np
+
+from firmware_sim.sensors.gps import simulate_fixes, write_nmea
+from hostlib.cli import main
+from hostlib.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
+from hostlib.magcal import fit_ellipsoid
+
+from .loops import fusion_capture, rectangle
+
+
+def _capture(tmp_path, with_setup=True):
+    path = tmp_path / "walk.bin"
+    path.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003", with_setup=with_setup))
+    return str(path)
+
+
+def _nmea(tmp_path, garbage: bool = False):
+    t = np.arange(0.0, 30.0, 0.01)
+    pos = np.zeros((len(t), 3))
+    path = write_nmea(tmp_path / "gps.nmea", simulate_fixes(t, pos, np.zeros_like(pos), seed=1))
+    if garbage:
+        with path.open("a") as f:
+            f.write("$GPGGA,garbled*00\r\nnot nmea at all\r\n")
+    return str(path)
+
+
+def test_replay_with_the_compass_counts_its_updates_and_writes_the_local_csv(tmp_path):
+    out, csv = io.StringIO(), tmp_path / "t.csv"
+    args = ["replay", _capture(tmp_path), "--compass", "--declination", "0", "--csv", str(csv)]
+    assert main(args, out) == 0
+    text = out.getvalue()
+    assert "declination +0.00° (given)" in text and "heading aligned by compass" in text
+    assert "compass updates" in text
+    with csv.open() as f:
+        assert tuple(f.readline().strip().split(",")) == CSV_COLUMNS
+    assert len(read_csv(csv)) == len(rectangle((0.0, 0.0, 0.0)).dx)
+
+
+def test_replay_with_gps_places_the_track_on_the_globe(tmp_path):
+    out, csv = io.StringIO(), tmp_path / "t.csv"
+    assert main(["replay", _capture(tmp_path), "--compass", "--gps", _nmea(tmp_path, garbage=True),
+                 "--csv", str(csv)], out) == 0
+    text = out.getvalue()
+    assert "WMM at the first fix, 2026-06-01" in text
+    assert "2 garbled (skipped)" in text
+    with csv.open() as f:
+        header = tuple(f.readline().strip().split(","))
+        first = f.readline().strip().split(",")
+    assert header == CSV_COLUMNS + GEO_COLUMNS
+    lat, lon = float(first[-3]), float(first[-2])
+    assert abs(lat - 59.3498) < 1e-3 and abs(lon - 18.0707) < 1e-3  # KTH, the receiver's default
+    track = read_csv(csv)
+    assert len(track) > 0
+
+
+def test_the_compass_on_a_capture_without_the_fusion_set_up_says_what_is_missing(tmp_path):
+    out = io.StringIO()
+    assert main(["replay", _capture(tmp_path, with_setup=False), "--compass"], out) == 0
+    assert "record with the fusion set-up" in out.getvalue()
+
+
+def test_a_gps_log_without_a_fix_or_a_bad_calibration_is_refused(tmp_path, capsys):
+    empty = tmp_path / "none.nmea"
+    empty.write_text("hello\r\n")
+    assert main(["replay", _capture(tmp_path), "--gps", str(empty)], io.StringIO()) == 1
+    assert "no GPS fix" in capsys.readouterr().err
+    bad = tmp_path / "cal.json"
+    bad.write_text("{}")
+    assert main(["replay", _capture(tmp_path), "--compass", "--mag-cal", str(bad)], io.StringIO()) == 1
+    assert "cal.json" in capsys.readouterr().err
+
+
+def test_a_magnetometer_calibration_is_applied(tmp_path):
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(500, 3))
+    v *= 51.5 / np.linalg.norm(v, axis=1, keepdims=True)
+    cal = tmp_path / "cal.json"
+    fit_ellipsoid(v + [3.0, 0.0, 0.0]).save(cal)
+    out = io.StringIO()
+    args = ["replay", _capture(tmp_path), "--compass", "--mag-cal", str(cal), "--declination", "0"]
+    assert main(args, out) == 0
+    assert "(calibrated)" in out.getvalue()

@@ -1,0 +1,151 @@
+"""NavShoe's outage experiment, simulated (shared/spec/aids.md §2; issue: heading aids).
+
+One walk of the ``navshoe-outage`` scenario per seed — a hilly 1 km loop outdoors, started facing
+north-east, whose GPS receiver stops giving fixes after the first 400 m — goes once through the
+module (``openshoe-emu replay --host fusion``: each step packet carries the magnetometers and the
+attitude at the end of its stance) and its receiver's NMEA sentences once through
+:class:`hostlib.gps.NmeaReader`. The host then tracks the same bytes four ways
+(:class:`hostlib.fusion.FusionTracker`):
+
+* ``compass+gps``: the per-step compass (σ 5°, outdoors), the declination from the World Magnetic
+  Model at the first fix as a state with σ 15°, GPS updates while there are fixes;
+* ``gps``: GPS only — the heading is aligned on the GPS course, then transfer-aligned;
+* ``compass``: the compass with the WMM declination, no GPS;
+* ``compass+gps uncalibrated``: as the first, without removing the shoe's iron;
+* ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do).
+
+The compass runs remove the shoe's hard and soft iron as simulated (the in-situ calibration from a
+wiggle is not built yet). Per run: the horizontal position error and the heading error at the end
+of the walk (the end of the outage), the distance walked without GPS, and the learned declination
+against the simulated Earth field's. Positions of a GPS run are about its first fix; they are put
+back in the walk's frame with that fix's own position before comparing.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+__all__ = ["SCENARIO", "HOSTS", "outage_rows", "outage_run", "summary_lines"]
+
+SCENARIO = "navshoe-outage"
+HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
+#: 1σ of one compass reading outdoors [deg]: the emulator's open-ground deviation (0.8 µT per axis
+#: against a 15.5 µT horizontal field, ≈ 3°) and three chips' noise (≈ 1.3°), rounded up.
+OUTDOOR_COMPASS_SIGMA_DEG = 5.0
+
+
+def _walked(pos: np.ndarray) -> np.ndarray:
+    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pos[:, :2], axis=0).T))])
+
+
+def outage_run(seed: int) -> list[dict[str, Any]]:
+    """The four hosts' rows of one seed (module docstring)."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.sensors.gps import (
+        DEFAULT_ORIGIN,
+        DEFAULT_START,
+        GpsErrors,
+        nmea_lines,
+        scenario_errors,
+        simulate_fixes,
+    )
+    from firmware_sim.sensors.imu_array import make_source
+    from firmware_sim.transports.factory import module_serial
+    from hostlib.compass import wrap_angle
+    from hostlib.declination import declination_deg
+    from hostlib.fusion import FusionSettings, FusionTracker
+    from hostlib.gps import NmeaReader, local_positions, seconds_since
+    from hostlib.magcal import MagCalibration
+    from hostlib.replay import replay_session
+
+    source = make_source(SCENARIO, seed=seed)
+    truth = source.truth
+    config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(None))
+    data = bytes(run_replay(source, config=config, announce=None, host="fusion"))
+    errors = scenario_errors(GpsErrors(), SCENARIO, truth.t, truth.pos)
+    reader = NmeaReader()
+    fixes = reader.feed_all(nmea_lines(simulate_fixes(truth.t, truth.pos, truth.vel, DEFAULT_ORIGIN, errors,
+                                                      seed=seed), DEFAULT_START, errors))
+    times = seconds_since(reader.stats.first_time, fixes)
+    north_east = local_positions(fixes)[:, :2]
+    first_fix = local_positions(fixes[:1], origin=DEFAULT_ORIGIN)[0, :2]  # in the walk's frame
+    wmm = math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))
+    true_declination = source.config.mag.declination_deg
+    walked = _walked(truth.pos)
+    outage_start = errors.outages[-1][0]
+    without_gps = float(walked[-1] - np.interp(outage_start, truth.t, walked))
+    end = truth.pos[-1, :2]
+    r_end = truth.R[-1]
+    true_heading = math.atan2(r_end[1, 0], r_end[0, 0])
+    r0 = truth.R[0]
+    compass_sigma = math.radians(OUTDOOR_COMPASS_SIGMA_DEG)
+    # the shoe's iron as simulated (the in-situ calibration from a wiggle is not built yet)
+    iron = MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))
+    compass = {"compass": True, "compass_sigma_rad": compass_sigma, "declination_rad": wmm,
+               "mag_calibration": iron}
+    settings = {
+        "compass+gps": FusionSettings(gps=True, **compass),
+        "gps": FusionSettings(gps=True),
+        "compass": FusionSettings(**compass),
+        "compass+gps uncalibrated": FusionSettings(gps=True, **{**compass, "mag_calibration": None}),
+        "plain": FusionSettings(),
+    }
+    rows = []
+    for host in HOSTS:
+        cfg = settings[host]
+        heading0 = math.atan2(r0[1, 0], r0[0, 0]) if host == "plain" else 0.0
+        tracker = FusionTracker(cfg, last_counter=None, heading=heading0)
+        if cfg.gps:
+            tracker.add_fixes(times, north_east)
+        replay_session(data, tracker=tracker)
+        pose = tracker.track.final_pose
+        position = pose[:2] + (first_fix if cfg.gps else 0.0)
+        error = float(np.hypot(*(position - end)))
+        rows.append({
+            "seed": seed, "host": host, "distance_m": round(tracker.track.distance, 1),
+            "without_gps_m": round(without_gps, 1), "end_error_m": error,
+            "end_error_pct_without_gps": 100.0 * error / without_gps,
+            "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_heading)),
+            "declination_deg": math.degrees(tracker.declination),
+            "declination_sigma_deg": math.degrees(tracker.declination_sigma),
+            "true_declination_deg": true_declination, "wmm_declination_deg": math.degrees(wmm),
+            "compass_updates": tracker.fusion.compass_updates, "gps_updates": tracker.fusion.gps_updates,
+            "aligned_by": tracker.fusion.heading_aligned_by or "truth",
+        })
+    return rows
+
+
+def outage_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+    """Every seed's rows, seeds in order (on *workers* Dask processes)."""
+    from .runs import map_runs
+
+    return [row for rows in map_runs(outage_run, list(seeds), workers) for row in rows]
+
+
+def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
+    out = [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
+           f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)",
+           f"{'host':<26} {'end error [m]':>16} {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14}"
+           f" {'declination [°]':>16}"]
+    for host in HOSTS:
+        sel = [r for r in rows if r["host"] == host]
+        if not sel:
+            continue
+        e = np.array([r["end_error_m"] for r in sel])
+        pct = np.array([r["end_error_pct_without_gps"] for r in sel])
+        h = np.abs([r["heading_error_deg"] for r in sel])
+        d = np.array([r["declination_deg"] for r in sel])
+        learned = host.startswith("compass+gps")
+        dec = f"{d.mean():6.2f} ± {d.std():4.2f}" if learned else f"{d.mean():6.2f} (fixed)"
+        out.append(f"{host:<26} {e.mean():7.2f} ± {e.std():5.2f} {pct.mean():14.2f} {pct.max():8.2f} "
+                   f"{h.mean():6.2f} ± {h.std():5.2f} {dec:>16}")
+    truth = rows[0]
+    out.append(f"simulated declination {truth['true_declination_deg']:.2f}°, WMM prior "
+               f"{truth['wmm_declination_deg']:.2f}°")
+    return out
