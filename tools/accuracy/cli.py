@@ -96,30 +96,28 @@ def _seeds(args: argparse.Namespace) -> list[int] | None:
         return None
 
 
-def _speeds(args: argparse.Namespace, out) -> int:
-    from . import speeds
-
+def _seeded_table(args: argparse.Namespace, out, rows_of: Any, summary_of: Any, name: str) -> int:
+    """An experiment over ``--seeds``: its rows, its summary printed, its table written as *name*."""
     seeds = _seeds(args)
     if seeds is None:
         return 2
-    rows = speeds.speed_rows(seeds, workers=args.workers)
-    for line in speeds.summary_lines(rows):
+    rows = rows_of(seeds, workers=args.workers)
+    for line in summary_of(rows):
         print(line, file=out)
-    print(f"results: {_write_csv(args.out / 'speeds.csv', rows)}", file=out)
+    print(f"results: {_write_csv(args.out / name, rows)}", file=out)
     return 0
+
+
+def _speeds(args: argparse.Namespace, out) -> int:
+    from . import speeds
+
+    return _seeded_table(args, out, speeds.speed_rows, speeds.summary_lines, "speeds.csv")
 
 
 def _navshoe_outage(args: argparse.Namespace, out) -> int:
     from . import navshoe
 
-    seeds = _seeds(args)
-    if seeds is None:
-        return 2
-    rows = navshoe.outage_rows(seeds, workers=args.workers)
-    for line in navshoe.summary_lines(rows):
-        print(line, file=out)
-    print(f"results: {_write_csv(args.out / 'navshoe-outage.csv', rows)}", file=out)
-    return 0
+    return _seeded_table(args, out, navshoe.outage_rows, navshoe.summary_lines, "navshoe-outage.csv")
 
 
 def _true_profile(scenario: str) -> tuple[np.ndarray, np.ndarray]:
