@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .declination import declination_deg
+from .export import parse_origin
 from .fusion import FusionSettings, FusionTracker
 from .gps import NmeaStats, local_positions, read_nmea, seconds_since
 from .magcal import MagCalibration
@@ -58,22 +59,21 @@ def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
     place the walk when there is no GPS. Raises OSError for an unreadable GPS log and ValueError
     when it holds no fix."""
     base = settings or FusionSettings()
+    place = None if origin is None else parse_origin(origin)
     fixes, stats = [], None
     if gps_path is not None:
         fixes, stats = read_nmea(gps_path)
         if not fixes:
             raise ValueError(f"{gps_path}: no GPS fix in {stats.lines} lines ({stats.summary()})")
         first = fixes[0]
-        origin = (first.lat_deg, first.lon_deg, first.alt_m if math.isfinite(first.alt_m) else 0.0)
+        place = (first.lat_deg, first.lon_deg, first.alt_m if math.isfinite(first.alt_m) else 0.0)
         when = when or next((f.date for f in fixes if f.date is not None), None)
-    place = "the first fix" if fixes else "the origin"
     if declination is not None:
         dec, source = float(declination), "given"
-    elif origin is not None:
+    elif place is not None:
         day = when or dt.date.today()
-        lat, lon, *alt = (float(v) for v in origin)
-        dec = declination_deg(lat, lon, alt[0] if alt else 0.0, day)
-        source = f"WMM at {place}, {day.isoformat()}"
+        dec = declination_deg(*place, day)
+        source = f"WMM at {'the first fix' if fixes else 'the origin'}, {day.isoformat()}"
     else:
         dec, source = 0.0, "none: magnetic headings"
     cfg = replace(base, compass=compass, gps=bool(fixes), mag_calibration=mag_calibration,
@@ -82,5 +82,4 @@ def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
     if fixes:
         assert stats is not None and stats.first_time is not None
         tracker.add_fixes(seconds_since(stats.first_time, fixes), local_positions(fixes)[:, :2])
-    geo = None if origin is None else tuple(float(v) for v in (*origin, 0.0)[:3])
-    return AidSetup(tracker, geo, source, stats)  # type: ignore[arg-type]
+    return AidSetup(tracker, place, source, stats)

@@ -78,10 +78,9 @@ def _uses_aids(args: argparse.Namespace) -> bool:
     return bool(args.compass or args.gps)
 
 
-def _prepare_aids(args: argparse.Namespace, last_counter: int | None):
+def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None):
     """The fusion tracker the aid options ask for (hostlib.aids)."""
     from .aids import prepare_aids
-    from .export import parse_origin
     from .fusion import FusionSettings
     from .magcal import MagCalibration
 
@@ -89,10 +88,8 @@ def _prepare_aids(args: argparse.Namespace, last_counter: int | None):
     if args.compass_sigma is not None:
         settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
     cal = MagCalibration.load(args.mag_cal) if args.mag_cal else None
-    origin = parse_origin(args.origin) if args.origin else None
     return prepare_aids(compass=args.compass, gps_path=args.gps, mag_calibration=cal,
-                        declination=args.declination, origin=origin, settings=settings,
-                        last_counter=last_counter)
+                        declination=args.declination, origin=origin, settings=settings)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -265,10 +262,10 @@ def _drift_needs_fusion(args: argparse.Namespace) -> bool:
 def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     if _drift_needs_fusion(args):
         return 2
+    from .export import parse_origin
+
     drift = DriftCalibration.load(args.drift) if args.drift else None
-    origin = None
-    if args.origin:
-        origin = [float(v) for v in args.origin.split(",")]
+    origin = parse_origin(args.origin) if args.origin else None  # refused before the port opens
     tracker = StepTracker(heading=math.radians(args.heading), last_counter=None if args.attach else 0)
     with _open(args, tracker=tracker) as dev:
         setup = _HostSetup(dev, args.fusion, args.height_compensation)
@@ -325,7 +322,7 @@ def _fusion_line(tracker) -> str:
             f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°")
 
 
-def _write_outputs(args: argparse.Namespace, track: Track, origin: list[float] | None,
+def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,
                    geographic_csv: bool = False) -> None:
     if args.csv:
         from .export import write_csv
@@ -382,22 +379,23 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
+    from .export import parse_origin
     from .replay import replay_capture_session
 
     drift = DriftCalibration.load(args.drift) if args.drift else None
-    aids = _prepare_aids(args, last_counter=None) if _uses_aids(args) else None
+    origin = parse_origin(args.origin) if args.origin else None
+    aids = _prepare_aids(args, origin) if _uses_aids(args) else None
     session = replay_capture_session(args.capture, command_set=args.command_set,
                                      tracker=None if aids is None else aids.tracker)
     track, stats = session.tracker.track, session.stats
-    origin = [float(v) for v in args.origin.split(",")] if args.origin else None
     if aids is not None:
         cal = aids.tracker.settings.mag_calibration
         if cal is not None:
             cal.check_module(serial_text(session.mcu_serial) if session.mcu_serial else "")
         print(f"aids: {aids.describe()}", file=out)
         print(_fusion_line(aids.tracker), file=out)
-        if aids.origin is not None and args.gps:
-            origin = list(aids.origin)
+        if args.gps:
+            origin = aids.origin
     if drift is not None:
         corrected = drift.apply(track, module_serial=session.mcu_serial, what=args.capture)
         print(f"drift correction: {drift}", file=out)
@@ -405,7 +403,7 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
               f"corrected (horizontal; 3-D {track.closure_error(False):.3f} → "
               f"{corrected.closure_error(False):.3f} m)", file=out)
         track = corrected
-    _write_outputs(args, track, origin, geographic_csv=bool(getattr(args, "gps", None)))
+    _write_outputs(args, track, origin, geographic_csv=bool(args.gps))
     print(repr(track), file=out)
     print(f"packets {stats.packets} (+{stats.duplicate_packets} resends) | garbage {stats.garbage_bytes} B | "
           f"bad frames {stats.bad_frames} | gaps {stats.gaps} (missing {stats.missing_steps})"

@@ -126,7 +126,8 @@ class FusionTracker(StepTracker):
         self._pd = np.zeros(4)  # cov(pose, D)
         self._dd = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._aligned = not (s.compass or s.gps)
-        self._cycles: int | None = None
+        self._cycles: int | None = None  # the last T_INT_K seen
+        self._total = 0  # cycles since the first T_INT_K seen, unwrapped
         self._time = 0.0  # module time of the last step [s]
         self._fix_times: list[float] = []
         self._fixes: list[np.ndarray] = []

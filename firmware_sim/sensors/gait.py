@@ -345,6 +345,13 @@ class GaitBuilder:
 
     # -- motions ---------------------------------------------------------------------------------
 
+    def face(self, deg: float) -> GaitBuilder:
+        """Start facing *deg* (east of north): only before anything else has happened."""
+        if self._segments:
+            raise ValueError("'face' sets the start, so it can only be the first piece")
+        self.pose = replace(self.pose, yaw=deg * DEG)
+        return self
+
     def stand(self, seconds: float) -> GaitBuilder:
         """Stand still (foot flat) for *seconds*."""
         self._stance(seconds)

@@ -100,8 +100,9 @@ def parse_outages(texts: Sequence[str]) -> tuple[tuple[float, float], ...]:
 def outage_after_distance(t: np.ndarray, pos: np.ndarray, metres: float) -> tuple[float, float]:
     """The outage (start, ∞) that begins once the walker at NED positions *pos* (times *t*) has gone
     *metres* horizontally (a scenario's ``Environment.gps_outage_after_m``)."""
-    walked = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(np.asarray(pos)[:, :2], axis=0).T))])
-    k = int(np.searchsorted(walked, metres))
+    from .truth import walked_distance
+
+    k = int(np.searchsorted(walked_distance(pos), metres))
     return (float(t[min(k, len(t) - 1)]), math.inf)
 
 

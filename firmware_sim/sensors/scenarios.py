@@ -46,7 +46,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from .gait import DEG, RUNNING, WALKING, GaitBuilder, GaitParams, Pose, Trajectory
+from .gait import RUNNING, WALKING, GaitBuilder, GaitParams, Trajectory
 
 __all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "list_scenarios", "recipe", "trajectory"]
 
@@ -119,7 +119,7 @@ def _pace(b: GaitBuilder, v: float = 1.55) -> None:
     b.params = WALKING.with_speed(v)
 
 
-PIECES: dict[str, Callable[..., object] | None] = {
+PIECES: dict[str, Callable[..., object]] = {
     "stand": lambda b, s=3.0: b.stand(s),
     "walk": lambda b, m=10.0, deg=0.0: b.walk(m, slope_deg=deg),
     "ramp": lambda b, m=50.0, deg=6.0, across=0.0: b.ramp(m, deg, across),
@@ -133,7 +133,7 @@ PIECES: dict[str, Callable[..., object] | None] = {
     "rectangle": lambda b, l=30.0, w=15.0, r=1.0: b.rectangle(l, w, r),
     "track400": lambda b, laps=1: b.track_400m(laps=int(laps)),
     "pace": _pace,
-    "face": None,  # the start's heading: handled by trajectory(), first piece only
+    "face": lambda b, deg=0.0: b.face(deg),
 }
 
 
@@ -156,20 +156,12 @@ def recipe(name_or_recipe: str) -> str:
 def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
     """Build the foot trajectory of a named scenario or a recipe."""
     pieces = [p.strip() for p in recipe(name_or_recipe).split("+") if p.strip()]
-    start = Pose()
-    if pieces and pieces[0].split(":")[0] == "face":
-        face, *arg = pieces.pop(0).split(":")
-        try:
-            start = Pose(yaw=float(arg[0]) * DEG if arg else 0.0)
-        except ValueError:
-            raise ValueError(f"piece {face}:{arg[0]}: arguments must be numbers") from None
-    if any(p.split(":")[0] == "face" for p in pieces):
-        raise ValueError(f"{name_or_recipe!r}: 'face' sets the start, so it can only be the first piece")
-    if not pieces or not pieces[0].startswith("stand"):
-        pieces.insert(0, "stand:3")
+    lead = 1 if pieces and pieces[0].split(":")[0] == "face" else 0  # the start's heading comes first
+    if len(pieces) == lead or not pieces[lead].startswith("stand"):
+        pieces.insert(lead, "stand:3")
     if not pieces[-1].startswith("stand"):
         pieces.append("stand:2")
-    b = GaitBuilder(params, start)
+    b = GaitBuilder(params)
     for piece in pieces:
         name, *args = piece.split(":")
         if name not in PIECES:
@@ -180,7 +172,7 @@ def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
         except ValueError:
             raise ValueError(f"piece {piece!r}: arguments must be numbers") from None
         try:
-            PIECES[name](b, *values)  # type: ignore[misc]
+            PIECES[name](b, *values)
         except TypeError:
             raise ValueError(f"piece {piece!r}: too many arguments") from None
     return b.build()

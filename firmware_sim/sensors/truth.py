@@ -25,7 +25,7 @@ import numpy as np
 
 __all__ = [
     "Kinematics", "GroundTruth", "euler_to_matrix", "mul_transposed", "rotate", "cross", "euler_to_quat",
-    "quat_to_matrix", "strapdown_rk4",
+    "quat_to_matrix", "strapdown_rk4", "walked_distance",
 ]
 
 
@@ -45,6 +45,12 @@ def euler_to_matrix(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.
     R[..., 2, 1] = cp * sr
     R[..., 2, 2] = cp * cr
     return R
+
+
+def walked_distance(pos: np.ndarray) -> np.ndarray:
+    """(n,) horizontal distance [m] walked up to each of the NED positions *pos* (n, ≥ 2)."""
+    steps = np.diff(np.asarray(pos, dtype=np.float64)[:, :2], axis=0)
+    return np.concatenate([[0.0], np.cumsum(np.hypot(steps[:, 0], steps[:, 1]))])
 
 
 def mul_transposed(R: np.ndarray, v: np.ndarray) -> np.ndarray:

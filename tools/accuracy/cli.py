@@ -124,8 +124,9 @@ def _true_profile(scenario: str) -> tuple[np.ndarray, np.ndarray]:
     from firmware_sim.sensors.scenarios import trajectory
 
     p = trajectory(scenario).sample(100.0).stances_in_start_frame()
-    d = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(p[:, :2], axis=0).T))])
-    return d, -p[:, 2]
+    from firmware_sim.sensors.truth import walked_distance
+
+    return walked_distance(p), -p[:, 2]
 
 
 def main(argv: Sequence[str] | None = None, out=None) -> int:

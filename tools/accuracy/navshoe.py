@@ -38,10 +38,6 @@ HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
 OUTDOOR_COMPASS_SIGMA_DEG = 5.0
 
 
-def _walked(pos: np.ndarray) -> np.ndarray:
-    return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pos[:, :2], axis=0).T))])
-
-
 def outage_run(seed: int) -> list[dict[str, Any]]:
     """The four hosts' rows of one seed (module docstring)."""
     from firmware_sim.app.batch import run_replay
@@ -55,6 +51,7 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         simulate_fixes,
     )
     from firmware_sim.sensors.imu_array import make_source
+    from firmware_sim.sensors.truth import walked_distance
     from firmware_sim.transports.factory import module_serial
     from hostlib.compass import wrap_angle
     from hostlib.declination import declination_deg
@@ -76,7 +73,7 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
     first_fix = local_positions(fixes[:1], origin=DEFAULT_ORIGIN)[0, :2]  # in the walk's frame
     wmm = math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))
     true_declination = source.config.mag.declination_deg
-    walked = _walked(truth.pos)
+    walked = walked_distance(truth.pos)
     outage_start = errors.outages[-1][0]
     without_gps = float(walked[-1] - np.interp(outage_start, truth.t, walked))
     end = truth.pos[-1, :2]

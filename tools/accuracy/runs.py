@@ -53,6 +53,7 @@ def map_runs(run: Any, jobs: list, workers: int) -> list:
 
 def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:
     """(distance walked [m], height [m], up positive) at every pose of *track*."""
+    from firmware_sim.sensors.truth import walked_distance
+
     pos = track.positions
-    d = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pos[:, :2], axis=0).T))])
-    return d, -pos[:, 2]
+    return walked_distance(pos), -pos[:, 2]
