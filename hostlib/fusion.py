@@ -28,8 +28,8 @@ With every aid off the track is :class:`~hostlib.tracking.StepTracker`'s, bit fo
 summation is the same code, and D is uncorrelated with the pose until an aid correlates it.
 
 Time: a step packet of the fusion set-up carries T_INT_K (the module's 64 MHz cycle counter when
-the step's last measurement was taken); the tracker unwraps it (steps come at most about a second
-apart) into seconds since the module's power-on. Fix times are seconds since the receiver started
+the step's last measurement was taken); the tracker unwraps it into seconds since the module's
+power-on (:class:`~hostlib.module_clock.ModuleClock`). Fix times are seconds since the receiver started
 talking (:func:`hostlib.gps.seconds_since`); the two clocks are taken to start together, as the
 emulator's receiver and module do (:attr:`FusionSettings.gps_offset_s` shifts the fixes).
 """
@@ -42,18 +42,13 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from protocol.ids import StateId
-from protocol.states import TIMESTAMP_HZ
-
 from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .events import StepOutcome
 from .magcal import MagCalibration
+from .module_clock import ModuleClock
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["FusionSettings", "FusionStats", "FusionTracker"]
-
-_WRAP = 1 << 32
-
 
 @dataclass(frozen=True)
 class FusionSettings:
@@ -126,8 +121,7 @@ class FusionTracker(StepTracker):
         self._pd = np.zeros(4)  # cov(pose, D)
         self._dd = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._aligned = not (s.compass or s.gps)
-        self._cycles: int | None = None  # the last T_INT_K seen
-        self._total = 0  # cycles since the first T_INT_K seen, unwrapped
+        self._clock = ModuleClock()
         self._time = 0.0  # module time of the last step [s]
         self._fix_times: list[float] = []
         self._fixes: list[np.ndarray] = []
@@ -185,7 +179,7 @@ class FusionTracker(StepTracker):
             ) -> StepOutcome:
         """Sum one step, then apply the aids its packet's *states* and the queued fixes allow."""
         reading = stance_reading(states) if states is not None else None
-        time_s = self._step_time(states)
+        time_s = self._clock.seconds(states)
         return self.add_step(step.dx, step.dp, step.counter, swing_time, reading=reading, time_s=time_s)
 
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *,
@@ -208,17 +202,6 @@ class FusionTracker(StepTracker):
         return outcome
 
     # -- time --------------------------------------------------------------------------
-
-    def _step_time(self, states: Mapping[int, np.ndarray] | None) -> float:
-        if states is None or StateId.T_INT_K not in states:
-            return math.nan
-        cycles = int(states[StateId.T_INT_K])
-        if self._cycles is None:
-            self._total = cycles
-        else:
-            self._total += (cycles - self._cycles) % _WRAP
-        self._cycles = cycles
-        return self._total / TIMESTAMP_HZ
 
     # -- the aids ----------------------------------------------------------------------
 

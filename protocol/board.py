@@ -11,6 +11,9 @@ Board frame: x forward, y right, z down. Chips 0 and 1 are on the top side, 2 an
 the bottom side, mounted upside down (a 180° rotation about the board's x axis;
 sensors.md). Inside each MPU9150 the AK8975 die is turned: x_mag = y_acc,
 y_mag = x_acc, z_mag = −z_acc (datasheet). One magnetometer LSB is 0.3 µT.
+
+A walker may wear a module on each foot: :data:`FOOT_SIDES` names the feet for the
+emulator and the host alike.
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ import numpy as np
 
 from .ids import NR_IMUS
 
-__all__ = ["AK8975_AXES", "CHIP_MOUNTING", "MAG_UT_PER_LSB", "mag_to_board", "mag_to_board_matrix"]
+__all__ = ["AK8975_AXES", "CHIP_MOUNTING", "FOOT_SIDES", "MAG_UT_PER_LSB", "mag_to_board",
+           "mag_to_board_matrix"]
 
 _UPRIGHT = ((1, 0, 0), (0, 1, 0), (0, 0, 1))
 _UPSIDE_DOWN = ((1, 0, 0), (0, -1, 0), (0, 0, -1))  # 180° about x
@@ -33,6 +37,10 @@ AK8975_AXES: tuple[tuple[int, int, int], ...] = ((0, 1, 0), (1, 0, 0), (0, 0, -1
 
 #: Magnetometer scale [µT per LSB] (AK8975 datasheet).
 MAG_UT_PER_LSB = 0.3
+
+#: The feet a walker wears a module on, in the order two-foot devices, files and results list them
+#: (the emulator's ``serve --feet 2`` names its ports ``<path>-left`` and ``<path>-right``).
+FOOT_SIDES: tuple[str, str] = ("left", "right")
 
 assert len(CHIP_MOUNTING) == NR_IMUS
 

@@ -47,8 +47,8 @@ from numpy.polynomial import polynomial as P
 
 from .truth import GroundTruth, Kinematics
 
-__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "GaitBuilder", "Trajectory",
-           "flat_on", "ramp_normal"]
+__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "Swing", "GaitBuilder",
+           "Trajectory", "flat_on", "ramp_normal"]
 
 DEG = math.pi / 180.0
 STANCE, SWING = 0, 1
@@ -205,6 +205,37 @@ def flat_on(normal: np.ndarray, yaw: float) -> tuple[float, float]:
     return roll + 0.0, pitch + 0.0  # + 0.0: level ground gives +0, never −0
 
 
+@dataclass(frozen=True)
+class Swing:
+    """One swing of a foot: it lifts off at *t0* [s] from pose *a* and comes to rest at pose *b*,
+    moving as *params* say (its swing time, clearance, pitch profile and impact)."""
+
+    t0: float
+    a: Pose
+    b: Pose
+    params: GaitParams
+
+    @property
+    def end(self) -> float:
+        """When the foot is at rest again [s]."""
+        return self.t0 + self.params.swing_s
+
+
+def _swing_segment(t0: float, a: Pose, b: Pose, p: GaitParams) -> dict:
+    T = p.swing_s
+    w = min(p.impact_width_s, 0.5 * T)
+    imp_t0 = max(0.0, p.impact_end * T - w)
+    amp = p.impact_g * 9.80665 * w * w / _BUMP_PEAK_ACCEL if p.impact_g > 0 else 0.0
+    return dict(t0=t0, dur=T, kind=SWING, A=a, B=b, clear=p.clearance, toe=p.toe_off_pitch_deg * DEG,
+                heel=p.heel_strike_pitch_deg * DEG, imp_amp=amp, imp_w=w, imp_t0=imp_t0,
+                imp_fwd=p.impact_forward)
+
+
+def _stance_segment(t0: float, seconds: float, pose: Pose) -> dict:
+    return dict(t0=t0, dur=seconds, kind=STANCE, A=pose, B=pose, clear=0.0, toe=0.0, heel=0.0, imp_amp=0.0,
+                imp_w=1.0, imp_t0=0.0, imp_fwd=0.0)
+
+
 # ---------------------------------------------------------------------------------------------
 # the trajectory
 
@@ -224,6 +255,27 @@ class Trajectory:
         self._B = np.array([s["B"].as_array() for s in segments])
         self.stances = stances
         self.duration = float(self._t0[-1] + self._dur[-1])
+
+    @classmethod
+    def from_swings(cls, start: Pose, swings: list[Swing], duration: float) -> Trajectory:
+        """The foot at rest at *start*, then making *swings* (in time order, each from where the
+        one before put it), at rest between them and after the last until *duration* [s]."""
+        segments: list[dict] = []
+        stances: list[tuple[float, float, Pose]] = []
+        t, pose = 0.0, start
+        for swing in [*swings, None]:
+            until = duration if swing is None else swing.t0
+            if until < t - 1e-9:
+                raise ValueError(f"a swing at {until:.3f} s starts before the foot is at rest ({t:.3f} s)")
+            if until > t:
+                segments.append(_stance_segment(t, until - t, pose))
+                stances.append((t, until, pose))
+            if swing is not None:
+                segments.append(_swing_segment(swing.t0, pose, swing.b, swing.params))
+                t, pose = swing.end, swing.b
+        if not segments or segments[0]["kind"] != STANCE:
+            raise ValueError("a trajectory starts at rest: the first swing must come after t = 0")
+        return cls(segments, stances)
 
     def __repr__(self) -> str:
         return f"Trajectory({len(self._t0)} segments, {len(self.stances)} stances, {self.duration:.2f} s)"
@@ -310,14 +362,15 @@ class GaitBuilder:
         self.t = 0.0
         self._segments: list[dict] = []
         self._stances: list[tuple[float, float, Pose]] = []
+        #: every swing so far, in time order (:mod:`.feet` derives a walker's two feet from them)
+        self.swings: list[Swing] = []
 
     # -- primitives ------------------------------------------------------------------------------
 
     def _stance(self, seconds: float) -> None:
         if seconds <= 0:
             return
-        seg = dict(t0=self.t, dur=seconds, kind=STANCE, A=self.pose, B=self.pose, clear=0.0, toe=0.0,
-                   heel=0.0, imp_amp=0.0, imp_w=1.0, imp_t0=0.0, imp_fwd=0.0)
+        seg = _stance_segment(self.t, seconds, self.pose)
         if self._stances and self._stances[-1][1] == self.t and self._stances[-1][2] == self.pose:
             t0, _, pose = self._stances[-1]
             self._stances[-1] = (t0, self.t + seconds, pose)
@@ -329,16 +382,9 @@ class GaitBuilder:
     def step_to(self, pose: Pose, params: GaitParams | None = None) -> GaitBuilder:
         """One stride: swing to *pose*, then stand there for the stance time."""
         p = params or self.params
-        T = p.swing_s
-        w = min(p.impact_width_s, 0.5 * T)
-        imp_t0 = max(0.0, p.impact_end * T - w)
-        amp = p.impact_g * 9.80665 * w * w / _BUMP_PEAK_ACCEL if p.impact_g > 0 else 0.0
-        self._segments.append(dict(
-            t0=self.t, dur=T, kind=SWING, A=self.pose, B=pose, clear=p.clearance,
-            toe=p.toe_off_pitch_deg * DEG, heel=p.heel_strike_pitch_deg * DEG,
-            imp_amp=amp, imp_w=w, imp_t0=imp_t0, imp_fwd=p.impact_forward,
-        ))
-        self.t += T
+        self._segments.append(_swing_segment(self.t, self.pose, pose, p))
+        self.swings.append(Swing(self.t, self.pose, pose, p))
+        self.t += p.swing_s
         self.pose = pose
         self._stance(p.stance_s)
         return self

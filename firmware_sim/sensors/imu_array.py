@@ -43,16 +43,17 @@ from firmware_sim.board import MIMU22BT, BoardGeometry
 from firmware_sim.mcu.imu_bus import RawSample
 
 from .config import DEFAULT_CONFIG, G0, SensorConfig
+from .feet import SIDES, foot_module, foot_seed
 from .gait import WALKING, GaitParams, Trajectory
 from .impacts import ringing
 from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, gauss_markov, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 from .replay import Recording
-from .scenarios import environment, list_scenarios, trajectory
+from .scenarios import environment, feet, list_scenarios, trajectory
 from .truth import GroundTruth, Kinematics, cross, rotate
 
-__all__ = ["SimulatedSource", "make_source", "list_scenarios", "module_rng"]
+__all__ = ["SimulatedSource", "make_feet_sources", "make_source", "list_scenarios", "module_rng"]
 
 #: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
 _MODULE_STREAM = 0x4D4F44  # "MOD"
@@ -237,3 +238,27 @@ def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.
     """
     return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry,
                            module=module)
+
+
+def make_feet_sources(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
+                      config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
+                      walker: int | None = None) -> dict[str, SimulatedSource]:
+    """A module on each foot of one walker walking *scenario* (:func:`.scenarios.feet`): side →
+    source, :data:`~.feet.SIDES` order.
+
+    Each foot's module draws its own walk from :func:`~.feet.foot_seed` (*seed*, side) and, with
+    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own). The
+    scenario's environment (outdoors or not) applies to both.
+    """
+    config = config or DEFAULT_CONFIG
+    if environment(scenario).outdoors:
+        config = replace(config, mag=config.mag.outdoors())
+    walked = feet(scenario)
+    sources = {}
+    for side in SIDES:
+        module = None if walker is None else foot_module(walker, side)
+        source = SimulatedSource(walked.foot(side), config=config, seed=foot_seed(seed, side),
+                                 rate_hz=rate_hz, geometry=geometry, module=module)
+        source.name = f"{scenario} ({side} foot)"
+        sources[side] = source
+    return sources

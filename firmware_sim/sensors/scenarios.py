@@ -36,7 +36,8 @@ Every scenario starts and ends at rest (a recipe that does not start with
 ``stand`` gets ``stand:3`` in front, so the firmware's initial alignment can
 complete; one that does not end with ``stand`` gets ``stand:2`` at the end).
 :data:`SCENARIOS` names the standard ones; :func:`trajectory` accepts a name
-or a recipe. :func:`environment` says where a named scenario is walked: indoors (a
+or a recipe, :func:`feet` both feet of a walker walking it (the recipe is the body's path,
+:mod:`.feet`). :func:`environment` says where a named scenario is walked: indoors (a
 building's magnetic deviation, the default) or outdoors, and whether its GPS receiver
 loses the sky after some distance.
 """
@@ -46,9 +47,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
+from .feet import STEP_WIDTH_M, Feet, feet_from_body
 from .gait import RUNNING, WALKING, GaitBuilder, GaitParams, Trajectory
 
-__all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "list_scenarios", "recipe", "trajectory"]
+__all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "feet", "list_scenarios", "recipe",
+           "trajectory"]
 
 _LAP = (
     "walk:36+arc:2:90+walk:16+arc:2:90+walk:8+stairs_up:12+walk:6.28+stairs_down:12+walk:15"
@@ -155,6 +158,17 @@ def recipe(name_or_recipe: str) -> str:
 
 def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
     """Build the foot trajectory of a named scenario or a recipe."""
+    return _walked(name_or_recipe, params).build()
+
+
+def feet(name_or_recipe: str, params: GaitParams = WALKING, step_width: float = STEP_WIDTH_M) -> Feet:
+    """Both feet of a walker walking a named scenario or a recipe (:mod:`.feet`): the recipe is the
+    body's path."""
+    return feet_from_body(_walked(name_or_recipe, params), step_width)
+
+
+def _walked(name_or_recipe: str, params: GaitParams) -> GaitBuilder:
+    """A builder that has walked the scenario's pieces."""
     pieces = [p.strip() for p in recipe(name_or_recipe).split("+") if p.strip()]
     lead = 1 if pieces and pieces[0].split(":")[0] == "face" else 0  # the start's heading comes first
     if len(pieces) == lead or not pieces[lead].startswith("stand"):
@@ -175,4 +189,4 @@ def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
             PIECES[name](b, *values)
         except TypeError:
             raise ValueError(f"piece {piece!r}: too many arguments") from None
-    return b.build()
+    return b

@@ -1,0 +1,161 @@
+"""Two feet on the host: without the constraint the joint filter is the two single-module tracks
+bit for bit; with it the feet never end farther apart than a step; a silent foot never pulls the
+walking one, and a foot that lost steps restarts at the other."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hostlib.feet import FOOT_SIDES, FeetSettings, FootTracker, TwoFeetTracker
+from hostlib.tracking import StepTracker
+
+DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
+
+
+@dataclass
+class _Step:
+    dx: np.ndarray
+    dp: np.ndarray
+    counter: int
+
+
+def _alternate(tracker: TwoFeetTracker, steps: list[tuple[str, np.ndarray]], dp=DP) -> None:
+    counters = {side: 0 for side in FOOT_SIDES}
+    for side, dx in steps:
+        counters[side] += 1
+        tracker.foot(side).add(_Step(np.asarray(dx, dtype=float), dp, counters[side]))
+
+
+def _walk(n: int, left_turn: float = 0.0, right_turn: float = 0.0, stride: float = 1.5):
+    """A straight walk: the right foot leads with half a stride, then the feet alternate whole
+    strides; each module adds its own heading error per step."""
+    steps = [("right", [0.5 * stride, 0.0, 0.0, right_turn])]
+    for _ in range(n):
+        steps += [("left", [stride, 0.0, 0.0, left_turn]), ("right", [stride, 0.0, 0.0, right_turn])]
+    return steps
+
+
+step_rows = st.lists(st.tuples(st.sampled_from(FOOT_SIDES), st.floats(-1, 1), st.floats(-1, 1),
+                               st.floats(-0.2, 0.2), st.floats(-0.3, 0.3)), min_size=1, max_size=40)
+
+
+@settings(max_examples=60, deadline=None)
+@given(step_rows)
+def test_without_the_constraint_the_feet_are_the_single_tracks_bit_for_bit(rows):
+    tracker = TwoFeetTracker(FeetSettings(constraint=False))
+    singles = {side: StepTracker(position=tracker.foot(side).track.final_pose[:3]) for side in FOOT_SIDES}
+    counters = {side: 0 for side in FOOT_SIDES}
+    for side, *dx in rows:
+        counters[side] += 1
+        tracker.foot(side).add(_Step(np.array(dx), DP, counters[side]))
+        singles[side].add_step(dx, DP, counters[side])
+    for i, side in enumerate(FOOT_SIDES):
+        assert np.array_equal(tracker.fused_foot(side)[-1], singles[side].pose)
+        block = slice(4 * i, 4 * i + 4)
+        assert np.array_equal(tracker.covariance[block, block], singles[side].covariance)
+    assert np.array_equal(tracker.covariance[:4, 4:], np.zeros((4, 4)))
+    assert np.array_equal(tracker.body.final_pose, tracker.average.final_pose)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(-0.5, 0.5), st.floats(-0.3, 0.3)),
+                min_size=1, max_size=30), st.floats(0.3, 2.0))
+def test_with_the_constraint_feet_end_every_step_within_the_bound(moves, gamma):
+    tracker = TwoFeetTracker(FeetSettings(max_separation_m=gamma))
+    _alternate(tracker, [(FOOT_SIDES[k % 2], m) for k, m in enumerate(moves)])
+    assert tracker.separation().max() <= gamma + 1e-6
+    p = tracker.covariance
+    assert np.allclose(p, p.T) and np.linalg.eigvalsh(p).min() > -1e-9
+
+
+def test_the_constraint_bounds_the_heading_drift_between_the_feet():
+    drift = math.radians(0.5)  # per step, opposite ways: the feet's tracks splay apart
+    free = TwoFeetTracker(FeetSettings(constraint=False))
+    held = TwoFeetTracker()
+    for tracker in (free, held):
+        _alternate(tracker, _walk(200, left_turn=drift, right_turn=-drift))
+    free_split = abs(free.state[3] - free.state[7])
+    held_split = abs(held.state[3] - held.state[7])
+    assert math.degrees(free_split) == pytest.approx(200.5, abs=1.0)
+    assert held_split < 0.2 * free_split
+    assert free.separation().max() > 50 and held.separation().max() <= 1.0 + 1e-6
+    assert held.projections > 0
+
+
+def test_a_step_within_the_bound_changes_nothing():
+    free, held = TwoFeetTracker(FeetSettings(constraint=False)), TwoFeetTracker()
+    for tracker in (free, held):
+        _alternate(tracker, _walk(10))
+    assert held.projections == 0
+    assert np.array_equal(free.state, held.state) and np.array_equal(free.covariance, held.covariance)
+
+
+def test_body_is_the_feet_midpoint_with_its_covariance():
+    tracker = TwoFeetTracker()
+    _alternate(tracker, _walk(4))
+    s, p = tracker.state, tracker.covariance
+    m = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4)])
+    assert np.allclose(tracker.body.final_pose, m @ s)
+    assert np.allclose(tracker.body.final_covariance, m @ p @ m.T)
+    assert tracker.body.poses[0] == pytest.approx([0, 0, 0, 0])  # the feet start a step width apart
+    assert tracker.fused_foot("left")[0][1] == pytest.approx(-0.06)
+
+
+def test_a_silent_foot_does_not_pull_the_walking_one_and_the_body_follows_the_walking_foot():
+    tracker = TwoFeetTracker()
+    steps = _walk(5)
+    steps += [("left", [1.5, 0.0, 0.0, 0.0])] * 20  # the right foot's link is down
+    _alternate(tracker, steps)
+    assert tracker.fused_foot("left")[-1][0] == pytest.approx(1.5 * 25, abs=1e-9)
+    assert tracker.stale_steps == 19  # every left step after the first one without the right
+    assert tracker.body.final_pose == pytest.approx(tracker.fused_foot("left")[-1])
+
+
+def test_a_foot_that_lost_steps_restarts_at_the_other_and_the_gap_is_reported():
+    tracker = TwoFeetTracker()
+    _alternate(tracker, _walk(5))
+    for k in range(20):
+        tracker.left.add(_Step(np.array([1.5, 0.0, 0.0, 0.0]), DP, 6 + k))
+    tracker.right.add(_Step(np.array([1.5, 0.0, 0.0, 0.0]), DP, 6 + 21))  # its steps 7 … 26 lost
+    gap = tracker.right.gaps[0]
+    assert (gap.missing, tracker.restarts) == (20, [("right", len(tracker))])
+    left, right = tracker.fused_foot("left")[-1], tracker.fused_foot("right")[-1]
+    assert np.linalg.norm(left[:3] - right[:3]) <= 1.0 + 1e-6  # restarted beside the left foot
+    assert tracker.right.track.final_pose[0] == pytest.approx(0.75 + 1.5 * 6)  # its single track did not
+
+
+def test_resends_are_dropped_per_foot():
+    tracker = TwoFeetTracker()
+    step = _Step(np.array([0.75, 0.0, 0.0, 0.0]), DP, 1)
+    tracker.right.add(step)
+    tracker.right.add(step)
+    tracker.left.add(step)
+    assert (len(tracker), tracker.right.duplicates, tracker.left.duplicates) == (2, 1, 0)
+
+
+def test_deferred_steps_fuse_in_module_time_order_else_alternately():
+    from hostlib.feet import FootStep, _time_order
+
+    def fs(side, t):
+        return FootStep(side, np.zeros(4), DP, t, False)
+
+    timed = [fs("left", 1.0), fs("left", 2.0), fs("right", 0.5), fs("right", 1.5)]
+    assert [(s.side, s.time_s) for s in _time_order(timed)] == [("right", 0.5), ("left", 1.0), ("right", 1.5),
+                                                              ("left", 2.0)]
+    untimed = [fs("left", math.nan), fs("left", math.nan), fs("right", math.nan)]
+    assert [s.side for s in _time_order(untimed)] == ["left", "right", "left"]
+
+
+def test_settings_and_sides_are_checked():
+    with pytest.raises(ValueError, match="maximum separation"):
+        FeetSettings(max_separation_m=0.0)
+    with pytest.raises(ValueError, match="left or right"):
+        FootTracker("middle")
+    with pytest.raises(ValueError, match="left or right"):
+        TwoFeetTracker().foot("middle")
