@@ -33,6 +33,12 @@ the bytes are those of before. A module made with ``--module N`` has the MCU ser
 ``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
 of ``--seeds A:B`` — into ``DIR/<name>.bin`` (:mod:`firmware_sim.app.replay_cli`); each file's
 bytes are the ones a replay of it alone writes.
+
+``--scenario NAME --feet 2 --wire OUT`` puts a module on each foot of the walker
+(:mod:`firmware_sim.sensors.feet`; each module its own errors, seed and serial number) and replays
+them one after the other on the same virtual clock from power-on: ``OUT.left`` and ``OUT.right``,
+each foot's ``.truth.csv`` and the body's, ``OUT.body.truth.csv`` (the feet's midpoint); ``--gps``
+puts the receiver on the body.
 """
 
 from __future__ import annotations
@@ -297,6 +303,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "Stockholm)")
     p.add_argument("--gps-outage", action="append", default=[], metavar="START:END",
                    help="seconds of the walk without a fix (END may be 'end'); repeatable")
+    p.add_argument("--feet", type=int, choices=(1, 2), default=1,
+                   help="with --scenario and --wire: 2 puts a module on each foot of the walker (each "
+                        "its own errors and seed; --module N: modules 2N and 2N+1) and writes OUT.left and "
+                        "OUT.right, their truth and the body's (OUT.body.truth.csv)")
     p.add_argument("--table", type=Path, metavar="CSV",
                    help="with --wire-dir: also write the summary, one row per run, as CSV")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bar or notices on stderr")
@@ -321,6 +331,8 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--gps goes with --scenario and --wire: the receiver follows a simulated walk's truth"
     if not gps and (getattr(args, "origin", None) is not None or getattr(args, "gps_outage", None)):
         return "--origin and --gps-outage go with --gps"
+    if getattr(args, "feet", 1) == 2 and (args.scenario is None or args.wire is None):
+        return "--feet 2 goes with --scenario and --wire: a walker's two feet are simulated"
     return None
 
 
@@ -333,11 +345,12 @@ def _gps_errors(args: argparse.Namespace):
     return origin, GpsErrors(outages=parse_outages(args.gps_outage))
 
 
-def _write_gps(args: argparse.Namespace, truth, origin, errors) -> None:
+def _write_gps(args: argparse.Namespace, t, pos, vel, origin, errors) -> None:
+    """The receiver on the walker (sample times *t*, NED *pos* and *vel*) into ``--gps``."""
     from firmware_sim.sensors.gps import scenario_errors, simulate_fixes, write_nmea
 
-    errors = scenario_errors(errors, args.scenario, truth.t, truth.pos)
-    fixes = simulate_fixes(truth.t, truth.pos, truth.vel, origin, errors, seed=args.seed)
+    errors = scenario_errors(errors, args.scenario, t, pos)
+    fixes = simulate_fixes(t, pos, vel, origin, errors, seed=args.seed)
     write_nmea(args.gps, fixes, errors=errors)
     if not args.quiet:
         valid = sum(f.valid for f in fixes)
@@ -346,9 +359,11 @@ def _write_gps(args: argparse.Namespace, truth, origin, errors) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT``."""
+    """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT`` (``--feet 2``: both feet)."""
     from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
 
+    if getattr(args, "feet", 1) == 2:
+        return _main_feet(args)
     truth = gps = None
     try:
         if args.scenario is not None:
@@ -366,6 +381,44 @@ def main(args: argparse.Namespace) -> int:
     except (OSError, RecordingFormatError, KeyError, ValueError) as e:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2
+    _replay_to(args, source, name, args.module, args.wire)
+    if truth is not None:
+        truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
+    if gps is not None:
+        _write_gps(args, truth.t, truth.pos, truth.vel, *gps)
+    return 0
+
+
+def _main_feet(args: argparse.Namespace) -> int:
+    """``--scenario NAME --feet 2 --wire OUT``: a module on each foot of one walker, replayed one
+    after the other into ``OUT.left`` and ``OUT.right``, each with its truth, and the body's."""
+    from firmware_sim.sensors.feet import SIDES, body_truth, write_body_truth
+    from firmware_sim.sensors.imu_array import make_feet_sources
+
+    try:
+        gps = _gps_errors(args) if getattr(args, "gps", None) is not None else None
+        sources = make_feet_sources(args.scenario, seed=args.seed, rate_hz=args.rate, walker=args.module)
+    except (KeyError, ValueError) as e:
+        print(f"openshoe-emu replay: {e}", file=sys.stderr)
+        return 2
+    for side in SIDES:
+        source = sources[side]
+        wire = args.wire.with_name(f"{args.wire.name}.{side}")
+        name = (f"scenario {args.scenario!r}, {side} foot (module {source.module}, seed {source.seed}, "
+                f"{args.rate:g} Hz)")
+        _replay_to(args, source, name, source.module, wire)  # each foot's own serial number
+        source.truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
+    t, pos, vel, _yaw = body_truth(sources["left"].truth, sources["right"].truth)
+    write_body_truth(sources["left"].truth, sources["right"].truth,
+                     args.wire.with_name(args.wire.name + ".body.truth.csv"))
+    if gps is not None:
+        _write_gps(args, t, pos, vel, *gps)
+    return 0
+
+
+def _replay_to(args: argparse.Namespace, source: SensorSource, name: str, module: int | None,
+               wire: Path) -> None:
+    """Replay *source* as the command line says and write its bytes to *wire*."""
     announce = None if args.quiet else say
     profile = profile_for(source, args.profile)
     if not args.quiet:
@@ -375,16 +428,11 @@ def main(args: argparse.Namespace) -> int:
     with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
                       unit_scale=True) as bar:
         config = profile.configure(ModuleConfig(rate_hz=float(source.rate_hz),
-                                                mcu_serial=module_serial(args.module)))
+                                                mcu_serial=module_serial(module)))
         data = run_replay(source, config=config, progress=lambda done, _total: bar.update(done - bar.n),
                           announce=announce, host=args.host, height_compensation=args.height_compensation)
-    args.wire.write_bytes(data)
-    if truth is not None:
-        truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
-    if gps is not None:
-        _write_gps(args, truth, *gps)
+    wire.write_bytes(data)
     if not args.quiet:
         elapsed = time.monotonic() - t0
         print(f"{name}: {data.samples} samples in {elapsed:.1f} s, {data.packets} packets, "
-              f"{len(data)} bytes → {args.wire}", file=sys.stderr)
-    return 0
+              f"{len(data)} bytes → {wire}", file=sys.stderr)

@@ -29,14 +29,17 @@ host's two-foot fusion reports.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from protocol.board import FOOT_SIDES
 
 from .gait import GaitBuilder, Pose, Swing, Trajectory
+from .truth import GroundTruth
 
-__all__ = ["SIDES", "STEP_WIDTH_M", "Feet", "feet_from_body", "foot_module", "foot_seed"]
+__all__ = ["SIDES", "STEP_WIDTH_M", "Feet", "body_truth", "feet_from_body", "foot_module", "foot_seed",
+           "write_body_truth"]
 
 #: The two feet, in the order every two-foot result lists them.
 SIDES = FOOT_SIDES
@@ -121,3 +124,23 @@ def feet_from_body(body: GaitBuilder, step_width: float = STEP_WIDTH_M) -> Feet:
     end = max([body.t] + [s.end + 0.5 for s in right])
     return Feet(Trajectory.from_swings(_aside(start, -half), left, end),
                 Trajectory.from_swings(_aside(start, half), right, end), step_width)
+
+
+def body_truth(left: GroundTruth, right: GroundTruth
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The body from both feet's truth at the same sample times: t, position (n, 3), velocity
+    (n, 3) (the feet's midpoint, NED) and heading (n,) [rad] (their mean yaw, continuous)."""
+    if len(left) != len(right) or not np.array_equal(left.t, right.t):
+        raise ValueError("the feet's truth must be sampled at the same times")
+    return (left.t, 0.5 * (left.pos + right.pos), 0.5 * (left.vel + right.vel),
+            0.5 * (left.euler[:, 2] + right.euler[:, 2]))
+
+
+def write_body_truth(left: GroundTruth, right: GroundTruth, path: str | Path) -> Path:
+    """The body's truth as CSV: t, x, y, z, vx, vy, vz, yaw (wrapped to ±π)."""
+    t, pos, vel, yaw = body_truth(left, right)
+    wrapped = (yaw + np.pi) % (2 * np.pi) - np.pi
+    path = Path(path)
+    np.savetxt(path, np.column_stack([t, pos, vel, wrapped]), delimiter=",", header="t,x,y,z,vx,vy,vz,yaw",
+               comments="", fmt=["%.6f"] + ["%.9f"] * 7)
+    return path
