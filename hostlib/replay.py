@@ -27,15 +27,17 @@ from protocol.ids import Command
 from .session import HostSession, SessionStats
 from .tracking import StepTracker, Track
 
-__all__ = ["CAPTURE_HOST_COMMANDS", "replay_bytes", "replay_capture", "replay_capture_session",
-           "replay_session"]
+__all__ = ["CAPTURE_HOST_COMMANDS", "implied_commands", "replay_bytes", "replay_capture",
+           "replay_capture_session", "replay_session"]
 
 #: The commands a capture's host is taken to have sent when the module acknowledges them:
 #: those of the fusion set-up (STATE_IF_SETUP, MCU_ID).
 CAPTURE_HOST_COMMANDS: tuple[tuple[Command, Mapping[str, Any]], ...] = FUSION_SETUP
 
 
-def _implied(command_set: str) -> dict[int, tuple[Command, Mapping[str, Any]]]:
+def implied_commands(command_set: str) -> dict[int, tuple[Command, Mapping[str, Any]]]:
+    """Wire id → command of :data:`CAPTURE_HOST_COMMANDS` in *command_set*: a
+    :class:`HostSession`'s *implied_commands* when it decodes a capture."""
     cs = _command_set(command_set)
     return {cs.spec(meaning).wire_id: (meaning, fields) for meaning, fields in CAPTURE_HOST_COMMANDS
             if cs.supports(meaning)}
@@ -52,7 +54,7 @@ def replay_session(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
     """
     session = HostSession(command_set, ack_policy="never",
                           tracker=tracker if tracker is not None else StepTracker(last_counter=None),
-                          implied_commands=_implied(command_set))
+                          implied_commands=implied_commands(command_set))
     for i in range(0, len(data), chunk):
         session.feed(data[i : i + chunk])
     session.finish()

@@ -33,7 +33,20 @@ def build_parser() -> argparse.ArgumentParser:
                        help="NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the first "
                             "400 m; compass + GPS, GPS only, compass only, plain")
     n.add_argument("--seeds", default="1:21", metavar="A:B", help="simulated walks (default 1:21, twenty)")
-    for q in (w, s, v, n):
+    f = sub.add_parser("two-feet-straight",
+                       help="the module paper's experiment: 100 m straight walks with a module on each foot; "
+                            "each foot, their average and the constrained fusion")
+    f.add_argument("--seeds", default="1:51", metavar="A:B", help="simulated walkers (default 1:51, fifty)")
+    lp = sub.add_parser("two-feet-loop", help="Bachmann's experiment: a 400 m loop, closure per foot, "
+                                              "average and fusion")
+    lp.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated walkers (default 1:6, five)")
+    h = sub.add_parser("two-feet-heading",
+                       help="the feet's headings over a 22-minute walk with and without the constraint, "
+                            "and the same walk with the right foot's link down for 30 s")
+    h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
+    h.add_argument("--drop", default="600:630", metavar="A:B",
+                   help="seconds of the walk the right foot's link is down (default 600:630)")
+    for q in (w, s, v, n, f, lp, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -71,18 +84,13 @@ def _slopes(args: argparse.Namespace, out) -> int:
     from . import slopes
     from .figure import plot_heights
 
-    seeds = _seeds(args)
-    if seeds is None:
-        return 2
-    rows = slopes.slope_rows(seeds, workers=args.workers)
-    for line in slopes.summary_lines(rows):
-        print(line, file=out)
-    pick = [r for r in rows if r["scenario"] == "ramp_6" and r["seed"] == seeds[0]]
-    off, on = (next(r["profile"] for r in pick if r["height_compensation"] == hc) for hc in (False, True))
-    png = plot_heights(args.out / "height-ramp.png", f"ramp_6 (6.1°, 50 m up and back), module {seeds[0]}",
-                       off, on, truth=_true_profile("ramp_6"))
-    print(f"results: {_write_csv(args.out / 'slopes.csv', rows)}, {png}", file=out)
-    return 0
+    def picture(rows, seeds):
+        pick = [r for r in rows if r["scenario"] == "ramp_6" and r["seed"] == seeds[0]]
+        off, on = (next(r["profile"] for r in pick if r["height_compensation"] == hc) for hc in (False, True))
+        title = f"ramp_6 (6.1°, 50 m up and back), module {seeds[0]}"
+        return plot_heights(args.out / "height-ramp.png", title, off, on, truth=_true_profile("ramp_6"))
+
+    return _seeded_table(args, out, slopes.slope_rows, slopes.summary_lines, "slopes.csv", picture)
 
 
 def _seeds(args: argparse.Namespace) -> list[int] | None:
@@ -96,15 +104,18 @@ def _seeds(args: argparse.Namespace) -> list[int] | None:
         return None
 
 
-def _seeded_table(args: argparse.Namespace, out, rows_of: Any, summary_of: Any, name: str) -> int:
-    """An experiment over ``--seeds``: its rows, its summary printed, its table written as *name*."""
+def _seeded_table(args: argparse.Namespace, out, rows_of: Any, summary_of: Any, name: str,
+                  picture: Any = None) -> int:
+    """An experiment over ``--seeds``: its rows, its summary printed, its table written as *name*
+    (and *picture(rows, seeds)*'s PNG, when given)."""
     seeds = _seeds(args)
     if seeds is None:
         return 2
     rows = rows_of(seeds, workers=args.workers)
     for line in summary_of(rows):
         print(line, file=out)
-    print(f"results: {_write_csv(args.out / name, rows)}", file=out)
+    written = [_write_csv(args.out / name, rows)] + ([picture(rows, seeds)] if picture is not None else [])
+    print(f"results: {', '.join(str(p) for p in written)}", file=out)
     return 0
 
 
@@ -118,6 +129,46 @@ def _navshoe_outage(args: argparse.Namespace, out) -> int:
     from . import navshoe
 
     return _seeded_table(args, out, navshoe.outage_rows, navshoe.summary_lines, "navshoe-outage.csv")
+
+
+def _two_feet_straight(args: argparse.Namespace, out) -> int:
+    from . import two_feet
+
+    def picture(rows, _seeds):
+        return two_feet.plot_end_points(args.out / "two-feet-straight.png", rows)
+
+    return _seeded_table(args, out, two_feet.straight_rows, two_feet.straight_summary,
+                         "two-feet-straight.csv", picture)
+
+
+def _two_feet_loop(args: argparse.Namespace, out) -> int:
+    from . import two_feet
+
+    return _seeded_table(args, out, two_feet.loop_rows, two_feet.loop_summary, "two-feet-loop.csv")
+
+
+def _two_feet_heading(args: argparse.Namespace, out) -> int:
+    from . import two_feet
+
+    try:
+        a, b = (float(v) for v in args.drop.split(":"))
+    except ValueError:
+        print(f"{PROG}: --drop: expected START:END in seconds, got {args.drop!r}", file=sys.stderr)
+        return 2
+    if not 0 <= a < b:
+        print(f"{PROG}: --drop: need 0 ≤ START < END, got {args.drop!r}", file=sys.stderr)
+        return 2
+    from .runs import map_runs
+
+    plain, dropped = map_runs(lambda drop: two_feet.heading_run(args.seed, drop), [None, (a, b)],
+                              args.workers)
+    pngs = []
+    for result, name in ((plain, "two-feet-heading.png"), (dropped, "two-feet-link-drop.png")):
+        for line in two_feet.heading_summary(result):
+            print(line, file=out)
+        pngs.append(two_feet.plot_heading(args.out / name, result))
+    print(f"results: {', '.join(str(p) for p in pngs)}", file=out)
+    return 0
 
 
 def _true_profile(scenario: str) -> tuple[np.ndarray, np.ndarray]:
@@ -135,5 +186,6 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.workers < 0:
         print(f"{PROG}: --workers must be ≥ 0, got {args.workers}", file=sys.stderr)
         return 2
-    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds,
-            "navshoe-outage": _navshoe_outage}[args.experiment](args, out)
+    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
+            "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
+            "two-feet-heading": _two_feet_heading}[args.experiment](args, out)

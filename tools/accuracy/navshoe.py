@@ -119,9 +119,9 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
 
 def outage_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
     """Every seed's rows, seeds in order (on *workers* Dask processes)."""
-    from .runs import map_runs
+    from .runs import seeded_rows
 
-    return [row for rows in map_runs(outage_run, list(seeds), workers) for row in rows]
+    return seeded_rows(outage_run, seeds, workers)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Replayed", "replay_track", "height_profile", "map_runs"]
+__all__ = ["Replayed", "replay_track", "height_profile", "map_runs", "seeded_rows"]
 
 
 @dataclass
@@ -49,6 +49,11 @@ def map_runs(run: Any, jobs: list, workers: int) -> list:
 
     with cluster.open_client(workers) as client:
         return client.gather(client.map(run, jobs, pure=False))
+
+
+def seeded_rows(run: Any, seeds: list[int], workers: int) -> list:
+    """The rows of every seed's *run* (a list of rows each), seeds in order (:func:`map_runs`)."""
+    return [row for rows in map_runs(run, list(seeds), workers) for row in rows]
 
 
 def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:

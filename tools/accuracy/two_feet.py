@@ -1,0 +1,313 @@
+"""Two feet, simulated (shared/spec/aids.md §6; issue: two feet): a module on each foot of one walker.
+
+Every walk goes through the emulated modules exactly as a user's would — each foot's module
+replayed with the fusion host (``openshoe-emu replay --scenario NAME --feet 2 --host fusion``:
+each step packet carries its T_INT_K), both captures decoded by their own host session and fused
+in module-time order by :class:`hostlib.feet.TwoFeetTracker` (``openshoe-host replay LEFT RIGHT``).
+Four estimates of each walk: each foot's single-module track (``left``, ``right``), the midpoint of
+the two (``average``, Bachmann et al.), and the constrained fusion's body (``fused``).
+
+* :func:`straight_rows` — **the module paper's experiment**: fifty 100 m straight walks (scenario
+  ``walk``, facing north). Per estimate the end error along the track (length), across it and in
+  height, in metres and in % of the 100 m; :func:`plot_end_points` draws the end points with their
+  1σ ellipses (the paper's Fig. 7).
+* :func:`loop_rows` — **Bachmann's experiment**: a 400 m track walked once per seed; the closure
+  (distance from the start at the end, horizontal) per foot, of the average and of the fusion.
+* :func:`heading_run` — **the feet's headings over 20 minutes**: five laps of the 400 m track
+  (≈ 22 min), with and without the constraint; the heading difference between the feet and their
+  separation after every step (:func:`plot_heading`). With ``drop_s``, the right foot's link is
+  lost for that long mid-walk: its packets in that window never reach the host, so its counter
+  jumps and the fused track continues on the left foot (the gap and the restart are reported).
+
+A single foot's estimates start at its own start (the left foot half the step width left of the
+body); errors compare each with the truth of the same point.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["ESTIMATES", "HEADING_SCENARIO", "LOOP_SCENARIO", "STRAIGHT_SCENARIO", "FeetWalk", "drop_packets",
+           "feet_walk", "heading_run", "loop_rows", "loop_summary", "plot_end_points", "plot_heading",
+           "straight_rows", "straight_summary"]
+
+STRAIGHT_SCENARIO = "walk"  # stand 3 s, 100 m north, stand 2 s
+LOOP_SCENARIO = "track400"  # one lap of a 400 m running track, turning left
+HEADING_SCENARIO = "stand:5+track400:5+stand:5"  # 2 km, about 22 minutes
+ESTIMATES = ("left", "right", "average", "fused")
+
+
+@dataclass
+class FeetWalk:
+    """One walker's walk as the host saw it."""
+
+    tracker: Any  #: hostlib.feet.TwoFeetTracker (constrained)
+    free: Any  #: the same steps without the constraint
+    truth: dict[str, Any]  #: side → GroundTruth
+    dropped: int = 0  #: packets of the right foot that never reached the host
+
+
+def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, int]:
+    """*capture* without the step packets whose step time lies in [start_s, end_s): what a host
+    receives when the link is down that long and the module's queue overflows. Returns the bytes
+    and the number of packets dropped."""
+    from hostlib.events import StepEvent
+    from hostlib.feet import FootTracker
+    from hostlib.replay import implied_commands
+    from hostlib.session import HostSession
+    from protocol.frames import StatePacket
+    from protocol.stream import decode_all
+
+    # the host's own decoding gives each step's packet number and (through its tracker) its time
+    foot = FootTracker("right", last_counter=None)
+    session = HostSession(ack_policy="never", tracker=foot, implied_commands=implied_commands("2015"))
+    events = session.feed(capture)[0] + session.finish()[0]
+    numbers = [e.packet_number for e in events if isinstance(e, StepEvent)]
+    cut = {n for n, t in zip(numbers, foot.step_times, strict=True) if start_s <= t < end_s}
+    out = bytearray()
+    for frame in decode_all(capture):
+        if not (isinstance(frame, StatePacket) and frame.number in cut):
+            out += frame.to_bytes()
+    return bytes(out), len(cut)
+
+
+def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None) -> FeetWalk:
+    """Walk *scenario* with a module on each foot (walker *seed*) and fuse the two captures."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.sensors.imu_array import make_feet_sources
+    from firmware_sim.transports.factory import module_serial
+    from hostlib.feet import FeetSettings, TwoFeetTracker
+    from hostlib.replay import replay_session
+
+    sources = make_feet_sources(scenario, seed=seed)
+    captures = {}
+    for side, source in sources.items():
+        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(source.module))
+        captures[side] = bytes(run_replay(source, config=config, announce=None, host="fusion"))
+    dropped = 0
+    if drop_s is not None:
+        captures["right"], dropped = drop_packets(captures["right"], *drop_s)
+    trackers = []
+    for constraint in (True, False):
+        tracker = TwoFeetTracker(FeetSettings(constraint=constraint), defer=True)
+        for side, data in captures.items():
+            replay_session(data, tracker=tracker.foot(side))
+        tracker.fuse_in_time_order()
+        trackers.append(tracker)
+    return FeetWalk(trackers[0], trackers[1], {side: s.truth for side, s in sources.items()}, dropped)
+
+
+def _ends(walk: FeetWalk) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per estimate: its end displacement from its start (3,), the true one (3,) and the end's 3×3
+    position covariance."""
+    out = {}
+    truth = {side: walk.truth[side].stance_positions for side in walk.truth}
+    for side in ("left", "right"):
+        track = walk.tracker.foot(side).track
+        out[side] = (track.final_pose[:3] - track.poses[0][:3], truth[side][-1] - truth[side][0],
+                     track.final_covariance[:3, :3])
+    body_true = 0.5 * (truth["left"][-1] + truth["right"][-1]) - 0.5 * (truth["left"][0] + truth["right"][0])
+    for name, track in (("average", walk.tracker.average), ("fused", walk.tracker.body)):
+        out[name] = (track.final_pose[:3] - track.poses[0][:3], body_true, track.final_covariance[:3, :3])
+    return out
+
+
+def straight_run(seed: int) -> list[dict[str, Any]]:
+    """The rows of one walker's 100 m straight walk (one per estimate)."""
+    walk = feet_walk(STRAIGHT_SCENARIO, seed)
+    rows = []
+    for name, (end, true, cov) in _ends(walk).items():
+        err = end - true  # north = along the walk, east = across it, down
+        rows.append({"seed": seed, "estimate": name, "length_error_m": float(err[0]),
+                     "across_error_m": float(err[1]), "height_error_m": float(-err[2]),
+                     "along_m": float(end[0]), "across_m": float(end[1]),
+                     "sigma_along_m": math.sqrt(cov[0, 0]), "sigma_across_m": math.sqrt(cov[1, 1]),
+                     "cov_along_across_m2": float(cov[0, 1]), "projections": walk.tracker.projections})
+    return rows
+
+
+def straight_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+    """Every walker's :func:`straight_run`, in order (on *workers* Dask processes)."""
+    from .runs import seeded_rows
+
+    return seeded_rows(straight_run, list(seeds), workers)
+
+
+def _per_estimate(rows: Sequence[dict[str, Any]]) -> tuple[int, list[tuple[str, list[dict[str, Any]]]]]:
+    """The number of walkers and, per estimate, its rows."""
+    return len({r["seed"] for r in rows}), [(name, [r for r in rows if r["estimate"] == name])
+                                            for name in ESTIMATES]
+
+
+def straight_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
+    n, by_estimate = _per_estimate(rows)
+    out = [f"two feet, {n} straight 100 m walks: end error mean ± sd [m] (1 m is 1 % of the walk)",
+           f"{'estimate':<9} {'length':>15} {'across track':>15} {'height':>15} {'mean 1σ across':>15}"]
+    for name, sel in by_estimate:
+        cols = []
+        for key in ("length_error_m", "across_error_m", "height_error_m"):
+            v = np.array([r[key] for r in sel])
+            cols.append(f"{v.mean():+6.2f} ± {v.std():4.2f}")
+        sigma = np.mean([r["sigma_across_m"] for r in sel])
+        out.append(f"{name:<9} " + " ".join(f"{c:>15}" for c in cols) + f" {sigma:15.2f}")
+    proj = sum(r["projections"] for r in rows if r["estimate"] == "fused")
+    out.append(f"the constraint (‖p_L − p_R‖ ≤ 1 m) bound {proj} times in all {n} walks")
+    return out
+
+
+def loop_run(seed: int) -> list[dict[str, Any]]:
+    """The rows of one walker's 400 m loop: closure per estimate."""
+    walk = feet_walk(LOOP_SCENARIO, seed)
+    rows = []
+    for name, (end, _true, _cov) in _ends(walk).items():
+        track = walk.tracker.foot(name).track if name in ("left", "right") else None
+        distance = track.distance if track is not None else 0.5 * (walk.tracker.left.track.distance
+                                                                    + walk.tracker.right.track.distance)
+        closure = float(np.hypot(*end[:2]))
+        rows.append({"seed": seed, "estimate": name, "closure_m": closure, "distance_m": distance,
+                     "closure_pct": 100.0 * closure / distance, "height_closure_m": float(-end[2]),
+                     "projections": walk.tracker.projections})
+    return rows
+
+
+def loop_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+    """Every walker's :func:`loop_run`, in order."""
+    from .runs import seeded_rows
+
+    return seeded_rows(loop_run, list(seeds), workers)
+
+
+def loop_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
+    n, by_estimate = _per_estimate(rows)
+    out = [f"two feet, a 400 m loop walked {n} times: horizontal closure",
+           f"{'estimate':<9} {'closure [m]':>15} {'% of distance':>15} {'worst %':>8}"]
+    for name, sel in by_estimate:
+        c = np.array([r["closure_m"] for r in sel])
+        pct = np.array([r["closure_pct"] for r in sel])
+        out.append(f"{name:<9} {c.mean():7.2f} ± {c.std():5.2f} {pct.mean():15.2f} {pct.max():8.2f}")
+    return out
+
+
+def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dict[str, Any]:
+    """The 20-minute walk: per fused step its time, the heading difference between the feet and
+    their separation, with and without the constraint; and what the link drop did."""
+    walk = feet_walk(HEADING_SCENARIO, seed, drop_s)
+    result: dict[str, Any] = {"seed": seed, "drop_s": drop_s, "dropped_packets": walk.dropped}
+    for name, tracker in (("fused", walk.tracker), ("free", walk.free)):
+        left, right = tracker.fused_foot("left"), tracker.fused_foot("right")
+        result[name] = {"heading_difference_deg": np.degrees(left[:, 3] - right[:, 3]),
+                        "separation_m": tracker.separation(), "projections": tracker.projections}
+    times = {side: iter(walk.tracker.foot(side).step_times) for side in ("left", "right")}
+    result["time_s"] = np.array([0.0] + [next(times[s]) for s in walk.tracker.sides])
+    result["gaps"] = {side: [(g.missing, g.index) for g in walk.tracker.foot(side).gaps] for side in times}
+    result["restarts"] = list(walk.tracker.restarts)
+    result["stale_steps"] = walk.tracker.stale_steps
+    truth = walk.truth
+    body_true = 0.5 * (truth["left"].stance_positions[-1] + truth["right"].stance_positions[-1])
+    result["body_end_error_m"] = {
+        name: float(np.hypot(*(track.final_pose[:2] - track.poses[0][:2] - body_true[:2])))
+        for name, track in (("fused", walk.tracker.body), ("average", walk.tracker.average))}
+    result["duration_s"] = float(truth["left"].t[-1])
+    return result
+
+
+def heading_summary(result: dict[str, Any]) -> list[str]:
+    minutes = result["duration_s"] / 60.0
+    out = [f"the feet's headings over {minutes:.0f} minutes (walker {result['seed']})"]
+    for name in ("free", "fused") if result["drop_s"] is None else ():  # a silent foot's stale pose
+        r = result[name]
+        d = np.abs(r["heading_difference_deg"])
+        out.append(f"{name:<6} |χ_L − χ_R| max {d.max():6.2f}°, at the end {d[-1]:6.2f}°; separation max "
+                   f"{r['separation_m'].max():6.2f} m ({r['projections']} projections)")
+    ends = result["body_end_error_m"]
+    out.append(f"body end error: fused {ends['fused']:.2f} m, average {ends['average']:.2f} m")
+    if result["drop_s"] is not None:
+        a, b = result["drop_s"]
+        gaps = "; ".join(f"{side}: {len(g)} gap(s), {sum(m for m, _ in g)} steps missing"
+                         for side, g in result["gaps"].items())
+        out.append(f"right foot's link down {a:.0f}–{b:.0f} s: {result['dropped_packets']} packets lost; "
+                   f"{gaps}; {result['stale_steps']} steps fused with one foot; "
+                   f"restarts {result['restarts']}")
+    return out
+
+
+# -- pictures ------------------------------------------------------------------------------------
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def plot_end_points(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
+    """The end points of the straight walks, per estimate, with their 1σ ellipses (Fig. 7)."""
+    from matplotlib.patches import Ellipse
+
+    from hostlib.plot import ellipse_params
+
+    plt = _pyplot()
+    fig, grid = plt.subplots(2, 2, figsize=(11, 5.5), sharex=True, sharey=True)
+    axes = grid.ravel()
+    for ax, name in zip(axes, ESTIMATES, strict=True):
+        sel = [r for r in rows if r["estimate"] == name]
+        for r in sel:
+            cov = np.array([[r["sigma_along_m"] ** 2, r["cov_along_across_m2"]],  # north, east
+                            [r["cov_along_across_m2"], r["sigma_across_m"] ** 2]])
+            w, h, angle = ellipse_params(cov)  # in the plot's east (across), north (along) axes
+            ax.add_patch(Ellipse((r["across_error_m"], r["length_error_m"]), w, h, angle=angle, fill=False,
+                                 color="C0", alpha=0.35, lw=0.8))
+        ax.plot([r["across_error_m"] for r in sel], [r["length_error_m"] for r in sel], "k.", ms=4)
+        across = np.std([r["across_error_m"] for r in sel])
+        ax.set_title(f"{name} (across sd {across:.2f} m)")
+        ax.axhline(0, color="0.7", lw=0.6)
+        ax.axvline(0, color="0.7", lw=0.6)
+        ax.set_aspect("equal", adjustable="box")
+        ax.grid(True, alpha=0.3)
+    for ax in grid[:, 0]:
+        ax.set_ylabel("along track [m]")
+    for ax in grid[1]:
+        ax.set_xlabel("across track [m] (east)")
+    fig.suptitle(f"end points of {len({r['seed'] for r in rows})} straight 100 m walks, 1σ ellipses")
+    return _save(plt, fig, path)
+
+
+def plot_heading(path: Path, result: dict[str, Any]) -> Path:
+    """Heading difference between the feet and their separation over time, free and fused."""
+    plt = _pyplot()
+    t = result["time_s"] / 60.0
+    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    for name, label in (("free", "no constraint (two single modules)"), ("fused", "constrained fusion")):
+        ax1.plot(t, result[name]["heading_difference_deg"], label=label)
+        ax2.plot(t, result[name]["separation_m"], label=label)
+    ax2.axhline(1.0, color="k", ls="--", lw=0.8, label="bound γ = 1 m")
+    if result["drop_s"] is not None:
+        for ax in (ax1, ax2):
+            ax.axvspan(result["drop_s"][0] / 60.0, result["drop_s"][1] / 60.0, color="0.85",
+                       label="right foot's link down")
+    ax1.set_ylabel("χ_left − χ_right [°]")
+    ax2.set_ylabel("feet apart [m]")
+    ax2.set_xlabel("time [min]")
+    ax1.set_title(f"heading of the two feet over {result['duration_s'] / 60:.0f} minutes")
+    for ax in (ax1, ax2):
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+    return _save(plt, fig, path)
+
+
+def _save(plt, fig, path: Path) -> Path:
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return path
