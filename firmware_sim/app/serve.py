@@ -1,6 +1,7 @@
 """`openshoe-emu serve`: emulated modules in real time on a pty and/or TCP, for any host app.
 
-One module (or ``--modules N``) runs paced to the wall clock (× ``--speed``):
+One module (or ``--modules N``, or ``--feet 2``: one on each foot of a walker) runs
+paced to the wall clock (× ``--speed``):
 each is a :class:`~firmware_sim.transports.pacer.Pacer`, and all of a process's
 modules run in one loop and one thread (a :class:`~firmware_sim.transports.pacer.MultiPacer`,
 so they do not fight over the GIL). Its Bluetooth interface (or
@@ -14,6 +15,14 @@ When everything listens, exactly one line goes to stdout::
     READY bt-pty=/tmp/openshoe0 bt-tcp=127.0.0.1:40123 control=127.0.0.1:40124
 
 (with ``--modules N`` every key gets the module's index: ``m0.bt-pty=…``).
+
+``--feet 2`` walks ``--scenario`` with one walker: the left and the right foot each
+wear a module with its own seed, errors and MCU serial number
+(:mod:`firmware_sim.sensors.feet`), on ``PATH-left`` and ``PATH-right`` and TCP
+``PORT`` and ``PORT + 1``, both in the one loop (one clock); the keys say which foot::
+
+    READY left.bt-pty=/tmp/shoe-left right.bt-pty=/tmp/shoe-right
+
 Then a status line is kept up to date on stderr. ``--control`` opens a line
 protocol on TCP to drive faults at run time (:data:`~firmware_sim.app.control.CONTROL_HELP`). SIGINT and
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
@@ -91,6 +100,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     g.add_argument("--modules", type=int, default=1, metavar="N",
                    help="run N modules, each on its own port(s): PATH0, PATH1 …; TCP PORT, PORT+1 … "
                    "(default 1)")
+    g.add_argument("--feet", type=int, choices=(1, 2), default=1,
+                   help="2: a module on each foot of one walker walking --scenario (each its own seed, "
+                        "errors and serial number; --module N: modules 2N and 2N+1), on PATH-left and "
+                        "PATH-right, TCP PORT and PORT+1; READY keys left.… and right.… (default 1)")
     m = p.add_argument_group("the module")
     src = m.add_mutually_exclusive_group()
     src.add_argument("--scenario", default="default",
@@ -171,7 +184,7 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
         speed=args.speed, interface=args.interface, link=args.link or args.interface,
         loss=args.loss, corrupt=args.corrupt, stall_rate=args.stall_rate,
         disconnect_rate=args.disconnect_rate, pty=args.pty or "", tcp=args.tcp, rfc2217=args.rfc2217,
-        usb_pty=args.usb_pty or "", usb_tcp=args.usb_tcp, modules=args.modules)
+        usb_pty=args.usb_pty or "", usb_tcp=args.usb_tcp, modules=args.modules, feet=args.feet)
     return ServeSettings(emulator, control=args.control, trace=args.trace or "", duration=args.duration,
                          status_interval=args.status_interval, frame_ms=args.frame_ms,
                          overrun_ms=args.overrun_ms)
@@ -186,7 +199,7 @@ def frame_ticks(settings: ServeSettings, rate_hz: float) -> int:
     """Ticks per frame from ``frame_ms`` (at least one tick)."""
     ms = settings.frame_ms
     if ms is None:
-        ms = MANY_MODULES_FRAME_MS if settings.emulator.modules > 1 else 0.0
+        ms = MANY_MODULES_FRAME_MS if settings.emulator.module_count > 1 else 0.0
     return max(1, round(ms * rate_hz / 1000.0))
 
 
@@ -197,7 +210,7 @@ def build_served_module(settings: EmulatorSettings, index: int) -> ServedModule:
     """Module *index* of *settings* (:func:`~firmware_sim.transports.factory.build`) with its pacer."""
     built = build(settings, index)
     pacer = Pacer(built.module, built.endpoints, speed=settings.speed)
-    return ServedModule(index, built.module, built.links, built.endpoints, pacer, built.ready)
+    return ServedModule(index, built.module, built.links, built.endpoints, pacer, built.ready, built.label)
 
 
 @dataclass
@@ -214,7 +227,7 @@ class _Served:
 def _open(served: _Served, settings: ServeSettings) -> None:
     """Build every module, then open the control channel and the trace file, each into *served*."""
     emulator = replace(settings.emulator, trace=bool(settings.trace))
-    for i in range(emulator.modules):
+    for i in range(emulator.module_count):
         served.modules.append(build_served_module(emulator, i))
     if settings.control:
         served.control = ControlServer(served.modules, *settings.control)
@@ -249,10 +262,10 @@ def ready_line(modules: list[ServedModule], control: ControlServer | None) -> st
 
 
 def status_text(modules: list[ServedModule]) -> str:
-    """Every module's status, ``m<i>``-prefixed when there are several."""
+    """Every module's status, prefixed with its label when there are several (``m0``, ``left``)."""
     if len(modules) == 1:
         return modules[0].status_line()
-    return " || ".join(f"m{m.index} {m.status_line()}" for m in modules)
+    return " || ".join(f"{m.label} {m.status_line()}" for m in modules)
 
 
 class _StatusLines:

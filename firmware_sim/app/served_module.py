@@ -20,6 +20,7 @@ class ServedModule:
     endpoints: list[Any]
     pacer: Pacer
     ready: list[tuple[str, str]] = field(default_factory=list)
+    label: str = ""  #: what tells it apart from the others it runs with: ``m0``, ``left`` (one alone: "")
 
     def status_line(self) -> str:
         return self.pacer.status().line()

@@ -53,7 +53,8 @@ from .replay import Recording
 from .scenarios import environment, feet, list_scenarios, trajectory
 from .truth import GroundTruth, Kinematics, cross, rotate
 
-__all__ = ["SimulatedSource", "make_feet_sources", "make_source", "list_scenarios", "module_rng"]
+__all__ = ["SimulatedSource", "make_feet_sources", "make_foot_source", "make_source", "list_scenarios",
+           "module_rng"]
 
 #: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
 _MODULE_STREAM = 0x4D4F44  # "MOD"
@@ -240,25 +241,34 @@ def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.
                            module=module)
 
 
-def make_feet_sources(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
-                      config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
-                      walker: int | None = None) -> dict[str, SimulatedSource]:
-    """A module on each foot of one walker walking *scenario* (:func:`.scenarios.feet`): side →
-    source, :data:`~.feet.SIDES` order.
+def make_foot_source(scenario: str, side: str, seed: int = 0, rate_hz: float = 1000.0,
+                     config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
+                     module: int | None = None) -> SimulatedSource:
+    """The module on the *side* foot of a walker walking *scenario* (:func:`.scenarios.feet`).
 
-    Each foot's module draws its own walk from :func:`~.feet.foot_seed` (*seed*, side) and, with
-    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own). The
-    scenario's environment (outdoors or not) applies to both.
+    *seed* draws this foot's walk and *module* is this module's identity (None: the seed's own),
+    as in :func:`make_source`; :func:`make_feet_sources` gives both feet of a walker their own.
+    The scenario's environment (outdoors or not) applies.
     """
     config = config or DEFAULT_CONFIG
     if environment(scenario).outdoors:
         config = replace(config, mag=config.mag.outdoors())
-    walked = feet(scenario)
-    sources = {}
-    for side in SIDES:
-        module = None if walker is None else foot_module(walker, side)
-        source = SimulatedSource(walked.foot(side), config=config, seed=foot_seed(seed, side),
-                                 rate_hz=rate_hz, geometry=geometry, module=module)
-        source.name = f"{scenario} ({side} foot)"
-        sources[side] = source
-    return sources
+    source = SimulatedSource(feet(scenario).foot(side), config=config, seed=seed, rate_hz=rate_hz,
+                             geometry=geometry, module=module)
+    source.name = f"{scenario} ({side} foot)"
+    return source
+
+
+def make_feet_sources(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
+                      config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
+                      walker: int | None = None) -> dict[str, SimulatedSource]:
+    """A module on each foot of one walker walking *scenario* (:func:`make_foot_source`): side →
+    source, :data:`~.feet.SIDES` order.
+
+    Each foot's module draws its own walk from :func:`~.feet.foot_seed` (*seed*, side) and, with
+    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own).
+    """
+    return {side: make_foot_source(scenario, side, seed=foot_seed(seed, side), rate_hz=rate_hz,
+                                   config=config, geometry=geometry,
+                                   module=None if walker is None else foot_module(walker, side))
+            for side in SIDES}

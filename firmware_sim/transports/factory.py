@@ -24,6 +24,10 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
     pty, tcp, rfc2217   endpoints on the served interface: a pty path, (host, port) pairs
     usb_pty, usb_tcp    endpoints on the USB interface beside a served Bluetooth one
     modules      how many modules the settings describe: module i gets PATH<i> and PORT + i, 1
+    feet         1, or 2: a module on each foot of one walker walking the scenario
+                 (firmware_sim.sensors.feet; not with modules > 1 or a replay): module 0 is the
+                 left foot, 1 the right, each with its foot's seed and identity (:func:`module_identity`),
+                 on PATH-left, PATH-right and PORT, PORT + 1
 
 The served interface gets the link; the other one is left unplugged, but for USB
 endpoints beside a served Bluetooth interface, which get a USB link of their own
@@ -47,7 +51,8 @@ from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import profile_for
-from firmware_sim.sensors.imu_array import make_source
+from firmware_sim.sensors.feet import SIDES, foot_module, foot_seed
+from firmware_sim.sensors.imu_array import make_foot_source, make_source
 from firmware_sim.sensors.playback import served_source
 from protocol.commands import COMMAND_SETS
 
@@ -109,7 +114,8 @@ def _literal(value: object) -> str:
 
 @dataclass(frozen=True)
 class EmulatorSettings:
-    """One module (or *modules* alike), its link and where hosts connect; checked when made."""
+    """One module (or *modules* alike, or a walker's two *feet*), its link and where hosts connect;
+    checked when made."""
 
     scenario: str = "default"
     seed: int = 0
@@ -130,9 +136,11 @@ class EmulatorSettings:
     usb_pty: str = ""
     usb_tcp: Address | None = None
     modules: int = 1
+    feet: int = 1
 
     def __post_init__(self) -> None:
         self._check_module()
+        self._check_feet()
         self._check_link()
         self._check_endpoints()
 
@@ -152,6 +160,23 @@ class EmulatorSettings:
             if self.replay:
                 raise SettingsError("{} goes with a scenario, not {} FILE: a recording carries its own "
                                     "sensors", "module", "replay")
+
+    def _check_feet(self) -> None:
+        if self.feet not in (1, 2):
+            raise SettingsError("{} must be 1 or 2", "feet", got=self.feet)
+        if self.feet == 1:
+            return
+        if self.modules > 1:
+            raise SettingsError("{} 2 is one walker's two modules: it does not go with {} N", "feet",
+                                "modules")
+        if self.replay:
+            raise SettingsError("{} 2 walks a scenario on both feet, not {} FILE: a recording is one "
+                                "module's", "feet", "replay")
+        identities = [module_identity(self, index) for index in range(len(SIDES))]
+        if not all(0 <= identity <= MAX_MODULE for identity in identities):
+            raise SettingsError(f"{{}} 2 puts modules {identities[0]} and {identities[1]} on the feet "
+                                f"(2N and 2N + 1 of {{}} N, else of {{}} N); they must be 0..{MAX_MODULE}",
+                                "feet", "module", "seed")
 
     def _check_link(self) -> None:
         if self.served_interface not in ("usb", "bt"):
@@ -175,9 +200,18 @@ class EmulatorSettings:
             port = address[1]
             if not 0 <= port <= 65535:
                 raise SettingsError("{} port must be 0..65535", name, got=port)
-            if port and port + self.modules - 1 > 65535:
+            if port and port + self.module_count - 1 > 65535:
                 raise SettingsError(f"{{}} port {port} + one per module runs past 65535 with "
-                                    f"{self.modules} {{}}", name, "modules")
+                                    f"{self.module_count} modules", name)
+
+    @property
+    def module_count(self) -> int:
+        """How many modules the settings describe: *modules*, or one per foot."""
+        return len(SIDES) if self.feet == 2 else self.modules
+
+    def side(self, index: int) -> str | None:
+        """The foot module *index* is worn on (``left``, ``right``); None when not a walker's feet."""
+        return SIDES[index] if self.feet == 2 else None
 
     @property
     def served_interface(self) -> str:
@@ -220,16 +254,41 @@ class EmulatorSettings:
         return cls(**kw)  # type: ignore[arg-type]
 
 
-def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = None) -> SensorSource:
+def module_seed(settings: EmulatorSettings, index: int) -> int:
+    """The seed of module *index* (its walk's draws and its links'): seed + index, or on a walker's
+    feet the foot's own (:func:`~firmware_sim.sensors.feet.foot_seed`)."""
+    side = settings.side(index)
+    return settings.seed + index if side is None else foot_seed(settings.seed, side)
+
+
+def module_identity(settings: EmulatorSettings, index: int) -> int | None:
+    """The identity of module *index*: its own errors and its serial number (:func:`module_serial`).
+
+    Module + index (None without ``module``: the seed's own errors, the default serial). On a
+    walker's feet, the foot's module (:func:`~firmware_sim.sensors.feet.foot_module`) or, without
+    ``module``, its seed's own, serial number included: a host tells the two feet apart by it.
+    """
+    side = settings.side(index)
+    if side is not None:
+        return module_seed(settings, index) if settings.module is None else foot_module(settings.module, side)
+    return None if settings.module is None else settings.module + index
+
+
+def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = None,
+                 side: str | None = None) -> SensorSource:
     """The sensor source of a scenario as a served module plays it: module *module* (None: the
-    seed's own) walking the scenario with seed *seed*.
+    seed's own) walking the scenario with seed *seed*; with *side*, worn on that foot of the
+    walker (:func:`~firmware_sim.sensors.imu_array.make_foot_source`).
 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
     so a host never meets silent sensors after a short scenario.
     """
     try:
-        source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module)
+        if side is None:
+            source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module)
+        else:
+            source = make_foot_source(scenario, side, seed=seed, rate_hz=rate_hz, module=module)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
     return served_source(source)
@@ -238,9 +297,22 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
 # --------------------------------------------------------------------------- endpoints
 
 
-def indexed_path(path: str, index: int, modules: int) -> str:
-    """The pty path of module *index*: *path* itself when there is one module, else *path* + index."""
-    return path if modules == 1 else f"{path}{index}"
+def module_label(settings: EmulatorSettings, index: int) -> str:
+    """What tells module *index* apart from the others it runs with (its READY keys, its status):
+    its foot (``left``, ``right``), ``m<index>`` of several modules, "" when it runs alone."""
+    side = settings.side(index)
+    if side is not None:
+        return side
+    return "" if settings.modules == 1 else f"m{index}"
+
+
+def module_path(path: str, settings: EmulatorSettings, index: int) -> str:
+    """The pty path of module *index*: *path* itself when there is one module, *path* + index of
+    several, *path*-side on a walker's feet (``/tmp/shoe-left``)."""
+    side = settings.side(index)
+    if side is not None:
+        return f"{path}-{side}"
+    return path if settings.modules == 1 else f"{path}{index}"
 
 
 def indexed_address(address: Address, index: int) -> Address:
@@ -253,29 +325,29 @@ def _address_text(address: tuple[Any, ...]) -> str:
     return f"{address[0]}:{address[1]}"
 
 
-def open_pty(port: Port, path: str, index: int, modules: int) -> tuple[Any, str]:
+def open_pty(port: Port, path: str, settings: EmulatorSettings, index: int) -> tuple[Any, str]:
     """A pty behind a stable symlink; returns it and the path hosts open."""
     from .pty_endpoint import PtyEndpoint  # ptys are POSIX only: imported when one is asked for
 
-    path = indexed_path(path, index, modules)
+    path = module_path(path, settings, index)
     return PtyEndpoint(port, path), str(Path(path))
 
 
-def open_tcp(port: Port, address: Address, index: int, modules: int) -> tuple[Any, str]:
+def open_tcp(port: Port, address: Address, settings: EmulatorSettings, index: int) -> tuple[Any, str]:
     """A TCP port, one host at a time; returns it and the ``HOST:PORT`` it listens on."""
     endpoint = TcpEndpoint(port, *indexed_address(address, index))
     return endpoint, _address_text(endpoint.address)
 
 
-def open_rfc2217(port: Port, address: Address, index: int, modules: int) -> tuple[Any, str]:
+def open_rfc2217(port: Port, address: Address, settings: EmulatorSettings, index: int) -> tuple[Any, str]:
     """An RFC 2217 port (pyserial ``rfc2217://``); returns it and the ``HOST:PORT`` it listens on."""
     endpoint = Rfc2217Endpoint(port, *indexed_address(address, index))
     return endpoint, _address_text(endpoint.address)
 
 
-#: Endpoint kind → how to open one for module ``index`` of ``modules`` on a port (a link or a
-#: hub's tap): ``(port, where, index, modules) -> (endpoint, where hosts connect)``.
-ENDPOINT_KINDS: dict[str, Callable[[Port, Any, int, int], tuple[Any, str]]] = {
+#: Endpoint kind → how to open one for module ``index`` of ``settings`` on a port (a link or a
+#: hub's tap): ``(port, where, settings, index) -> (endpoint, where hosts connect)``.
+ENDPOINT_KINDS: dict[str, Callable[[Port, Any, EmulatorSettings, int], tuple[Any, str]]] = {
     "pty": open_pty,
     "tcp": open_tcp,
     "rfc2217": open_rfc2217,
@@ -286,18 +358,20 @@ def open_endpoints(settings: EmulatorSettings, links: dict[str, Link],
                    index: int = 0) -> tuple[list[Any], list[tuple[str, str]]]:
     """The endpoints *settings* ask for on module *index*'s *links*, and their READY fields.
 
-    Fields are ``(key, where)``, the key ``<interface>-<kind>`` (``m<index>.``-prefixed when
-    there are several modules). On failure the endpoints opened so far are closed.
+    Fields are ``(key, where)``, the key ``<interface>-<kind>``, prefixed with the module's
+    :func:`module_label` and a dot when it has one (``m1.bt-pty``, ``left.bt-pty``). On failure the
+    endpoints opened so far are closed.
     """
     endpoints: list[Any] = []
     ready: list[tuple[str, str]] = []
-    prefix = "" if settings.modules == 1 else f"m{index}."
+    label = module_label(settings, index)
+    prefix = f"{label}." if label else ""
     try:
         for iface, kinds in settings.endpoint_requests().items():
             hub = HostHub(links[iface]) if len(kinds) > 1 else None
             for kind, where in kinds.items():
                 endpoint, shown = ENDPOINT_KINDS[kind](hub.tap(kind) if hub else links[iface], where,
-                                                       index, settings.modules)
+                                                       settings, index)
                 endpoints.append(endpoint)
                 ready.append((f"{prefix}{iface}-{kind}", shown))
     except BaseException:
@@ -320,6 +394,7 @@ class BuiltModule:
     links: dict[str, Link]
     endpoints: list[Any]
     ready: list[tuple[str, str]]  #: (key, where) per endpoint, e.g. ("bt-pty", "/tmp/openshoe0")
+    label: str = ""  #: what tells it apart from the others it runs with (:func:`module_label`)
 
     @property
     def link(self) -> Link:
@@ -343,32 +418,34 @@ def _links(settings: EmulatorSettings, seed: int) -> dict[str, Link]:
     return links
 
 
-def _sensors(settings: EmulatorSettings, seed: int, module: int | None) -> SensorSource:
+def _sensors(settings: EmulatorSettings, index: int) -> SensorSource:
     if settings.replay:
         from firmware_sim.sensors.replay import ReplaySource
 
         return served_source(ReplaySource.from_file(settings.replay))
-    return make_sensors(settings.scenario, seed, DEFAULT_RATE_HZ, module)
+    return make_sensors(settings.scenario, module_seed(settings, index), DEFAULT_RATE_HZ,
+                        module_identity(settings, index), settings.side(index))
 
 
 def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource | None = None) -> BuiltModule:
     """Module *index* of *settings*: its sensors, links, the module and the endpoints asked for.
 
     Module *index* has seed ``settings.seed + index`` and, when ``settings.module`` is given,
-    identity ``settings.module + index`` (else the seed's own). It runs at its sensors' rate
+    identity ``settings.module + index`` (else the seed's own); on a walker's feet, module 0 is
+    the left foot and 1 the right, each with its foot's seed and identity (:func:`module_seed`,
+    :func:`module_identity`). It runs at its sensors' rate
     (1 kHz for a scenario, a recording's own). *sensors*: a source to play as it is, instead of
     the settings' scenario or recording. Refused settings of the sensors (an unknown
     scenario, a bad recording) raise ValueError; endpoints that cannot open, OSError.
     """
-    seed = settings.seed + index
-    identity = None if settings.module is None else settings.module + index
     if sensors is None:
-        sensors = _sensors(settings, seed, identity)
-    links = _links(settings, seed)
+        sensors = _sensors(settings, index)
+    links = _links(settings, module_seed(settings, index))
     config = profile_for(sensors).configure(ModuleConfig(
         rate_hz=sensors.rate_hz, command_set=settings.command_set, trace=settings.trace,
-        mcu_serial=module_serial(identity)))
+        mcu_serial=module_serial(module_identity(settings, index))))
     ports: dict[str, Port] = {k: links.get(k) or IdealPort(connected=False) for k in ("bt", "usb")}
     module = build_module(config, sensors, usb_port=ports["usb"], bt_port=ports["bt"])
     endpoints, ready = open_endpoints(settings, links, index)
-    return BuiltModule(index, settings.served_interface, module, links, endpoints, ready)
+    return BuiltModule(index, settings.served_interface, module, links, endpoints, ready,
+                       module_label(settings, index))

@@ -178,7 +178,7 @@ def _serve_args(*argv: str) -> argparse.Namespace:
 
 
 def test_the_command_line_becomes_settings():
-    from firmware_sim.app.serve import settings_from_args
+    from firmware_sim.app.serve import MANY_MODULES_FRAME_MS, frame_ticks, settings_from_args
 
     s = settings_from_args(_serve_args("--pty", "/tmp/p", "--tcp", "5000", "--modules", "3", "--seed", "7",
                                        "--frame-ms", "2", "--trace", "/tmp/t"))
@@ -188,6 +188,9 @@ def test_the_command_line_becomes_settings():
     assert (s.frame_ms, s.trace, s.control, s.status_interval) == (2.0, "/tmp/t", None, 1.0)
     usb = settings_from_args(_serve_args("--tcp", "0", "--interface", "usb", "--link", "ideal")).emulator
     assert (usb.link, usb.served_interface, usb.pty) == ("ideal", "usb", "")
+    feet = settings_from_args(_serve_args("--pty", "/tmp/shoe", "--feet", "2", "--module", "4"))
+    assert (feet.emulator.feet, feet.emulator.module_count, feet.emulator.module) == (2, 2, 4)
+    assert frame_ticks(feet, 1000.0) == round(MANY_MODULES_FRAME_MS), "frames as for several modules (1 kHz)"
 
 
 @pytest.mark.parametrize(("argv", "message"), [
@@ -199,6 +202,11 @@ def test_the_command_line_becomes_settings():
     (("--tcp", "0", "--interface", "usb", "--usb-tcp", "0"),
      "openshoe-emu serve: --usb-pty/--usb-tcp need --interface bt"),
     (("--tcp", "0", "--stall-rate", "-2"), "openshoe-emu serve: --stall-rate must be >= 0"),
+    (("--pty", "/tmp/shoe", "--feet", "2", "--modules", "2"),
+     "openshoe-emu serve: --feet 2 is one walker's two modules: it does not go with --modules N"),
+    (("--pty", "/tmp/shoe", "--feet", "2", "--replay", "walk.txt"),
+     "openshoe-emu serve: --feet 2 walks a scenario on both feet, not --replay FILE: a recording is one "
+     "module's"),
 ])
 def test_refused_options_exit_with_status_2_and_name_the_option(argv, message, capsys):
     from firmware_sim.app.serve import main

@@ -15,7 +15,8 @@ import pytest
 import serial
 
 from firmware_sim.app.serve import parse_ready, spawn
-from protocol.frames import build_command, build_packet_ack
+from firmware_sim.transports.factory import module_serial
+from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
@@ -25,6 +26,8 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pt
 FAST = ("--scenario", "stand", "--status-interval", "0")
 PING = bytes.fromhex("030003")
 PING_ACK = bytes.fromhex("A00300A3")
+START_STEPWISE = bytes.fromhex("340034")
+START_STEPWISE_ACK = bytes.fromhex("A03400D4")
 
 
 def _read_exact(port, n: int, timeout: float = 3.0) -> bytes:
@@ -124,6 +127,37 @@ def test_two_modules_each_on_its_own_pty(tmp_path):
             with serial.Serial(srv.ready[key], timeout=3) as host:
                 host.write(PING)
                 assert _read_exact(host, 4) == PING_ACK
+
+
+def _mcu_serial(host) -> bytes:
+    """Ask for the module's serial number (MCU_ID) and read it: the packet holding state 0x04 alone
+    (15 bytes), acked; step packets arriving meanwhile are acked and passed over."""
+    host.write(build_command(Command.MCU_ID))
+    dec = StreamDecoder()
+    while True:
+        chunk = host.read(max(1, host.in_waiting))
+        assert chunk, "no serial number"
+        for frame in dec.feed(chunk):
+            if isinstance(frame, StatePacket):
+                host.write(build_packet_ack(frame.number))
+                if len(frame.payload) == 15:
+                    return frame.payload
+
+
+def test_two_feet_are_two_modules_each_on_its_own_pty(tmp_path):
+    base = tmp_path / "shoe"
+    with spawn("--pty", str(base), "--feet", "2", "--link", "usb", "--duration", "60", *FAST) as srv:
+        assert srv.ready == {"left.bt-pty": f"{base}-left", "right.bt-pty": f"{base}-right"}
+        serials = []
+        for side in ("left", "right"):
+            with serial.Serial(f"{base}-{side}", timeout=3) as host:
+                host.write(START_STEPWISE)
+                assert _read_exact(host, 4) == START_STEPWISE_ACK
+                serials.append(_mcu_serial(host))
+        # a host tells the feet apart by their serial numbers: each foot is its seed's own module
+        assert serials == [module_serial(0), module_serial(1)]
+        assert srv.stop() == 0
+    assert not any(tmp_path.iterdir()), "both pty symlinks are removed on shutdown"
 
 
 def test_sigint_stops_cleanly_and_bad_usage_is_refused(tmp_path):

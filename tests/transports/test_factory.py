@@ -11,6 +11,7 @@ import pytest
 
 from firmware_sim.links.link import Link
 from firmware_sim.mcu.imu_bus import ScriptedSource
+from firmware_sim.sensors.imu_array import make_feet_sources
 from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead
 from firmware_sim.transports.factory import (
     ENDPOINT_KINDS,
@@ -19,7 +20,9 @@ from firmware_sim.transports.factory import (
     SettingsError,
     build,
     indexed_address,
-    indexed_path,
+    module_label,
+    module_path,
+    module_serial,
     open_tcp,
 )
 from firmware_sim.transports.hub import HostTap
@@ -87,6 +90,25 @@ def test_ports_of_several_modules_stay_in_range():
     EmulatorSettings(tcp=("127.0.0.1", 0), modules=100)  # each picks a free port
     with pytest.raises(SettingsError, match="tcp port 65534 .* 3 modules"):
         EmulatorSettings(tcp=("127.0.0.1", 65534), modules=3)
+
+
+def test_two_feet_are_one_walker_walking_a_scenario():
+    assert EmulatorSettings(feet=2).module_count == 2 and EmulatorSettings(modules=3).module_count == 3
+    with pytest.raises(SettingsError, match="feet must be 1 or 2, got 3"):
+        EmulatorSettings(feet=3)
+    with pytest.raises(SettingsError, match="feet 2 is one walker's two modules: it does not go with "
+                                            "modules N") as caught:
+        EmulatorSettings(feet=2, modules=2)
+    assert caught.value.options == ("feet", "modules")
+    with pytest.raises(SettingsError, match="feet 2 walks a scenario on both feet, not replay") as caught:
+        EmulatorSettings(feet=2, replay="walk.txt")
+    assert caught.value.options == ("feet", "replay")
+    with pytest.raises(SettingsError, match="feet 2 puts modules 199999998 and 199999999 on the feet"):
+        EmulatorSettings(feet=2, module=99_999_999)
+    with pytest.raises(SettingsError, match="feet 2 puts modules -2 and -1 on the feet"):
+        EmulatorSettings(feet=2, seed=-1)
+    with pytest.raises(SettingsError, match="tcp port 65535 .* 2 modules"):
+        EmulatorSettings(feet=2, tcp=("127.0.0.1", 65535))
 
 
 def test_the_served_interface_follows_the_link_unless_given():
@@ -223,8 +245,12 @@ def test_usb_endpoints_beside_bluetooth_get_a_usb_link_of_their_own(built_module
 
 
 def test_paths_and_ports_carry_the_module_index():
-    assert indexed_path("/tmp/os", 2, 3) == "/tmp/os2"
-    assert indexed_path("/tmp/os", 0, 1) == "/tmp/os", "one module keeps the path as given"
+    assert module_path("/tmp/os", EmulatorSettings(modules=3), 2) == "/tmp/os2"
+    assert module_path("/tmp/os", EmulatorSettings(), 0) == "/tmp/os", "one module keeps the path as given"
+    assert [module_path("/tmp/shoe", EmulatorSettings(feet=2), i) for i in (0, 1)] == ["/tmp/shoe-left",
+                                                                                     "/tmp/shoe-right"]
+    assert [module_label(EmulatorSettings(feet=2), i) for i in (0, 1)] == ["left", "right"]
+    assert module_label(EmulatorSettings(modules=2), 1) == "m1" and module_label(EmulatorSettings(), 0) == ""
     assert indexed_address(("h", 4000), 3) == ("h", 4003)
     assert indexed_address(("h", 0), 3) == ("h", 0), "port 0: every module picks a free one"
 
@@ -242,6 +268,30 @@ def test_several_modules_get_indexed_paths_ports_and_ready_keys(built_modules, t
     b = built_modules(settings, 1)
     assert b.ready == [("m1.bt-pty", str(tmp_path / "os1")), ("m1.bt-tcp", f"127.0.0.1:{port}")]
     assert (tmp_path / "os1").is_symlink()
+
+
+@linux_only
+def test_a_walkers_feet_each_wear_their_own_module(built_modules, tmp_path):
+    settings = quick(interface="bt", pty=str(tmp_path / "shoe"), tcp=LOCAL, seed=3, module=7, feet=2)
+    left, right = (built_modules(settings, i) for i in range(2))
+    assert [k for k, _ in left.ready + right.ready] == ["left.bt-pty", "left.bt-tcp",
+                                                        "right.bt-pty", "right.bt-tcp"]
+    assert [b.ready[0][1] for b in (left, right)] == [str(tmp_path / n) for n in ("shoe-left", "shoe-right")]
+    assert (left.label, right.label) == ("left", "right")
+    walked = make_feet_sources("stand:1", seed=3, walker=7)
+    for built, side in ((left, "left"), (right, "right")):
+        source = _simulated(built)
+        assert (source.module, source.seed) == (walked[side].module, walked[side].seed)
+        assert np.array_equal(source.imu, walked[side].imu), "the foot's own walk, errors and seed"
+        assert built.module.memory.mcu_serial == module_serial(walked[side].module)
+        assert built.link.seed == walked[side].seed
+
+
+def test_without_a_module_identity_each_foot_is_its_seeds_own_module_with_its_serial_number():
+    left, right = (build(quick(seed=3, feet=2), i) for i in range(2))
+    assert [_simulated(b).module for b in (left, right)] == [6, 7]
+    assert (left.module.memory.mcu_serial, right.module.memory.mcu_serial) == (b"OSEMU-M00000006",
+                                                                               b"OSEMU-M00000007")
 
 
 def test_endpoints_opened_before_a_failure_are_closed(monkeypatch):
