@@ -5,6 +5,13 @@
     openshoe-host log   socket://localhost:5000 --raw capture.bin --duration 10
     openshoe-host replay capture.bin --csv walk.csv
 
+Two feet (a module on each; hostlib.feet): both streams acked and gap-checked on their own, fused
+into one body track (the feet's midpoint); a lost link on one foot degrades the fusion to the
+other foot, it never stops it::
+
+    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --csv walk.csv      # LEFT RIGHT
+    openshoe-host replay left.bin right.bin --csv walk.csv --png walk.png
+
 Closed-loop drift correction (one module; hostlib.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
@@ -23,17 +30,23 @@ import argparse
 import math
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
+from contextlib import ExitStack
+from dataclasses import dataclass
 from typing import Any, TextIO
 
+from protocol.board import FOOT_SIDES
 from protocol.ids import OutputMode, StateId
 
 from .device import Device
 from .drift import DriftCalibration, DriftError, calibrate, loop_closure, serial_text
 from .errors import HostError
+from .events import LinkEvent
+from .feet import FeetSettings, TwoFeetTracker
+from .session import SessionStats
 from .tracking import StepTracker, Track
 
-__all__ = ["heading_deg", "main", "summary_line"]
+__all__ = ["feet_summary", "feet_summary_line", "heading_deg", "main", "summary_line"]
 
 #: `log` to a file or pipe: one status line this often [s] (on a terminal the line is live).
 LOG_LINE_EVERY_S = 5.0
@@ -74,6 +87,60 @@ def _aid_options(p: argparse.ArgumentParser) -> None:
                         "first fix or at --origin)")
 
 
+def _positive_metres(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value > 0 or not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"a distance > 0 m, not {text!r}")
+    return value
+
+
+def _feet_options(p: argparse.ArgumentParser, what: str) -> None:
+    g = p.add_argument_group(f"two feet (with two {what}s: the left foot's, then the right foot's; "
+                             "hostlib.feet)")
+    g.add_argument("--max-separation", type=_positive_metres, default=None, metavar="M",
+                   help="γ: the feet's last rests are never farther apart than M metres (default "
+                        f"{FeetSettings.max_separation_m:g}, the longest walking step; a runner's: 1.5)")
+    g.add_argument("--no-constraint", action="store_true",
+                   help="no inter-foot constraint: the body is the average of the two single-module tracks")
+
+
+def _feet_settings(args: argparse.Namespace) -> FeetSettings:
+    gamma = FeetSettings.max_separation_m if args.max_separation is None else args.max_separation
+    return FeetSettings(constraint=not args.no_constraint, max_separation_m=gamma)
+
+
+#: Options for one module only (for now), and those for two feet only: (dest, flag).
+_ONE_MODULE_OPTIONS = (("compass", "--compass"), ("compass_sigma", "--compass-sigma"), ("gps", "--gps"),
+                       ("mag_cal", "--mag-cal"), ("declination", "--declination"), ("drift", "--drift"))
+_FEET_OPTIONS = (("max_separation", "--max-separation"), ("no_constraint", "--no-constraint"))
+
+
+def _second(args: argparse.Namespace) -> str | None:
+    """The right foot's URL or capture (None: one module)."""
+    return getattr(args, "url2", None) or getattr(args, "capture2", None)
+
+
+def _usage_refusal(args: argparse.Namespace) -> str | None:
+    """Why the options of ``track`` or ``replay`` do not go together, or None."""
+    what = "URL" if args.cmd == "track" else "capture"
+    two = _second(args) is not None
+    given = [flag for dest, flag in (_ONE_MODULE_OPTIONS if two else _FEET_OPTIONS)
+             if getattr(args, dest, None) not in (None, False)]
+    verb = ("work", "need") if len(given) > 1 else ("works", "needs")
+    if given and two:
+        return (f"{', '.join(given)} {verb[0]} with one {what} for now; two {what}s are a walker's two "
+                f"feet, fused without heading aids")
+    if given:
+        return f"{', '.join(given)} {verb[1]} two {what}s (the left foot's, then the right foot's)"
+    if args.cmd == "track" and args.drift and not args.fusion:
+        return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
+                "module's serial number, which the fusion set-up asks the module for")
+    return None
+
+
 def _uses_aids(args: argparse.Namespace) -> bool:
     return bool(args.compass or args.gps)
 
@@ -96,10 +163,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="openshoe-host", description=__doc__.split("\n\n")[0])
     sub = parser.add_subparsers(dest="cmd", required=True)
 
-    t = sub.add_parser("track", help="start step-wise dead reckoning (0x34) and sum the steps")
+    t = sub.add_parser("track", help="start step-wise dead reckoning (0x34) and sum the steps "
+                                     "(of one module, or of a module on each foot)")
     _common(t)
+    t.add_argument("url2", nargs="?", metavar="URL2",
+                   help="a module on the other foot: url is then the left foot's, URL2 the right foot's, "
+                        "and the two are fused (hostlib.feet)")
     t.add_argument("--duration", type=float, default=None, help="seconds to track (default: until Ctrl-C)")
-    t.add_argument("--csv", help="write the track (poses + covariances) to this CSV file")
+    t.add_argument("--csv", help="write the track (poses + covariances) to this CSV file (two feet: the "
+                                 "body's, and each foot's in more columns)")
     t.add_argument("--geojson", help="write the track as GeoJSON")
     t.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
     t.add_argument("--png", help="plot the track with 1-sigma ellipses to this PNG (needs matplotlib)")
@@ -112,6 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     _setup_options(t)
     t.add_argument("--drift", metavar="CAL.json",
                    help="correct the track with this module's drift calibration (needs --fusion)")
+    _feet_options(t, "URL")
 
     lg = sub.add_parser("log", help="capture the module's byte stream to a file (packets still acked)")
     _common(lg)
@@ -123,10 +196,15 @@ def build_parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="ping the module and read its MCU serial number")
     _common(i)
 
-    r = sub.add_parser("replay", help="sum the steps of a raw capture (from `log --raw`) offline")
+    r = sub.add_parser("replay", help="sum the steps of a raw capture (from `log --raw`) offline "
+                                      "(or fuse the captures of a module on each foot)")
     r.add_argument("capture", help="file of module bytes")
+    r.add_argument("capture2", nargs="?", metavar="CAPTURE2",
+                   help="the capture of a module on the other foot: capture is then the left foot's, "
+                        "CAPTURE2 the right foot's, and the two are fused (hostlib.feet)")
     r.add_argument("--command-set", choices=("2014", "2015"), default="2015")
-    r.add_argument("--csv", help="write the track to this CSV file")
+    r.add_argument("--csv", help="write the track to this CSV file (two feet: the body's, and each "
+                                 "foot's in more columns)")
     r.add_argument("--geojson", help="write the track as GeoJSON")
     r.add_argument("--origin", help="LAT,LON[,ALT] of the start, for geographic GeoJSON")
     r.add_argument("--png", help="plot the track to this PNG (needs matplotlib)")
@@ -134,6 +212,7 @@ def build_parser() -> argparse.ArgumentParser:
     _aid_options(r)
     r.add_argument("--drift", metavar="CAL.json",
                    help="correct the track with this module's drift calibration (`drift calibrate`)")
+    _feet_options(r, "capture")
 
     d = sub.add_parser("drift", help="closed-loop drift correction of one module (hostlib.drift)")
     dsub = d.add_subparsers(dest="drift_cmd", required=True)
@@ -170,10 +249,30 @@ def summary_line(dev: Device, drift: DriftCalibration | None = None) -> str:
     st = dev.stats
     return (
         f"packets {len(tr):5d} | steps {tr.motion_steps:5d} | {tr.distance:8.2f} m "
-        f"| x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m{corrected} | heading {heading_deg(chi):5.1f}° "
-        f"| 1σ {tr.closure_sigma():6.3f} m | gaps {len(tr.gaps)} (missing {tr.missing}) "
-        f"| garbage {st['garbage_bytes']}"
+        f"| {_pose_text((x, y, z, chi), tr.closure_sigma(), corrected)} "
+        f"| gaps {len(tr.gaps)} (missing {tr.missing}) | garbage {st['garbage_bytes']}"
     )
+
+
+def _pose_text(pose: Sequence[float], sigma: float, note: str = "") -> str:
+    """Position, heading and horizontal 1σ as the status lines show them."""
+    x, y, z, chi = pose
+    return (f"x {x:+8.2f} y {y:+8.2f} z {z:+6.2f} m{note} | heading {heading_deg(chi):5.1f}° "
+            f"| 1σ {sigma:6.3f} m")
+
+
+def feet_summary_line(tracker: TwoFeetTracker, devices: Mapping[str, Device],
+                      failed: Sequence[str] = ()) -> str:
+    """One line for two feet: per foot its step packets, steps with motion, distance and gaps (and
+    whether its link is down, or its walk failed: the *failed* sides), then the fused body."""
+    parts = []
+    for side, dev in devices.items():
+        tr = dev.track_snapshot()
+        state = " FAILED" if side in failed else ("" if dev.link_up else " LINK DOWN")
+        parts.append(f"{side} {len(tr):4d}/{tr.motion_steps:4d} steps {tr.distance:7.2f} m "
+                     f"gaps {len(tr.gaps)} (missing {tr.missing}){state}")
+    body = tracker.body
+    return " | ".join(parts) + f" | body {_pose_text(body.final_pose, body.closure_sigma())}"
 
 
 def _is_terminal(out: TextIO) -> bool:
@@ -207,8 +306,8 @@ class _LiveLine:
             self.out.write("\n")
 
 
-def _open(args: argparse.Namespace, **kw: Any) -> Device:
-    return Device(args.url, command_set=args.command_set, baudrate=args.baudrate,
+def _open(args: argparse.Namespace, url: str, **kw: Any) -> Device:
+    return Device(url, command_set=args.command_set, baudrate=args.baudrate,
                   ack_timeout=args.ack_timeout, **kw)
 
 
@@ -250,52 +349,104 @@ def _await_serial(dev: Device, timeout: float) -> None:
         dev.recv_packet(timeout=_remaining(deadline))
 
 
-def _drift_needs_fusion(args: argparse.Namespace) -> bool:
-    if args.drift and not args.fusion:
-        print("openshoe-host track: --drift needs --fusion: the drift correction needs every step's swing "
-              "time and the module's serial number, which the fusion set-up asks the module for",
-              file=sys.stderr)
-        return True
-    return False
+@dataclass
+class _Tracked:
+    """One module being tracked: which foot it is on (None: the only module), its device and host
+    set-up, and the error that ended its walk (None while it goes on)."""
+
+    side: str | None
+    dev: Device
+    setup: _HostSetup
+    failure: HostError | None = None
+
+    @property
+    def label(self) -> str:
+        return self.dev.name if self.side is None else f"the {self.side} foot ({self.dev.name})"
+
+    def report_link(self, ev: LinkEvent) -> None:
+        """A foot's link went down or came back (the device reconnects by itself): say so."""
+        what = "link back" if ev.up else f"link lost ({ev.error}); the other foot goes on"
+        print(f"openshoe-host track: {self.label}: {what}", file=sys.stderr)
+
+
+def _start_tracking(args: argparse.Namespace, stack: ExitStack,
+                    trackers: Mapping[str | None, tuple[str, StepTracker]]) -> list[_Tracked]:
+    """Open a device per module (side → (URL, tracker)), then start each: 0x34 unless attaching,
+    and the set-up the options ask for."""
+    modules = [_Tracked(side, dev, _HostSetup(dev, args.fusion, args.height_compensation))
+               for side, (url, tracker) in trackers.items()
+               for dev in [stack.enter_context(_open(args, url, tracker=tracker))]]
+    for m in modules:
+        if m.side is not None:
+            m.dev.on_link(m.report_link)
+        if not args.attach:
+            m.dev.start_stepwise_dead_reckoning()
+        m.setup.after_start()
+    names = " and ".join(m.label for m in modules)
+    print(f"tracking on {names} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
+    return modules
+
+
+def _follow(args: argparse.Namespace, modules: list[_Tracked], live: _LiveLine,
+            status: Callable[[], tuple[str, object]], first: Callable[[], None] | None = None) -> None:
+    """Read the modules' steps until ``--duration`` is over or Ctrl-C, keeping *live* up to date with
+    *status()* (its text and the key that changes with a new step). *first* runs before, under the
+    same rules. A module whose walk fails is reported and left while another goes on; the failure
+    of the last one is raised. At the end the outputs go off unless ``--leave-running``."""
+    deadline = _deadline(args.duration)
+    try:
+        if first is not None:
+            first()
+        live.show(*status())
+        while deadline is None or time.monotonic() < deadline:
+            going = [m for m in modules if m.failure is None]
+            for m in going:
+                try:
+                    m.dev.recv_step(timeout=_remaining(deadline, 0.5 / len(going)))
+                    m.setup.poll()
+                except HostError as exc:
+                    m.failure = exc
+                    if all(other.failure is not None for other in modules):
+                        raise
+                    print(f"openshoe-host track: {m.label}: {exc}; tracking goes on without it",
+                          file=sys.stderr)
+            live.show(*status())
+    except KeyboardInterrupt:
+        pass
+    finally:
+        if not args.leave_running:
+            for m in modules:
+                try:
+                    m.dev.output_all_off()
+                except HostError as exc:
+                    print(f"warning: could not switch the outputs of {m.label} off: {exc}", file=sys.stderr)
+    # the last line counts every step, also those that came while the outputs went off
+    live.show(*status())
+    live.close()
 
 
 def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
-    if _drift_needs_fusion(args):
-        return 2
     from .export import parse_origin
 
     drift = DriftCalibration.load(args.drift) if args.drift else None
     origin = parse_origin(args.origin) if args.origin else None  # refused before the port opens
-    tracker = StepTracker(heading=math.radians(args.heading), last_counter=None if args.attach else 0)
-    with _open(args, tracker=tracker) as dev:
-        setup = _HostSetup(dev, args.fusion, args.height_compensation)
-        if not args.attach:
-            dev.start_stepwise_dead_reckoning()
-        setup.after_start()
-        print(f"tracking on {dev.name} ({args.command_set} commands); Ctrl-C to stop", file=sys.stderr)
-        deadline = _deadline(args.duration)
-        live = _LiveLine(out)
-        try:
-            if drift is not None:  # refuse another module's calibration before the walk starts
-                _await_serial(dev, max(2.0, 2 * args.ack_timeout))
-                if dev.session.mcu_serial is not None:
-                    drift.check_module(dev.session.mcu_serial)
-            live.show(summary_line(dev, drift), key=len(tracker))
-            while deadline is None or time.monotonic() < deadline:
-                dev.recv_step(timeout=_remaining(deadline))
-                setup.poll()
-                live.show(summary_line(dev, drift), key=len(tracker))
-        except KeyboardInterrupt:
-            pass
-        finally:
-            if not args.leave_running:
-                try:
-                    dev.output_all_off()
-                except HostError as exc:
-                    print(f"warning: could not switch outputs off: {exc}", file=sys.stderr)
-        # the last line counts every step, also those that came while the outputs went off
-        live.show(summary_line(dev, drift), key=len(tracker))
-        live.close()
+    last_counter = None if args.attach else 0
+    heading = math.radians(args.heading)
+    if args.url2 is not None:
+        feet = TwoFeetTracker(_feet_settings(args), last_counter=last_counter, heading=heading)
+        with ExitStack() as stack:
+            modules = _start_tracking(args, stack, {side: (url, feet.foot(side)) for side, url
+                                                    in zip(FOOT_SIDES, (args.url, args.url2), strict=True)})
+            _follow(args, modules, _LiveLine(out), lambda: _feet_status(feet, modules))
+            streams = {m.side: (m.dev.name, m.dev.session.stats) for m in modules}
+        _finish_feet(args, feet, streams, origin, out)
+        return 0
+    tracker = StepTracker(heading=heading, last_counter=last_counter)
+    with ExitStack() as stack:
+        (module,) = _start_tracking(args, stack, {None: (args.url, tracker)})
+        dev = module.dev
+        first = None if drift is None else lambda: _check_drift_module(dev, drift, args.ack_timeout)
+        _follow(args, [module], _LiveLine(out), lambda: (summary_line(dev, drift), len(tracker)), first)
         track = dev.track_snapshot()
         if drift is not None:
             corrected = drift.apply(track, module_serial=dev.session.mcu_serial)
@@ -306,6 +457,22 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
         _write_outputs(args, track, origin)
         print(repr(track), file=out)
     return 0
+
+
+def _feet_status(feet: TwoFeetTracker, modules: list[_Tracked]) -> tuple[str, object]:
+    """The live line of a two-feet walk, and what makes it new: a step, a link going up or down, a
+    walk failing."""
+    failed = [m.side for m in modules if m.failure is not None]
+    devices = {m.side: m.dev for m in modules}
+    return (feet_summary_line(feet, devices, failed),
+            (len(feet), tuple(dev.link_up for dev in devices.values()), tuple(failed)))
+
+
+def _check_drift_module(dev: Device, drift: DriftCalibration, ack_timeout: float) -> None:
+    """Refuse another module's drift calibration before the walk starts."""
+    _await_serial(dev, max(2.0, 2 * ack_timeout))
+    if dev.session.mcu_serial is not None:
+        drift.check_module(dev.session.mcu_serial)
 
 
 def _fusion_line(tracker) -> str:
@@ -323,11 +490,16 @@ def _fusion_line(tracker) -> str:
 
 
 def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,
-                   geographic_csv: bool = False) -> None:
+                   geographic_csv: bool = False, feet: TwoFeetTracker | None = None) -> None:
+    """The files the options ask for: *track*'s, or with *feet* the body track's (its CSV with each
+    foot's columns, its plot with each fused foot's path)."""
     if args.csv:
-        from .export import write_csv
+        from .export import write_csv, write_feet_csv
 
-        write_csv(track, args.csv, origin if geographic_csv else None)
+        if feet is not None:
+            write_feet_csv(feet, args.csv)
+        else:
+            write_csv(track, args.csv, origin if geographic_csv else None)
     if args.geojson:
         from .export import write_geojson
 
@@ -335,11 +507,56 @@ def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[floa
     if args.png:
         from .plot import plot_track
 
-        plot_track(track, args.png, every=args.every)
+        paths = None if feet is None else {f"{side} foot": feet.fused_foot(side) for side in FOOT_SIDES}
+        title = None if feet is None else (f"body of two feet: {len(track)} steps, {track.distance:.1f} m, "
+                                           f"closure {track.closure_error():.2f} m")
+        plot_track(track, args.png, every=args.every, paths=paths, title=title,
+                   label="track" if feet is None else "body")
+
+
+def _stats_line(stats: SessionStats) -> str:
+    """A session's counters: packets, resends, garbage, bad frames, gaps."""
+    return (f"packets {stats.packets} (+{stats.duplicate_packets} resends) "
+            f"| garbage {stats.garbage_bytes} B | bad frames {stats.bad_frames} "
+            f"| gaps {stats.gaps} (missing {stats.missing_steps})"
+            + (f" | {stats.undecoded_packets} packets fit no layout the capture's commands set up"
+               if stats.undecoded_packets else ""))
+
+
+def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, SessionStats]]) -> list[str]:
+    """The summary of a two-feet walk: per foot (side → (where its stream came from, its session's
+    counters)) its steps, distance, gaps and duplicates; what the fusion did; the body's end, fused
+    and as the average of the two single-module tracks."""
+    lines = []
+    for side, (name, stats) in streams.items():
+        foot = tracker.foot(side)
+        lines.append(f"{side} foot ({name}): {len(foot)} step packets, {foot.track.motion_steps} steps, "
+                     f"{foot.distance:.2f} m, duplicates {foot.duplicates} | {_stats_line(stats)}")
+    settings = tracker.settings
+    restarts = ", ".join(f"{side} at fused step {k}" for side, k in tracker.restarts) or "none"
+    constraint = (f"constraint γ {settings.max_separation_m:.2f} m, projections {tracker.projections}"
+                  if settings.constraint else "constraint off")
+    lines.append(f"fusion: {len(tracker)} steps (left {tracker.sides.count('left')}, right "
+                 f"{tracker.sides.count('right')}) | {constraint} | steps with a stale foot "
+                 f"{tracker.stale_steps} | restarts: {restarts}")
+    for what, track in (("fused", tracker.body), ("average", tracker.average)):
+        label = f"body ({what}):"
+        lines.append(f"{label:16s}{_pose_text(track.final_pose, track.closure_sigma())} "
+                     f"| {track.distance:.2f} m")
+    return lines
+
+
+def _finish_feet(args: argparse.Namespace, tracker: TwoFeetTracker,
+                 streams: Mapping[str, tuple[str, SessionStats]], origin: Sequence[float] | None,
+                 out: TextIO) -> None:
+    """A two-feet walk's output files and summary (:func:`feet_summary`)."""
+    _write_outputs(args, tracker.body, origin, feet=tracker)
+    for line in feet_summary(tracker, streams):
+        print(line, file=out)
 
 
 def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
-    with open(args.raw, "wb") as raw, _open(args, raw_log=raw) as dev:
+    with open(args.raw, "wb") as raw, _open(args, args.url, raw_log=raw) as dev:
         setup = _HostSetup(dev, args.fusion, args.height_compensation)
         if args.start:
             dev.start_stepwise_dead_reckoning()
@@ -360,7 +577,7 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
-    with _open(args) as dev:
+    with _open(args, args.url) as dev:
         t0 = time.monotonic()
         dev.ping()
         rtt = time.monotonic() - t0
@@ -382,6 +599,8 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     from .export import parse_origin
     from .replay import replay_capture_session
 
+    if args.capture2 is not None:
+        return _replay_feet(args, out)
     drift = DriftCalibration.load(args.drift) if args.drift else None
     origin = parse_origin(args.origin) if args.origin else None
     aids = _prepare_aids(args, origin) if _uses_aids(args) else None
@@ -405,10 +624,24 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
         track = corrected
     _write_outputs(args, track, origin, geographic_csv=bool(args.gps))
     print(repr(track), file=out)
-    print(f"packets {stats.packets} (+{stats.duplicate_packets} resends) | garbage {stats.garbage_bytes} B | "
-          f"bad frames {stats.bad_frames} | gaps {stats.gaps} (missing {stats.missing_steps})"
-          + (f" | {stats.undecoded_packets} packets fit no layout the capture's commands set up"
-             if stats.undecoded_packets else ""), file=out)
+    print(_stats_line(stats), file=out)
+    return 0
+
+
+def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
+    """``replay LEFT RIGHT``: each capture decoded by its own session (its counters, resends and
+    gaps), the two feet's steps then fused in module-time order."""
+    from .export import parse_origin
+    from .replay import replay_capture_session
+
+    origin = parse_origin(args.origin) if args.origin else None
+    tracker = TwoFeetTracker(_feet_settings(args), last_counter=None, defer=True)
+    streams = {}
+    for side, path in zip(FOOT_SIDES, (args.capture, args.capture2), strict=True):
+        session = replay_capture_session(path, command_set=args.command_set, tracker=tracker.foot(side))
+        streams[side] = (path, session.stats)
+    tracker.fuse_in_time_order()
+    _finish_feet(args, tracker, streams, origin, out)
     return 0
 
 
@@ -440,6 +673,10 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
     out = sys.stdout if out is None else out
+    refusal = _usage_refusal(args) if args.cmd in ("track", "replay") else None
+    if refusal is not None:
+        print(f"openshoe-host {args.cmd}: {refusal}", file=sys.stderr)
+        return 2
     try:
         commands = {"track": cmd_track, "log": cmd_log, "info": cmd_info, "replay": cmd_replay,
                     "drift": cmd_drift}
@@ -448,7 +685,8 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
         print(f"openshoe-host: {exc}", file=sys.stderr)
         return 1
     except (OSError, ValueError) as exc:
-        what = getattr(args, "url", None) or getattr(args, "capture", None) or " ".join(args.captures)
+        given = (getattr(args, name, None) for name in ("url", "url2", "capture", "capture2"))
+        what = " and ".join(name for name in given if name) or " ".join(args.captures)
         print(f"openshoe-host: cannot use {what}: {exc}", file=sys.stderr)
         return 1
 

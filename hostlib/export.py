@@ -9,6 +9,11 @@ WGS84) the local offsets are east, north, up in the tangent plane at the origin,
 and are turned into longitude, latitude and altitude on the WGS84 ellipsoid
 exactly (through Earth-centred coordinates) by ``pymap3d``; GPS fixes come in
 the other way (:mod:`hostlib.gps`) through the same functions.
+
+Two feet. A walker's two modules fused (:mod:`hostlib.feet`) give one CSV: the body track (the
+feet's midpoint) and its covariance in the usual columns, each row followed by
+:data:`FEET_COLUMNS` — which foot made the row's step and both feet's fused poses with their 1σ
+(:func:`write_feet_csv`, :func:`read_feet_csv`); :func:`read_csv` reads its body track.
 """
 
 from __future__ import annotations
@@ -16,23 +21,31 @@ from __future__ import annotations
 import csv
 import json
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from protocol.board import FOOT_SIDES
+
 from .tracking import Track
 
 __all__ = [
     "CSV_COLUMNS",
+    "FEET_COLUMNS",
+    "GEO_COLUMNS",
+    "FeetTrack",
     "enu_to_geodetic",
     "geodetic_to_enu",
     "parse_origin",
     "read_csv",
+    "read_feet_csv",
     "read_geojson",
     "to_geojson",
     "write_csv",
+    "write_feet_csv",
     "write_geojson",
 ]
 
@@ -60,34 +73,58 @@ def write_csv(track: Track, path: str | Path, origin: Sequence[float] | None = N
     With *origin* (lat, lon[, alt] of the frame's origin) every row also gets
     :data:`GEO_COLUMNS`, the pose on the WGS84 ellipsoid.
     """
+    if origin is None:
+        _write_track_rows(track, path)
+        return
+    geo = enu_to_geodetic(ned_to_enu(track.positions), origin)
+    _write_track_rows(track, path, GEO_COLUMNS, ([_f(g[1]), _f(g[0]), _f(g[2])] for g in geo))
+
+
+def _write_track_rows(track: Track, path: str | Path, extra_columns: tuple[str, ...] = (),
+                      extra: Iterable[list[str]] = ()) -> None:
+    """:data:`CSV_COLUMNS` of every pose of *track*, then *extra_columns* (one list of fields per
+    pose in *extra*)."""
     poses, covs, steps, counters = track.poses, track.covariances, track.steps, track.counters
-    geo = None if origin is None else enu_to_geodetic(ned_to_enu(poses[:, :3]), origin)
+    extra_rows = iter(extra)
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(CSV_COLUMNS + (GEO_COLUMNS if geo is not None else ()))
+        w.writerow(CSV_COLUMNS + extra_columns)
         for k in range(len(poses)):
-            extra = [] if geo is None else [_f(geo[k, 1]), _f(geo[k, 0]), _f(geo[k, 2])]
             step = [""] * 4 if k == 0 else [_f(v) for v in steps[k - 1]]
             if k == 0:
                 counter = "" if track.start_counter is None else str(track.start_counter)
             else:
                 counter = str(int(counters[k - 1]))
             w.writerow([k, counter, *(_f(v) for v in poses[k]), *step, *(_f(v) for v in covs[k][_TRIU]),
-                        *extra])
+                        *next(extra_rows, ())])
 
 
 def read_csv(path: str | Path) -> Track:
-    """Read a track written by :func:`write_csv`; a bad line is refused with its line number."""
-    poses, covs, steps, counters = [], [], [], []
+    """Read a track written by :func:`write_csv` (or the body track of :func:`write_feet_csv`);
+    a bad line, in any of its columns, is refused with its line number."""
+    return _read_track_rows(path)[0]
+
+
+def _read_track_rows(path: str | Path, extra_columns: tuple[str, ...] | None = None
+                     ) -> tuple[Track, list[Any]]:
+    """The track in :data:`CSV_COLUMNS` of a track CSV whose further columns are those of
+    :data:`_EXTRA_COLUMNS` (with *extra_columns*, exactly those), and each row's further fields
+    parsed by their parser there (row 0: the initial pose)."""
+    poses, covs, steps, counters, extras = [], [], [], [], []
     start: int | None = None
+    n = len(CSV_COLUMNS)
     with open(path, newline="") as fh:
         r = csv.reader(fh)
         header = next(r, None)
-        if header is None or tuple(header) not in (CSV_COLUMNS, CSV_COLUMNS + GEO_COLUMNS):
+        if header is None or tuple(header[:n]) != CSV_COLUMNS or tuple(header[n:]) not in _EXTRA_COLUMNS:
             raise ValueError(
                 f"{path}: line 1: not an OpenShoe track CSV (expected columns {CSV_COLUMNS[:6]}…)"
             )
+        if extra_columns is not None and tuple(header[n:]) != extra_columns:
+            raise ValueError(f"{path}: line 1: no columns {extra_columns[:3]}… (expected after "
+                             f"{CSV_COLUMNS[-1]!r})")
         width = len(header)
+        parse_extra = _EXTRA_COLUMNS[tuple(header[n:])]
         for lineno, row in enumerate(r, start=2):
             try:
                 if len(row) != width:
@@ -103,11 +140,78 @@ def read_csv(path: str | Path) -> Track:
                 else:
                     counters.append(int(row[1]))
                     steps.append([float(v) for v in row[6:10]])
+                extras.append(parse_extra(row[n:], len(poses) - 1))
             except ValueError as exc:
                 raise ValueError(f"{path}: line {lineno}: {exc}") from None
     if not poses:
         raise ValueError(f"{path}: no initial pose row")
-    return Track.from_arrays(np.array(poses), np.array(covs), np.array(steps).reshape(-1, 4), counters, start)
+    steps_a = np.array(steps).reshape(-1, 4)
+    return Track.from_arrays(np.array(poses), np.array(covs), steps_a, counters, start), extras
+
+
+# -- two feet ------------------------------------------------------------------------------
+
+_FOOT_FIELDS = ("x_north_m", "y_east_m", "z_down_m", "heading_rad",
+                "sigma_north_m", "sigma_east_m", "sigma_down_m", "sigma_heading_rad")
+#: Extra CSV columns of a two-feet track (:func:`write_feet_csv`): which foot made the row's step
+#: (``left``/``right``; empty in row 0), then each foot's fused pose and its 1σ.
+FEET_COLUMNS: tuple[str, ...] = ("foot", *(f"{side}_{name}" for side in FOOT_SIDES for name in _FOOT_FIELDS))
+
+
+@dataclass(frozen=True)
+class FeetTrack:
+    """What a two-feet CSV holds: the body track, which foot made each step, and each foot's
+    fused poses and their 1σ (side → (n + 1, 4): x, y, z [m], χ [rad]; row 0 the start)."""
+
+    body: Track
+    sides: tuple[str, ...]
+    feet: Mapping[str, np.ndarray]
+    sigmas: Mapping[str, np.ndarray]
+
+    @classmethod
+    def of(cls, tracker: Any) -> FeetTrack:
+        """The fused track of a :class:`hostlib.feet.TwoFeetTracker` (take it while no steps
+        arrive: after the walk, or after :meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`)."""
+        return cls(tracker.body, tuple(tracker.sides),
+                   {side: tracker.fused_foot(side) for side in FOOT_SIDES},
+                   {side: tracker.fused_foot_sigmas(side) for side in FOOT_SIDES})
+
+
+def write_feet_csv(feet: Any, path: str | Path) -> None:
+    """Write the body track of *feet* (a :class:`hostlib.feet.TwoFeetTracker` or a
+    :class:`FeetTrack`) in :data:`CSV_COLUMNS`, each row followed by :data:`FEET_COLUMNS`."""
+    ft = feet if isinstance(feet, FeetTrack) else FeetTrack.of(feet)
+    rows = ([("" if k == 0 else ft.sides[k - 1]),
+             *(_f(v) for side in FOOT_SIDES for v in (*ft.feet[side][k], *ft.sigmas[side][k]))]
+            for k in range(len(ft.body) + 1))
+    _write_track_rows(ft.body, path, FEET_COLUMNS, rows)
+
+
+def read_feet_csv(path: str | Path) -> FeetTrack:
+    """Read what :func:`write_feet_csv` wrote; a bad line is refused with its line number."""
+    body, rows = _read_track_rows(path, FEET_COLUMNS)
+    sides = tuple(side for side, _ in rows[1:])
+    values = np.array([v for _, v in rows]).reshape(len(rows), 2, 2, 4)  # row, foot, pose/σ, value
+    return FeetTrack(body, sides, {side: values[:, i, 0] for i, side in enumerate(FOOT_SIDES)},
+                     {side: values[:, i, 1] for i, side in enumerate(FOOT_SIDES)})
+
+
+def _parse_feet_fields(fields: list[str], row: int) -> tuple[str, list[float]]:
+    foot = fields[0]
+    if row == 0 and foot:
+        raise ValueError(f"foot {foot!r} in the initial pose's row (no foot stepped)")
+    if row > 0 and foot not in FOOT_SIDES:
+        raise ValueError(f"foot {foot!r} is not {' or '.join(FOOT_SIDES)}")
+    return foot, [float(v) for v in fields[1:]]
+
+
+def _parse_floats(fields: list[str], row: int) -> list[float]:
+    return [float(v) for v in fields]
+
+
+#: What may follow :data:`CSV_COLUMNS` in a track CSV, and how its fields are read.
+_EXTRA_COLUMNS: dict[tuple[str, ...], Callable[[list[str], int], Any]] = {
+    (): _parse_floats, GEO_COLUMNS: _parse_floats, FEET_COLUMNS: _parse_feet_fields}
 
 
 # -- coordinates ---------------------------------------------------------------------------

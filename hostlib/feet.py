@@ -54,7 +54,7 @@ from protocol.board import FOOT_SIDES
 
 from .events import StepOutcome
 from .module_clock import ModuleClock
-from .tracking import StepTracker, Track, propagate, step_jacobian
+from .tracking import StepTracker, Track, propagate, rotation_z, step_jacobian
 
 __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
 
@@ -133,16 +133,18 @@ class TwoFeetTracker:
 
     With *defer* the feet's steps are only collected; :meth:`fuse_in_time_order` then runs them
     through the filter in module-time order (replaying two captures, which arrive one after the
-    other)."""
+    other). *heading* [rad] is the way the walker faces at the start (from north towards east);
+    the feet start half of :attr:`FeetSettings.step_width_m` to either side of the origin."""
 
     def __init__(self, settings: FeetSettings | None = None, *, last_counter: int | None = 0,
-                 defer: bool = False):
+                 defer: bool = False, heading: float = 0.0):
         self.settings = settings or FeetSettings()
         take = self._collect if defer else self.take
-        self.left = FootTracker("left", take, last_counter=last_counter,
-                                position=(0.0, -0.5 * self.settings.step_width_m, 0.0))
-        self.right = FootTracker("right", take, last_counter=last_counter,
-                                 position=(0.0, 0.5 * self.settings.step_width_m, 0.0))
+        half = 0.5 * self.settings.step_width_m
+        self.left, self.right = (
+            FootTracker(side, take, last_counter=last_counter, heading=heading,
+                        position=rotation_z(heading) @ np.array([0.0, sign * half, 0.0]))
+            for side, sign in zip(FOOT_SIDES, (-1.0, 1.0), strict=True))
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
         self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0]])
@@ -152,6 +154,7 @@ class TwoFeetTracker:
         self._body: list[tuple[np.ndarray, np.ndarray]] = []
         self._average: list[tuple[np.ndarray, np.ndarray]] = []
         self._feet: list[np.ndarray] = []  # the joint state after each step
+        self._variances: list[np.ndarray] = []  # the diagonal of its covariance
         self._sides: list[str] = []
         self._record()
         #: how often the constraint was violated and projected; steps fused without it because the
@@ -251,6 +254,7 @@ class TwoFeetTracker:
         s, p = self._s, self._p
         stale = [self._stale(i) for i in (0, 1)]
         self._feet.append(s.copy())
+        self._variances.append(np.diagonal(p).copy())
         self._body.append(_midpoint(s, p, stale))
         # the single-module tracks as far as the fused steps go (deferred, they are complete already)
         ls, rs = self.left.track, self.right.track
@@ -295,6 +299,13 @@ class TwoFeetTracker:
         i = FOOT_SIDES.index(side)
         with self._lock:
             return np.array([s[4 * i: 4 * i + 4] for s in self._feet])
+
+    def fused_foot_sigmas(self, side: str) -> np.ndarray:
+        """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
+        i = FOOT_SIDES.index(side)
+        with self._lock:
+            var = np.array([v[4 * i: 4 * i + 4] for v in self._variances])
+        return np.sqrt(np.clip(var, 0.0, None))
 
     def separation(self) -> np.ndarray:
         """(n + 1,) the fused feet's distance apart after each fused step [m]."""

@@ -10,7 +10,9 @@ Axes: east to the right, north up (the module's frame is x north, y east).
 
 from __future__ import annotations
 
+import itertools
 import math
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -84,6 +86,8 @@ def plot_track(
     reference_label: str = "ground truth",
     scale: float | None = None,
     height_profile: bool = True,
+    paths: Mapping[str, np.ndarray] | None = None,
+    label: str = "track",
 ) -> Path:
     """Draw *track* seen from above (east right, north up), and its height along the way.
 
@@ -94,6 +98,9 @@ def plot_track(
     (north, east[, down]) metres in the track's frame (e.g. a simulation's ground
     truth or surveyed points). *height_profile*: a panel under the plan with the
     height (up) over the distance walked, the track's and the reference's.
+    *paths*: more paths to draw thin beside the track in the plan, label → rows of
+    (north, east[, down]) (e.g. each foot's beside a two-feet body track). *label*: the
+    track's name in the legends.
     """
     if every < 1:
         raise ValueError(f"every must be >= 1, got {every}")
@@ -109,7 +116,10 @@ def plot_track(
         ax, axz = fig.add_subplot(1, 1, 1), None
     if ref is not None:
         ax.plot(ref[:, 1], ref[:, 0], "--", color="0.55", lw=1.0, label=reference_label)
-    ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label="track")
+    for (name, rows), color in zip((paths or {}).items(), itertools.cycle(_PATH_COLORS)):
+        path_rows = _reference_rows(rows)
+        ax.plot(path_rows[:, 1], path_rows[:, 0], "-", color=color, lw=0.7, alpha=0.8, label=name)
+    ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label=label)
     ax.plot(pos[0, 1], pos[0, 0], "o", color="tab:green", label="start")
     ax.plot(pos[-1, 1], pos[-1, 0], "s", color="tab:red", label="end")
     _draw_ellipses(ax, pos, track.covariances, every, n_sigma, scale)
@@ -121,11 +131,15 @@ def plot_track(
     ax.set_title(title or f"{len(track)} steps, {track.distance:.1f} m, "
                           f"closure {track.closure_error():.2f} m")
     if axz is not None:
-        _draw_height_profile(axz, pos, ref, reference_label)
+        _draw_height_profile(axz, pos, ref, reference_label, label)
     fig.tight_layout()
     out = Path(path)
     fig.savefig(out, dpi=dpi, format="png")
     return out
+
+
+#: Colours of the *paths* beside a track (then again from the first).
+_PATH_COLORS = ("tab:purple", "tab:olive", "tab:cyan", "tab:brown")
 
 
 def _reference_rows(reference: np.ndarray | None) -> np.ndarray | None:
@@ -156,11 +170,12 @@ def _draw_ellipses(ax, pos: np.ndarray, covs: np.ndarray, every: int, n_sigma: f
             label = None
 
 
-def _draw_height_profile(ax: Any, pos: np.ndarray, ref: np.ndarray | None, reference_label: str) -> None:
+def _draw_height_profile(ax: Any, pos: np.ndarray, ref: np.ndarray | None, reference_label: str,
+                         label: str = "track") -> None:
     """Height (up = −z) over the horizontal distance walked, track and reference."""
     if ref is not None and ref.shape[1] >= 3:
         ax.plot(along_track(ref), -ref[:, 2], "--", color="0.55", lw=1.0, label=reference_label)
-    ax.plot(along_track(pos), -pos[:, 2], "-", color="tab:blue", lw=1.2, label="track")
+    ax.plot(along_track(pos), -pos[:, 2], "-", color="tab:blue", lw=1.2, label=label)
     ax.set_xlabel("distance walked [m]")
     ax.set_ylabel("height [m]")
     ax.grid(True, lw=0.3)

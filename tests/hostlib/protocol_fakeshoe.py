@@ -9,7 +9,9 @@ On 0x04 it sends the MCU id packet.
 "aligns" until the host's MCU_ID (0x04, the last command of the fusion set-up),
 then walks; its step packets carry the conditional output a STATE_IF_SETUP set up
 (the 8 ids and the frame's checksum bytes, protocol.md §9), each step with a swing
-time of :data:`SWING_TIME_S`. Every port made is kept in :data:`PORTS`.
+time of :data:`SWING_TIME_S`. ``fakeshoe://N/dropK`` loses its link once the host acked its K-th
+step packet (a port re-opened after that is a module that was never started: silent). Every port
+made is kept in :data:`PORTS`.
 """
 
 from __future__ import annotations
@@ -40,13 +42,16 @@ class Serial(FakeModulePort):
         self._number = 0
         self.on_command = self._reply
         self.fusion = False
+        self.drop_after: int | None = None
         self._output_ids: tuple[int, ...] = STEP_IDS
         PORTS.append(self)
 
     def open(self):
-        n, _, variant = (str(self.port).split("://", 1)[1] or "3").partition("/")
+        n, *variants = (str(self.port).split("://", 1)[1] or "3").split("/")
         self._steps_total = int(n)
-        self.fusion = variant == "fusion"
+        self.fusion = "fusion" in variants
+        drops = [int(v[4:]) for v in variants if v.startswith("drop")]
+        self.drop_after = drops[0] if drops else None
         self.is_open = True
 
     def _next_number(self) -> int:
@@ -86,4 +91,7 @@ class Serial(FakeModulePort):
         for n in self.packet_acks[before:]:
             if n == getattr(self, "_pending", None):
                 self._pending = None
+                if self._step_counter == self.drop_after:
+                    self.drop()
+                    return
                 self._rx += self._next_step()

@@ -1,0 +1,249 @@
+"""openshoe-host with a module on each foot: two captures replayed and fused into the body's track,
+two devices tracked live; a foot that loses its link (or 30 s of its packets) never stops the
+fusion."""
+
+from __future__ import annotations
+
+import io
+import re
+
+import numpy as np
+import pytest
+import serial
+
+from hostlib.cli import main
+from hostlib.device import Device
+from hostlib.errors import DeviceClosed
+from hostlib.events import StepEvent
+from hostlib.export import read_csv, read_feet_csv
+from hostlib.feet import FOOT_SIDES, STALE_AFTER_STEPS, FootTracker, TwoFeetTracker
+from hostlib.replay import implied_commands, replay_capture_session
+from hostlib.session import HostSession
+from protocol.frames import StatePacket
+from protocol.stream import decode_all
+
+from . import protocol_fakeshoe
+from .test_feet_csv import upper
+
+#: About 45 s: long enough to lose 30 s of one foot's packets in the middle.
+SCENARIO = "stand:3+walk:60+stand:2"
+
+
+@pytest.fixture(scope="module")
+def captures(tmp_path_factory) -> dict[str, str]:
+    """Side → capture file of the module on that foot (the emulator, with the fusion set-up)."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.sensors.imu_array import make_feet_sources
+
+    folder = tmp_path_factory.mktemp("feet")
+    paths = {}
+    for side, source in make_feet_sources(SCENARIO, seed=1).items():
+        path = folder / f"{side}.bin"
+        path.write_bytes(bytes(run_replay(source, announce=None, host="fusion")))
+        paths[side] = str(path)
+    return paths
+
+
+def _fused(left: str, right: str) -> TwoFeetTracker:
+    """The fusion `replay LEFT RIGHT` makes, done here by hand."""
+    tracker = TwoFeetTracker(last_counter=None, defer=True)
+    for side, path in zip(FOOT_SIDES, (left, right), strict=True):
+        replay_capture_session(path, tracker=tracker.foot(side))
+    tracker.fuse_in_time_order()
+    return tracker
+
+
+def _without_packets_between(data: bytes, start_s: float, end_s: float) -> tuple[bytes, int]:
+    """*data* without the step packets of the steps the module made in [start_s, end_s): the link
+    was down that long and the module's queue overflowed. Returns the bytes and how many went."""
+    foot = FootTracker("right", last_counter=None)
+    session = HostSession(ack_policy="never", tracker=foot, implied_commands=implied_commands("2015"))
+    events = session.feed(data)[0] + session.finish()[0]
+    numbers = [e.packet_number for e in events if isinstance(e, StepEvent)]
+    cut = {n for n, t in zip(numbers, foot.step_times, strict=True) if start_s <= t < end_s}
+    kept = [f for f in decode_all(data) if not (isinstance(f, StatePacket) and f.number in cut)]
+    return b"".join(f.to_bytes() for f in kept), len(cut)
+
+
+_SUMMARY = re.compile(r"^(left foot|right foot|fusion|body \((?:fused|average)\))")
+
+
+def _lines(text: str) -> dict[str, str]:
+    """The summary's lines by what they start with (``left foot``, ``fusion``, ``body (fused)``…)."""
+    return {m.group(1): line for line in text.splitlines() if (m := _SUMMARY.match(line))}
+
+
+# -- replay ---------------------------------------------------------------------------------
+
+
+def test_two_captures_give_the_body_at_the_feet_midpoint_and_each_foot_in_its_columns(captures, tmp_path):
+    out, csv_path = io.StringIO(), tmp_path / "feet.csv"
+    argv = ["replay", captures["left"], captures["right"], "--csv", str(csv_path),
+            "--geojson", str(tmp_path / "feet.geojson")]
+    assert main(argv, out) == 0
+    tracker = _fused(captures["left"], captures["right"])
+    assert tracker.stale_steps == 0  # both feet all the way: the body is their midpoint in every row
+    feet = read_feet_csv(csv_path)
+    mid = 0.5 * (feet.feet["left"] + feet.feet["right"])
+    assert np.allclose(feet.body.poses, mid, rtol=0, atol=1e-12)
+    body = read_csv(csv_path)
+    expected = tracker.body
+    assert np.array_equal(body.poses, expected.poses)
+    assert np.array_equal(upper(body.covariances), upper(expected.covariances))
+    assert np.array_equal(body.counters, expected.counters) and body.gaps == []
+    assert feet.sides == tuple(tracker.sides)
+    assert sorted(set(feet.sides)) == ["left", "right"]
+    for side in FOOT_SIDES:
+        assert np.array_equal(feet.feet[side], tracker.fused_foot(side))
+        assert np.array_equal(feet.sigmas[side], tracker.fused_foot_sigmas(side))
+    lines = _lines(out.getvalue())
+    assert lines["left foot"].startswith(f"left foot ({captures['left']}): 44 step packets")
+    assert lines["right foot"].startswith(f"right foot ({captures['right']}): 44 step packets")
+    assert "gaps 0 (missing 0)" in lines["left foot"] and "duplicates 0" in lines["right foot"]
+    assert "fusion: 88 steps (left 44, right 44)" in lines["fusion"]
+    assert "restarts: none" in lines["fusion"]
+    x = expected.final_pose[0]
+    assert f"x {x:+8.2f}" in lines["body (fused)"] and "body (average)" in lines
+    assert (tmp_path / "feet.geojson").stat().st_size > 0
+
+
+def test_a_foot_missing_30_s_of_packets_is_a_gap_on_that_foot_and_the_body_goes_on_to_the_end(
+        captures, tmp_path):
+    with open(captures["right"], "rb") as fh:
+        cut, dropped = _without_packets_between(fh.read(), 10.0, 40.0)
+    assert dropped >= 25
+    right = tmp_path / "right-cut.bin"
+    right.write_bytes(cut)
+    out, csv_path = io.StringIO(), tmp_path / "feet.csv"
+    assert main(["replay", captures["left"], str(right), "--csv", str(csv_path)], out) == 0
+    lines = _lines(out.getvalue())
+    assert f"gaps 1 (missing {dropped})" in lines["right foot"]
+    assert "gaps 0 (missing 0)" in lines["left foot"]
+    assert "restarts: right at fused step" in lines["fusion"]
+    intact = _fused(captures["left"], captures["right"])
+    body = read_csv(csv_path)
+    assert len(body) == 2 * 44 - dropped
+    assert np.hypot(*(body.final_pose[:2] - intact.body.final_pose[:2])) < 1.0
+    average = _fused(captures["left"], str(right)).average
+    assert np.hypot(*(average.final_pose[:2] - intact.body.final_pose[:2])) > 10.0  # the baseline lost it
+
+
+def test_without_the_constraint_the_body_is_the_average_and_gamma_is_an_option(captures):
+    out = io.StringIO()
+    assert main(["replay", captures["left"], captures["right"], "--no-constraint"], out) == 0
+    lines = _lines(out.getvalue())
+    assert "constraint off" in lines["fusion"]
+    assert lines["body (fused)"].split(":", 1)[1].strip() == lines["body (average)"].split(":", 1)[1].strip()
+    out = io.StringIO()
+    assert main(["replay", captures["left"], captures["right"], "--max-separation", "1.5"], out) == 0
+    assert "constraint γ 1.50 m" in out.getvalue()
+
+
+def test_the_png_shows_the_body_and_both_feet(captures, tmp_path):
+    pytest.importorskip("matplotlib")
+    png = tmp_path / "feet.png"
+    assert main(["replay", captures["left"], captures["right"], "--png", str(png)], io.StringIO()) == 0
+    assert png.read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.parametrize("options", [["--compass"], ["--gps", "walk.nmea"], ["--drift", "cal.json"],
+                                     ["--mag-cal", "cal.json"], ["--compass", "--declination", "3"]])
+def test_heading_aids_with_two_captures_are_refused(captures, capsys, options):
+    assert main(["replay", captures["left"], captures["right"], *options], io.StringIO()) == 2
+    err = capsys.readouterr().err
+    assert f"{options[0]}" in err and "with one capture for now" in err
+
+
+@pytest.mark.parametrize("options", [["--no-constraint"], ["--max-separation", "1.5"]])
+def test_two_feet_options_with_one_capture_are_refused(captures, capsys, options):
+    assert main(["replay", captures["left"], *options], io.StringIO()) == 2
+    assert "needs two captures" in capsys.readouterr().err
+
+
+def test_a_missing_second_capture_is_named(captures, tmp_path, capsys):
+    missing = str(tmp_path / "nope.bin")
+    assert main(["replay", captures["left"], missing], io.StringIO()) == 1
+    assert missing in capsys.readouterr().err
+
+
+# -- live -----------------------------------------------------------------------------------
+
+
+@pytest.fixture
+def fakeshoe_scheme():
+    serial.protocol_handler_packages.append("tests.hostlib")
+    protocol_fakeshoe.PORTS.clear()
+    yield protocol_fakeshoe.PORTS
+    serial.protocol_handler_packages.remove("tests.hostlib")
+
+
+def test_track_with_two_devices_acks_each_stream_and_fuses_both_feet(fakeshoe_scheme, tmp_path):
+    out, csv_path = io.StringIO(), tmp_path / "live.csv"
+    argv = ["track", "fakeshoe://4", "fakeshoe://5", "--duration", "1.0", "--csv", str(csv_path)]
+    assert main(argv, out) == 0
+    ports = {p.port: p for p in fakeshoe_scheme}
+    assert sorted(set(ports["fakeshoe://4"].packet_acks)) == [1, 2, 3, 4]
+    assert sorted(set(ports["fakeshoe://5"].packet_acks)) == [1, 2, 3, 4, 5]
+    text = out.getvalue()
+    live = [line for line in text.splitlines() if line.startswith("left ") and "| body x" in line]
+    assert live and "left    4/   4 steps" in live[-1] and "right    5/   5 steps" in live[-1]
+    lines = _lines(text)
+    assert lines["left foot"].startswith("left foot (fakeshoe://4): 4 step packets")
+    assert lines["right foot"].startswith("right foot (fakeshoe://5): 5 step packets")
+    feet = read_feet_csv(csv_path)
+    assert feet.sides.count("left") == 4 and feet.sides.count("right") == 5
+    assert len(feet.body) == 9  # the joint filter took every step of both, in arrival order
+
+
+def test_track_goes_on_with_one_foot_when_the_other_foots_link_is_lost(fakeshoe_scheme, tmp_path, capsys):
+    out, csv_path = io.StringIO(), tmp_path / "live.csv"
+    argv = ["track", "fakeshoe://6/drop2", "fakeshoe://6", "--duration", "1.0", "--csv", str(csv_path)]
+    assert main(argv, out) == 0
+    err = capsys.readouterr().err
+    assert "the left foot (fakeshoe://6/drop2): link lost" in err
+    lines = _lines(out.getvalue())
+    assert "2 step packets" in lines["left foot"] and "6 step packets" in lines["right foot"]
+    feet = read_feet_csv(csv_path)
+    assert feet.sides.count("right") == 6
+    after_left = len(feet.sides) - 1 - max(k for k, side in enumerate(feet.sides) if side == "left")
+    assert after_left >= STALE_AFTER_STEPS  # the left foot went quiet early (its module starts first)
+    assert np.array_equal(feet.body.final_pose, feet.feet["right"][-1])  # the body follows the walking foot
+
+
+def test_track_goes_on_when_one_devices_walk_fails_and_stops_when_both_do(fakeshoe_scheme, monkeypatch,
+                                                                         tmp_path, capsys):
+    recv_step = Device.recv_step
+    failing: set[str] = set()
+
+    def recv_step_or_fail(self, timeout=None):
+        if self.name in failing and len(self.track) >= 2:
+            raise DeviceClosed(f"{self.name} is closed")
+        return recv_step(self, timeout)
+
+    monkeypatch.setattr(Device, "recv_step", recv_step_or_fail)
+    failing.add("fakeshoe://3")
+    csv_path = tmp_path / "live.csv"
+    argv = ["track", "fakeshoe://3", "fakeshoe://5", "--duration", "0.5", "--csv", str(csv_path)]
+    assert main(argv, io.StringIO()) == 0
+    assert "the left foot (fakeshoe://3): fakeshoe://3 is closed; tracking goes on without it" in \
+        capsys.readouterr().err
+    assert read_feet_csv(csv_path).sides.count("right") == 5
+    failing.add("fakeshoe://5")
+    assert main(["track", "fakeshoe://3", "fakeshoe://5", "--duration", "0.5"], io.StringIO()) == 1
+
+
+@pytest.mark.parametrize("options", [["--drift", "cal.json", "--fusion"], ["--heading", "0", "--drift", "c"]])
+def test_track_refuses_a_drift_calibration_for_two_devices(fakeshoe_scheme, capsys, options):
+    assert main(["track", "fakeshoe://3", "fakeshoe://3", *options], io.StringIO()) == 2
+    assert "--drift works with one URL for now" in capsys.readouterr().err
+    assert fakeshoe_scheme == []  # refused before any port opened
+
+
+def test_track_with_two_devices_starts_the_feet_facing_the_initial_heading(fakeshoe_scheme, tmp_path):
+    csv_path = tmp_path / "live.csv"
+    argv = ["track", "fakeshoe://1", "fakeshoe://1", "--duration", "0.5", "--heading", "90", "--csv",
+            str(csv_path)]
+    assert main(argv, io.StringIO()) == 0
+    feet = read_feet_csv(csv_path)
+    assert feet.feet["left"][0][:2] == pytest.approx([0.06, 0.0])  # facing east, the left foot is north
+    assert feet.feet["right"][0][:2] == pytest.approx([-0.06, 0.0])
