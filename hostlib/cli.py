@@ -33,6 +33,7 @@ import time
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, TextIO
 
 from protocol.board import FOOT_SIDES
@@ -632,15 +633,13 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
     """``replay LEFT RIGHT``: each capture decoded by its own session (its counters, resends and
     gaps), the two feet's steps then fused in module-time order."""
     from .export import parse_origin
-    from .replay import replay_capture_session
+    from .replay import replay_feet
 
     origin = parse_origin(args.origin) if args.origin else None
-    tracker = TwoFeetTracker(_feet_settings(args), last_counter=None, defer=True)
-    streams = {}
-    for side, path in zip(FOOT_SIDES, (args.capture, args.capture2), strict=True):
-        session = replay_capture_session(path, command_set=args.command_set, tracker=tracker.foot(side))
-        streams[side] = (path, session.stats)
-    tracker.fuse_in_time_order()
+    paths = dict(zip(FOOT_SIDES, (args.capture, args.capture2), strict=True))
+    left, right = (Path(paths[side]).read_bytes() for side in FOOT_SIDES)
+    tracker, stats = replay_feet(left, right, _feet_settings(args), command_set=args.command_set)
+    streams = {side: (paths[side], stats[side]) for side in FOOT_SIDES}
     _finish_feet(args, tracker, streams, origin, out)
     return 0
 

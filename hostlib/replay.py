@@ -24,11 +24,12 @@ from protocol.commands import command_set as _command_set
 from protocol.extensions import FUSION_SETUP
 from protocol.ids import Command
 
+from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from .session import HostSession, SessionStats
 from .tracking import StepTracker, Track
 
 __all__ = ["CAPTURE_HOST_COMMANDS", "implied_commands", "replay_bytes", "replay_capture",
-           "replay_capture_session", "replay_session"]
+           "replay_capture_session", "replay_feet", "replay_session"]
 
 #: The commands a capture's host is taken to have sent when the module acknowledges them:
 #: those of the fusion set-up (STATE_IF_SETUP, MCU_ID).
@@ -77,3 +78,17 @@ def replay_capture(path: str | Path, **kwargs) -> tuple[Track, SessionStats]:
 def replay_capture_session(path: str | Path, **kwargs) -> HostSession:
     """:func:`replay_session` of a capture file."""
     return replay_session(Path(path).read_bytes(), **kwargs)
+
+
+def replay_feet(left: bytes, right: bytes, settings: FeetSettings | None = None, *,
+                command_set: str = "2015") -> tuple[TwoFeetTracker, dict[str, SessionStats]]:
+    """The two feet of one walker from their modules' captures (``openshoe-host replay LEFT RIGHT``):
+    each capture decoded by its own session (its counters, resends and gaps; the counter before
+    its first step unknown, as in :func:`replay_session`), then both feet's steps fused in
+    module-time order (:meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`). Returns the
+    tracker and each foot's session counters."""
+    tracker = TwoFeetTracker(settings, last_counter=None, defer=True)
+    stats = {side: replay_session(data, command_set=command_set, tracker=tracker.foot(side)).stats
+             for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
+    tracker.fuse_in_time_order()
+    return tracker, stats

@@ -408,10 +408,10 @@ def _main_feet(args: argparse.Namespace) -> int:
                 f"{args.rate:g} Hz)")
         _replay_to(args, source, name, source.module, wire)  # each foot's own serial number
         source.truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
-    t, pos, vel, _yaw = body_truth(sources["left"].truth, sources["right"].truth)
-    write_body_truth(sources["left"].truth, sources["right"].truth,
-                     args.wire.with_name(args.wire.name + ".body.truth.csv"))
+    body = body_truth(sources["left"].truth, sources["right"].truth)
+    write_body_truth(body, args.wire.with_name(args.wire.name + ".body.truth.csv"))
     if gps is not None:
+        t, pos, vel, _yaw = body
         _write_gps(args, t, pos, vel, *gps)
     return 0
 

@@ -136,9 +136,10 @@ def body_truth(left: GroundTruth, right: GroundTruth
             0.5 * (left.euler[:, 2] + right.euler[:, 2]))
 
 
-def write_body_truth(left: GroundTruth, right: GroundTruth, path: str | Path) -> Path:
-    """The body's truth as CSV: t, x, y, z, vx, vy, vz, yaw (wrapped to ±π)."""
-    t, pos, vel, yaw = body_truth(left, right)
+def write_body_truth(body: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray], path: str | Path) -> Path:
+    """The body's truth (:func:`body_truth`'s t, position, velocity, heading) as CSV: t, x, y, z,
+    vx, vy, vz, yaw (wrapped to ±π)."""
+    t, pos, vel, yaw = body
     wrapped = (yaw + np.pi) % (2 * np.pi) - np.pi
     path = Path(path)
     np.savetxt(path, np.column_stack([t, pos, vel, wrapped]), delimiter=",", header="t,x,y,z,vx,vy,vz,yaw",

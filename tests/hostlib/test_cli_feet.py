@@ -14,13 +14,10 @@ import serial
 from hostlib.cli import main
 from hostlib.device import Device
 from hostlib.errors import DeviceClosed
-from hostlib.events import StepEvent
 from hostlib.export import read_csv, read_feet_csv
-from hostlib.feet import FOOT_SIDES, STALE_AFTER_STEPS, FootTracker, TwoFeetTracker
-from hostlib.replay import implied_commands, replay_capture_session
-from hostlib.session import HostSession
-from protocol.frames import StatePacket
-from protocol.stream import decode_all
+from hostlib.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
+from hostlib.replay import replay_feet
+from tools.accuracy.two_feet import drop_packets
 
 from . import protocol_fakeshoe
 from .test_feet_csv import upper
@@ -45,24 +42,9 @@ def captures(tmp_path_factory) -> dict[str, str]:
 
 
 def _fused(left: str, right: str) -> TwoFeetTracker:
-    """The fusion `replay LEFT RIGHT` makes, done here by hand."""
-    tracker = TwoFeetTracker(last_counter=None, defer=True)
-    for side, path in zip(FOOT_SIDES, (left, right), strict=True):
-        replay_capture_session(path, tracker=tracker.foot(side))
-    tracker.fuse_in_time_order()
-    return tracker
-
-
-def _without_packets_between(data: bytes, start_s: float, end_s: float) -> tuple[bytes, int]:
-    """*data* without the step packets of the steps the module made in [start_s, end_s): the link
-    was down that long and the module's queue overflowed. Returns the bytes and how many went."""
-    foot = FootTracker("right", last_counter=None)
-    session = HostSession(ack_policy="never", tracker=foot, implied_commands=implied_commands("2015"))
-    events = session.feed(data)[0] + session.finish()[0]
-    numbers = [e.packet_number for e in events if isinstance(e, StepEvent)]
-    cut = {n for n, t in zip(numbers, foot.step_times, strict=True) if start_s <= t < end_s}
-    kept = [f for f in decode_all(data) if not (isinstance(f, StatePacket) and f.number in cut)]
-    return b"".join(f.to_bytes() for f in kept), len(cut)
+    """The fusion `replay LEFT RIGHT` makes, from the library."""
+    with open(left, "rb") as fl, open(right, "rb") as fr:
+        return replay_feet(fl.read(), fr.read())[0]
 
 
 _SUMMARY = re.compile(r"^(left foot|right foot|fusion|body \((?:fused|average)\))")
@@ -110,7 +92,7 @@ def test_two_captures_give_the_body_at_the_feet_midpoint_and_each_foot_in_its_co
 def test_a_foot_missing_30_s_of_packets_is_a_gap_on_that_foot_and_the_body_goes_on_to_the_end(
         captures, tmp_path):
     with open(captures["right"], "rb") as fh:
-        cut, dropped = _without_packets_between(fh.read(), 10.0, 40.0)
+        cut, dropped = drop_packets(fh.read(), 10.0, 40.0)
     assert dropped >= 25
     right = tmp_path / "right-cut.bin"
     right.write_bytes(cut)

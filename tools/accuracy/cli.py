@@ -23,23 +23,18 @@ def build_parser() -> argparse.ArgumentParser:
     w = sub.add_parser("walks", help="closed-loop recordings: height compensation and leave-one-out drift "
                                      "correction, per walk")
     w.add_argument("files", nargs="+", type=Path, metavar="FILE", help="closed-loop recordings (≥ 2)")
-    s = sub.add_parser("slopes",
-                       help="simulated ramps up and down, height error with and without compensation")
-    s.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated modules (default 1:6, five)")
-    v = sub.add_parser("speeds", help="simulated 100 m straight at 3–8 km/h and running, at 1 kHz and "
-                                      "250 Hz: the error-free module's and the modules' end errors")
-    v.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated modules (default 1:6, five)")
-    n = sub.add_parser("navshoe-outage",
-                       help="NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the first "
-                            "400 m; compass + GPS, GPS only, compass only, plain")
-    n.add_argument("--seeds", default="1:21", metavar="A:B", help="simulated walks (default 1:21, twenty)")
-    f = sub.add_parser("two-feet-straight",
-                       help="the module paper's experiment: 100 m straight walks with a module on each foot; "
-                            "each foot, their average and the constrained fusion")
-    f.add_argument("--seeds", default="1:51", metavar="A:B", help="simulated walkers (default 1:51, fifty)")
-    lp = sub.add_parser("two-feet-loop", help="Bachmann's experiment: a 400 m loop, closure per foot, "
-                                              "average and fusion")
-    lp.add_argument("--seeds", default="1:6", metavar="A:B", help="simulated walkers (default 1:6, five)")
+    s = _seeded(sub, "slopes", "simulated ramps up and down, height error with and without compensation",
+                "1:6", "modules", "five")
+    v = _seeded(sub, "speeds", "simulated 100 m straight at 3–8 km/h and running, at 1 kHz and 250 Hz: the "
+                               "error-free module's and the modules' end errors", "1:6", "modules", "five")
+    n = _seeded(sub, "navshoe-outage", "NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the "
+                                       "first 400 m; compass + GPS, GPS only, compass only, plain",
+                "1:21", "walks", "twenty")
+    f = _seeded(sub, "two-feet-straight", "the module paper's experiment: 100 m straight walks with a module "
+                                          "on each foot; each foot, their average and the constrained fusion",
+                "1:51", "walkers", "fifty")
+    lp = _seeded(sub, "two-feet-loop", "Bachmann's experiment: a 400 m loop, closure per foot, average and "
+                                       "fusion", "1:6", "walkers", "five")
     h = sub.add_parser("two-feet-heading",
                        help="the feet's headings over a 22-minute walk with and without the constraint, "
                             "and the same walk with the right foot's link down for 30 s")
@@ -52,6 +47,14 @@ def build_parser() -> argparse.ArgumentParser:
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
                        help="write the table (CSV) and the height picture here (default accuracy-out)")
     return p
+
+
+def _seeded(sub: Any, name: str, help: str, default: str, what: str, count: str) -> argparse.ArgumentParser:
+    """An experiment over simulated ``--seeds`` (default *default*: *count* simulated *what*)."""
+    q = sub.add_parser(name, help=help)
+    q.add_argument("--seeds", default=default, metavar="A:B",
+                   help=f"simulated {what} (default {default}, {count})")
+    return q
 
 
 def _write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:

@@ -83,8 +83,8 @@ def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = Non
     from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.sensors.imu_array import make_feet_sources
     from firmware_sim.transports.factory import module_serial
-    from hostlib.feet import FeetSettings, TwoFeetTracker
-    from hostlib.replay import replay_session
+    from hostlib.feet import FeetSettings
+    from hostlib.replay import replay_feet
 
     sources = make_feet_sources(scenario, seed=seed)
     captures = {}
@@ -94,13 +94,8 @@ def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = Non
     dropped = 0
     if drop_s is not None:
         captures["right"], dropped = drop_packets(captures["right"], *drop_s)
-    trackers = []
-    for constraint in (True, False):
-        tracker = TwoFeetTracker(FeetSettings(constraint=constraint), defer=True)
-        for side, data in captures.items():
-            replay_session(data, tracker=tracker.foot(side))
-        tracker.fuse_in_time_order()
-        trackers.append(tracker)
+    trackers = [replay_feet(captures["left"], captures["right"], FeetSettings(constraint=constraint))[0]
+                for constraint in (True, False)]
     return FeetWalk(trackers[0], trackers[1], {side: s.truth for side, s in sources.items()}, dropped)
 
 
