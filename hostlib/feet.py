@@ -39,6 +39,19 @@ steps come again after a gap in its counter (steps lost), the displacement it mi
 the tracker restarts that foot at the other foot, with the other foot's heading, its position
 uncertain by γ and its heading by :attr:`FeetSettings.restart_heading_sigma_rad`, and the
 constraint pulls it in. The gap stays reported on that foot's tracker (``tracker.left.gaps``).
+
+**With the other aids** (shared/spec/aids.md §1–4; ``TwoFeetTracker(aids=…, drift=…)``):
+
+* the heading aids of :mod:`hostlib.fusion` act on the joint state, which gains the declination D
+  as a ninth state (:class:`~hostlib.fusion.AidedFilter`): each foot's per-step compass measures
+  *that foot's* heading minus D, with its own module's magnetometer calibration; a GPS fix
+  measures the body. The first reading (or the GPS course) turns both feet about the body's
+  start; the other foot's heading keeps its uncertainty relative to the aligned one;
+* each module's drift calibration (:mod:`hostlib.drift`) moves that foot's every step by
+  ``R(χ₀) Δv · T_swing`` before the constraint sees it, χ₀ the walk's start heading (turned with
+  the alignment). A step without a swing time is fused uncorrected and counted;
+* each foot's own tracker is a :class:`~hostlib.fusion.FusionTracker` with the same aids (and its
+  module's calibrations), so the baseline is the average of two aided single-module tracks.
 """
 
 from __future__ import annotations
@@ -46,21 +59,27 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from protocol.board import FOOT_SIDES
 
+from .compass import StanceReading
+from .drift import DriftCalibration
 from .events import StepOutcome
-from .module_clock import ModuleClock
-from .tracking import StepTracker, Track, propagate, rotation_z, step_jacobian
+from .fusion import AidedFilter, FusionSettings, FusionTracker
+from .magcal import MagCalibration
+from .tracking import Track, is_motion_step, propagate, rotation_z, step_jacobian
 
 __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
 
 #: A foot is stale — the body follows the other foot alone — once the other foot has summed this
 #: many steps since its last one (one more than a transition from standing to walking can make).
 STALE_AFTER_STEPS = 3
+
+#: Where the declination D sits in the joint state (after both feet's poses).
+_D = 8
 
 
 @dataclass(frozen=True)
@@ -93,40 +112,39 @@ class FootStep:
     dp: np.ndarray  #: (4, 4)
     time_s: float  #: module time of the step [s] (NaN: the packet had no T_INT_K)
     after_gap: bool  #: steps of this foot were lost just before it
+    swing_time: float = math.nan  #: the step's swing time [s] (NaN: none in the packet)
+    compass: float | None = None  #: heading from magnetic north at its end of stance [rad], if read
 
 
-class FootTracker(StepTracker):
-    """One foot's stream in a two-foot fusion: a :class:`~hostlib.tracking.StepTracker` (its own
-    counter, resends and gaps; its track is the foot's single-module track) that hands every step
-    it sums to *on_step*. Use it as that foot's :class:`~hostlib.session.HostSession` tracker."""
+class FootTracker(FusionTracker):
+    """One foot's stream in a two-foot fusion: a :class:`~hostlib.fusion.FusionTracker` (its own
+    counter, resends and gaps, and the aids of *settings* on this foot alone; its track is the
+    foot's single-module track) that hands every step it sums to *on_step*. Use it as that foot's
+    :class:`~hostlib.session.HostSession` tracker. With every aid off it is a
+    :class:`~hostlib.tracking.StepTracker`, bit for bit."""
 
-    def __init__(self, side: str, on_step: Callable[[FootStep], None] | None = None, **tracker_args):
+    def __init__(self, side: str, on_step: Callable[[FootStep], None] | None = None,
+                 settings: FusionSettings | None = None, **tracker_args):
         if side not in FOOT_SIDES:
             raise ValueError(f"a foot is {' or '.join(FOOT_SIDES)}, not {side!r}")
-        super().__init__(**tracker_args)
+        super().__init__(settings, **tracker_args)
         self.side = side
         self.on_step = on_step
-        self._clock = ModuleClock()
-        #: per summed step: module time [s] (NaN: the packet had no T_INT_K)
-        self.step_times: list[float] = []
 
-    def add(self, step, swing_time: float = math.nan, states: Mapping[int, np.ndarray] | None = None
-            ) -> StepOutcome:
-        time_s = self._clock.seconds(states)
-        outcome = self.add_step(step.dx, step.dp, step.counter, swing_time)
-        if outcome is StepOutcome.DUPLICATE:
-            return outcome
-        self.step_times.append(time_s)
-        if self.on_step is not None:
-            self.on_step(FootStep(self.side, self.track._steps[-1], np.asarray(step.dp, dtype=np.float64),
-                                  time_s, outcome is StepOutcome.SUMMED_AFTER_GAP))
+    def add_step(self, dx, dp, counter, swing_time: float = math.nan, *,
+                 reading: StanceReading | None = None, time_s: float = math.nan) -> StepOutcome:
+        outcome = super().add_step(dx, dp, counter, swing_time, reading=reading, time_s=time_s)
+        if outcome is not StepOutcome.DUPLICATE and self.on_step is not None:
+            self.on_step(FootStep(self.side, self.track._steps[-1], np.asarray(dp, dtype=np.float64), time_s,
+                                  outcome is StepOutcome.SUMMED_AFTER_GAP, float(swing_time),
+                                  self.compass_heading(reading)))
         return outcome
 
     def __repr__(self) -> str:
         return f"FootTracker({self.side}, {self.track!r}, duplicates={self.duplicates})"
 
 
-class TwoFeetTracker:
+class TwoFeetTracker(AidedFilter):
     """Both feet in one filter (module docstring). ``tracker.left`` and ``tracker.right`` are the
     feet's :class:`FootTracker`s — give each to its module's session. Steps may come from two
     threads (one device each): the joint filter takes them one at a time, in arrival order.
@@ -134,28 +152,51 @@ class TwoFeetTracker:
     With *defer* the feet's steps are only collected; :meth:`fuse_in_time_order` then runs them
     through the filter in module-time order (replaying two captures, which arrive one after the
     other). *heading* [rad] is the way the walker faces at the start (from north towards east);
-    the feet start half of :attr:`FeetSettings.step_width_m` to either side of the origin."""
+    the feet start half of :attr:`FeetSettings.step_width_m` to either side of the origin.
+
+    *aids* (:class:`~hostlib.fusion.FusionSettings`) are the heading aids on the joint filter —
+    each foot's compass measures its heading minus the declination D (a ninth state), a GPS fix
+    the body — and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
+    module's magnetometer calibration, *drift* each module's drift calibration
+    (:mod:`hostlib.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
 
     def __init__(self, settings: FeetSettings | None = None, *, last_counter: int | None = 0,
-                 defer: bool = False, heading: float = 0.0):
+                 defer: bool = False, heading: float = 0.0, aids: FusionSettings | None = None,
+                 mag_calibrations: Mapping[str, MagCalibration] | None = None,
+                 drift: Mapping[str, DriftCalibration] | None = None):
         self.settings = settings or FeetSettings()
+        self.aids = aids or FusionSettings()
+        if self.aids.mag_calibration is not None:
+            raise ValueError("a magnetometer calibration belongs to one module: give each foot's in "
+                             "mag_calibrations, not one in the aids")
+        mag_calibrations, self.drift = dict(mag_calibrations or {}), dict(drift or {})
+        for side in (*mag_calibrations, *self.drift):
+            if side not in FOOT_SIDES:
+                raise ValueError(f"a foot is {' or '.join(FOOT_SIDES)}, not {side!r}")
         take = self._collect if defer else self.take
         half = 0.5 * self.settings.step_width_m
         self.left, self.right = (
-            FootTracker(side, take, last_counter=last_counter, heading=heading,
+            FootTracker(side, take, replace(self.aids, mag_calibration=mag_calibrations.get(side)),
+                        last_counter=last_counter, heading=heading,
                         position=rotation_z(heading) @ np.array([0.0, sign * half, 0.0]))
             for side, sign in zip(FOOT_SIDES, (-1.0, 1.0), strict=True))
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
-        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0]])
-        self._p = np.zeros((8, 8))
+        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
+                                  [self.aids.declination_rad]])
+        self._p = np.zeros((9, 9))
+        if self.aids.gps and self.aids.compass:
+            self._p[_D, _D] = self.aids.declination_sigma_rad ** 2
+        self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
+        self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
-        self._body: list[tuple[np.ndarray, np.ndarray]] = []
-        self._average: list[tuple[np.ndarray, np.ndarray]] = []
-        self._feet: list[np.ndarray] = []  # the joint state after each step
-        self._variances: list[np.ndarray] = []  # the diagonal of its covariance
+        self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
+        self._covs: list[np.ndarray] = []  # its covariance
+        self._stale: list[int] = []  # 0: both feet fresh; 1: the left foot stale; 2: the right
+        self._counts: list[tuple[int, int]] = []  # each foot's steps through the filter
         self._sides: list[str] = []
+        self._init_aids()
         self._record()
         #: how often the constraint was violated and projected; steps fused without it because the
         #: other foot had not stepped since this foot's previous step
@@ -163,6 +204,8 @@ class TwoFeetTracker:
         self.stale_steps = 0
         #: feet restarted at the other foot after a gap in their stream
         self.restarts: list[tuple[str, int]] = []  # (side, index of the joint step)
+        #: steps the drift correction could not move: their packet had no swing time
+        self.drift_uncorrected = 0
 
     # -- input ----------------------------------------------------------------------------
 
@@ -170,6 +213,12 @@ class TwoFeetTracker:
         if side not in FOOT_SIDES:
             raise ValueError(f"a foot is {' or '.join(FOOT_SIDES)}, not {side!r}")
         return self.left if side == "left" else self.right
+
+    def add_fix(self, time_s: float, north_east) -> None:
+        """Queue one GPS fix of the body, for the joint filter and each foot's own tracker."""
+        super().add_fix(time_s, north_east)
+        self.left.add_fix(time_s, north_east)
+        self.right.add_fix(time_s, north_east)
 
     def _collect(self, step: FootStep) -> None:
         self._deferred.append(step)
@@ -190,29 +239,47 @@ class TwoFeetTracker:
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
         block = slice(4 * i, 4 * i + 4)
-        other = 1 - i
+        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, _D]
         if step.after_gap and len(self._sides) > 0:
             self._restart_at_other(i)
-        # the stepping foot's block through the summation map, the cross terms through its Jacobian
+        # the stepping foot's block through the summation map, its cross terms through its Jacobian
         f = step_jacobian(float(self._s[block][3]), step.dx)
         pose, cov = propagate(self._s[block], self._p[block, block], step.dx, step.dp)
-        cross = slice(4 * other, 4 * other + 4)
-        self._p[block, cross] = f @ self._p[block, cross]
-        self._p[cross, block] = self._p[block, cross].T
+        self._p[block, rest] = f @ self._p[block, rest]
+        self._p[rest, block] = self._p[block, rest].T
         self._s[block] = pose
         self._p[block, block] = cov
+        self._correct_drift(step, block)
         self._since[step.side] = 0
-        self._since[FOOT_SIDES[other]] += 1
-        if self._since[FOOT_SIDES[other]] > 1:
+        self._since[FOOT_SIDES[1 - i]] += 1
+        self._sides.append(step.side)
+        self._fused[step.side] += 1
+        if math.isfinite(step.time_s):
+            self._time = max(self._time, step.time_s)
+        if self.aids.compass:
+            self._compass_step(step.compass, 4 * i + 3, is_motion_step(step.dx))
+        if self.aids.gps:
+            self._gps_until(self._time)
+        if self._since[FOOT_SIDES[1 - i]] > 1:
             self.stale_steps += 1  # the other foot has not stepped since this one's last step
         elif self.settings.constraint:
             self._constrain()
-        self._sides.append(step.side)
-        self._fused[step.side] += 1
         self._record()
 
-    def _stale(self, i: int) -> bool:
-        return self._since[FOOT_SIDES[i]] >= STALE_AFTER_STEPS
+    def _correct_drift(self, step: FootStep, block: slice) -> None:
+        calibration = self.drift.get(step.side)
+        if calibration is None:
+            return
+        if not math.isfinite(step.swing_time):
+            self.drift_uncorrected += 1
+            return
+        dv = rotation_z(self._frame_heading) @ np.asarray(calibration.dv, dtype=np.float64)
+        self._s[block.start: block.start + 3] += dv * step.swing_time
+
+    def _stale_foot(self) -> int:
+        """0: both feet fresh; 1 + i: foot i is stale (the other stepped on without it)."""
+        stale = [self._since[side] >= STALE_AFTER_STEPS for side in FOOT_SIDES]
+        return 1 + stale.index(True) if stale[0] != stale[1] else 0
 
     def _restart_at_other(self, i: int) -> None:
         """Foot *i* lost steps: put it where the other foot is, as uncertain as that foot plus γ
@@ -236,7 +303,7 @@ class TwoFeetTracker:
             d = s[0:3] - s[4:7]
             dist = float(np.linalg.norm(d))
             u = d / dist
-            h = np.zeros(8)
+            h = np.zeros(len(s))
             h[0:3], h[4:7] = u, -u
             ph = p @ h
             var = float(h @ ph)
@@ -251,30 +318,60 @@ class TwoFeetTracker:
         self.projections += 1
 
     def _record(self) -> None:
-        s, p = self._s, self._p
-        stale = [self._stale(i) for i in (0, 1)]
-        self._feet.append(s.copy())
-        self._variances.append(np.diagonal(p).copy())
-        self._body.append(_midpoint(s, p, stale))
-        # the single-module tracks as far as the fused steps go (deferred, they are complete already)
-        ls, rs = self.left.track, self.right.track
-        nl, nr = self._fused["left"], self._fused["right"]
-        single = np.concatenate([ls._poses[nl], rs._poses[nr]])
-        cov = np.zeros((8, 8))
-        cov[:4, :4], cov[4:, 4:] = ls._covs[nl], rs._covs[nr]
-        self._average.append(_midpoint(single, cov, stale))
+        self._states.append(self._s.copy())
+        self._covs.append(self._p.copy())
+        self._stale.append(self._stale_foot())
+        self._counts.append((self._fused["left"], self._fused["right"]))
+
+    # -- the aids' view of the joint state -------------------------------------------------
+
+    _heading_indices = (3, 7)
+
+    @property
+    def _aid_settings(self) -> FusionSettings:
+        return self.aids
+
+    def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
+        return self._s.copy(), self._p.copy()
+
+    def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
+        self._s, self._p = x.copy(), p.copy()
+
+    def _gps_rows(self) -> np.ndarray:
+        """A fix measures the body: the feet's midpoint, or the fresh foot while the other is stale."""
+        return _BODY[self._stale_foot()][:2]
+
+    def _origin_rows(self) -> np.ndarray:
+        rows = np.zeros((2, 9))
+        rows[0, [0, 4]] = rows[1, [1, 5]] = 1.0
+        return rows
+
+    def _travelled(self) -> np.ndarray:
+        return self._gps_rows() @ (self._s - self._states[0])
+
+    def _rotate_frame(self, turn: float) -> None:
+        """Turn both feet, now and in every recorded row, about the origin (the body's start)."""
+        t = np.eye(9)
+        t[0:3, 0:3] = t[4:7, 4:7] = rotation_z(turn)
+        shift = np.zeros(9)
+        shift[[3, 7]] = turn
+        self._states = [t @ s + shift for s in self._states]
+        self._covs = [t @ c @ t.T for c in self._covs]
+        self._s = t @ self._s + shift
+        self._p = t @ self._p @ t.T
+        self._frame_heading += turn
 
     # -- results --------------------------------------------------------------------------
 
     @property
     def state(self) -> np.ndarray:
         """The joint state [x_L, y_L, z_L, χ_L, x_R, y_R, z_R, χ_R] (a copy)."""
-        return self._s.copy()
+        return self._s[:8].copy()
 
     @property
     def covariance(self) -> np.ndarray:
         """Its 8×8 covariance (a copy)."""
-        return self._p.copy()
+        return self._p[:8, :8].copy()
 
     @property
     def sides(self) -> list[str]:
@@ -286,31 +383,52 @@ class TwoFeetTracker:
         """The fused body track: the feet's midpoint after each fused step (row 0: the start);
         while one foot is stale, the other foot."""
         with self._lock:
-            return _track(self._body)
+            states, covs, stale = np.array(self._states), np.array(self._covs), np.array(self._stale)
+        return _body_track(states, covs, stale)
 
     @property
     def average(self) -> Track:
-        """The baseline: the midpoint of the two single-module tracks after each fused step."""
+        """The baseline: the midpoint of the two single-module tracks after each fused step (each
+        with its own aids and drift correction)."""
         with self._lock:
-            return _track(self._average)
+            counts, stale = np.array(self._counts), np.array(self._stale)
+        single = [self._single_poses(side)[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
+        covs = [np.array(self.foot(side).track._covs)[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
+        states = np.zeros((len(stale), 9))
+        states[:, 0:4], states[:, 4:8] = single
+        joint = np.zeros((len(stale), 9, 9))
+        joint[:, 0:4, 0:4], joint[:, 4:8, 4:8] = covs
+        return _body_track(states, joint, stale)
+
+    def _single_poses(self, side: str) -> np.ndarray:
+        """One foot's single-module track, drift-corrected with its calibration (steps without a
+        swing time uncorrected)."""
+        track = self.foot(side).track
+        poses = track.poses
+        calibration = self.drift.get(side)
+        if calibration is not None:
+            swing = np.nan_to_num(track.swing_times, nan=0.0)
+            dv = rotation_z(float(poses[0, 3])) @ np.asarray(calibration.dv, dtype=np.float64)
+            poses[:, :3] += np.concatenate(([0.0], np.cumsum(swing)))[:, None] * dv[None, :]
+        return poses
 
     def fused_foot(self, side: str) -> np.ndarray:
         """(n + 1, 4) the fused poses of *side* after each fused step (row 0: the start)."""
         i = FOOT_SIDES.index(side)
         with self._lock:
-            return np.array([s[4 * i: 4 * i + 4] for s in self._feet])
+            return np.array([s[4 * i: 4 * i + 4] for s in self._states])
 
     def fused_foot_sigmas(self, side: str) -> np.ndarray:
         """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
         i = FOOT_SIDES.index(side)
         with self._lock:
-            var = np.array([v[4 * i: 4 * i + 4] for v in self._variances])
+            var = np.array([np.diagonal(c)[4 * i: 4 * i + 4] for c in self._covs])
         return np.sqrt(np.clip(var, 0.0, None))
 
     def separation(self) -> np.ndarray:
         """(n + 1,) the fused feet's distance apart after each fused step [m]."""
         with self._lock:
-            feet = np.array(self._feet)
+            feet = np.array(self._states)
         return np.linalg.norm(feet[:, 0:3] - feet[:, 4:7], axis=1)
 
     def __len__(self) -> int:
@@ -322,20 +440,23 @@ class TwoFeetTracker:
                 f"{len(self.restarts)} restarts)")
 
 
-_MID = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4)])
+def _body_rows() -> np.ndarray:
+    """(3, 4, 9): the body pose from the joint state — the midpoint; the right foot while the
+    left is stale; the left foot while the right is stale."""
+    mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, 1))])
+    left, right = np.zeros((4, 9)), np.zeros((4, 9))
+    left[:, 0:4] = right[:, 4:8] = np.eye(4)
+    return np.stack([mid, right, left])
 
 
-def _midpoint(s: np.ndarray, p: np.ndarray, stale: list[bool]) -> tuple[np.ndarray, np.ndarray]:
-    """The body pose and covariance from the joint state: the feet's midpoint, or the fresh foot
-    while the other is stale."""
-    if stale[0] != stale[1]:
-        i = 1 if stale[0] else 0
-        return s[4 * i: 4 * i + 4].copy(), p[4 * i: 4 * i + 4, 4 * i: 4 * i + 4].copy()
-    return _MID @ s, _MID @ p @ _MID.T
+_BODY = _body_rows()
 
 
-def _track(rows: list[tuple[np.ndarray, np.ndarray]]) -> Track:
-    return Track.from_arrays(np.array([r[0] for r in rows]), np.array([r[1] for r in rows]))
+def _body_track(states: np.ndarray, covs: np.ndarray, stale: np.ndarray) -> Track:
+    """The body's track from (n, 9) joint states, their (n, 9, 9) covariances and stale codes."""
+    m = _BODY[stale]
+    poses = np.einsum("kij,kj->ki", m, states)
+    return Track.from_arrays(poses, m @ covs @ np.transpose(m, (0, 2, 1)))
 
 
 def _time_order(steps: list[FootStep]) -> list[FootStep]:

@@ -27,6 +27,10 @@ by :class:`FusionSettings` (shared/spec/aids.md §1–2, NavShoe):
 With every aid off the track is :class:`~hostlib.tracking.StepTracker`'s, bit for bit: the
 summation is the same code, and D is uncorrelated with the pose until an aid correlates it.
 
+The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
+holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
+fix's north and east are applied one after the other, the second with the state the first left.
+
 Time: a step packet of the fusion set-up carries T_INT_K (the module's 64 MHz cycle counter when
 the step's last measurement was taken); the tracker unwraps it into seconds since the module's
 power-on (:class:`~hostlib.module_clock.ModuleClock`). Fix times are seconds since the receiver started
@@ -48,7 +52,7 @@ from .magcal import MagCalibration
 from .module_clock import ModuleClock
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
-__all__ = ["FusionSettings", "FusionStats", "FusionTracker"]
+__all__ = ["AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
 
 @dataclass(frozen=True)
 class FusionSettings:
@@ -104,7 +108,210 @@ class FusionStats:
     compass_innovations: list[tuple[int, float]] = field(default_factory=list)
 
 
-class FusionTracker(StepTracker):
+class AidedFilter:
+    """The aids of :class:`FusionSettings` on a filter whose state is poses and, last, the declination D.
+
+    The aids do not care how many poses the state holds: :class:`FusionTracker` holds one foot's
+    ``[x, y, z, χ, D]``, :class:`hostlib.feet.TwoFeetTracker` both feet's and D. A subclass keeps
+    the state and gives the aids these views of it:
+
+    * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (D last) and its covariance;
+    * :attr:`_heading_indices`: where the headings χ are in it (one per foot);
+    * :meth:`_gps_rows`: the (2, n) rows of the point a fix measures (north, east), and
+      :meth:`_origin_rows` those of a shift of the whole frame (every pose's x, y);
+    * :meth:`_rotate_frame`: turn every pose (and the history kept of them) about the start;
+    * :meth:`_travelled`: the horizontal displacement of the measured point since the start;
+    * :attr:`_aid_settings`: the :class:`FusionSettings`; ``len(self)``: the steps fused.
+
+    It calls :meth:`_init_aids` in its ``__init__``, then for each step :meth:`_compass_step` with
+    the step's compass heading, and :meth:`_gps_until` with the step's module time.
+
+    **Aligning two headings.** The first compass reading (or the GPS course) gives one heading
+    χ_k; every pose turns with it about the start. Another heading χ_j was known relative to χ_k
+    only: it becomes χ_k + (χ_j − χ_k), with the variance of the reading plus that of the
+    difference. With one heading this is the single-foot rule: χ takes the reading's variance.
+    """
+
+    _heading_indices: tuple[int, ...] = (3,)
+
+    def _init_aids(self) -> None:
+        s = self._aid_settings
+        self.fusion = FusionStats()
+        self._aligned = not (s.compass or s.gps)
+        self._fix_times: list[float] = []
+        self._fixes: list[np.ndarray] = []
+        self._next_fix = 0
+        self._origin_set = False
+        self._first_fix = np.zeros(2)
+        self._last_gps_update = -math.inf
+
+    # -- what a subclass gives --------------------------------------------------------
+
+    @property
+    def _aid_settings(self) -> FusionSettings:
+        raise NotImplementedError
+
+    def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
+        """The state (D last) and its covariance, as copies."""
+        raise NotImplementedError
+
+    def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
+        raise NotImplementedError
+
+    def _gps_rows(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _origin_rows(self) -> np.ndarray:
+        raise NotImplementedError
+
+    def _rotate_frame(self, turn: float) -> None:
+        raise NotImplementedError
+
+    def _travelled(self) -> np.ndarray:
+        raise NotImplementedError
+
+    # -- state ------------------------------------------------------------------------
+
+    @property
+    def declination(self) -> float:
+        """The declination estimate D [rad], east positive."""
+        return float(self._aid_state()[0][-1])
+
+    @property
+    def declination_sigma(self) -> float:
+        return math.sqrt(max(float(self._aid_state()[1][-1, -1]), 0.0))
+
+    @property
+    def heading_aligned(self) -> bool:
+        """Whether χ is a true heading (an aid aligned it) rather than the module's initial frame."""
+        return self._aligned
+
+    # -- input ------------------------------------------------------------------------
+
+    def add_fixes(self, times_s: Iterable[float], north_east: Iterable[Iterable[float]]) -> None:
+        """Queue GPS fixes: times [s] on the receiver's clock and positions (n, ≥2) [m] north, east
+        of the first fix. Each is applied when the first step at or after its time arrives."""
+        for t, p in zip(times_s, north_east, strict=True):
+            self.add_fix(float(t), p)
+
+    def add_fix(self, time_s: float, north_east: Iterable[float]) -> None:
+        """Queue one fix (see :meth:`add_fixes`); fixes must come in time order."""
+        t = float(time_s) + self._aid_settings.gps_offset_s
+        if self._fix_times and t < self._fix_times[-1]:
+            raise ValueError(f"fix at {time_s} s is older than the one before ({self._fix_times[-1]} s)")
+        pos = np.asarray(list(north_east), dtype=np.float64)[:2]
+        if pos.shape != (2,) or not np.isfinite(pos).all():
+            raise ValueError(f"a fix needs finite north and east, got {pos}")
+        self._fix_times.append(t)
+        self._fixes.append(pos)
+
+    def pending_fixes(self) -> int:
+        """Fixes queued whose time no step has reached yet."""
+        return len(self._fix_times) - self._next_fix
+
+    # -- the aids ---------------------------------------------------------------------
+
+    def _compass_step(self, psi: float | None, heading_index: int, moved: bool) -> None:
+        """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
+        heading at *heading_index* minus D; *moved*: the step moved the foot."""
+        s = self._aid_settings
+        if psi is None:
+            self.fusion.compass_skipped += 1
+            return
+        if self._aligned and s.compass_mode == "step" and not moved:
+            self.fusion.compass_skipped += 1
+            return
+        x, p = self._aid_state()
+        if not self._aligned:
+            var_d = float(p[-1, -1])
+            self._align(heading_index, psi + float(x[-1]), s.compass_sigma_rad ** 2 + var_d, cov_with_d=var_d)
+            self.fusion.heading_aligned_by = "compass"
+            return
+        h = np.zeros(len(x))
+        h[heading_index], h[-1] = 1.0, -1.0
+        innovation = wrap_angle(psi - (x[heading_index] - x[-1]))
+        self._update(h, innovation, s.compass_sigma_rad ** 2)
+        self.fusion.compass_updates += 1
+        self.fusion.compass_innovations.append((len(self), innovation))
+
+    def _gps_until(self, now: float) -> None:
+        """Apply the queued fixes whose time module time *now* [s] has reached."""
+        s = self._aid_settings
+        while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
+            t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
+            self._next_fix += 1
+            if not self._origin_set:
+                # the first fix is the origin: the start lies there, within the receiver's σ
+                self._origin_set = True
+                x, p = self._aid_state()
+                for row in self._origin_rows():
+                    p += s.gps_receiver_sigma_m ** 2 * np.outer(row, row)
+                self._aid_set_state(x, p)
+                self._first_fix = pos
+                continue
+            if not self._aligned:
+                if not self._align_by_course(pos):
+                    self.fusion.gps_before_alignment += 1
+                    continue
+            if t - self._last_gps_update < s.gps_interval_s:
+                self.fusion.gps_skipped += 1
+                continue
+            self._last_gps_update = t
+            for axis, h in enumerate(self._gps_rows()):
+                x, _ = self._aid_state()
+                self._update(h, float(pos[axis] - h @ x), s.gps_sigma_m ** 2)
+            self.fusion.gps_updates += 1
+
+    def _align_by_course(self, fix: np.ndarray) -> bool:
+        """Turn the track onto the GPS course once the receiver moved far enough (no compass)."""
+        s = self._aid_settings
+        gps = fix - self._first_fix
+        dr = self._travelled()
+        distance = float(np.hypot(*gps))
+        if distance < s.gps_align_distance_m or float(np.hypot(*dr)) < 0.5 * s.gps_align_distance_m:
+            return False
+        turn = math.atan2(gps[1], gps[0]) - math.atan2(dr[1], dr[0])
+        sigma = math.sqrt(2.0) * s.gps_receiver_sigma_m / distance
+        k = self._heading_indices[0]
+        self._align(k, float(self._aid_state()[0][k]) + turn, sigma ** 2, cov_with_d=0.0)
+        self.fusion.heading_aligned_by = "gps"
+        return True
+
+    def _align(self, k: int, chi: float, var_chi: float, *, cov_with_d: float) -> None:
+        """Turn every pose about the start so that heading *k* is *chi*, with variance *var_chi* and
+        covariance *cov_with_d* with D (class docstring: the other headings follow it)."""
+        x, _ = self._aid_state()
+        self._rotate_frame(wrap_angle(chi - float(x[k])))
+        x, p = self._aid_state()
+        hs = list(self._heading_indices)
+        ones = np.ones(len(hs))
+        b = np.eye(len(hs))
+        b[:, hs.index(k)] -= 1.0  # χ_j' = χ_k' + (χ_j − χ_k)
+        hh = b @ p[np.ix_(hs, hs)] @ b.T + var_chi * np.outer(ones, ones)
+        hd = b @ p[hs, -1] + ones * cov_with_d
+        p[hs, :] = 0.0
+        p[:, hs] = 0.0
+        p[np.ix_(hs, hs)] = hh
+        p[hs, -1] = hd
+        p[-1, hs] = hd
+        self._aid_set_state(x, p)
+        self._aligned = True
+
+    def _update(self, h: np.ndarray, innovation: float, r: float) -> None:
+        """A scalar Kalman update of the state (Joseph form: P stays symmetric and positive)."""
+        x, p = self._aid_state()
+        ph = p @ h
+        k = ph / (float(h @ ph) + r)
+        x = x + k * innovation
+        i_kh = np.eye(len(x)) - np.outer(k, h)
+        p = i_kh @ p @ i_kh.T + r * np.outer(k, k)
+        self._aid_set_state(x, 0.5 * (p + p.T))
+
+    def __len__(self) -> int:
+        raise NotImplementedError
+
+
+class FusionTracker(AidedFilter, StepTracker):
     """A :class:`StepTracker` with a declination state and the aids of :class:`FusionSettings`.
 
     Use it wherever a step tracker goes (a :class:`~hostlib.session.HostSession`'s tracker): the
@@ -113,34 +320,19 @@ class FusionTracker(StepTracker):
     """
 
     def __init__(self, settings: FusionSettings | None = None, **tracker_args):
-        super().__init__(**tracker_args)
+        StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        self.fusion = FusionStats()
         self._d = float(s.declination_rad)
         self._pd = np.zeros(4)  # cov(pose, D)
         self._dd = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
-        self._aligned = not (s.compass or s.gps)
+        self._init_aids()
         self._clock = ModuleClock()
         self._time = 0.0  # module time of the last step [s]
-        self._fix_times: list[float] = []
-        self._fixes: list[np.ndarray] = []
-        self._next_fix = 0
-        self._origin_set = False
-        self._last_gps_update = -math.inf
         #: per summed step: module time [s] (NaN: the packet had no T_INT_K)
         self.step_times: list[float] = []
 
     # -- state -------------------------------------------------------------------------
-
-    @property
-    def declination(self) -> float:
-        """The declination estimate D [rad], east positive."""
-        return self._d
-
-    @property
-    def declination_sigma(self) -> float:
-        return math.sqrt(max(self._dd, 0.0))
 
     @property
     def covariance5(self) -> np.ndarray:
@@ -151,29 +343,17 @@ class FusionTracker(StepTracker):
         p[4, 4] = self._dd
         return p
 
-    @property
-    def heading_aligned(self) -> bool:
-        """Whether χ is a true heading (an aid aligned it) rather than the module's initial frame."""
-        return self._aligned
+    def compass_heading(self, reading: StanceReading | None) -> float | None:
+        """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
+        (:attr:`FusionSettings.mag_calibration`); None without a reading."""
+        if reading is None:
+            return None
+        field_b = reading.field_board
+        if self.settings.mag_calibration is not None:
+            field_b = self.settings.mag_calibration.apply(field_b)
+        return compass_heading(field_b, reading.rotation)
 
     # -- input -------------------------------------------------------------------------
-
-    def add_fixes(self, times_s: Iterable[float], north_east: Iterable[Iterable[float]]) -> None:
-        """Queue GPS fixes: times [s] on the receiver's clock and positions (n, ≥2) [m] north, east
-        of the first fix. Each is applied when the first step at or after its time arrives."""
-        for t, p in zip(times_s, north_east, strict=True):
-            self.add_fix(float(t), p)
-
-    def add_fix(self, time_s: float, north_east: Iterable[float]) -> None:
-        """Queue one fix (see :meth:`add_fixes`); fixes must come in time order."""
-        t = float(time_s) + self.settings.gps_offset_s
-        if self._fix_times and t < self._fix_times[-1]:
-            raise ValueError(f"fix at {time_s} s is older than the one before ({self._fix_times[-1]} s)")
-        pos = np.asarray(list(north_east), dtype=np.float64)[:2]
-        if pos.shape != (2,) or not np.isfinite(pos).all():
-            raise ValueError(f"a fix needs finite north and east, got {pos}")
-        self._fix_times.append(t)
-        self._fixes.append(pos)
 
     def add(self, step, swing_time: float = math.nan, states: Mapping[int, np.ndarray] | None = None
             ) -> StepOutcome:
@@ -187,96 +367,51 @@ class FusionTracker(StepTracker):
         """Sum a step given as arrays (:meth:`StepTracker.add_step`), with its stance *reading*
         and module time *time_s* [s], and apply the aids."""
         prev = self.track._poses[-1]
-        outcome = super().add_step(dx, dp, counter, swing_time)
+        outcome = StepTracker.add_step(self, dx, dp, counter, swing_time)
         if outcome is StepOutcome.DUPLICATE:
             return outcome
         # cov(pose, D) through the step: the pose's Jacobian; D does not move
-        self._pd = step_jacobian(float(prev[3]), np.asarray(dx, dtype=np.float64)) @ self._pd
+        dxa = np.asarray(dx, dtype=np.float64)
+        self._pd = step_jacobian(float(prev[3]), dxa) @ self._pd
         if math.isfinite(time_s):
             self._time = time_s
         self.step_times.append(time_s)
         if self.settings.compass:
-            self._compass(reading, np.asarray(dx, dtype=np.float64))
+            self._compass_step(self.compass_heading(reading), 3, is_motion_step(dxa))
         if self.settings.gps:
             self._gps_until(self._time)
         return outcome
 
-    # -- time --------------------------------------------------------------------------
+    # -- the aids' view of the state ---------------------------------------------------
 
-    # -- the aids ----------------------------------------------------------------------
+    @property
+    def _aid_settings(self) -> FusionSettings:
+        return self.settings
 
-    def _compass(self, reading: StanceReading | None, dx: np.ndarray) -> None:
-        s = self.settings
-        if reading is None:
-            self.fusion.compass_skipped += 1
-            return
-        moved = is_motion_step(dx)
-        if self._aligned and s.compass_mode == "step" and not moved:
-            self.fusion.compass_skipped += 1
-            return
-        field_b = reading.field_board
-        if s.mag_calibration is not None:
-            field_b = s.mag_calibration.apply(field_b)
-        psi = compass_heading(field_b, reading.rotation)
-        if not self._aligned:
-            chi = psi + self._d
-            self._align(chi, s.compass_sigma_rad ** 2 + self._dd, cov_with_d=self._dd)
-            self.fusion.heading_aligned_by = "compass"
-            return
-        h = np.array([0.0, 0.0, 0.0, 1.0, -1.0])
-        pose = self.track._poses[-1]
-        innovation = wrap_angle(psi - (pose[3] - self._d))
-        self._update(h, innovation, s.compass_sigma_rad ** 2)
-        self.fusion.compass_updates += 1
-        self.fusion.compass_innovations.append((len(self.track), innovation))
+    def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
+        x = np.empty(5)
+        x[:4] = self.track._poses[-1]
+        x[4] = self._d
+        return x, self.covariance5
 
-    def _gps_until(self, now: float) -> None:
-        s = self.settings
-        while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
-            t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
-            self._next_fix += 1
-            if not self._origin_set:
-                # the first fix is the origin: the start lies there, within the receiver's σ
-                self._origin_set = True
-                cov = self.track._covs[-1]
-                cov[0, 0] += s.gps_receiver_sigma_m ** 2
-                cov[1, 1] += s.gps_receiver_sigma_m ** 2
-                self._first_fix = pos
-                continue
-            if not self._aligned:
-                if not self._align_by_course(pos):
-                    self.fusion.gps_before_alignment += 1
-                    continue
-            if t - self._last_gps_update < s.gps_interval_s:
-                self.fusion.gps_skipped += 1
-                continue
-            self._last_gps_update = t
-            pose = self.track._poses[-1]
-            for axis in (0, 1):
-                h = np.zeros(5)
-                h[axis] = 1.0
-                self._update(h, float(pos[axis] - pose[axis]), s.gps_sigma_m ** 2)
-            self.fusion.gps_updates += 1
+    def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
+        self.track._poses[-1] = x[:4].copy()
+        self.track._covs[-1] = p[:4, :4].copy()
+        self._pd = p[:4, 4].copy()
+        self._dd = float(p[4, 4])
+        self._d = float(x[4])
 
-    def _align_by_course(self, fix: np.ndarray) -> bool:
-        """Turn the track onto the GPS course once the receiver moved far enough (no compass)."""
-        s = self.settings
-        gps = fix - self._first_fix
-        dr = self.track._poses[-1][:2] - self.track._poses[0][:2]
-        distance = float(np.hypot(*gps))
-        if distance < s.gps_align_distance_m or float(np.hypot(*dr)) < 0.5 * s.gps_align_distance_m:
-            return False
-        turn = math.atan2(gps[1], gps[0]) - math.atan2(dr[1], dr[0])
-        sigma = math.sqrt(2.0) * s.gps_receiver_sigma_m / distance
-        self._align(float(self.track._poses[-1][3]) + turn, sigma ** 2, cov_with_d=0.0)
-        self.fusion.heading_aligned_by = "gps"
-        return True
+    def _gps_rows(self) -> np.ndarray:
+        return np.eye(5)[:2]
 
-    def _align(self, chi: float, var_chi: float, *, cov_with_d: float) -> None:
-        """Rotate the whole track about its start so that the current heading is *chi*; the
-        heading's variance becomes *var_chi* and its covariance with D *cov_with_d*."""
+    def _origin_rows(self) -> np.ndarray:
+        return np.eye(5)[:2]
+
+    def _travelled(self) -> np.ndarray:
+        return self.track._poses[-1][:2] - self.track._poses[0][:2]
+
+    def _rotate_frame(self, turn: float) -> None:
         track = self.track
-        turn = wrap_angle(chi - float(track._poses[-1][3]))
         r = rotation_z(turn)
         start = track._poses[0][:3].copy()
         for k in range(len(track._poses)):
@@ -289,36 +424,10 @@ class FusionTracker(StepTracker):
             c[:3, 3] = r @ c[:3, 3]
             c[3, :3] = c[:3, 3]
             track._covs[k] = c
-        cov = track._covs[-1]
-        cov[3, :] = cov[:, 3] = 0.0
-        cov[3, 3] = var_chi
-        self._pd = np.zeros(4)
-        self._pd[3] = cov_with_d
-        self._aligned = True
+        self._pd[:3] = r @ self._pd[:3]
 
-    def _update(self, h: np.ndarray, innovation: float, r: float) -> None:
-        """A scalar Kalman update of [x, y, z, χ, D]; the track's last row takes the result."""
-        p = self.covariance5
-        ph = p @ h
-        s = float(h @ ph) + r
-        k = ph / s
-        state = np.empty(5)
-        state[:4] = self.track._poses[-1]
-        state[4] = self._d
-        state = state + k * innovation
-        # Joseph form keeps P symmetric and positive
-        i_kh = np.eye(5) - np.outer(k, h)
-        p = i_kh @ p @ i_kh.T + r * np.outer(k, k)
-        p = 0.5 * (p + p.T)
-        self.track._poses[-1] = state[:4]
-        self.track._covs[-1] = p[:4, :4]
-        self._pd = p[:4, 4].copy()
-        self._dd = float(p[4, 4])
-        self._d = float(state[4])
-
-    def pending_fixes(self) -> int:
-        """Fixes queued whose time no step has reached yet."""
-        return len(self._fix_times) - self._next_fix
+    def __len__(self) -> int:
+        return StepTracker.__len__(self)
 
     def __repr__(self) -> str:
         return (f"FusionTracker({self.track!r}, D={math.degrees(self._d):.2f}°, "
