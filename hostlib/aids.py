@@ -10,54 +10,76 @@
   compass then gives magnetic headings, and the summary says so);
 * a magnetometer calibration (:class:`hostlib.magcal.MagCalibration`) is applied to every
   reading; one fitted on another module is refused once the module names itself.
+
+:func:`prepare_feet_aids` does the same for a module on each foot: a
+:class:`~hostlib.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
+magnetometer and drift calibration, the fixes queued for the body and for each foot.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 from .declination import declination_deg
+from .drift import DriftCalibration
 from .export import parse_origin
+from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from .fusion import FusionSettings, FusionTracker
 from .gps import NmeaStats, local_positions, read_nmea, seconds_since
 from .magcal import MagCalibration
 
-__all__ = ["AidSetup", "prepare_aids"]
+__all__ = ["AidSetup", "prepare_aids", "prepare_feet_aids"]
 
 
 @dataclass
 class AidSetup:
     """A tracker with its aids, and what setting them up found."""
 
-    tracker: FusionTracker
+    tracker: FusionTracker | TwoFeetTracker
     origin: tuple[float, float, float] | None  #: lat, lon, alt of the track's (0, 0, 0), if known
     declination_source: str  #: "WMM at the first fix, 2026-06-01", "given", "none (magnetic headings)"
     gps_stats: NmeaStats | None = None
 
     def describe(self) -> str:
-        s = self.tracker.settings
+        s = self.tracker.aid_settings
         parts = []
         if s.compass:
-            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step"
-                         + (" (calibrated)" if s.mag_calibration is not None else ""))
+            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step" + self._calibrated())
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
         return "; ".join(parts)
 
+    def _calibrated(self) -> str:
+        if isinstance(self.tracker, FusionTracker):
+            return " (calibrated)" if self.tracker.settings.mag_calibration is not None else ""
+        sides = [side for side in FOOT_SIDES if self.tracker.foot(side).settings.mag_calibration is not None]
+        return f" (calibrated: {' and '.join(sides)} foot)" if sides else ""
 
-def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
-                 mag_calibration: MagCalibration | None = None, declination: float | None = None,
-                 origin: Sequence[float] | None = None, when: dt.date | None = None,
-                 settings: FusionSettings | None = None, last_counter: int | None = None) -> AidSetup:
-    """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
-    calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
-    place the walk when there is no GPS. Raises OSError for an unreadable GPS log and ValueError
-    when it holds no fix."""
+
+@dataclass
+class _Plan:
+    """The aids resolved from what the user has, before any tracker."""
+
+    settings: FusionSettings
+    fix_times: list[float]
+    fix_positions: list[list[float]]
+    place: tuple[float, float, float] | None
+    declination_source: str
+    gps_stats: NmeaStats | None
+
+    def setup(self, tracker: FusionTracker | TwoFeetTracker) -> AidSetup:
+        if self.fix_times:
+            tracker.add_fixes(self.fix_times, self.fix_positions)
+        return AidSetup(tracker, self.place, self.declination_source, self.gps_stats)
+
+
+def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
+          origin: Sequence[float] | None, when: dt.date | None, settings: FusionSettings | None) -> _Plan:
     base = settings or FusionSettings()
     place = None if origin is None else parse_origin(origin)
     fixes, stats = [], None
@@ -76,10 +98,39 @@ def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
         source = f"WMM at {'the first fix' if fixes else 'the origin'}, {day.isoformat()}"
     else:
         dec, source = 0.0, "none: magnetic headings"
-    cfg = replace(base, compass=compass, gps=bool(fixes), mag_calibration=mag_calibration,
-                  declination_rad=math.radians(dec))
-    tracker = FusionTracker(cfg, last_counter=last_counter)
+    cfg = replace(base, compass=compass, gps=bool(fixes), declination_rad=math.radians(dec))
+    times, positions = [], []
     if fixes:
         assert stats is not None and stats.first_time is not None
-        tracker.add_fixes(seconds_since(stats.first_time, fixes), local_positions(fixes)[:, :2])
-    return AidSetup(tracker, place, source, stats)
+        times = list(seconds_since(stats.first_time, fixes))
+        positions = local_positions(fixes)[:, :2].tolist()
+    return _Plan(cfg, times, positions, place, source, stats)
+
+
+def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
+                 mag_calibration: MagCalibration | None = None, declination: float | None = None,
+                 origin: Sequence[float] | None = None, when: dt.date | None = None,
+                 settings: FusionSettings | None = None, last_counter: int | None = None) -> AidSetup:
+    """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
+    calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
+    place the walk when there is no GPS. Raises OSError for an unreadable GPS log and ValueError
+    when it holds no fix."""
+    plan = _plan(compass, gps_path, declination, origin, when, settings)
+    cfg = replace(plan.settings, mag_calibration=mag_calibration)
+    return plan.setup(FusionTracker(cfg, last_counter=last_counter))
+
+
+def prepare_feet_aids(*, compass: bool, gps_path: str | Path | None = None,
+                      mag_calibrations: Mapping[str, MagCalibration] | None = None,
+                      declination: float | None = None, origin: Sequence[float] | None = None,
+                      when: dt.date | None = None, settings: FusionSettings | None = None,
+                      feet: FeetSettings | None = None, drift: Mapping[str, DriftCalibration] | None = None,
+                      last_counter: int | None = None, defer: bool = True, heading: float = 0.0) -> AidSetup:
+    """:func:`prepare_aids` for a module on each foot: a :class:`TwoFeetTracker` (*feet*, *defer*,
+    *heading*, *last_counter*) with the aids on the joint filter and on each foot's tracker,
+    each foot's magnetometer calibration (side → calibration) and drift calibration; the GPS
+    log's fixes are the body's."""
+    plan = _plan(compass, gps_path, declination, origin, when, settings)
+    tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading,
+                             aids=plan.settings, mag_calibrations=mag_calibrations, drift=drift)
+    return plan.setup(tracker)

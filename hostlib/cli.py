@@ -11,8 +11,12 @@ other foot, it never stops it::
 
     openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --csv walk.csv      # LEFT RIGHT
     openshoe-host replay left.bin right.bin --csv walk.csv --png walk.png
+    openshoe-host replay left.bin right.bin --compass --gps walk.nmea --drift left.json right.json
 
-Closed-loop drift correction (one module; hostlib.drift): record closed loops with the fusion
+Per-module calibrations (--drift, --mag-cal) then take one file per foot, the left foot's first
+(- for none); each is checked against the serial number of the module on its foot.
+
+Closed-loop drift correction (per module; hostlib.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
     openshoe-host log /dev/rfcomm0 --start --fusion --raw loop1.bin --duration 120
@@ -81,8 +85,9 @@ def _aid_options(p: argparse.ArgumentParser) -> None:
     g.add_argument("--gps", metavar="FILE.nmea",
                    help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
                         "and the CSV gets lat_deg, lon_deg, alt_m")
-    g.add_argument("--mag-cal", metavar="CAL.json",
-                   help="the shoe's magnetometer calibration (hard/soft iron)")
+    g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
+                   help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
+                        "foot's then the right foot's (- for none)")
     g.add_argument("--declination", type=float, default=None, metavar="DEG",
                    help="magnetic declination, east positive (default: the World Magnetic Model at the "
                         "first fix or at --origin)")
@@ -113,10 +118,12 @@ def _feet_settings(args: argparse.Namespace) -> FeetSettings:
     return FeetSettings(constraint=not args.no_constraint, max_separation_m=gamma)
 
 
-#: Options for one module only (for now), and those for two feet only: (dest, flag).
-_ONE_MODULE_OPTIONS = (("compass", "--compass"), ("compass_sigma", "--compass-sigma"), ("gps", "--gps"),
-                       ("mag_cal", "--mag-cal"), ("declination", "--declination"), ("drift", "--drift"))
+#: Options for two feet only: (dest, flag).
 _FEET_OPTIONS = (("max_separation", "--max-separation"), ("no_constraint", "--no-constraint"))
+#: Options that name one calibration file per module: (dest, flag).
+_PER_MODULE_FILES = (("drift", "--drift"), ("mag_cal", "--mag-cal"))
+#: Stands for "no calibration for this foot" in a per-module list.
+NO_FILE = "-"
 
 
 def _second(args: argparse.Namespace) -> str | None:
@@ -128,14 +135,19 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
     """Why the options of ``track`` or ``replay`` do not go together, or None."""
     what = "URL" if args.cmd == "track" else "capture"
     two = _second(args) is not None
-    given = [flag for dest, flag in (_ONE_MODULE_OPTIONS if two else _FEET_OPTIONS)
-             if getattr(args, dest, None) not in (None, False)]
-    verb = ("work", "need") if len(given) > 1 else ("works", "needs")
-    if given and two:
-        return (f"{', '.join(given)} {verb[0]} with one {what} for now; two {what}s are a walker's two "
-                f"feet, fused without heading aids")
-    if given:
-        return f"{', '.join(given)} {verb[1]} two {what}s (the left foot's, then the right foot's)"
+    given = [flag for dest, flag in _FEET_OPTIONS if getattr(args, dest, None) not in (None, False)]
+    if given and not two:
+        verb = "need" if len(given) > 1 else "needs"
+        return f"{', '.join(given)} {verb} two {what}s (the left foot's, then the right foot's)"
+    for dest, flag in _PER_MODULE_FILES:
+        files = getattr(args, dest, None)
+        if files is None:
+            continue
+        if two and len(files) != 2:
+            return (f"{flag} takes one file per module with two {what}s: the left foot's, then the right "
+                    f"foot's ({NO_FILE} for none), not {len(files)}")
+        if not two and (len(files) != 1 or files[0] == NO_FILE):
+            return f"{flag} takes one file with one {what}"
     if args.cmd == "track" and args.drift and not args.fusion:
         return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
                 "module's serial number, which the fusion set-up asks the module for")
@@ -155,9 +167,64 @@ def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] |
     settings = FusionSettings()
     if args.compass_sigma is not None:
         settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
-    cal = MagCalibration.load(args.mag_cal) if args.mag_cal else None
+    cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else None
     return prepare_aids(compass=args.compass, gps_path=args.gps, mag_calibration=cal,
                         declination=args.declination, origin=origin, settings=settings)
+
+
+def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[str, Any]:
+    """Side → the calibration loaded from each foot's file of a per-module option (none: -)."""
+    return {side: load(path) for side, path in zip(FOOT_SIDES, files or (), strict=False) if path != NO_FILE}
+
+
+def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
+                  last_counter: int | None, defer: bool, heading: float = 0.0):
+    """The two-feet tracker the options ask for, with each module's drift calibration, and — with
+    --compass or --gps — the heading aids (hostlib.aids; None otherwise)."""
+    from .aids import prepare_feet_aids
+    from .fusion import FusionSettings
+    from .magcal import MagCalibration
+
+    drift = _per_foot(args.drift, DriftCalibration.load)
+    if not (getattr(args, "compass", False) or getattr(args, "gps", None)):
+        return TwoFeetTracker(_feet_settings(args), last_counter=last_counter, defer=defer, heading=heading,
+                              drift=drift), None
+    settings = FusionSettings()
+    if args.compass_sigma is not None:
+        settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
+    aids = prepare_feet_aids(compass=args.compass, gps_path=args.gps,
+                             mag_calibrations=_per_foot(args.mag_cal, MagCalibration.load),
+                             declination=args.declination, origin=origin, settings=settings,
+                             feet=_feet_settings(args), drift=drift, last_counter=last_counter, defer=defer,
+                             heading=heading)
+    return aids.tracker, aids
+
+
+def _check_feet_modules(tracker: TwoFeetTracker, serials: Mapping[str, bytes | None], files: Mapping[str, str]
+                        ) -> None:
+    """Refuse a foot's drift or magnetometer calibration made with another module than the one on
+    that foot (*serials*: side → the module's serial number, None unknown; *files*: side → where
+    its stream came from); a pair given in the wrong order is named as swapped."""
+    checks: list[tuple[str, str, Callable[[bytes | None], None]]] = []
+    for side in FOOT_SIDES:
+        drift = tracker.drift.get(side)
+        if drift is not None:
+            checks.append((side, "drift", drift.check_module))
+        cal = tracker.foot(side).settings.mag_calibration
+        if cal is not None:
+            checks.append((side, "magnetometer",
+                           lambda serial, cal=cal: cal.check_module(serial_text(serial) if serial else "")))
+    for side, what, check in checks:
+        try:
+            check(serials[side])
+        except HostError as exc:
+            other = FOOT_SIDES[1 - FOOT_SIDES.index(side)]
+            try:
+                check(serials[other])
+                hint = f"; it fits the {other} foot's module: give the left foot's calibration first"
+            except HostError:
+                hint = ""
+            raise type(exc)(f"the {side} foot ({files[side]}): {what} calibration: {exc}{hint}") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -183,8 +250,9 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--heading", type=float, default=0.0,
                    help="initial heading in degrees from north towards east (default 0)")
     _setup_options(t)
-    t.add_argument("--drift", metavar="CAL.json",
-                   help="correct the track with this module's drift calibration (needs --fusion)")
+    t.add_argument("--drift", nargs="+", metavar="CAL.json",
+                   help="correct the track with this module's drift calibration (needs --fusion); with two "
+                        "URLs, the left foot's module's then the right foot's (- for none)")
     _feet_options(t, "URL")
 
     lg = sub.add_parser("log", help="capture the module's byte stream to a file (packets still acked)")
@@ -211,8 +279,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--png", help="plot the track to this PNG (needs matplotlib)")
     r.add_argument("--every", type=int, default=10, help="ellipse every N steps in the PNG")
     _aid_options(r)
-    r.add_argument("--drift", metavar="CAL.json",
-                   help="correct the track with this module's drift calibration (`drift calibrate`)")
+    r.add_argument("--drift", nargs="+", metavar="CAL.json",
+                   help="correct the track with this module's drift calibration (`drift calibrate`); with "
+                        "two captures, the left foot's module's then the right foot's (- for none)")
     _feet_options(r, "capture")
 
     d = sub.add_parser("drift", help="closed-loop drift correction of one module (hostlib.drift)")
@@ -429,16 +498,17 @@ def _follow(args: argparse.Namespace, modules: list[_Tracked], live: _LiveLine,
 def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     from .export import parse_origin
 
-    drift = DriftCalibration.load(args.drift) if args.drift else None
+    drift = DriftCalibration.load(args.drift[0]) if args.drift and args.url2 is None else None
     origin = parse_origin(args.origin) if args.origin else None  # refused before the port opens
     last_counter = None if args.attach else 0
     heading = math.radians(args.heading)
     if args.url2 is not None:
-        feet = TwoFeetTracker(_feet_settings(args), last_counter=last_counter, heading=heading)
+        feet, _ = _feet_tracker(args, origin, last_counter=last_counter, defer=False, heading=heading)
         with ExitStack() as stack:
             modules = _start_tracking(args, stack, {side: (url, feet.foot(side)) for side, url
                                                     in zip(FOOT_SIDES, (args.url, args.url2), strict=True)})
-            _follow(args, modules, _LiveLine(out), lambda: _feet_status(feet, modules))
+            first = None if not feet.drift else lambda: _check_feet_drift(feet, modules, args.ack_timeout)
+            _follow(args, modules, _LiveLine(out), lambda: _feet_status(feet, modules), first)
             streams = {m.side: (m.dev.name, m.dev.session.stats) for m in modules}
         _finish_feet(args, feet, streams, origin, out)
         return 0
@@ -469,6 +539,15 @@ def _feet_status(feet: TwoFeetTracker, modules: list[_Tracked]) -> tuple[str, ob
             (len(feet), tuple(dev.link_up for dev in devices.values()), tuple(failed)))
 
 
+def _check_feet_drift(feet: TwoFeetTracker, modules: list[_Tracked], ack_timeout: float) -> None:
+    """Refuse a foot's drift calibration made with another module, once both modules named
+    themselves (or did not in time: unknown, accepted as :meth:`DriftCalibration.check_module` does)."""
+    for m in modules:
+        _await_serial(m.dev, max(2.0, 2 * ack_timeout))
+    _check_feet_modules(feet, {m.side: m.dev.session.mcu_serial for m in modules},
+                        {m.side: m.dev.name for m in modules})
+
+
 def _check_drift_module(dev: Device, drift: DriftCalibration, ack_timeout: float) -> None:
     """Refuse another module's drift calibration before the walk starts."""
     _await_serial(dev, max(2.0, 2 * ack_timeout))
@@ -477,9 +556,9 @@ def _check_drift_module(dev: Device, drift: DriftCalibration, ack_timeout: float
 
 
 def _fusion_line(tracker) -> str:
-    """What the aids did, for the summary (a FusionTracker)."""
+    """What the aids did, for the summary (a FusionTracker or a TwoFeetTracker)."""
     f = tracker.fusion
-    if tracker.settings.compass and f.compass_updates == 0 and not f.heading_aligned_by:
+    if tracker.aid_settings.compass and f.compass_updates == 0 and not f.heading_aligned_by:
         return ("fusion: no step packet carried the magnetometers and attitude — record with the fusion "
                 "set-up (--fusion); the track is the plain sum")
     aligned = f"heading aligned by {f.heading_aligned_by}" if f.heading_aligned_by else \
@@ -540,6 +619,11 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
     lines.append(f"fusion: {len(tracker)} steps (left {tracker.sides.count('left')}, right "
                  f"{tracker.sides.count('right')}) | {constraint} | steps with a stale foot "
                  f"{tracker.stale_steps} | restarts: {restarts}")
+    for side, calibration in tracker.drift.items():
+        lines.append(f"drift correction, {side} foot: {calibration}")
+    if tracker.drift_uncorrected:
+        lines.append(f"drift correction: {tracker.drift_uncorrected} steps had no swing time and are "
+                     f"uncorrected (record with the fusion set-up)")
     for what, track in (("fused", tracker.body), ("average", tracker.average)):
         label = f"body ({what}):"
         lines.append(f"{label:16s}{_pose_text(track.final_pose, track.closure_sigma())} "
@@ -602,7 +686,7 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
 
     if args.capture2 is not None:
         return _replay_feet(args, out)
-    drift = DriftCalibration.load(args.drift) if args.drift else None
+    drift = DriftCalibration.load(args.drift[0]) if args.drift else None
     origin = parse_origin(args.origin) if args.origin else None
     aids = _prepare_aids(args, origin) if _uses_aids(args) else None
     session = replay_capture_session(args.capture, command_set=args.command_set,
@@ -633,13 +717,21 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
     """``replay LEFT RIGHT``: each capture decoded by its own session (its counters, resends and
     gaps), the two feet's steps then fused in module-time order."""
     from .export import parse_origin
-    from .replay import replay_feet
+    from .replay import decode_feet
 
     origin = parse_origin(args.origin) if args.origin else None
     paths = dict(zip(FOOT_SIDES, (args.capture, args.capture2), strict=True))
     left, right = (Path(paths[side]).read_bytes() for side in FOOT_SIDES)
-    tracker, stats = replay_feet(left, right, _feet_settings(args), command_set=args.command_set)
-    streams = {side: (paths[side], stats[side]) for side in FOOT_SIDES}
+    tracker, aids = _feet_tracker(args, origin, last_counter=None, defer=True)
+    sessions = decode_feet(left, right, tracker, command_set=args.command_set)
+    _check_feet_modules(tracker, {side: sessions[side].mcu_serial for side in FOOT_SIDES}, paths)
+    tracker.fuse_in_time_order()
+    if aids is not None:
+        print(f"aids: {aids.describe()}", file=out)
+        print(_fusion_line(tracker), file=out)
+        if args.gps:
+            origin = aids.origin  # the first fix: the GeoJSON goes on the globe
+    streams = {side: (paths[side], sessions[side].stats) for side in FOOT_SIDES}
     _finish_feet(args, tracker, streams, origin, out)
     return 0
 

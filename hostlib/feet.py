@@ -328,7 +328,7 @@ class TwoFeetTracker(AidedFilter):
     _heading_indices = (3, 7)
 
     @property
-    def _aid_settings(self) -> FusionSettings:
+    def aid_settings(self) -> FusionSettings:
         return self.aids
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:

@@ -121,7 +121,7 @@ class AidedFilter:
       :meth:`_origin_rows` those of a shift of the whole frame (every pose's x, y);
     * :meth:`_rotate_frame`: turn every pose (and the history kept of them) about the start;
     * :meth:`_travelled`: the horizontal displacement of the measured point since the start;
-    * :attr:`_aid_settings`: the :class:`FusionSettings`; ``len(self)``: the steps fused.
+    * :attr:`aid_settings`: the :class:`FusionSettings`; ``len(self)``: the steps fused.
 
     It calls :meth:`_init_aids` in its ``__init__``, then for each step :meth:`_compass_step` with
     the step's compass heading, and :meth:`_gps_until` with the step's module time.
@@ -135,7 +135,7 @@ class AidedFilter:
     _heading_indices: tuple[int, ...] = (3,)
 
     def _init_aids(self) -> None:
-        s = self._aid_settings
+        s = self.aid_settings
         self.fusion = FusionStats()
         self._aligned = not (s.compass or s.gps)
         self._fix_times: list[float] = []
@@ -148,7 +148,8 @@ class AidedFilter:
     # -- what a subclass gives --------------------------------------------------------
 
     @property
-    def _aid_settings(self) -> FusionSettings:
+    def aid_settings(self) -> FusionSettings:
+        """The aids this filter applies."""
         raise NotImplementedError
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
@@ -196,7 +197,7 @@ class AidedFilter:
 
     def add_fix(self, time_s: float, north_east: Iterable[float]) -> None:
         """Queue one fix (see :meth:`add_fixes`); fixes must come in time order."""
-        t = float(time_s) + self._aid_settings.gps_offset_s
+        t = float(time_s) + self.aid_settings.gps_offset_s
         if self._fix_times and t < self._fix_times[-1]:
             raise ValueError(f"fix at {time_s} s is older than the one before ({self._fix_times[-1]} s)")
         pos = np.asarray(list(north_east), dtype=np.float64)[:2]
@@ -214,7 +215,7 @@ class AidedFilter:
     def _compass_step(self, psi: float | None, heading_index: int, moved: bool) -> None:
         """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
         heading at *heading_index* minus D; *moved*: the step moved the foot."""
-        s = self._aid_settings
+        s = self.aid_settings
         if psi is None:
             self.fusion.compass_skipped += 1
             return
@@ -236,7 +237,7 @@ class AidedFilter:
 
     def _gps_until(self, now: float) -> None:
         """Apply the queued fixes whose time module time *now* [s] has reached."""
-        s = self._aid_settings
+        s = self.aid_settings
         while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
             t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
             self._next_fix += 1
@@ -264,7 +265,7 @@ class AidedFilter:
 
     def _align_by_course(self, fix: np.ndarray) -> bool:
         """Turn the track onto the GPS course once the receiver moved far enough (no compass)."""
-        s = self._aid_settings
+        s = self.aid_settings
         gps = fix - self._first_fix
         dr = self._travelled()
         distance = float(np.hypot(*gps))
@@ -385,7 +386,7 @@ class FusionTracker(AidedFilter, StepTracker):
     # -- the aids' view of the state ---------------------------------------------------
 
     @property
-    def _aid_settings(self) -> FusionSettings:
+    def aid_settings(self) -> FusionSettings:
         return self.settings
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:

@@ -28,7 +28,7 @@ from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from .session import HostSession, SessionStats
 from .tracking import StepTracker, Track
 
-__all__ = ["CAPTURE_HOST_COMMANDS", "implied_commands", "replay_bytes", "replay_capture",
+__all__ = ["CAPTURE_HOST_COMMANDS", "decode_feet", "implied_commands", "replay_bytes", "replay_capture",
            "replay_capture_session", "replay_feet", "replay_session"]
 
 #: The commands a capture's host is taken to have sent when the module acknowledges them:
@@ -80,15 +80,27 @@ def replay_capture_session(path: str | Path, **kwargs) -> HostSession:
     return replay_session(Path(path).read_bytes(), **kwargs)
 
 
+def decode_feet(left: bytes, right: bytes, tracker: TwoFeetTracker, *,
+                command_set: str = "2015") -> dict[str, HostSession]:
+    """Each foot's capture decoded by its own session into *tracker*'s foot (its counters,
+    resends and gaps; the counter before its first step unknown, as in :func:`replay_session`).
+    With a deferring tracker (``defer=True``) the steps wait for
+    :meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`: the caller can check each module's
+    serial number (``session.mcu_serial``) against its calibrations first."""
+    return {side: replay_session(data, command_set=command_set, tracker=tracker.foot(side))
+            for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
+
+
 def replay_feet(left: bytes, right: bytes, settings: FeetSettings | None = None, *,
-                command_set: str = "2015") -> tuple[TwoFeetTracker, dict[str, SessionStats]]:
+                command_set: str = "2015", tracker: TwoFeetTracker | None = None
+                ) -> tuple[TwoFeetTracker, dict[str, SessionStats]]:
     """The two feet of one walker from their modules' captures (``openshoe-host replay LEFT RIGHT``):
-    each capture decoded by its own session (its counters, resends and gaps; the counter before
-    its first step unknown, as in :func:`replay_session`), then both feet's steps fused in
-    module-time order (:meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`). Returns the
+    :func:`decode_feet`, then both feet's steps fused in module-time order
+    (:meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`). *tracker* (made with ``defer=True``
+    and ``last_counter=None``, e.g. with aids) replaces the plain one of *settings*. Returns the
     tracker and each foot's session counters."""
-    tracker = TwoFeetTracker(settings, last_counter=None, defer=True)
-    stats = {side: replay_session(data, command_set=command_set, tracker=tracker.foot(side)).stats
-             for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
+    if tracker is None:
+        tracker = TwoFeetTracker(settings, last_counter=None, defer=True)
+    sessions = decode_feet(left, right, tracker, command_set=command_set)
     tracker.fuse_in_time_order()
-    return tracker, stats
+    return tracker, {side: session.stats for side, session in sessions.items()}

@@ -13,6 +13,7 @@ import serial
 
 from hostlib.cli import main
 from hostlib.device import Device
+from hostlib.drift import DriftCalibration
 from hostlib.errors import DeviceClosed
 from hostlib.export import read_csv, read_feet_csv
 from hostlib.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
@@ -30,15 +31,30 @@ SCENARIO = "stand:3+walk:60+stand:2"
 def captures(tmp_path_factory) -> dict[str, str]:
     """Side → capture file of the module on that foot (the emulator, with the fusion set-up)."""
     from firmware_sim.app.batch import run_replay
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.sensors.feet import foot_module
     from firmware_sim.sensors.imu_array import make_feet_sources
+    from firmware_sim.transports.factory import module_serial
 
     folder = tmp_path_factory.mktemp("feet")
     paths = {}
     for side, source in make_feet_sources(SCENARIO, seed=1).items():
         path = folder / f"{side}.bin"
-        path.write_bytes(bytes(run_replay(source, announce=None, host="fusion")))
+        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(foot_module(1, side)))
+        path.write_bytes(bytes(run_replay(source, config=config, announce=None, host="fusion")))
         paths[side] = str(path)
     return paths
+
+
+def _drift_file(folder, side: str, dv=(0.0, 0.1, 0.0), module: int | None = None) -> str:
+    """A drift calibration of the module on *side* (or of module *module*)."""
+    from firmware_sim.sensors.feet import foot_module
+    from firmware_sim.transports.factory import module_serial
+
+    serial = module_serial(foot_module(1, side) if module is None else module)
+    path = folder / f"drift-{side}-{module}.json"
+    DriftCalibration(dv, 100.0, 100, 1, serial).save(path)
+    return str(path)
 
 
 def _fused(left: str, right: str) -> TwoFeetTracker:
@@ -128,12 +144,86 @@ def test_the_png_shows_the_body_and_both_feet(captures, tmp_path):
     assert png.read_bytes().startswith(b"\x89PNG")
 
 
-@pytest.mark.parametrize("options", [["--compass"], ["--gps", "walk.nmea"], ["--drift", "cal.json"],
-                                     ["--mag-cal", "cal.json"], ["--compass", "--declination", "3"]])
-def test_heading_aids_with_two_captures_are_refused(captures, capsys, options):
-    assert main(["replay", captures["left"], captures["right"], *options], io.StringIO()) == 2
+def test_two_captures_with_the_compass_turn_both_feet_onto_magnetic_north(captures):
+    out = io.StringIO()
+    assert main(["replay", captures["left"], captures["right"], "--compass", "--declination", "6"], out) == 0
+    text = out.getvalue()
+    assert "aids: compass σ 20° per step; declination +6.00° (given)" in text
+    updates = int(re.search(r"fusion: (\d+) compass updates", text).group(1))
+    assert updates > 60 and "heading aligned by compass" in text
+    plain = _fused(captures["left"], captures["right"]).body.final_pose
+    # the module starts facing 0 whichever way the walker faces; the compass says where that is
+    assert lines_heading(text) != pytest.approx(plain[3] % (2 * np.pi), abs=1e-6)
+
+
+def lines_heading(text: str) -> float:
+    """The fused body's end heading [rad] in a two-feet summary."""
+    return np.radians(float(re.search(r"body \(fused\):.*heading\s+([\d.]+)°", text).group(1)))
+
+
+def test_two_captures_with_gps_fixes_of_the_body_count_their_updates(captures, tmp_path):
+    from firmware_sim.sensors import scenarios
+    from firmware_sim.sensors.gps import simulate_fixes, write_nmea
+
+    t = np.arange(0.0, 70.0, 0.1)
+    pos = scenarios.feet(SCENARIO).body(t)[0]  # the receiver on the walker, on the modules' clock
+    nmea = write_nmea(tmp_path / "body.nmea", simulate_fixes(t, pos, np.gradient(pos, t, axis=0), seed=2))
+    out, geojson = io.StringIO(), tmp_path / "body.geojson"
+    argv = ["replay", captures["left"], captures["right"], "--gps", str(nmea), "--geojson", str(geojson)]
+    assert main(argv, out) == 0
+    text = out.getvalue()
+    assert re.search(r"fusion: \d+ compass updates .*, ([1-9]\d*) GPS updates", text)
+    assert "heading aligned by gps" in text and "NMEA lines" in text
+    assert '"crs": "local-enu-m"' not in geojson.read_text()  # placed on the globe at the first fix
+
+
+def test_each_foots_drift_calibration_moves_only_that_foot(captures, tmp_path):
+    both, left_only = io.StringIO(), io.StringIO()
+    files = [_drift_file(tmp_path, side) for side in FOOT_SIDES]
+    base = ["replay", captures["left"], captures["right"], "--no-constraint"]
+    assert main([*base, "--drift", *files], both) == 0
+    assert main([*base, "--drift", files[0], "-"], left_only) == 0
+    plain = _fused(captures["left"], captures["right"]).body.final_pose
+    assert "drift correction, left foot: Δv = [+0.00000, +0.10000, +0.00000] m/s" in both.getvalue()
+    assert "drift correction, right foot" in both.getvalue()
+    assert "drift correction, right foot" not in left_only.getvalue()
+    end = {name: float(re.search(r"body \(fused\):.*y\s+([-+][\d.]+)", out.getvalue()).group(1))
+           for name, out in (("both", both), ("left", left_only))}
+    # each foot moves east by 0.1 m/s times its swing time; the body by half of that per foot
+    assert end["both"] - plain[1] > 1.0
+    assert end["left"] - plain[1] == pytest.approx(0.5 * (end["both"] - plain[1]), rel=0.1)
+
+
+def test_drift_calibrations_given_in_the_wrong_order_are_refused_as_swapped(captures, tmp_path, capsys):
+    files = [_drift_file(tmp_path, side) for side in ("right", "left")]
+    assert main(["replay", captures["left"], captures["right"], "--drift", *files], io.StringIO()) == 1
     err = capsys.readouterr().err
-    assert f"{options[0]}" in err and "with one capture for now" in err
+    assert "the left foot" in err and "not for module OSEMU-M00000002" in err
+    assert "it fits the right foot's module: give the left foot's calibration first" in err
+    other = _drift_file(tmp_path, "left", module=7)
+    assert main(["replay", captures["left"], captures["right"], "--drift", other, "-"], io.StringIO()) == 1
+    assert "fits" not in capsys.readouterr().err
+
+
+def test_a_magnetometer_calibration_per_foot_is_checked_against_that_foots_module(captures, tmp_path, capsys):
+    from hostlib.magcal import MagCalibration
+
+    cal = tmp_path / "mag.json"
+    MagCalibration(np.zeros(3), np.eye(3), module_serial="OSEMU-M00000003").save(cal)
+    base = ["replay", captures["left"], captures["right"], "--compass"]
+    out = io.StringIO()
+    assert main([*base, "--mag-cal", "-", str(cal)], out) == 0
+    assert "(calibrated: right foot)" in out.getvalue()
+    assert main([*base, "--mag-cal", str(cal), "-"], io.StringIO()) == 1
+    assert "the left foot" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option", ["--drift", "--mag-cal"])
+def test_a_per_module_calibration_takes_one_file_per_foot(captures, capsys, option):
+    assert main(["replay", captures["left"], captures["right"], option, "a.json"], io.StringIO()) == 2
+    assert f"{option} takes one file per module with two captures" in capsys.readouterr().err
+    assert main(["replay", captures["left"], option, "a.json", "b.json"], io.StringIO()) == 2
+    assert f"{option} takes one file with one capture" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("options", [["--no-constraint"], ["--max-separation", "1.5"]])
@@ -214,10 +304,32 @@ def test_track_goes_on_when_one_devices_walk_fails_and_stops_when_both_do(fakesh
     assert main(["track", "fakeshoe://3", "fakeshoe://5", "--duration", "0.5"], io.StringIO()) == 1
 
 
-@pytest.mark.parametrize("options", [["--drift", "cal.json", "--fusion"], ["--heading", "0", "--drift", "c"]])
-def test_track_refuses_a_drift_calibration_for_two_devices(fakeshoe_scheme, capsys, options):
-    assert main(["track", "fakeshoe://3", "fakeshoe://3", *options], io.StringIO()) == 2
-    assert "--drift works with one URL for now" in capsys.readouterr().err
+def test_track_with_two_devices_corrects_each_foots_drift(fakeshoe_scheme, tmp_path):
+    cal = tmp_path / "drift.json"
+    DriftCalibration((0.0, 0.2, 0.0), 100.0, 100, 1, protocol_fakeshoe.MCU_ID).save(cal)
+    csv_path = tmp_path / "live.csv"
+    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--duration", "1.0",
+            "--drift", str(cal), str(cal), "--no-constraint", "--csv", str(csv_path)]
+    assert main(argv, io.StringIO()) == 0
+    feet = read_feet_csv(csv_path).feet
+    # four steps of 1 m north a foot, each moved 0.2 m/s · 0.5 s east
+    east = 4 * 0.2 * protocol_fakeshoe.SWING_TIME_S
+    assert feet["left"][-1][:2] == pytest.approx([4.0, -0.06 + east], abs=1e-6)
+    assert feet["right"][-1][:2] == pytest.approx([4.0, 0.06 + east], abs=1e-6)
+
+
+def test_track_refuses_another_modules_drift_calibration_for_a_foot(fakeshoe_scheme, tmp_path, capsys):
+    cal = tmp_path / "drift.json"
+    DriftCalibration((0.0, 0.2, 0.0), 100.0, 100, 1, b"ANOTHER-MODULE-").save(cal)
+    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--duration", "1.0",
+            "--drift", "-", str(cal)]
+    assert main(argv, io.StringIO()) == 1
+    assert "the right foot (fakeshoe://4/fusion): drift calibration" in capsys.readouterr().err
+
+
+def test_track_with_two_devices_needs_the_fusion_set_up_for_drift(fakeshoe_scheme, capsys):
+    assert main(["track", "fakeshoe://3", "fakeshoe://3", "--drift", "a.json", "b.json"], io.StringIO()) == 2
+    assert "--drift needs --fusion" in capsys.readouterr().err
     assert fakeshoe_scheme == []  # refused before any port opened
 
 
