@@ -35,13 +35,16 @@ def build_parser() -> argparse.ArgumentParser:
                 "1:51", "walkers", "fifty")
     lp = _seeded(sub, "two-feet-loop", "Bachmann's experiment: a 400 m loop, closure per foot, average and "
                                        "fusion", "1:6", "walkers", "five")
+    c = _seeded(sub, "consistency", "is the summed covariance honest? the end pose's normalised squared "
+                                    "error on walk, rectangle and default, and a constant inflation "
+                                    "estimated on the other routes", "0:20", "modules", "twenty")
     h = sub.add_parser("two-feet-heading",
                        help="the feet's headings over a 22-minute walk with and without the constraint, "
                             "and the same walk with the right foot's link down for 30 s")
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, s, v, n, f, lp, h):
+    for q in (w, s, v, n, f, lp, c, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -150,6 +153,13 @@ def _two_feet_loop(args: argparse.Namespace, out) -> int:
     return _seeded_table(args, out, two_feet.loop_rows, two_feet.loop_summary, "two-feet-loop.csv")
 
 
+def _consistency(args: argparse.Namespace, out) -> int:
+    from . import consistency
+
+    return _seeded_table(args, out, consistency.consistency_rows, consistency.summary_lines,
+                         "consistency.csv")
+
+
 def _two_feet_heading(args: argparse.Namespace, out) -> int:
     from . import two_feet
 
@@ -191,4 +201,4 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         return 2
     return {"walks": _walks, "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
-            "two-feet-heading": _two_feet_heading}[args.experiment](args, out)
+            "consistency": _consistency, "two-feet-heading": _two_feet_heading}[args.experiment](args, out)

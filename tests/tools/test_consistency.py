@@ -1,0 +1,66 @@
+"""openshoe-accuracy consistency: the normalised squared error of the end pose against the covariance
+the host summed; its interval is χ²'s, a consistent set of errors reads 1, and a constant inflation
+estimated on the other routes is applied to the one left out."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+import pytest
+
+from tools.accuracy import main
+from tools.accuracy.consistency import DOF, consistency_run, nees_interval, sigma_ratio, summary_lines
+
+
+@pytest.mark.parametrize(("seeds", "dof", "low", "high"), [
+    (20, 2, 24.433 / 40, 59.342 / 40),  # χ²(40) 2.5 % and 97.5 % quantiles
+    (20, 1, 9.591 / 20, 34.170 / 20),  # χ²(20)
+])
+def test_the_interval_of_a_consistent_mean_is_chi_squareds(seeds, dof, low, high):
+    lo, hi = nees_interval(seeds, dof)
+    assert lo == pytest.approx(low, rel=0.01) and hi == pytest.approx(high, rel=0.01)
+
+
+def _rows(scenario: str, scale: float, n: int = 400, seed: int = 0) -> list[dict]:
+    """Rows of a filter whose covariance is too small by *scale* in σ: its NEES are scale² χ²."""
+    rng = np.random.default_rng(seed)
+    return [{"scenario": scenario, "seed": k, "steps": 10, "distance_m": 10.0,
+             **{f"nees_{w}": scale ** 2 * float(np.sum(rng.normal(size=d) ** 2)) for w, d in DOF.items()},
+             **{f"{kind}_{key}": 0.0 for kind in ("e", "sigma")
+                for key in ("north_m", "east_m", "down_m", "heading_deg")}}
+            for k in range(n)]
+
+
+def test_an_honest_covariance_reads_one_and_an_over_confident_one_its_factor():
+    assert sigma_ratio(_rows("a", 1.0), "h") == pytest.approx(1.0, abs=0.06)
+    assert sigma_ratio(_rows("a", 3.0), "z") == pytest.approx(3.0, rel=0.1)
+
+
+def test_an_inflation_from_the_other_routes_is_applied_to_the_one_left_out():
+    rows = _rows("straight", 2.0, seed=1) + _rows("loop", 2.0, seed=2) + _rows("stairs", 8.0, seed=3)
+    lines = {line.split()[0]: line for line in summary_lines(rows)[2:5]}
+    k_stairs, after_stairs = (float(v) for v in
+                              lines["stairs"].split("k")[-1].replace("→ σ ratio", "").split())
+    assert k_stairs == pytest.approx(2.0, rel=0.1)  # what the two others need
+    assert after_stairs == pytest.approx(4.0, rel=0.1)  # not enough for the stairs
+
+
+def test_a_simulated_walk_gives_its_end_error_and_nees():
+    row = consistency_run(("rectangle", 0))
+    assert row["steps"] > 40 and row["distance_m"] == pytest.approx(90.0, rel=0.05)
+    assert all(math.isfinite(row[f"nees_{w}"]) and row[f"nees_{w}"] >= 0.0 for w in DOF)
+    e = np.array([row["e_north_m"], row["e_east_m"]])
+    assert np.hypot(*e) < 1.0  # a 90 m rectangle closes within 1 %
+    assert row["sigma_north_m"] > 0.0 and row["sigma_heading_deg"] > 0.0
+
+
+def test_the_command_writes_its_table(tmp_path):
+    out = io.StringIO()
+    argv = ["consistency", "--seeds", "0:2", "--workers", "0", "--out", str(tmp_path)]
+    assert main(argv, out) == 0
+    text = out.getvalue()
+    assert "mean NEES / dof over 2 seeds" in text
+    assert all(s in text for s in ("walk", "rectangle", "default"))
+    assert (tmp_path / "consistency.csv").read_text().count("\n") == 1 + 3 * 2

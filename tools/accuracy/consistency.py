@@ -1,0 +1,119 @@
+"""Is the summed covariance honest? The normalised squared error of the end pose over many seeds.
+
+The host weighs every step by the covariance dP the module sends with it (:mod:`hostlib.tracking`),
+and every aid trusts the track as much as that covariance says: it has to be honest. For each
+scenario and seed a simulated module walks, the host sums its steps, and the end pose is compared
+with the truth of the last stance in the module's start frame
+(:func:`firmware_sim.app.runs.end_errors`'s frame). With ``e`` that error and ``P`` the covariance
+the track ends with, the normalised estimation error squared (Bar-Shalom's NEES)::
+
+    ε_h = e_hᵀ P_h⁻¹ e_h   (horizontal, 2 dof),   ε_z = e_z² / P_zz,   ε_χ = e_χ² / P_χχ   (1 dof each)
+
+has mean = dof when ``P`` is the error's covariance. Over N seeds the mean of ε / dof is a
+χ²(N·dof) / (N·dof) draw: :func:`nees_interval` gives its 95 % interval. The **σ ratio**
+√(mean ε / dof) says by how much the covariance is off: above 1 the track is over-confident (its
+1σ too small by that factor), below 1 pessimistic.
+
+**Inflating on the host.** ``P`` is linear in the steps' dP (the summation starts from P = 0), so a
+host that multiplied every dP by k² would end with k² P and the mean NEES divided by k². A constant
+k for a module is only worth having if it holds across routes: :func:`summary_lines` estimates it
+on the other scenarios (leave one scenario out: the geometric mean of their horizontal σ ratios)
+and shows what it does to the one left out.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .runs import map_runs
+
+__all__ = ["SCENARIOS", "consistency_rows", "consistency_run", "nees_interval", "summary_lines"]
+
+#: The routes of the consistency check: a straight, a rectangle with four turns, the default
+#: route (two laps with stairs).
+SCENARIOS = ("walk", "rectangle", "default")
+#: The normal quantiles of a two-sided 95 % interval.
+_Z95 = 1.959963984540054
+#: The dimensions of the NEES: horizontal position, height, heading.
+DOF = {"h": 2, "z": 1, "chi": 1}
+
+
+def nees_interval(seeds: int, dof: int, z: float = _Z95) -> tuple[float, float]:
+    """The 95 % interval of mean(ε)/dof over *seeds* draws of a consistent filter's NEES of *dof*
+    dimensions: χ²(k)/k with k = seeds·dof, by the Wilson–Hilferty cube-root normal approximation
+    (within 1 % of the exact quantiles from k = 10)."""
+    k = seeds * dof
+    c = 2.0 / (9.0 * k)
+    return tuple((1.0 - c + s * z * math.sqrt(c)) ** 3 for s in (-1.0, 1.0))  # type: ignore[return-value]
+
+
+def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
+    """One walk: *job* = (scenario, seed). Its end errors, their 1σ and NEES."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.sensors.imu_array import make_source
+    from hostlib.replay import replay_bytes
+
+    scenario, seed = job
+    source = make_source(scenario, seed=seed)
+    track, _ = replay_bytes(run_replay(source, announce=None))
+    truth = source.truth
+    e = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
+    e_chi = math.remainder(float(track.final_pose[3]) - truth.heading_change(), 2.0 * math.pi)
+    p = track.final_covariance
+    sigma = np.sqrt(np.diagonal(p))
+    return {"scenario": scenario, "seed": seed, "steps": track.motion_steps, "distance_m": track.distance,
+            "e_north_m": float(e[0]), "e_east_m": float(e[1]), "e_down_m": float(e[2]),
+            "e_heading_deg": math.degrees(e_chi),
+            "sigma_north_m": float(sigma[0]), "sigma_east_m": float(sigma[1]),
+            "sigma_down_m": float(sigma[2]), "sigma_heading_deg": math.degrees(float(sigma[3])),
+            "nees_h": float(e[:2] @ np.linalg.solve(p[:2, :2], e[:2])),
+            "nees_z": float(e[2] ** 2 / p[2, 2]), "nees_chi": e_chi ** 2 / float(p[3, 3])}
+
+
+def consistency_rows(seeds: Sequence[int], workers: int = 2,
+                     scenarios: Sequence[str] = SCENARIOS) -> list[dict[str, Any]]:
+    """Every scenario × seed, in that order."""
+    return map_runs(consistency_run, [(s, seed) for s in scenarios for seed in seeds], workers)
+
+
+def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
+    """√(mean NEES / dof) of *rows* for *what* ("h", "z" or "chi")."""
+    return math.sqrt(float(np.mean([r[f"nees_{what}"] for r in rows])) / DOF[what])
+
+
+def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per scenario: the mean NEES / dof of the horizontal position, the height and the heading
+    against their 95 % interval, the σ ratios, and the horizontal one after a constant inflation
+    estimated on the other scenarios."""
+    scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
+    by = {s: [r for r in rows if r["scenario"] == s] for s in scenarios}
+    n = min(len(v) for v in by.values())
+    lines = [f"mean NEES / dof over {n} seeds (consistent: 1, 95 % interval "
+             + ", ".join(f"{w} [{lo:.2f}, {hi:.2f}]" for w, (lo, hi) in
+                         (("2 dof", nees_interval(n, 2)), ("1 dof", nees_interval(n, 1)))) + ")",
+             f"{'scenario':10s} {'steps':>6} {'m':>7}  {'horizontal':>10} {'height':>8} {'heading':>8}   "
+             f"{'σ ratio: h / z / χ':>22}   {'h, inflated by the others':>26}"]
+    for s in scenarios:
+        group = by[s]
+        ratios = [sigma_ratio(group, w) for w in DOF]
+        others = [sigma_ratio(by[o], "h") for o in scenarios if o != s]
+        k = math.exp(float(np.mean(np.log(others)))) if others else math.nan
+        lines.append(f"{s:10s} {np.mean([r['steps'] for r in group]):6.0f} "
+                     f"{np.mean([r['distance_m'] for r in group]):7.1f}  "
+                     + " ".join(f"{ratio ** 2:{w}.2f}" for ratio, w in zip(ratios, (10, 8, 8), strict=True))
+                     + f"   {ratios[0]:6.2f} / {ratios[1]:5.2f} / {ratios[2]:5.2f}   "
+                     f"k {k:5.2f} → σ ratio {ratios[0] / k:5.2f}")
+    lines.append("end error, mean ± sd over the seeds (start frame), against the 1σ the track ends with:")
+    for s in scenarios:
+        cells = []
+        for key in ("north_m", "east_m", "down_m", "heading_deg"):
+            e = np.array([r[f"e_{key}"] for r in by[s]])
+            sigma = float(np.mean([r[f"sigma_{key}"] for r in by[s]]))
+            axis, unit = key.split("_")
+            cells.append(f"{axis} {e.mean():+.3f} ± {e.std():.3f} (1σ {sigma:.3f}) {unit}")
+        lines.append(f"  {s:10s} " + " | ".join(cells))
+    return lines
