@@ -13,11 +13,20 @@ is the foot's single-module track — and feeds every step it sums to one :class
 * **the inter-foot constraint** (Prateek, Girisha, Hari and Händel 2013; aids.md §6): the feet are
   never farther apart than a step, ``‖p_L − p_R‖ ≤ γ``. After each step, if the estimate violates
   it, the estimate is projected onto ``‖p_L − p_R‖ = γ`` with the covariance as the metric
-  (Simon and Chia 2002: ``s ← s − P Dᵀ (D P Dᵀ)⁻¹ (‖p_L − p_R‖ − γ)``, ``D = [uᵀ 0 −uᵀ 0]``,
-  ``u`` the unit vector from right to left, relinearised until it holds; then
-  ``P ← P − P Dᵀ (D P Dᵀ)⁻¹ D P``). Through the correlation of each foot's position with its
-  heading, the projection also turns the headings towards each other: the drift between the
-  feet stays bounded;
+  (Simon and Chia 2002: ``s ← s − P Dᵀ (D P Dᵀ)⁻¹ (‖p_L − p_R‖ − γ)``, ``D = [uᵀ 0 −uᵀ 0 0]``,
+  ``u`` the unit vector from right to left, relinearised until it holds). Through the
+  correlation of each foot's position with its heading, the projection also turns the headings
+  towards each other: the drift between the feet stays bounded.
+
+  The covariance is **not** projected. The bound is an inequality the truth keeps well inside (a
+  walker's last rests lie about 0.75 m apart, never at γ), so a violation says where the
+  estimate must not be, not where the feet are. Projecting P as well (``P ← P − P Dᵀ (D P Dᵀ)⁻¹
+  D P``) treats the bound as an exact measurement of the separation, every time it binds: the
+  separation's variance along ``u`` collapses to zero, and the next violation is explained by
+  whatever the last step correlated with it — at a corner, the feet's common heading and the
+  declination. With the heading aids that turned both headings and D by up to 3° for a 5 cm
+  violation (the two-feet NavShoe experiment, docs/two-feet.md); the estimate projection alone
+  keeps the covariance the two feet's steps give, which the aids can trust;
 * **the body** is the midpoint of the feet, heading the mean of the two, covariance ``M P Mᵀ``
   (:attr:`TwoFeetTracker.body`); :attr:`TwoFeetTracker.average` is the same midpoint of the two
   single-module tracks — the baseline (Bachmann et al. average the two feet).
@@ -312,9 +321,7 @@ class TwoFeetTracker(AidedFilter):
             s = s - ph * ((dist - gamma) / var)
             if abs(float(np.linalg.norm(s[0:3] - s[4:7])) - gamma) < 1e-9:
                 break
-        self._s = s
-        self._p = p - np.outer(ph, ph) / var
-        self._p = 0.5 * (self._p + self._p.T)
+        self._s = s  # the covariance stays: module docstring
         self.projections += 1
 
     def _record(self) -> None:

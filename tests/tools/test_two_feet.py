@@ -1,5 +1,7 @@
 """openshoe-accuracy's two-feet experiments: a walker's two modules through the emulated module and
-the host's two-foot fusion; a lost link on one foot is reported and the fused track goes on."""
+the host's two-foot fusion; a lost link on one foot is reported and the fused track goes on; the
+heading aids on both feet (NavShoe's outage loop) and each module's drift correction (leave-one-out
+over one walker's loops)."""
 
 from __future__ import annotations
 
@@ -51,3 +53,63 @@ def test_heading_run_reports_both_trackers_and_the_gap(monkeypatch):
     lines = two_feet.heading_summary(result)
     assert any("right foot's link down 10–18 s" in line for line in lines)
     assert result["gaps"]["right"] and not result["gaps"]["left"]
+
+
+@pytest.fixture(scope="module")
+def aided_rows(tmp_path_factory):
+    """Walker 1's walk of NavShoe's outage loop through ``openshoe-accuracy two-feet-aids``."""
+    path = tmp_path_factory.mktemp("two-feet-aids")
+    out = io.StringIO()
+    assert main(["two-feet-aids", "--seeds", "1", "--workers", "0", "--out", str(path)], out) == 0
+    assert "630 m walked without GPS" in out.getvalue()
+    with (path / "two-feet-aids.csv").open() as f:
+        return {r["estimate"]: r for r in csv.DictReader(f)}
+
+
+def test_the_outage_loop_with_two_feet_reports_every_estimate_and_the_declinations(aided_rows):
+    assert set(aided_rows) == set(two_feet.AIDED_ESTIMATES)
+    for row in aided_rows.values():
+        assert float(row["without_gps_m"]) == pytest.approx(630.4)
+        assert float(row["end_error_pct_without_gps"]) == pytest.approx(  # the distance is rounded
+            100.0 * float(row["end_error_m"]) / float(row["without_gps_m"]), rel=1e-3)
+    assert float(aided_rows["fused plain"]["declination_deg"]) == 0.0  # no aids: D stays at its prior
+    # GPS taught the joint filter's declination: nearer the simulated 6° than the WMM's 7.70°
+    free = aided_rows["unconstrained compass+gps"]
+    truth, prior = float(free["true_declination_deg"]), float(free["wmm_declination_deg"])
+    assert abs(float(free["declination_deg"]) - truth) < abs(prior - truth)
+
+
+def test_compass_and_gps_on_both_feet_keep_the_outage_under_one_percent(aided_rows):
+    # NavShoe's figure: with the compass, the end error ≤ 1 % of the distance walked without GPS
+    for name in ("fused compass+gps", "average compass+gps", "unconstrained compass+gps"):
+        assert float(aided_rows[name]["end_error_pct_without_gps"]) < 1.0
+
+
+def test_the_constraint_does_not_turn_the_aided_feet_away(aided_rows):
+    # the projection moves the estimate only: it never turns both headings and D for centimetres
+    fused, free = (float(aided_rows[name]["end_error_m"]) for name in ("fused compass+gps",
+                                                                       "unconstrained compass+gps"))
+    assert fused <= 1.1 * free
+    truth = float(aided_rows["fused compass+gps"]["true_declination_deg"])
+    assert abs(float(aided_rows["fused compass+gps"]["declination_deg"]) - truth) < 1.5
+
+
+def test_drift_correction_from_the_other_loop_closes_each_foot_and_the_body(tmp_path):
+    out = io.StringIO()
+    assert main(["two-feet-drift", "--seeds", "1:3", "--workers", "0", "--out", str(tmp_path)], out) == 0
+    assert "round a 400 m loop 2 times" in out.getvalue()
+    with (tmp_path / "two-feet-drift.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == 2 * 2 * len(two_feet.ESTIMATES)
+    closure = {(int(r["seed"]), r["estimate"], r["drift_correction"] == "True"): float(r["closure_pct"])
+               for r in rows}
+    for seed in (1, 2):
+        for name in two_feet.ESTIMATES:
+            assert closure[(seed, name, True)] < closure[(seed, name, False)]
+
+
+def test_drift_correction_needs_another_loop_to_calibrate_on(tmp_path, capsys):
+    assert main(["two-feet-drift", "--seeds", "1", "--workers", "0", "--out", str(tmp_path)]) == 2
+    assert "at least two seeds" in capsys.readouterr().err
+    with pytest.raises(ValueError, match="at least two loops"):
+        two_feet.drift_rows([1], workers=0)

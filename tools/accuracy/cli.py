@@ -35,6 +35,12 @@ def build_parser() -> argparse.ArgumentParser:
                 "1:51", "walkers", "fifty")
     lp = _seeded(sub, "two-feet-loop", "Bachmann's experiment: a 400 m loop, closure per foot, average and "
                                        "fusion", "1:6", "walkers", "five")
+    a = _seeded(sub, "two-feet-aids", "NavShoe's outage experiment with a module on each foot: the body's "
+                                      "end error fused with compass + GPS, their average, fused plain, one "
+                                      "foot", "1:11", "walkers", "ten")
+    d = _seeded(sub, "two-feet-drift", "Bachmann's drift correction with two feet: one walker's modules "
+                                       "round a 400 m loop, each corrected with the others' calibrations",
+                "1:7", "loops", "six")
     c = _seeded(sub, "consistency", "is the summed covariance honest? the end pose's normalised squared "
                                     "error on walk, rectangle and default, and a constant inflation "
                                     "estimated on the other routes", "0:20", "modules", "twenty")
@@ -44,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, s, v, n, f, lp, c, h):
+    for q in (w, s, v, n, f, lp, a, d, c, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -153,6 +159,25 @@ def _two_feet_loop(args: argparse.Namespace, out) -> int:
     return _seeded_table(args, out, two_feet.loop_rows, two_feet.loop_summary, "two-feet-loop.csv")
 
 
+def _two_feet_aids(args: argparse.Namespace, out) -> int:
+    from . import two_feet
+
+    return _seeded_table(args, out, two_feet.aids_rows, two_feet.aids_summary, "two-feet-aids.csv")
+
+
+def _two_feet_drift(args: argparse.Namespace, out) -> int:
+    from . import two_feet
+
+    seeds = _seeds(args)
+    if seeds is None:
+        return 2
+    if len(seeds) < 2:
+        print(f"{PROG}: two-feet-drift: each loop is corrected with the other loops' calibrations: "
+              f"give at least two seeds, got {args.seeds!r}", file=sys.stderr)
+        return 2
+    return _seeded_table(args, out, two_feet.drift_rows, two_feet.drift_summary, "two-feet-drift.csv")
+
+
 def _consistency(args: argparse.Namespace, out) -> int:
     from . import consistency
 
@@ -201,4 +226,5 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         return 2
     return {"walks": _walks, "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
+            "two-feet-aids": _two_feet_aids, "two-feet-drift": _two_feet_drift,
             "consistency": _consistency, "two-feet-heading": _two_feet_heading}[args.experiment](args, out)

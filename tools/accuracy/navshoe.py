@@ -1,4 +1,4 @@
-"""NavShoe's outage experiment, simulated (shared/spec/aids.md §2; issue: heading aids).
+"""NavShoe's outage experiment, simulated (shared/spec/aids.md §2).
 
 One walk of the ``navshoe-outage`` scenario per seed — a hilly 1 km loop outdoors, started facing
 north-east, whose GPS receiver stops giving fixes after the first 400 m — goes once through the
@@ -25,11 +25,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["SCENARIO", "HOSTS", "outage_rows", "outage_run", "summary_lines"]
+__all__ = ["SCENARIO", "HOSTS", "WalkFixes", "error_table", "outage_rows", "outage_run", "outdoor_compass",
+           "shoe_iron", "summary_lines", "walk_fixes"]
 
 SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
@@ -38,10 +40,20 @@ HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
 OUTDOOR_COMPASS_SIGMA_DEG = 5.0
 
 
-def outage_run(seed: int) -> list[dict[str, Any]]:
-    """The four hosts' rows of one seed (module docstring)."""
-    from firmware_sim.app.batch import run_replay
-    from firmware_sim.mcu.module import ModuleConfig
+@dataclass(frozen=True)
+class WalkFixes:
+    """The fixes of a walk's GPS receiver as the host reads them (its NMEA through
+    :class:`hostlib.gps.NmeaReader`)."""
+
+    times_s: np.ndarray  #: (n,) each fix's time, seconds since the receiver started talking
+    north_east: np.ndarray  #: (n, 2) [m] each fix about the first fix: what the host's filter takes
+    first_fix: np.ndarray  #: (2,) the first fix in the walk's frame: where a GPS run's origin lies
+    without_gps_m: float  #: the distance walked after the receiver's last fix [m]
+
+
+def walk_fixes(scenario: str, t: np.ndarray, pos: np.ndarray, vel: np.ndarray, seed: int) -> WalkFixes:
+    """The fixes of a receiver carried along the true path *pos*, *vel* (times *t*) of *scenario*'s
+    walk *seed*, at the default origin and start, with the outage the scenario scripts."""
     from firmware_sim.sensors.gps import (
         DEFAULT_ORIGIN,
         DEFAULT_START,
@@ -50,41 +62,61 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         scenario_errors,
         simulate_fixes,
     )
-    from firmware_sim.sensors.imu_array import make_source
     from firmware_sim.sensors.truth import walked_distance
+    from hostlib.gps import NmeaReader, local_positions, seconds_since
+
+    errors = scenario_errors(GpsErrors(), scenario, t, pos)
+    reader = NmeaReader()
+    fixes = reader.feed_all(nmea_lines(simulate_fixes(t, pos, vel, DEFAULT_ORIGIN, errors, seed=seed),
+                                       DEFAULT_START, errors))
+    walked = walked_distance(pos)
+    outage_start = errors.outages[-1][0]
+    return WalkFixes(seconds_since(reader.stats.first_time, fixes), local_positions(fixes)[:, :2],
+                     local_positions(fixes[:1], origin=DEFAULT_ORIGIN)[0, :2],
+                     float(walked[-1] - np.interp(outage_start, t, walked)))
+
+
+def outdoor_compass() -> dict[str, Any]:
+    """The per-step compass outdoors, as :class:`hostlib.fusion.FusionSettings` fields: σ
+    :data:`OUTDOOR_COMPASS_SIGMA_DEG`, the declination prior from the World Magnetic Model at the
+    default origin and start."""
+    from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START
+    from hostlib.declination import declination_deg
+
+    return {"compass": True, "compass_sigma_rad": math.radians(OUTDOOR_COMPASS_SIGMA_DEG),
+            "declination_rad": math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))}
+
+
+def shoe_iron(source: Any) -> Any:
+    """The hard and soft iron of *source*'s shoe as simulated, as the host's
+    :class:`hostlib.magcal.MagCalibration` (the in-situ calibration from a wiggle is not built yet)."""
+    from hostlib.magcal import MagCalibration
+
+    return MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))
+
+
+def outage_run(seed: int) -> list[dict[str, Any]]:
+    """The four hosts' rows of one seed (module docstring)."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.mcu.module import ModuleConfig
+    from firmware_sim.sensors.imu_array import make_source
     from firmware_sim.transports.factory import module_serial
     from hostlib.compass import wrap_angle
-    from hostlib.declination import declination_deg
     from hostlib.fusion import FusionSettings, FusionTracker
-    from hostlib.gps import NmeaReader, local_positions, seconds_since
-    from hostlib.magcal import MagCalibration
     from hostlib.replay import replay_session
 
     source = make_source(SCENARIO, seed=seed)
     truth = source.truth
     config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(None))
     data = bytes(run_replay(source, config=config, announce=None, host="fusion"))
-    errors = scenario_errors(GpsErrors(), SCENARIO, truth.t, truth.pos)
-    reader = NmeaReader()
-    fixes = reader.feed_all(nmea_lines(simulate_fixes(truth.t, truth.pos, truth.vel, DEFAULT_ORIGIN, errors,
-                                                      seed=seed), DEFAULT_START, errors))
-    times = seconds_since(reader.stats.first_time, fixes)
-    north_east = local_positions(fixes)[:, :2]
-    first_fix = local_positions(fixes[:1], origin=DEFAULT_ORIGIN)[0, :2]  # in the walk's frame
-    wmm = math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))
+    gps = walk_fixes(SCENARIO, truth.t, truth.pos, truth.vel, seed)
     true_declination = source.config.mag.declination_deg
-    walked = walked_distance(truth.pos)
-    outage_start = errors.outages[-1][0]
-    without_gps = float(walked[-1] - np.interp(outage_start, truth.t, walked))
     end = truth.pos[-1, :2]
     r_end = truth.R[-1]
     true_heading = math.atan2(r_end[1, 0], r_end[0, 0])
     r0 = truth.R[0]
-    compass_sigma = math.radians(OUTDOOR_COMPASS_SIGMA_DEG)
-    # the shoe's iron as simulated (the in-situ calibration from a wiggle is not built yet)
-    iron = MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))
-    compass = {"compass": True, "compass_sigma_rad": compass_sigma, "declination_rad": wmm,
-               "mag_calibration": iron}
+    compass = {**outdoor_compass(), "mag_calibration": shoe_iron(source)}
+    wmm = compass["declination_rad"]
     settings = {
         "compass+gps": FusionSettings(gps=True, **compass),
         "gps": FusionSettings(gps=True),
@@ -98,15 +130,15 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         heading0 = math.atan2(r0[1, 0], r0[0, 0]) if host == "plain" else 0.0
         tracker = FusionTracker(cfg, last_counter=None, heading=heading0)
         if cfg.gps:
-            tracker.add_fixes(times, north_east)
+            tracker.add_fixes(gps.times_s, gps.north_east)
         replay_session(data, tracker=tracker)
         pose = tracker.track.final_pose
-        position = pose[:2] + (first_fix if cfg.gps else 0.0)
+        position = pose[:2] + (gps.first_fix if cfg.gps else 0.0)
         error = float(np.hypot(*(position - end)))
         rows.append({
             "seed": seed, "host": host, "distance_m": round(tracker.track.distance, 1),
-            "without_gps_m": round(without_gps, 1), "end_error_m": error,
-            "end_error_pct_without_gps": 100.0 * error / without_gps,
+            "without_gps_m": round(gps.without_gps_m, 1), "end_error_m": error,
+            "end_error_pct_without_gps": 100.0 * error / gps.without_gps_m,
             "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_heading)),
             "declination_deg": math.degrees(tracker.declination),
             "declination_sigma_deg": math.degrees(tracker.declination_sigma),
@@ -126,21 +158,27 @@ def outage_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
-    out = [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
-           f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)",
-           f"{'host':<26} {'end error [m]':>16} {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14}"
+    return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
+            f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
+            ] + error_table(rows, "host", HOSTS)
+
+
+def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str]) -> list[str]:
+    """The table of :func:`summary_lines`, a line per *key* in *names*: mean ± sd and worst of the
+    end error and |heading error|, the declination (learned where compass and GPS are on)."""
+    out = [f"{key:<26} {'end error [m]':>16} {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14}"
            f" {'declination [°]':>16}"]
-    for host in HOSTS:
-        sel = [r for r in rows if r["host"] == host]
+    for name in names:
+        sel = [r for r in rows if r[key] == name]
         if not sel:
             continue
         e = np.array([r["end_error_m"] for r in sel])
         pct = np.array([r["end_error_pct_without_gps"] for r in sel])
         h = np.abs([r["heading_error_deg"] for r in sel])
         d = np.array([r["declination_deg"] for r in sel])
-        learned = host.startswith("compass+gps")
+        learned = "compass+gps" in name
         dec = f"{d.mean():6.2f} ± {d.std():4.2f}" if learned else f"{d.mean():6.2f} (fixed)"
-        out.append(f"{host:<26} {e.mean():7.2f} ± {e.std():5.2f} {pct.mean():14.2f} {pct.max():8.2f} "
+        out.append(f"{name:<26} {e.mean():7.2f} ± {e.std():5.2f} {pct.mean():14.2f} {pct.max():8.2f} "
                    f"{h.mean():6.2f} ± {h.std():5.2f} {dec:>16}")
     truth = rows[0]
     out.append(f"simulated declination {truth['true_declination_deg']:.2f}°, WMM prior "

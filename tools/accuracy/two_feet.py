@@ -1,4 +1,4 @@
-"""Two feet, simulated (shared/spec/aids.md §6; issue: two feet): a module on each foot of one walker.
+"""Two feet, simulated (shared/spec/aids.md §6): a module on each foot of one walker.
 
 Every walk goes through the emulated modules exactly as a user's would — each foot's module
 replayed with the fusion host (``openshoe-emu replay --scenario NAME --feet 2 --host fusion``:
@@ -18,9 +18,25 @@ the two (``average``, Bachmann et al.), and the constrained fusion's body (``fus
   separation after every step (:func:`plot_heading`). With ``drop_s``, the right foot's link is
   lost for that long mid-walk: its packets in that window never reach the host, so its counter
   jumps and the fused track continues on the left foot (the gap and the restart are reported).
+* :func:`aids_rows` — **NavShoe's outage experiment with two feet**: the ``navshoe-outage`` loop
+  (1 km outdoors, GPS for the first 400 m) walked with a module on each foot, the receiver on the
+  body, the per-step compass and the declination prior chosen as :mod:`.navshoe` chooses them
+  (each foot's compass with its own shoe's iron removed). Per walker the error at the end of the
+  outage of :data:`AIDED_ESTIMATES`: the fused body with compass and GPS, the average of the two
+  feet's aided single tracks, the fused body without aids (given the true initial heading, like
+  NavShoe's ``plain``), the left foot's own aided track, and the aided joint filter without the
+  inter-foot constraint (both feet and D in one filter, never projected); the declination each learned.
+* :func:`drift_rows` — **Bachmann's drift correction with two feet**: walker :data:`DRIFT_WALKER`
+  walks the 400 m track once per seed, with the same two modules every time (a module's
+  systematic errors belong to the module, its noise and in-run drift to the walk). Leave-one-out:
+  each loop is re-fused with each foot's module calibrated (:func:`hostlib.drift.calibrate`) on
+  the other loops' single-module tracks of that foot; its closure per foot, average and fusion,
+  with and without the correction.
 
 A single foot's estimates start at its own start (the left foot half the step width left of the
-body); errors compare each with the truth of the same point.
+body); errors compare each with the truth of the same point. (An aided single foot starts half the
+step width left of the body as if facing north, before its first compass reading turns it about
+that start: a few centimetres from its true start, against end errors of metres.)
 """
 
 from __future__ import annotations
@@ -33,14 +49,21 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["ESTIMATES", "HEADING_SCENARIO", "LOOP_SCENARIO", "STRAIGHT_SCENARIO", "FeetWalk", "drop_packets",
-           "feet_walk", "heading_run", "loop_rows", "loop_summary", "plot_end_points", "plot_heading",
-           "straight_rows", "straight_summary"]
+__all__ = ["AIDED_ESTIMATES", "DRIFT_WALKER", "ESTIMATES", "HEADING_SCENARIO", "LOOP_SCENARIO",
+           "STRAIGHT_SCENARIO", "FeetWalk", "aids_rows", "aids_run", "aids_summary", "drift_loop",
+           "drift_rows", "drift_summary", "drop_packets", "feet_captures", "feet_walk", "heading_run",
+           "loop_rows", "loop_summary", "plot_end_points", "plot_heading", "straight_rows",
+           "straight_summary"]
 
 STRAIGHT_SCENARIO = "walk"  # stand 3 s, 100 m north, stand 2 s
 LOOP_SCENARIO = "track400"  # one lap of a 400 m running track, turning left
 HEADING_SCENARIO = "stand:5+track400:5+stand:5"  # 2 km, about 22 minutes
 ESTIMATES = ("left", "right", "average", "fused")
+#: What :func:`aids_run` compares on NavShoe's outage loop (module docstring).
+AIDED_ESTIMATES = ("fused compass+gps", "average compass+gps", "fused plain", "left compass+gps",
+                   "unconstrained compass+gps")
+#: The walker of :func:`drift_rows`: every loop is walked with this walker's two modules.
+DRIFT_WALKER = 1
 
 
 @dataclass
@@ -77,20 +100,30 @@ def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, i
     return bytes(out), len(cut)
 
 
-def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None) -> FeetWalk:
-    """Walk *scenario* with a module on each foot (walker *seed*) and fuse the two captures."""
+def feet_captures(scenario: str, seed: int, walker: int | None = None
+                  ) -> tuple[dict[str, Any], dict[str, bytes]]:
+    """A module on each foot of a walker walking *scenario* (walk *seed*; *walker*'s two modules,
+    None: the seed's own), each replayed with the fusion host: side → sensor source, side → the
+    bytes its module sent."""
     from firmware_sim.app.batch import run_replay
     from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.sensors.imu_array import make_feet_sources
     from firmware_sim.transports.factory import module_serial
-    from hostlib.feet import FeetSettings
-    from hostlib.replay import replay_feet
 
-    sources = make_feet_sources(scenario, seed=seed)
+    sources = make_feet_sources(scenario, seed=seed, walker=walker)
     captures = {}
     for side, source in sources.items():
         config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(source.module))
         captures[side] = bytes(run_replay(source, config=config, announce=None, host="fusion"))
+    return sources, captures
+
+
+def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None) -> FeetWalk:
+    """Walk *scenario* with a module on each foot (walker *seed*) and fuse the two captures."""
+    from hostlib.feet import FeetSettings
+    from hostlib.replay import replay_feet
+
+    sources, captures = feet_captures(scenario, seed)
     dropped = 0
     if drop_s is not None:
         captures["right"], dropped = drop_packets(captures["right"], *drop_s)
@@ -157,19 +190,27 @@ def straight_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
     return out
 
 
+def _closures(seed: int, tracker: Any, feet: dict[str, Any] | None = None, **extra: Any
+              ) -> list[dict[str, Any]]:
+    """The rows of one loop fused by *tracker*: closure per estimate. *feet* (side → Track) stand
+    for the feet's own single-module tracks (e.g. drift-corrected); *extra* goes in every row."""
+    own = {side: tracker.foot(side).track for side in ("left", "right")}
+    feet = feet or own
+    both = 0.5 * (own["left"].distance + own["right"].distance)
+    rows = []
+    for name, track in (*feet.items(), ("average", tracker.average), ("fused", tracker.body)):
+        end = track.final_pose[:3] - track.poses[0][:3]
+        distance = own[name].distance if name in own else both
+        closure = float(np.hypot(*end[:2]))
+        rows.append({"seed": seed, "estimate": name, **extra, "closure_m": closure, "distance_m": distance,
+                     "closure_pct": 100.0 * closure / distance, "height_closure_m": float(-end[2]),
+                     "projections": tracker.projections})
+    return rows
+
+
 def loop_run(seed: int) -> list[dict[str, Any]]:
     """The rows of one walker's 400 m loop: closure per estimate."""
-    walk = feet_walk(LOOP_SCENARIO, seed)
-    rows = []
-    for name, (end, _true, _cov) in _ends(walk).items():
-        track = walk.tracker.foot(name).track if name in ("left", "right") else None
-        distance = track.distance if track is not None else 0.5 * (walk.tracker.left.track.distance
-                                                                    + walk.tracker.right.track.distance)
-        closure = float(np.hypot(*end[:2]))
-        rows.append({"seed": seed, "estimate": name, "closure_m": closure, "distance_m": distance,
-                     "closure_pct": 100.0 * closure / distance, "height_closure_m": float(-end[2]),
-                     "projections": walk.tracker.projections})
-    return rows
+    return _closures(seed, feet_walk(LOOP_SCENARIO, seed).tracker)
 
 
 def loop_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
@@ -188,6 +229,131 @@ def loop_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
         pct = np.array([r["closure_pct"] for r in sel])
         out.append(f"{name:<9} {c.mean():7.2f} ± {c.std():5.2f} {pct.mean():15.2f} {pct.max():8.2f}")
     return out
+
+
+def drift_loop(seed: int) -> dict[str, bytes]:
+    """The two captures of :data:`DRIFT_WALKER`'s walk *seed* round the loop."""
+    return feet_captures(LOOP_SCENARIO, seed, walker=DRIFT_WALKER)[1]
+
+
+def drift_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+    """Every loop's closures without the drift correction and with it, leave-one-out (module
+    docstring): each loop's modules calibrated on the other loops' uncorrected single tracks."""
+    from firmware_sim.sensors.feet import SIDES, foot_module
+    from firmware_sim.transports.factory import module_serial
+    from hostlib.drift import calibrate
+    from hostlib.feet import TwoFeetTracker
+    from hostlib.replay import replay_feet
+
+    from .runs import map_runs
+
+    seeds = list(seeds)
+    if len(seeds) < 2:
+        raise ValueError("leave-one-out drift correction needs at least two loops")
+    captures = map_runs(drift_loop, seeds, workers)
+    plain = [replay_feet(c["left"], c["right"])[0] for c in captures]
+    serials = {side: module_serial(foot_module(DRIFT_WALKER, side)) for side in SIDES}
+    rows = []
+    for i, seed in enumerate(seeds):
+        others = [j for j in range(len(seeds)) if j != i]
+        drift = {side: calibrate([plain[j].foot(side).track for j in others], serials[side],
+                                 names=[f"loop {seeds[j]}" for j in others]) for side in SIDES}
+        corrected = TwoFeetTracker(last_counter=None, defer=True, drift=drift)
+        replay_feet(captures[i]["left"], captures[i]["right"], tracker=corrected)
+        feet = {side: drift[side].apply(corrected.foot(side).track, module_serial=serials[side])
+                for side in SIDES}
+        speeds = {f"{side}_drift_mm_s": 1e3 * math.hypot(*drift[side].dv[:2]) for side in SIDES}
+        rows += _closures(seed, plain[i], drift_correction=False, **{k: math.nan for k in speeds})
+        rows += _closures(seed, corrected, feet, drift_correction=True, **speeds)
+    return rows
+
+
+def drift_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
+    from firmware_sim.sensors.feet import foot_module
+
+    n, by_estimate = _per_estimate(rows)
+    modules = ", ".join(f"{foot_module(DRIFT_WALKER, side)} {side}" for side in ("left", "right"))
+    out = [f"two feet, walker {DRIFT_WALKER}'s modules ({modules}) round a 400 m loop {n} times, each loop "
+           f"corrected with the drift calibrations of the other {n - 1}: horizontal closure [% of distance]",
+           f"{'estimate':<9} {'uncorrected':>12} {'worst':>6} {'corrected':>12} {'worst':>6}"]
+    for name, sel in by_estimate:
+        cols = []
+        for correction in (False, True):
+            pct = np.array([r["closure_pct"] for r in sel if r["drift_correction"] == correction])
+            cols.append(f"{pct.mean():5.2f} ± {pct.std():4.2f} {pct.max():6.2f}")
+        out.append(f"{name:<9} " + " ".join(cols))
+    corrected = [r for r in rows if r["drift_correction"] and r["estimate"] == "fused"]
+    speeds = ", ".join(f"{side} {np.mean([r[f'{side}_drift_mm_s'] for r in corrected]):.2f} mm/s"
+                       for side in ("left", "right"))
+    out.append(f"the calibrations' horizontal drift velocity |Δv|: {speeds}")
+    return out
+
+
+def aids_run(seed: int) -> list[dict[str, Any]]:
+    """The rows of one walker's walk of NavShoe's outage loop: one per :data:`AIDED_ESTIMATES`."""
+    from firmware_sim.sensors.feet import body_truth
+    from hostlib.compass import wrap_angle
+    from hostlib.feet import FeetSettings, TwoFeetTracker
+    from hostlib.fusion import FusionSettings
+    from hostlib.replay import replay_feet
+
+    from .navshoe import SCENARIO, outdoor_compass, shoe_iron, walk_fixes
+
+    sources, captures = feet_captures(SCENARIO, seed)
+    t, pos, vel, yaw = body_truth(sources["left"].truth, sources["right"].truth)
+    gps = walk_fixes(SCENARIO, t, pos, vel, seed)  # the receiver on the body
+    aids = FusionSettings(gps=True, **outdoor_compass())
+    aided, unconstrained = (
+        TwoFeetTracker(FeetSettings(constraint=constraint), last_counter=None, defer=True, aids=aids,
+                       mag_calibrations={side: shoe_iron(source) for side, source in sources.items()})
+        for constraint in (True, False))
+    plain = TwoFeetTracker(last_counter=None, defer=True, heading=float(yaw[0]))
+    for tracker in (aided, unconstrained, plain):
+        if tracker.aids.gps:
+            tracker.add_fixes(gps.times_s, gps.north_east)
+        replay_feet(captures["left"], captures["right"], tracker=tracker)
+    left = sources["left"].truth
+    body_end = np.r_[pos[-1, :2], yaw[-1]]
+    # estimate → its track, where its origin lies in the walk's frame (a GPS run's: the first fix;
+    # a plain run's: the body's true start), the true end [north, east, heading], its declination
+    estimates = {
+        "fused compass+gps": (aided.body, gps.first_fix, body_end, aided.declination),
+        "average compass+gps": (aided.average, gps.first_fix, body_end,
+                                0.5 * (aided.left.declination + aided.right.declination)),
+        "fused plain": (plain.body, pos[0, :2], body_end, plain.declination),
+        "left compass+gps": (aided.left.track, gps.first_fix, np.r_[left.pos[-1, :2], left.euler[-1, 2]],
+                             aided.left.declination),
+        "unconstrained compass+gps": (unconstrained.body, gps.first_fix, body_end, unconstrained.declination),
+    }
+    rows = []
+    for name, (track, origin, true_end, declination) in estimates.items():
+        pose = track.final_pose
+        error = float(np.hypot(*(pose[:2] + origin - true_end[:2])))
+        rows.append({
+            "seed": seed, "estimate": name, "without_gps_m": round(gps.without_gps_m, 1),
+            "end_error_m": error, "end_error_pct_without_gps": 100.0 * error / gps.without_gps_m,
+            "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_end[2])),
+            "declination_deg": math.degrees(declination),
+            "true_declination_deg": sources["left"].config.mag.declination_deg,
+            "wmm_declination_deg": math.degrees(aids.declination_rad),
+        })
+    return rows
+
+
+def aids_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+    """Every walker's :func:`aids_run`, in order."""
+    from .runs import seeded_rows
+
+    return seeded_rows(aids_run, list(seeds), workers)
+
+
+def aids_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
+    from .navshoe import error_table
+
+    walked = np.mean([r["without_gps_m"] for r in rows])
+    return [f"two feet on navshoe-outage, {len({r['seed'] for r in rows})} walkers: the body's error at the "
+            f"end of the outage ({walked:.0f} m walked without GPS; left compass+gps: the left foot's own "
+            f"track against that foot)"] + error_table(rows, "estimate", AIDED_ESTIMATES)
 
 
 def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dict[str, Any]:
