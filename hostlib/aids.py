@@ -8,6 +8,8 @@
   Magnetic Model gives the declination prior (:mod:`hostlib.declination`);
 * without GPS, the declination comes from the WMM at *origin* (and *when*) if given, else 0 (the
   compass then gives magnetic headings, and the summary says so);
+* with a receiver read live (:mod:`hostlib.gps_stream`), its first fix places the walk in the same
+  way, and the later fixes are queued as they come;
 * a magnetometer calibration (:class:`hostlib.magcal.MagCalibration`) is applied to every
   reading; one fitted on another module is refused once the module names itself.
 
@@ -29,7 +31,7 @@ from .drift import DriftCalibration
 from .export import parse_origin
 from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from .fusion import FusionSettings, FusionTracker
-from .gps import NmeaStats, local_positions, read_nmea, seconds_since
+from .gps import GpsFix, NmeaStats, fix_place, local_positions, read_nmea, seconds_since
 from .magcal import MagCalibration
 
 __all__ = ["AidSetup", "prepare_aids", "prepare_feet_aids"]
@@ -79,7 +81,8 @@ class _Plan:
 
 
 def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
-          origin: Sequence[float] | None, when: dt.date | None, settings: FusionSettings | None) -> _Plan:
+          origin: Sequence[float] | None, when: dt.date | None, settings: FusionSettings | None,
+          live_gps: bool = False, first_fix: GpsFix | None = None) -> _Plan:
     base = settings or FusionSettings()
     place = None if origin is None else parse_origin(origin)
     fixes, stats = [], None
@@ -87,18 +90,21 @@ def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
         fixes, stats = read_nmea(gps_path)
         if not fixes:
             raise ValueError(f"{gps_path}: no GPS fix in {stats.lines} lines ({stats.summary()})")
-        first = fixes[0]
-        place = (first.lat_deg, first.lon_deg, first.alt_m if math.isfinite(first.alt_m) else 0.0)
+        first_fix = fixes[0]
         when = when or next((f.date for f in fixes if f.date is not None), None)
+    elif first_fix is not None:
+        when = when or first_fix.date
+    if first_fix is not None:
+        place = fix_place(first_fix)
     if declination is not None:
         dec, source = float(declination), "given"
     elif place is not None:
         day = when or dt.date.today()
         dec = declination_deg(*place, day)
-        source = f"WMM at {'the first fix' if fixes else 'the origin'}, {day.isoformat()}"
+        source = f"WMM at {'the first fix' if first_fix is not None else 'the origin'}, {day.isoformat()}"
     else:
         dec, source = 0.0, "none: magnetic headings"
-    cfg = replace(base, compass=compass, gps=bool(fixes), declination_rad=math.radians(dec))
+    cfg = replace(base, compass=compass, gps=bool(fixes) or live_gps, declination_rad=math.radians(dec))
     times, positions = [], []
     if fixes:
         assert stats is not None and stats.first_time is not None
@@ -110,14 +116,17 @@ def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
 def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
                  mag_calibration: MagCalibration | None = None, declination: float | None = None,
                  origin: Sequence[float] | None = None, when: dt.date | None = None,
-                 settings: FusionSettings | None = None, last_counter: int | None = None) -> AidSetup:
+                 settings: FusionSettings | None = None, last_counter: int | None = None,
+                 heading: float = 0.0, live_gps: bool = False, first_fix: GpsFix | None = None) -> AidSetup:
     """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
     calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
-    place the walk when there is no GPS. Raises OSError for an unreadable GPS log and ValueError
-    when it holds no fix."""
-    plan = _plan(compass, gps_path, declination, origin, when, settings)
+    place the walk when there is no GPS. *live_gps*: fixes come from a receiver as the walk goes
+    (:mod:`hostlib.gps_stream` queues them): GPS updates on, no fix queued now; its *first_fix*, if
+    one came already, places the walk as a log's first fix does. *heading* [rad]: the initial
+    heading. Raises OSError for an unreadable GPS log and ValueError when it holds no fix."""
+    plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
     cfg = replace(plan.settings, mag_calibration=mag_calibration)
-    return plan.setup(FusionTracker(cfg, last_counter=last_counter))
+    return plan.setup(FusionTracker(cfg, last_counter=last_counter, heading=heading))
 
 
 def prepare_feet_aids(*, compass: bool, gps_path: str | Path | None = None,

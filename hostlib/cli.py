@@ -16,6 +16,12 @@ other foot, it never stops it::
 Per-module calibrations (--drift, --mag-cal) then take one file per foot, the left foot's first
 (- for none); each is checked against the serial number of the module on its foot.
 
+Heading aids on a live walk (one module, the fusion set-up; hostlib.fusion): a compass update per
+step, and GPS fixes from a receiver read as they come (hostlib.gps_stream), each put on the
+module's clock::
+
+    openshoe-host track /dev/rfcomm0 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
+
 Closed-loop drift correction (per module; hostlib.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
@@ -74,17 +80,26 @@ def _setup_options(p: argparse.ArgumentParser) -> None:
                         "packet (an emulator extension)")
 
 
-def _aid_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("heading aids (hostlib.fusion; the capture needs the --fusion set-up)")
+def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
+    """The heading aids' options; *live*: of ``track`` (one URL, a GPS device read as it talks)."""
+    what = "one URL, with --fusion" if live else "the capture needs the --fusion set-up"
+    g = p.add_argument_group(f"heading aids (hostlib.fusion; {what})")
     g.add_argument("--compass", action="store_true",
                    help="one compass update per step from the magnetometers and attitude at the end of "
                         "each stance")
     g.add_argument("--compass-sigma", type=float, default=None, metavar="DEG",
                    help="1σ of one compass reading (the local deviation; default 20, indoors; "
                         "outdoors about 5)")
-    g.add_argument("--gps", metavar="FILE.nmea",
-                   help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
-                        "and the CSV gets lat_deg, lon_deg, alt_m")
+    if live:
+        g.add_argument("--gps", metavar="DEVICE_OR_FILE",
+                       help="a GPS receiver to fuse (NMEA GGA/RMC): a device or pyserial URL, read as it "
+                            "talks, each fix put on the module's clock; or a file of its sentences (as "
+                            "replay reads it). The track is then placed on the globe at the first fix and "
+                            "the CSV gets lat_deg, lon_deg, alt_m")
+    else:
+        g.add_argument("--gps", metavar="FILE.nmea",
+                       help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
+                            "and the CSV gets lat_deg, lon_deg, alt_m")
     g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
                         "foot's then the right foot's (- for none)")
@@ -131,10 +146,32 @@ def _second(args: argparse.Namespace) -> str | None:
     return getattr(args, "url2", None) or getattr(args, "capture2", None)
 
 
+#: The heading aids' options: (dest, flag).
+_AID_OPTIONS = (("compass", "--compass"), ("compass_sigma", "--compass-sigma"), ("gps", "--gps"),
+                ("mag_cal", "--mag-cal"), ("declination", "--declination"))
+
+
+def _track_aid_refusal(args: argparse.Namespace) -> str | None:
+    """Why the aid options of ``track`` do not go together, or None."""
+    given = [flag for dest, flag in _AID_OPTIONS if getattr(args, dest, None) not in (None, False)]
+    if given and args.url2 is not None:
+        return (f"{', '.join(given)} work with one URL for now; for two feet, log each foot's module "
+                "(log --start --fusion) and fuse the captures: replay LEFT RIGHT --compass --gps FILE")
+    for flag, why in (("compass", "the compass needs the magnetometers and the attitude at the end of each "
+                                  "stance"),
+                      ("gps", "a fix is put on the module's clock, which only the step packets' time "
+                              "(T_INT_K) gives")):
+        if getattr(args, flag) and not args.fusion:
+            return f"--{flag} needs --fusion: {why}, which the fusion set-up asks the module for"
+    return None
+
+
 def _usage_refusal(args: argparse.Namespace) -> str | None:
     """Why the options of ``track`` or ``replay`` do not go together, or None."""
     what = "URL" if args.cmd == "track" else "capture"
     two = _second(args) is not None
+    if args.cmd == "track" and (refusal := _track_aid_refusal(args)) is not None:
+        return refusal
     given = [flag for dest, flag in _FEET_OPTIONS if getattr(args, dest, None) not in (None, False)]
     if given and not two:
         verb = "need" if len(given) > 1 else "needs"
@@ -158,8 +195,8 @@ def _uses_aids(args: argparse.Namespace) -> bool:
     return bool(args.compass or args.gps)
 
 
-def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None):
-    """The fusion tracker the aid options ask for (hostlib.aids)."""
+def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, **more: Any):
+    """The fusion tracker the aid options ask for (hostlib.aids; *more*: to :func:`prepare_aids`)."""
     from .aids import prepare_aids
     from .fusion import FusionSettings
     from .magcal import MagCalibration
@@ -168,8 +205,9 @@ def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] |
     if args.compass_sigma is not None:
         settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
     cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else None
-    return prepare_aids(compass=args.compass, gps_path=args.gps, mag_calibration=cal,
-                        declination=args.declination, origin=origin, settings=settings)
+    gps_path = None if more.get("live_gps") else args.gps
+    return prepare_aids(compass=args.compass, gps_path=gps_path, mag_calibration=cal,
+                        declination=args.declination, origin=origin, settings=settings, **more)
 
 
 def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[str, Any]:
@@ -250,6 +288,7 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--heading", type=float, default=0.0,
                    help="initial heading in degrees from north towards east (default 0)")
     _setup_options(t)
+    _aid_options(t, live=True)
     t.add_argument("--drift", nargs="+", metavar="CAL.json",
                    help="correct the track with this module's drift calibration (needs --fusion); with two "
                         "URLs, the left foot's module's then the right foot's (- for none)")
@@ -440,12 +479,15 @@ class _Tracked:
 
 
 def _start_tracking(args: argparse.Namespace, stack: ExitStack,
-                    trackers: Mapping[str | None, tuple[str, StepTracker]]) -> list[_Tracked]:
+                    trackers: Mapping[str | None, tuple[str, StepTracker]],
+                    opened: Callable[[list[_Tracked]], None] | None = None) -> list[_Tracked]:
     """Open a device per module (side → (URL, tracker)), then start each: 0x34 unless attaching,
-    and the set-up the options ask for."""
+    and the set-up the options ask for. *opened* sees the devices before any is started."""
     modules = [_Tracked(side, dev, _HostSetup(dev, args.fusion, args.height_compensation))
                for side, (url, tracker) in trackers.items()
                for dev in [stack.enter_context(_open(args, url, tracker=tracker))]]
+    if opened is not None:
+        opened(modules)
     for m in modules:
         if m.side is not None:
             m.dev.on_link(m.report_link)
@@ -512,22 +554,96 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
             streams = {m.side: (m.dev.name, m.dev.session.stats) for m in modules}
         _finish_feet(args, feet, streams, origin, out)
         return 0
-    tracker = StepTracker(heading=heading, last_counter=last_counter)
     with ExitStack() as stack:
-        (module,) = _start_tracking(args, stack, {None: (args.url, tracker)})
+        live = _open_live_gps(args, stack) if args.gps and not Path(args.gps).is_file() else None
+        aids = _track_aids(args, origin, live, heading=heading, last_counter=last_counter)
+        tracker = StepTracker(heading=heading, last_counter=last_counter) if aids is None else aids.tracker
+        (module,) = _start_tracking(args, stack, {None: (args.url, tracker)},
+                                    None if live is None else lambda ms: _feed_live_gps(live, ms[0].dev))
         dev = module.dev
-        first = None if drift is None else lambda: _check_drift_module(dev, drift, args.ack_timeout)
-        _follow(args, [module], _LiveLine(out), lambda: (summary_line(dev, drift), len(tracker)), first)
+        cal = None if aids is None else aids.tracker.settings.mag_calibration
+        first = None if drift is None and cal is None else \
+            lambda: _check_calibrations(dev, drift, cal, args.ack_timeout)
+        _follow(args, [module], _LiveLine(out), lambda: _track_status(dev, drift, aids, live), first)
         track = dev.track_snapshot()
+        if aids is not None:
+            origin = _aids_summary(aids, live, out) or origin
         if drift is not None:
             corrected = drift.apply(track, module_serial=dev.session.mcu_serial)
             moved = corrected.final_pose[:3] - track.final_pose[:3]
             print(f"drift correction ({drift}): the end moved by "
                   f"[{', '.join(f'{v:+.3f}' for v in moved)}] m", file=out)
             track = corrected
-        _write_outputs(args, track, origin)
+        _write_outputs(args, track, origin, geographic_csv=bool(args.gps) and origin is not None)
         print(repr(track), file=out)
     return 0
+
+
+#: How long ``track --gps DEVICE`` waits for the receiver's first fix before the walk starts [s]:
+#: the first fix places the walk on the globe (and gives the declination there).
+FIRST_FIX_WAIT_S = 10.0
+
+
+def _open_live_gps(args: argparse.Namespace, stack: ExitStack):
+    """The GPS receiver at ``--gps`` (a device or URL), read in its own thread (hostlib.gps_stream)."""
+    from .gps_stream import GpsStream, LiveFixes
+
+    def report(text: str) -> None:
+        print(f"openshoe-host track: {text}", file=sys.stderr)
+
+    try:
+        return stack.enter_context(GpsStream(args.gps, LiveFixes(), report=report))
+    except (OSError, ValueError) as exc:  # pyserial's SerialException is an OSError
+        raise HostError(f"cannot open the GPS receiver {args.gps}: {exc}") from None
+
+
+def _feed_live_gps(live, dev: Device) -> None:
+    """Queue the receiver's fixes on *dev*'s tracker, between two steps (under the device's session
+    lock), each step renewing their clock (hostlib.gps_stream)."""
+    live.fixes.attach(dev.tracker, dev.session_lock)
+    dev.on_step(lambda _ev: live.fixes.stepped())
+
+
+def _track_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, live, **more: Any):
+    """The aids of ``track`` (hostlib.aids; None without --compass or --gps). With a receiver read
+    live, its first fix (waited for up to :data:`FIRST_FIX_WAIT_S`) places the walk."""
+    if not _uses_aids(args):
+        return None
+    if live is None:
+        return _prepare_aids(args, origin, **more)
+    print(f"waiting up to {FIRST_FIX_WAIT_S:g} s for the first fix of the GPS receiver {live.url}",
+          file=sys.stderr)
+    first = live.wait_first_fix(FIRST_FIX_WAIT_S)
+    if first is None and live.lost is None:
+        print("no GPS fix yet: the declination is taken without it (--declination, or the World Magnetic "
+              "Model at --origin); the fixes still to come are fused", file=sys.stderr)
+    when = None if first is None else first.date or live.fixes.reader.date
+    return _prepare_aids(args, origin, live_gps=True, first_fix=first, when=when, **more)
+
+
+def _track_status(dev: Device, drift: DriftCalibration | None, aids, live) -> tuple[str, object]:
+    """The live line of one module: :func:`summary_line`, and with the aids what they did so far."""
+    line = summary_line(dev, drift)
+    if aids is None:
+        return line, len(dev.tracker)
+    f = aids.tracker.fusion
+    line += f" | compass {f.compass_updates} | GPS {f.gps_updates} updates"
+    if live is not None:
+        st = live.fixes.stats
+        line += (f" of {st.fixes} fixes ({st.missing_fix} without a fix, {st.garbled} garbled)"
+                 + (" RECEIVER GONE" if live.lost else ""))
+    return line, len(dev.tracker)
+
+
+def _aids_summary(aids, live, out: TextIO) -> tuple[float, float, float] | None:
+    """What the aids did, at the end of a walk; returns the track's geographic origin (the first
+    fix's place; None without one)."""
+    if live is not None:
+        aids.gps_stats = live.fixes.stats
+        aids.origin = live.fixes.origin or aids.origin
+    print(f"aids: {aids.describe()}", file=out)
+    print(_fusion_line(aids.tracker), file=out)
+    return aids.origin if aids.gps_stats is not None else None
 
 
 def _feet_status(feet: TwoFeetTracker, modules: list[_Tracked]) -> tuple[str, object]:
@@ -548,11 +664,16 @@ def _check_feet_drift(feet: TwoFeetTracker, modules: list[_Tracked], ack_timeout
                         {m.side: m.dev.name for m in modules})
 
 
-def _check_drift_module(dev: Device, drift: DriftCalibration, ack_timeout: float) -> None:
-    """Refuse another module's drift calibration before the walk starts."""
+def _check_calibrations(dev: Device, drift: DriftCalibration | None, cal: Any, ack_timeout: float) -> None:
+    """Refuse another module's drift or magnetometer calibration (*cal*) before the walk starts."""
     _await_serial(dev, max(2.0, 2 * ack_timeout))
-    if dev.session.mcu_serial is not None:
-        drift.check_module(dev.session.mcu_serial)
+    serial = dev.session.mcu_serial
+    if serial is None:
+        return
+    if drift is not None:
+        drift.check_module(serial)
+    if cal is not None:
+        cal.check_module(serial_text(serial))
 
 
 def _fusion_line(tracker) -> str:

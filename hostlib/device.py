@@ -566,6 +566,13 @@ class Device(CommandMethods):
         return self.session.tracker
 
     @property
+    def session_lock(self) -> threading.RLock:
+        """The lock the reader thread holds while it feeds the session, and so while it sums a step
+        into :attr:`tracker`. Hold it to touch the tracker from another thread without racing a
+        step: e.g. to queue a GPS fix as it arrives (:mod:`hostlib.gps_stream`)."""
+        return self._lock
+
+    @property
     def stats(self) -> dict[str, int]:
         """Every counter: session (bytes, garbage, bad frames, packets, acks, steps, gaps) and device."""
         d = self.session.stats.as_dict()

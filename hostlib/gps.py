@@ -11,6 +11,8 @@ position. Nothing it meets stops it, and nothing is lost without being counted
 * other sentences (RMC, GSA, GSV, …) are counted as **other**; RMC's date is kept, so fixes get a
   full UTC time once the receiver has said the date.
 
+A receiver read live, as its sentences come, is :mod:`hostlib.gps_stream`.
+
 :func:`read_nmea` reads a whole file; :func:`local_positions` turns fixes into north, east, down
 metres about an origin (the first fix's position unless given), the frame a host fuses them in.
 """
@@ -25,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "read_nmea", "local_positions", "seconds_since"]
+__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "fix_place", "read_nmea", "local_positions", "seconds_since"]
 
 #: Garbled lines kept (with their numbers) for the report; the rest are only counted.
 KEEP_GARBLED = 10
@@ -80,6 +82,11 @@ class NmeaReader:
     def __init__(self) -> None:
         self.stats = NmeaStats()
         self._date: dt.date | None = None
+
+    @property
+    def date(self) -> dt.date | None:
+        """The UTC date the receiver said last (RMC); None before it said one."""
+        return self._date
 
     def _garbled(self, why: str) -> None:
         self.stats.garbled += 1
@@ -150,6 +157,12 @@ def seconds_since(start: dt.time, fixes: Sequence[GpsFix]) -> np.ndarray:
 
     t0 = seconds(start)
     return np.array([(seconds(f.time) - t0) % 86400.0 for f in fixes], dtype=np.float64)
+
+
+def fix_place(fix: GpsFix) -> tuple[float, float, float]:
+    """Latitude, longitude and altitude (0 when the receiver gave none) of *fix*: the geographic
+    origin a first fix gives a track."""
+    return fix.lat_deg, fix.lon_deg, fix.alt_m if math.isfinite(fix.alt_m) else 0.0
 
 
 def read_nmea(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:

@@ -66,7 +66,7 @@ from protocol.stream import StreamDecoder
 from .progress import progress_bar, say
 
 __all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "ReplayResult", "run_replay", "add_arguments",
-           "check_arguments", "main", "module_number"]
+           "add_receiver_arguments", "check_arguments", "main", "module_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -267,6 +267,16 @@ def module_number(text: str) -> int:
     return number
 
 
+def add_receiver_arguments(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--origin`` and ``--gps-outage``: where a simulated GPS receiver's walk is on the globe, and
+    when it has no fix (replay's ``--gps``, serve's ``--gps-pty``)."""
+    p.add_argument("--origin", metavar="LAT,LON[,ALT]", default=None,
+                   help="where the scenario is on the globe (WGS84; default 59.3498,18.0707,30: KTH, "
+                        "Stockholm)")
+    p.add_argument("--gps-outage", action="append", default=[], metavar="START:END",
+                   help="seconds of the walk without a fix (END may be 'end'); repeatable")
+
+
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("files", nargs="*", type=Path, metavar="FILE",
                    help="recording(s) to replay (OpenShoe walk .txt or our CSV), each at its own rate")
@@ -298,11 +308,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="with --scenario and --wire: also write what a GPS receiver on the walker says, "
                         "GGA and RMC at 1 Hz (firmware_sim/sensors/gps.py: a few metres RMS, correlated over "
                         "minutes)")
-    p.add_argument("--origin", metavar="LAT,LON[,ALT]", default=None,
-                   help="where the scenario is on the globe (WGS84; default 59.3498,18.0707,30: KTH, "
-                        "Stockholm)")
-    p.add_argument("--gps-outage", action="append", default=[], metavar="START:END",
-                   help="seconds of the walk without a fix (END may be 'end'); repeatable")
+    add_receiver_arguments(p)
     p.add_argument("--feet", type=int, choices=(1, 2), default=1,
                    help="with --scenario and --wire: 2 puts a module on each foot of the walker (each "
                         "its own errors and seed; --module N: modules 2N and 2N+1) and writes OUT.left and "

@@ -23,7 +23,15 @@ wear a module with its own seed, errors and MCU serial number
 
     READY left.bt-pty=/tmp/shoe-left right.bt-pty=/tmp/shoe-right
 
-Then a status line is kept up to date on stderr. ``--control`` opens a line
+``--gps-pty PATH`` (with ``--scenario``) adds a simulated GPS receiver on the walker (on the body
+with ``--feet 2``): GGA and RMC at 1 Hz on a pty of its own, written as the module's clock reaches
+each fix (:mod:`.served_gps`; ``--origin``, ``--gps-outage`` as for a batch replay's ``--gps``);
+its key is ``gps-pty``::
+
+    READY bt-pty=/tmp/shoe gps-pty=/tmp/gps
+
+Then a status line is kept up to date on stderr (with the receiver: the sentences it wrote and
+those it dropped, with no reader or one that does not read). ``--control`` opens a line
 protocol on TCP to drive faults at run time (:data:`~firmware_sim.app.control.CONTROL_HELP`). SIGINT and
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
 exit with status 0.
@@ -51,9 +59,10 @@ from typing import Any, TextIO
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 
-from .batch import MODULE_HELP, module_number
+from .batch import MODULE_HELP, add_receiver_arguments, module_number
 from .control import ControlServer
 from .frame_trace import TraceWriter
+from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
 from .served_module import ServedModule
 
 # --------------------------------------------------------------------------- options
@@ -106,7 +115,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "PATH-right, TCP PORT and PORT+1; READY keys left.… and right.… (default 1)")
     m = p.add_argument_group("the module")
     src = m.add_mutually_exclusive_group()
-    src.add_argument("--scenario", default="default",
+    src.add_argument("--scenario", default=None,
                      help="motion scenario or recipe (default: the built-in route 'default'); it starts "
                      "when the module first reads its sensors (a host starts tracking), then stands still")
     src.add_argument("--replay", metavar="FILE", help="replay a recording (OpenShoe text or CSV) instead")
@@ -129,6 +138,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="random stalls per second (each 0.1–2 s)")
     f.add_argument("--disconnect-rate", type=float, default=0.0, metavar="HZ",
                    help="random disconnects per second (back after 0.5–2 s)")
+    gps = p.add_argument_group("a GPS receiver on the walker (with --scenario)")
+    gps.add_argument("--gps-pty", metavar="PATH",
+                     help="a simulated GPS receiver on the walker (--feet 2: on the body) on a pty of its "
+                          "own: GGA and RMC at 1 Hz, as replay's --gps writes them, each when the module's "
+                          "clock reaches it")
+    add_receiver_arguments(gps)
     o = p.add_argument_group("running")
     o.add_argument("--duration", type=float, metavar="S", help="stop after S wall-clock seconds")
     o.add_argument("--status-interval", type=float, default=1.0, metavar="S",
@@ -166,10 +181,17 @@ class ServeSettings:
     status_interval: float = 1.0
     frame_ms: float | None = None
     overrun_ms: float | None = None
+    gps: GpsSettings | None = None  #: a GPS receiver on the walker (:mod:`.served_gps`)
 
     def __post_init__(self) -> None:
         if not self.emulator.endpoint_requests():
             raise SettingsError("say where hosts connect: {} PATH and/or {} [HOST:]PORT", "pty", "tcp")
+        if self.gps is not None and self.emulator.replay:
+            raise SettingsError("{} follows a simulated walk: it goes with {} NAME, not {} FILE", "gps_pty",
+                                "scenario", "replay")
+        if self.gps is not None and self.emulator.modules > 1:
+            raise SettingsError("{} is on one walker: not with {} N (a walker's two feet: {} 2)", "gps_pty",
+                                "modules", "feet")
         for name in ("frame_ms", "overrun_ms"):
             value = getattr(self, name)
             if value is not None and not value >= 0:
@@ -178,8 +200,15 @@ class ServeSettings:
 
 def settings_from_args(args: argparse.Namespace) -> ServeSettings:
     """The options of :func:`add_arguments` as settings; SettingsError for a refused value."""
+    gps = None
+    if args.gps_pty:
+        if args.scenario is None and not args.replay:
+            raise SettingsError("{} follows a simulated walk: give {} NAME", "gps_pty", "scenario")
+        gps = gps_settings(args.gps_pty, args.origin, args.gps_outage)
+    elif args.origin is not None or args.gps_outage:
+        raise SettingsError("{} and {} go with {} PATH", "origin", "gps_outage", "gps_pty")
     emulator = EmulatorSettings(
-        scenario=args.scenario, replay=args.replay or "", seed=args.seed, module=args.module,
+        scenario=args.scenario or "default", replay=args.replay or "", seed=args.seed, module=args.module,
         command_set=args.command_set,
         speed=args.speed, interface=args.interface, link=args.link or args.interface,
         loss=args.loss, corrupt=args.corrupt, stall_rate=args.stall_rate,
@@ -187,7 +216,7 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
         usb_pty=args.usb_pty or "", usb_tcp=args.usb_tcp, modules=args.modules, feet=args.feet)
     return ServeSettings(emulator, control=args.control, trace=args.trace or "", duration=args.duration,
                          status_interval=args.status_interval, frame_ms=args.frame_ms,
-                         overrun_ms=args.overrun_ms)
+                         overrun_ms=args.overrun_ms, gps=gps)
 
 
 def cli_option(name: str) -> str:
@@ -221,6 +250,7 @@ class _Served:
     control: ControlServer | None = None
     trace: TraceWriter | None = None
     loop: MultiPacer | None = None
+    gps: GpsPtyEndpoint | None = None
     sel: selectors.BaseSelector = field(default_factory=selectors.DefaultSelector)
 
 
@@ -229,6 +259,11 @@ def _open(served: _Served, settings: ServeSettings) -> None:
     emulator = replace(settings.emulator, trace=bool(settings.trace))
     for i in range(emulator.module_count):
         served.modules.append(build_served_module(emulator, i))
+    if settings.gps is not None:
+        # pumped by the first module's pacer: on its clock, in its loop's thread
+        served.gps = open_gps_pty(settings.gps, [m.module for m in served.modules], emulator.scenario,
+                                  emulator.seed)
+        served.modules[0].pacer.endpoints.append(served.gps)
     if settings.control:
         served.control = ControlServer(served.modules, *settings.control)
         served.control.register(served.sel)
@@ -250,9 +285,12 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
     served.loop.start()
 
 
-def ready_line(modules: list[ServedModule], control: ControlServer | None) -> str:
-    """``READY key=value …``: every module's endpoints, then the control channel."""
+def ready_line(modules: list[ServedModule], control: ControlServer | None,
+               gps: GpsPtyEndpoint | None = None) -> str:
+    """``READY key=value …``: every module's endpoints, the GPS receiver's, then the control channel."""
     fields = [f"{k}={v}" for m in modules for k, v in m.ready]
+    if gps is not None:
+        fields.append(f"gps-pty={gps.link_path}")
     if control is not None:
         fields.append(f"control={control.address[0]}:{control.address[1]}")
     return "READY " + " ".join(fields)
@@ -261,18 +299,21 @@ def ready_line(modules: list[ServedModule], control: ControlServer | None) -> st
 # --------------------------------------------------------------------------- running
 
 
-def status_text(modules: list[ServedModule]) -> str:
-    """Every module's status, prefixed with its label when there are several (``m0``, ``left``)."""
-    if len(modules) == 1:
-        return modules[0].status_line()
-    return " || ".join(f"{m.label} {m.status_line()}" for m in modules)
+def status_text(modules: list[ServedModule], gps: GpsPtyEndpoint | None = None) -> str:
+    """Every module's status, prefixed with its label when there are several (``m0``, ``left``),
+    then the GPS receiver's."""
+    text = modules[0].status_line() if len(modules) == 1 else \
+        " || ".join(f"{m.label} {m.status_line()}" for m in modules)
+    return text if gps is None else f"{text} || {gps.status_line()}"
 
 
 class _StatusLines:
     """The status on *err* every *interval* s (0: never); on a terminal, kept on one line."""
 
-    def __init__(self, modules: list[ServedModule], interval: float, err: TextIO):
+    def __init__(self, modules: list[ServedModule], interval: float, err: TextIO,
+                 gps: GpsPtyEndpoint | None = None):
         self.modules = modules
+        self.gps = gps
         self.interval = interval
         self.err = err
         self.next = time.monotonic() + interval if interval > 0 else None
@@ -282,7 +323,7 @@ class _StatusLines:
         if self.next is None or time.monotonic() < self.next:
             return
         self.next += self.interval
-        text = status_text(self.modules)
+        text = status_text(self.modules, self.gps)
         if self.is_tty:
             print("\r" + text, end="", file=self.err, flush=True)
         else:
@@ -303,7 +344,7 @@ def _run(served: _Served, settings: ServeSettings, stop: threading.Event, err: T
     Meanwhile the control channel is answered, the status line kept and the trace written.
     """
     t_end = None if settings.duration is None else time.monotonic() + settings.duration
-    status = _StatusLines(served.modules, settings.status_interval, err)
+    status = _StatusLines(served.modules, settings.status_interval, err, served.gps)
     sel = served.sel
     while not stop.is_set():
         if t_end is not None and time.monotonic() >= t_end:
@@ -332,6 +373,8 @@ def _shut_down(served: _Served, err: TextIO) -> bool:
     for m in served.modules:
         for ep in m.endpoints:  # the pacer closes them when its loop ends; never started → here
             ep.close()
+    if served.gps is not None:
+        served.gps.close()
     if served.control is not None:
         served.control.close()
     if served.trace is not None:
@@ -367,7 +410,7 @@ def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.s
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
         _start_loop(served, settings, err)
-        print(ready_line(served.modules, served.control), file=out, flush=True)
+        print(ready_line(served.modules, served.control, served.gps), file=out, flush=True)
         status = _run(served, settings, stop, err)
     finally:
         if not _shut_down(served, err):

@@ -16,7 +16,9 @@ Errors (:class:`GpsErrors`), as a consumer receiver has them in the open:
   do, so a host sees the missing fix rather than silence.
 
 Every draw comes from one generator seeded by the run's seed, in a fixed order, so a fix file is
-the same for the same scenario, seed and settings. :func:`nmea_lines` writes GGA then RMC per
+the same for the same scenario, seed and settings. :class:`Receiver` makes the fixes one epoch at a
+time (``openshoe-emu serve --gps-pty``: as the module's clock reaches each), :func:`simulate_fixes`
+over a whole walk with it. :func:`nmea_lines` writes GGA then RMC per
 fix with ``pynmea2``; the UTC time is the scenario's time after *start* (a fixed default date, so
 that runs are reproducible; the date matters for the magnetic model of a host).
 """
@@ -31,7 +33,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["DEFAULT_ORIGIN", "DEFAULT_START", "GpsErrors", "Fix", "simulate_fixes", "nmea_lines",
+__all__ = ["DEFAULT_ORIGIN", "DEFAULT_START", "GpsErrors", "Fix", "Receiver", "simulate_fixes", "nmea_lines",
            "write_nmea", "parse_outages", "outage_after_distance", "scenario_errors"]
 
 #: Where a scenario is placed when no origin is given: KTH, Stockholm (where OpenShoe comes from).
@@ -116,40 +118,55 @@ def scenario_errors(errors: GpsErrors, scenario: str, t: np.ndarray, pos: np.nda
     return replace(errors, outages=(*errors.outages, outage_after_distance(t, pos, after)))
 
 
+class Receiver:
+    """The receiver's errors, epoch after epoch (module docstring): its draws in the same order
+    whether the epochs are a batch (:func:`simulate_fixes`) or come one at a time as a served
+    module's clock reaches them (``openshoe-emu serve --gps-pty``)."""
+
+    def __init__(self, origin: Sequence[float] = DEFAULT_ORIGIN, errors: GpsErrors | None = None,
+                 seed: int = 0):
+        if len(origin) not in (2, 3):
+            raise ValueError(f"origin is (latitude, longitude[, altitude]), got {origin!r}")
+        self.origin = (*(float(v) for v in origin), 0.0)[:3]
+        self.errors = errors = errors or GpsErrors()
+        self._rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6795]))  # its own stream
+        self._sigma = np.array([errors.horizontal_rms_m / math.sqrt(2)] * 2 + [errors.vertical_rms_m])
+        self._phi = math.exp(-1.0 / (errors.rate_hz * errors.correlation_s))
+        self._offset = self._sigma * self._rng.standard_normal(3)  # drawn from the stationary distribution
+        self._epochs = 0
+
+    def fix(self, t: float, walked_s: float, true_ned: np.ndarray, vel: np.ndarray) -> Fix:
+        """The fix of the next epoch, at time *t* [s] (its UTC is ``start + t``), *walked_s* seconds
+        into the walk (what the outages count), the walker at NED *true_ned* moving at *vel*."""
+        import pymap3d
+
+        errors, sigma, phi, rng = self.errors, self._sigma, self._phi, self._rng
+        if self._epochs:
+            self._offset = phi * self._offset + math.sqrt(1 - phi * phi) * sigma * rng.standard_normal(3)
+        self._epochs += 1
+        white = errors.white_m * rng.standard_normal(3)
+        true = np.asarray(true_ned, dtype=float)
+        v = np.asarray(vel, dtype=float)
+        speed = float(math.hypot(v[0], v[1]))
+        course = float(math.degrees(math.atan2(v[1], v[0])) % 360.0)
+        if errors.in_outage(walked_s):
+            nan = np.full(3, np.nan)
+            return Fix(t, False, nan, true, math.nan, math.nan, math.nan, speed, course)
+        ned = true + self._offset + white
+        lat, lon, alt = pymap3d.ned2geodetic(ned[0], ned[1], ned[2], *self.origin)
+        return Fix(t, True, ned, true, float(lat), float(lon), float(alt), speed, course)
+
+
 def simulate_fixes(t: np.ndarray, pos: np.ndarray, vel: np.ndarray, origin: Sequence[float] = DEFAULT_ORIGIN,
                    errors: GpsErrors | None = None, seed: int = 0) -> list[Fix]:
     """The receiver's fixes over a walk sampled at times *t* (s) with true NED positions *pos* and
     velocities *vel* (the scenario's ground truth), one per 1/rate s from t[0]."""
-    import pymap3d
-
-    if len(origin) not in (2, 3):
-        raise ValueError(f"origin is (latitude, longitude[, altitude]), got {origin!r}")
-    lat0, lon0, h0 = (*(float(v) for v in origin), 0.0)[:3]
-    errors = errors or GpsErrors()
+    receiver = Receiver(origin, errors, seed)
     t = np.asarray(t, dtype=float)
-    epochs = np.arange(t[0], t[-1] + 1e-9, 1.0 / errors.rate_hz)
+    epochs = np.arange(t[0], t[-1] + 1e-9, 1.0 / receiver.errors.rate_hz)
     idx = np.clip(np.searchsorted(t, epochs), 0, len(t) - 1)
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6795]))  # the receiver's own stream
-    sigma = np.array([errors.horizontal_rms_m / math.sqrt(2)] * 2 + [errors.vertical_rms_m])
-    phi = math.exp(-1.0 / (errors.rate_hz * errors.correlation_s))
-    offset = sigma * rng.standard_normal(3)  # drawn from the stationary distribution
-    fixes = []
-    for k, (epoch, i) in enumerate(zip(epochs, idx, strict=True)):
-        if k:
-            offset = phi * offset + math.sqrt(1 - phi * phi) * sigma * rng.standard_normal(3)
-        white = errors.white_m * rng.standard_normal(3)
-        true = np.asarray(pos[i], dtype=float)
-        v = np.asarray(vel[i], dtype=float)
-        speed = float(math.hypot(v[0], v[1]))
-        course = float(math.degrees(math.atan2(v[1], v[0])) % 360.0)
-        if errors.in_outage(float(epoch - t[0])):
-            nan = np.full(3, np.nan)
-            fixes.append(Fix(float(epoch), False, nan, true, math.nan, math.nan, math.nan, speed, course))
-            continue
-        ned = true + offset + white
-        lat, lon, alt = pymap3d.ned2geodetic(ned[0], ned[1], ned[2], lat0, lon0, h0)
-        fixes.append(Fix(float(epoch), True, ned, true, float(lat), float(lon), float(alt), speed, course))
-    return fixes
+    return [receiver.fix(float(epoch), float(epoch - t[0]), pos[i], vel[i])
+            for epoch, i in zip(epochs, idx, strict=True)]
 
 
 def _ddmm(value: float, degree_digits: int, hemispheres: str) -> tuple[str, str]:

@@ -103,14 +103,20 @@ class PtyEndpoint(PairingEvents):
                 readable = True
         return held, readable
 
-    def pump(self) -> None:
-        if self.closed:
-            return
+    def _follow_host(self) -> bool:
+        """Pair with a host that opened the slave, unpair from one that left; whether the master
+        has bytes to read."""
         held, readable = self._poll_master()
         if held and not self.paired:
             self._connect()
         elif not held and self.paired:
             self._hangup()
+        return readable
+
+    def pump(self) -> None:
+        if self.closed:
+            return
+        readable = self._follow_host()
         if not self.paired:
             return
         while readable:

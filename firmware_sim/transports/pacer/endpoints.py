@@ -34,7 +34,10 @@ def links_of(endpoints: Iterable[Endpoint]) -> list[Any]:
 
 def lookahead_cycles(module: Module, endpoints: list[Endpoint]) -> int:
     """Cycles a module may run ahead of its hosts: the least one-way latency of the ports
-    behind its endpoints, less one tick (0 for a port without latency, or with no host)."""
+    behind its endpoints, less one tick (0 for a port without latency, or with no host).
+    An endpoint that carries nothing to the module (``to_module = False``: the simulated GPS
+    receiver's pty) does not count."""
+    ports = [port_behind(ep) for ep in endpoints if getattr(ep, "to_module", True)]
     least = min((port.lookahead_cycles() if callable(getattr(port, "lookahead_cycles", None)) else 0
-                 for port in map(port_behind, endpoints)), default=0)
+                 for port in ports), default=0)
     return max(0, least - module.clock.cycles_per_tick)

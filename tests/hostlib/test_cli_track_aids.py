@@ -1,0 +1,105 @@
+"""openshoe-host track with the heading aids (one module): --compass and --gps from a receiver read
+live (its fixes on the module's clock) or from a file; the CSV gets lat/lon/alt with GPS; what does
+not go together is refused with status 2 before any port opens.
+
+Scripted module and receiver behind pyserial URLs (tests/hostlib/protocol_fakeshoe.py,
+protocol_fakegps.py); the end-to-end walk against ``openshoe-emu serve`` is in
+tests/e2e/test_serve_gps.py.
+"""
+
+from __future__ import annotations
+
+import io
+import re
+
+import pytest
+import serial
+
+from firmware_sim.sensors.gps import DEFAULT_ORIGIN
+from hostlib.cli import build_parser, main
+from hostlib.export import CSV_COLUMNS, GEO_COLUMNS
+
+from .protocol_fakegps import epochs
+
+
+@pytest.fixture(autouse=True)
+def fake_schemes():
+    serial.protocol_handler_packages.append("tests.hostlib")
+    yield
+    serial.protocol_handler_packages.remove("tests.hostlib")
+
+
+def fusion_counts(text: str) -> tuple[int, int]:
+    """(compass updates, GPS updates) of the summary's fusion line."""
+    found = re.search(r"fusion: (\d+) compass updates .*?, (\d+) GPS updates", text)
+    assert found, text
+    return int(found.group(1)), int(found.group(2))
+
+
+def csv_header_and_first_row(path) -> tuple[tuple[str, ...], list[str]]:
+    with open(path) as f:
+        return tuple(f.readline().strip().split(",")), f.readline().strip().split(",")
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--compass"], "--compass needs --fusion: the compass needs the magnetometers and the attitude"),
+    (["--gps", "/dev/gps-does-not-exist"], "--gps needs --fusion: a fix is put on the module's clock"),
+    (["/dev/right-does-not-exist", "--fusion", "--compass", "--gps", "x.nmea"],
+     "--compass, --gps work with one URL for now"),
+    (["/dev/right-does-not-exist", "--fusion", "--mag-cal", "l.json", "r.json"],
+     "--mag-cal work with one URL for now"),
+])
+def test_track_refuses_aids_it_cannot_use_before_opening_a_port(argv, message, capsys):
+    assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_two_urls_still_take_a_drift_calibration_per_foot():
+    from hostlib.cli import _usage_refusal
+
+    args = build_parser().parse_args(["track", "/dev/a", "/dev/b", "--fusion", "--drift", "l.json", "r.json"])
+    assert _usage_refusal(args) is None
+
+
+def test_track_fuses_the_compass_and_a_live_receiver_that_is_then_pulled_out(tmp_path, capsys):
+    out, csv = io.StringIO(), tmp_path / "t.csv"
+    argv = ["track", "fakeshoe://5/fusion", "--fusion", "--compass", "--gps", "fakegps://3",
+            "--csv", str(csv), "--duration", "1.5"]
+    assert main(argv, out) == 0
+    text, err = out.getvalue(), capsys.readouterr().err
+    # the three fixes came before the first step: held, put before it, applied at the next step
+    # (the first places the origin, the second updates, the third is within the update interval)
+    assert fusion_counts(text) == (4, 1)
+    assert "3 fixes, 0 without a fix, 1 garbled (skipped)" in text
+    assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"
+    assert err.count("the GPS receiver fakegps://3 is gone") == 1, err
+    assert "packets     5 | steps     5" in text, "tracking went on without the receiver"
+    header, first = csv_header_and_first_row(csv)
+    assert header == CSV_COLUMNS + GEO_COLUMNS
+    lat, lon = float(first[-3]), float(first[-2])
+    assert abs(lat - DEFAULT_ORIGIN[0]) < 1e-6 and abs(lon - DEFAULT_ORIGIN[1]) < 1e-6
+
+
+def test_track_reads_a_gps_file_as_replay_does(tmp_path):
+    nmea = tmp_path / "walk.nmea"
+    nmea.write_text("".join(line + "\r\n" for line in epochs(3)))
+    out, csv = io.StringIO(), tmp_path / "t.csv"
+    argv = ["track", "fakeshoe://4/fusion", "--fusion", "--gps", str(nmea), "--csv", str(csv),
+            "--duration", "1.0"]
+    assert main(argv, out) == 0
+    assert "6 NMEA lines: 3 fixes" in out.getvalue() and "WMM at the first fix" in out.getvalue()
+    assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS + GEO_COLUMNS
+
+
+def test_a_gps_receiver_that_is_not_there_fails_clearly(capsys):
+    argv = ["track", "fakeshoe://2/fusion", "--fusion", "--gps", "/dev/gps-does-not-exist",
+            "--duration", "0.5"]
+    assert main(argv, io.StringIO()) == 1
+    assert "cannot open the GPS receiver /dev/gps-does-not-exist" in capsys.readouterr().err
+
+
+def test_track_without_the_aids_writes_the_plain_csv(tmp_path):
+    csv = tmp_path / "t.csv"
+    assert main(["track", "fakeshoe://2/fusion", "--fusion", "--duration", "0.5", "--csv", str(csv)],
+                io.StringIO()) == 0
+    assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS
