@@ -195,19 +195,24 @@ def _uses_aids(args: argparse.Namespace) -> bool:
     return bool(args.compass or args.gps)
 
 
+def _fusion_settings(args: argparse.Namespace):
+    """The aids' settings the options change (``--compass-sigma``); the rest as hostlib.aids sets them."""
+    from .fusion import FusionSettings
+
+    if args.compass_sigma is None:
+        return FusionSettings()
+    return FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
+
+
 def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, **more: Any):
     """The fusion tracker the aid options ask for (hostlib.aids; *more*: to :func:`prepare_aids`)."""
     from .aids import prepare_aids
-    from .fusion import FusionSettings
     from .magcal import MagCalibration
 
-    settings = FusionSettings()
-    if args.compass_sigma is not None:
-        settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
     cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else None
     gps_path = None if more.get("live_gps") else args.gps
     return prepare_aids(compass=args.compass, gps_path=gps_path, mag_calibration=cal,
-                        declination=args.declination, origin=origin, settings=settings, **more)
+                        declination=args.declination, origin=origin, settings=_fusion_settings(args), **more)
 
 
 def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[str, Any]:
@@ -220,22 +225,24 @@ def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] |
     """The two-feet tracker the options ask for, with each module's drift calibration, and — with
     --compass or --gps — the heading aids (hostlib.aids; None otherwise)."""
     from .aids import prepare_feet_aids
-    from .fusion import FusionSettings
     from .magcal import MagCalibration
 
     drift = _per_foot(args.drift, DriftCalibration.load)
     if not (getattr(args, "compass", False) or getattr(args, "gps", None)):
         return TwoFeetTracker(_feet_settings(args), last_counter=last_counter, defer=defer, heading=heading,
                               drift=drift), None
-    settings = FusionSettings()
-    if args.compass_sigma is not None:
-        settings = FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
     aids = prepare_feet_aids(compass=args.compass, gps_path=args.gps,
                              mag_calibrations=_per_foot(args.mag_cal, MagCalibration.load),
-                             declination=args.declination, origin=origin, settings=settings,
+                             declination=args.declination, origin=origin, settings=_fusion_settings(args),
                              feet=_feet_settings(args), drift=drift, last_counter=last_counter, defer=defer,
                              heading=heading)
     return aids.tracker, aids
+
+
+def _check_mag_module(cal: Any, serial: bytes | None) -> None:
+    """Refuse a magnetometer calibration (hostlib.magcal) fitted on another module than the one
+    whose MCU serial number is *serial* (None: unknown, accepted)."""
+    cal.check_module(serial_text(serial) if serial else "")
 
 
 def _check_feet_modules(tracker: TwoFeetTracker, serials: Mapping[str, bytes | None], files: Mapping[str, str]
@@ -250,8 +257,7 @@ def _check_feet_modules(tracker: TwoFeetTracker, serials: Mapping[str, bytes | N
             checks.append((side, "drift", drift.check_module))
         cal = tracker.foot(side).settings.mag_calibration
         if cal is not None:
-            checks.append((side, "magnetometer",
-                           lambda serial, cal=cal: cal.check_module(serial_text(serial) if serial else "")))
+            checks.append((side, "magnetometer", lambda serial, cal=cal: _check_mag_module(cal, serial)))
     for side, what, check in checks:
         try:
             check(serials[side])
@@ -673,7 +679,7 @@ def _check_calibrations(dev: Device, drift: DriftCalibration | None, cal: Any, a
     if drift is not None:
         drift.check_module(serial)
     if cal is not None:
-        cal.check_module(serial_text(serial))
+        _check_mag_module(cal, serial)
 
 
 def _fusion_line(tracker) -> str:
@@ -816,11 +822,8 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     if aids is not None:
         cal = aids.tracker.settings.mag_calibration
         if cal is not None:
-            cal.check_module(serial_text(session.mcu_serial) if session.mcu_serial else "")
-        print(f"aids: {aids.describe()}", file=out)
-        print(_fusion_line(aids.tracker), file=out)
-        if args.gps:
-            origin = aids.origin
+            _check_mag_module(cal, session.mcu_serial)
+        origin = _aids_summary(aids, None, out) or origin
     if drift is not None:
         corrected = drift.apply(track, module_serial=session.mcu_serial, what=args.capture)
         print(f"drift correction: {drift}", file=out)
@@ -848,10 +851,7 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
     _check_feet_modules(tracker, {side: sessions[side].mcu_serial for side in FOOT_SIDES}, paths)
     tracker.fuse_in_time_order()
     if aids is not None:
-        print(f"aids: {aids.describe()}", file=out)
-        print(_fusion_line(tracker), file=out)
-        if args.gps:
-            origin = aids.origin  # the first fix: the GeoJSON goes on the globe
+        origin = _aids_summary(aids, None, out) or origin  # with GPS, the first fix: on the globe
     streams = {side: (paths[side], sessions[side].stats) for side in FOOT_SIDES}
     _finish_feet(args, tracker, streams, origin, out)
     return 0

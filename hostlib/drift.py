@@ -158,11 +158,16 @@ class DriftCalibration:
         raise DriftError(f"the calibration is for module {serial_text(self.module_serial)}, not for module "
                          f"{serial_text(module_serial)}: a drift calibration belongs to one module")
 
+    def velocity(self, start_heading: float) -> np.ndarray:
+        """(3,) ``R(χ₀) Δv`` [m/s]: the drift velocity in the frame of a walk that starts at heading
+        *start_heading* χ₀ [rad] (Δv is kept in the walk's start frame)."""
+        return rotation_z(float(start_heading)) @ np.asarray(self.dv, dtype=np.float64)
+
     def offsets(self, track: Track, what: str = "the track") -> np.ndarray:
         """(n+1, 3) [m]: the correction of each pose of *track* (row 0, the start, is zero):
         ``R(χ₀) Δv`` times the swing time summed up to that step."""
         t = _swing_times(track, what)
-        dv = rotation_z(float(track.poses[0, 3])) @ np.asarray(self.dv, dtype=np.float64)
+        dv = self.velocity(track.poses[0, 3])
         elapsed = np.concatenate(([0.0], np.cumsum(t)))
         return elapsed[:, None] * dv[None, :]
 

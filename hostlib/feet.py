@@ -282,8 +282,7 @@ class TwoFeetTracker(AidedFilter):
         if not math.isfinite(step.swing_time):
             self.drift_uncorrected += 1
             return
-        dv = rotation_z(self._frame_heading) @ np.asarray(calibration.dv, dtype=np.float64)
-        self._s[block.start: block.start + 3] += dv * step.swing_time
+        self._s[block.start: block.start + 3] += calibration.velocity(self._frame_heading) * step.swing_time
 
     def _stale_foot(self) -> int:
         """0: both feet fresh; 1 + i: foot i is stale (the other stepped on without it)."""
@@ -415,7 +414,7 @@ class TwoFeetTracker(AidedFilter):
         calibration = self.drift.get(side)
         if calibration is not None:
             swing = np.nan_to_num(track.swing_times, nan=0.0)
-            dv = rotation_z(float(poses[0, 3])) @ np.asarray(calibration.dv, dtype=np.float64)
+            dv = calibration.velocity(poses[0, 3])
             poses[:, :3] += np.concatenate(([0.0], np.cumsum(swing)))[:, None] * dv[None, :]
         return poses
 
