@@ -27,6 +27,12 @@ by :class:`FusionSettings` (shared/spec/aids.md §1–2, NavShoe):
 With every aid off the track is :class:`~hostlib.tracking.StepTracker`'s, bit for bit: the
 summation is the same code, and D is uncorrelated with the pose until an aid correlates it.
 
+**The module's errors** (:attr:`FusionSettings.module_errors`, :mod:`hostlib.module_errors`): a
+step-length scale s and a climb c per metre, held as two more states before D
+(``[x, y, z, χ, s, c, D]``). Without an aid they leave the track as it is and widen its covariance
+along the displacement and in height, as a module's systematic errors do; GPS makes them
+observable, and the steps after are corrected by what it taught.
+
 The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
 holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
 fix's north and east are applied one after the other, the second with the state the first left.
@@ -50,6 +56,7 @@ from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .events import StepOutcome
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
+from .module_errors import ModuleErrors, error_jacobian
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
@@ -85,6 +92,9 @@ class FusionSettings:
     #: the declination prior D₀ [rad] (east positive) and its 1σ while GPS is used
     declination_rad: float = 0.0
     declination_sigma_rad: float = math.radians(15.0)
+    #: the module's step-length scale and climb as states (:mod:`hostlib.module_errors`; None: not
+    #: held, and the covariance is the steps' own)
+    module_errors: ModuleErrors | None = None
 
     def __post_init__(self) -> None:
         if self.compass_mode not in ("step", "every-reset"):
@@ -324,9 +334,15 @@ class FusionTracker(AidedFilter, StepTracker):
         StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        self._d = float(s.declination_rad)
-        self._pd = np.zeros(4)  # cov(pose, D)
-        self._dd = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
+        # the states beside the pose: the module's errors [s, c] if held, then D
+        errors = s.module_errors
+        self._a = np.zeros(3 if errors is not None else 1)
+        self._a[-1] = float(s.declination_rad)
+        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c,] D)
+        self._aa = np.zeros((len(self._a), len(self._a)))
+        if errors is not None:
+            self._aa[:2, :2] = errors.prior
+        self._aa[-1, -1] = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._init_aids()
         self._clock = ModuleClock()
         self._time = 0.0  # module time of the last step [s]
@@ -338,11 +354,24 @@ class FusionTracker(AidedFilter, StepTracker):
     @property
     def covariance5(self) -> np.ndarray:
         """The 5×5 covariance of [x, y, z, χ, D]."""
-        p = np.zeros((5, 5))
+        return self.state_covariance[np.ix_([0, 1, 2, 3, -1], [0, 1, 2, 3, -1])]
+
+    @property
+    def state_covariance(self) -> np.ndarray:
+        """The covariance of the whole state: [x, y, z, χ, D], or [x, y, z, χ, s, c, D] with the
+        module's errors held (:attr:`FusionSettings.module_errors`)."""
+        n = 4 + len(self._a)
+        p = np.zeros((n, n))
         p[:4, :4] = self.track._covs[-1]
-        p[:4, 4] = p[4, :4] = self._pd
-        p[4, 4] = self._dd
+        p[:4, 4:] = self._pa
+        p[4:, :4] = self._pa.T
+        p[4:, 4:] = self._aa
         return p
+
+    @property
+    def module_errors(self) -> tuple[float, float] | None:
+        """The estimated step-length scale s and climb c [m/m] (None: not held)."""
+        return None if len(self._a) == 1 else (float(self._a[0]), float(self._a[1]))
 
     def compass_heading(self, reading: StanceReading | None) -> float | None:
         """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
@@ -371,9 +400,13 @@ class FusionTracker(AidedFilter, StepTracker):
         outcome = StepTracker.add_step(self, dx, dp, counter, swing_time)
         if outcome is StepOutcome.DUPLICATE:
             return outcome
-        # cov(pose, D) through the step: the pose's Jacobian; D does not move
         dxa = np.asarray(dx, dtype=np.float64)
-        self._pd = step_jacobian(float(prev[3]), dxa) @ self._pd
+        f = step_jacobian(float(prev[3]), dxa)
+        if len(self._a) == 1:
+            # cov(pose, D) through the step: the pose's Jacobian; D does not move
+            self._pa = f @ self._pa
+        else:
+            self._module_errors_through(f, error_jacobian(float(prev[3]), dxa))
         if math.isfinite(time_s):
             self._time = time_s
         self.step_times.append(time_s)
@@ -383,6 +416,22 @@ class FusionTracker(AidedFilter, StepTracker):
             self._gps_until(self._time)
         return outcome
 
+    def _module_errors_through(self, f: np.ndarray, j: np.ndarray) -> None:
+        """The step just summed, with the module's errors held: its pose moves by the learned
+        scale and climb (nothing while they are 0), and the covariance goes through the step's
+        Jacobians (F for the pose, J for [s, c]; the steps' own dP is already in)."""
+        m = len(self._a)
+        fa = np.zeros((4, m))
+        fa[:, :2] = j
+        if self._a[0] != 0.0 or self._a[1] != 0.0:
+            pose = self.track._poses[-1].copy()
+            pose += j @ self._a[:2]
+            self.track._poses[-1] = pose
+        cross = f @ self._pa @ fa.T
+        p = self.track._covs[-1] + cross + cross.T + fa @ self._aa @ fa.T
+        self.track._covs[-1] = 0.5 * (p + p.T)
+        self._pa = f @ self._pa + fa @ self._aa
+
     # -- the aids' view of the state ---------------------------------------------------
 
     @property
@@ -390,23 +439,21 @@ class FusionTracker(AidedFilter, StepTracker):
         return self.settings
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
-        x = np.empty(5)
-        x[:4] = self.track._poses[-1]
-        x[4] = self._d
-        return x, self.covariance5
+        x = np.concatenate([self.track._poses[-1], self._a])
+        return x, self.state_covariance
 
     def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
         self.track._poses[-1] = x[:4].copy()
         self.track._covs[-1] = p[:4, :4].copy()
-        self._pd = p[:4, 4].copy()
-        self._dd = float(p[4, 4])
-        self._d = float(x[4])
+        self._pa = p[:4, 4:].copy()
+        self._aa = p[4:, 4:].copy()
+        self._a = x[4:].copy()
 
     def _gps_rows(self) -> np.ndarray:
-        return np.eye(5)[:2]
+        return np.eye(4 + len(self._a))[:2]
 
     def _origin_rows(self) -> np.ndarray:
-        return np.eye(5)[:2]
+        return np.eye(4 + len(self._a))[:2]
 
     def _travelled(self) -> np.ndarray:
         return self.track._poses[-1][:2] - self.track._poses[0][:2]
@@ -425,11 +472,11 @@ class FusionTracker(AidedFilter, StepTracker):
             c[:3, 3] = r @ c[:3, 3]
             c[3, :3] = c[:3, 3]
             track._covs[k] = c
-        self._pd[:3] = r @ self._pd[:3]
+        self._pa[:3] = r @ self._pa[:3]
 
     def __len__(self) -> int:
         return StepTracker.__len__(self)
 
     def __repr__(self) -> str:
-        return (f"FusionTracker({self.track!r}, D={math.degrees(self._d):.2f}°, "
+        return (f"FusionTracker({self.track!r}, D={math.degrees(self.declination):.2f}°, "
                 f"compass {self.fusion.compass_updates}, gps {self.fusion.gps_updates})")

@@ -11,7 +11,14 @@ import numpy as np
 import pytest
 
 from tools.accuracy import main
-from tools.accuracy.consistency import DOF, consistency_run, nees_interval, sigma_ratio, summary_lines
+from tools.accuracy.consistency import (
+    DOF,
+    consistency_run,
+    module_error_priors,
+    nees_interval,
+    sigma_ratio,
+    summary_lines,
+)
 
 
 @pytest.mark.parametrize(("seeds", "dof", "low", "high"), [
@@ -54,6 +61,7 @@ def test_a_simulated_walk_gives_its_end_error_and_nees():
     e = np.array([row["e_north_m"], row["e_east_m"]])
     assert np.hypot(*e) < 1.0  # a 90 m rectangle closes within 1 %
     assert row["sigma_north_m"] > 0.0 and row["sigma_heading_deg"] > 0.0
+    assert np.hypot(row["d_north_m"], row["d_east_m"]) < 1.0 and row["p_zz"] > 0.0  # a loop ends at its start
 
 
 def test_the_command_writes_its_table(tmp_path):
@@ -64,3 +72,23 @@ def test_the_command_writes_its_table(tmp_path):
     assert "mean NEES / dof over 2 seeds" in text
     assert all(s in text for s in ("walk", "rectangle", "default"))
     assert (tmp_path / "consistency.csv").read_text().count("\n") == 1 + 3 * 2
+
+
+def test_the_module_error_priors_are_recovered_from_end_errors_drawn_from_their_model():
+    """Straight walks with a step-length scale of 1σ 0.2 % and a climb of 1σ 3 mm/m on top of the
+    steps' own noise: the method-of-moments estimate gives both back; closed loops teach no scale."""
+    rng = np.random.default_rng(7)
+    rows = []
+    for k in range(2000):
+        length = 100.0
+        d = np.array([length, 0.0]) if k % 2 else np.array([0.3, -0.2])  # straight walks and loops
+        p = np.diag([0.03 ** 2, 0.25 ** 2])
+        e = rng.multivariate_normal(np.zeros(2), p) + rng.normal(0.0, 0.002) * d
+        e_z = rng.normal(0.0, 0.03) + rng.normal(0.0, 0.003) * length
+        rows.append({"seed": k, "distance_m": length, "d_north_m": d[0], "d_east_m": d[1],
+                     "e_north_m": e[0], "e_east_m": e[1], "e_down_m": e_z,
+                     "p_nn": p[0, 0], "p_ne": 0.0, "p_ee": p[1, 1], "p_zz": 0.03 ** 2})
+    errors = module_error_priors(rows)
+    assert errors.step_scale_sigma == pytest.approx(0.002, rel=0.1)
+    assert errors.climb_sigma == pytest.approx(0.003, rel=0.1)
+    assert module_error_priors(rows[::2]).step_scale_sigma == 0.0  # loops only: no scale to learn

@@ -19,25 +19,44 @@ host that multiplied every dP by k² would end with k² P and the mean NEES divi
 k for a module is only worth having if it holds across routes: :func:`summary_lines` estimates it
 on the other scenarios (leave one scenario out: the geometric mean of their horizontal σ ratios)
 and shows what it does to the one left out.
+
+**The module's errors as states.** A systematic step-length scale s and climb c
+(:mod:`hostlib.module_errors`) add σ_s² d dᵀ to the horizontal covariance (d: the displacement
+from the start) and σ_c² L² to the height's (L: the path walked). Their priors are estimated by
+the method of moments on the other routes — the model says E[(e·d)²] = dᵀPd + σ_s²|d|⁴ and
+E[e_z²] = P_zz + σ_c² L², so :func:`module_error_priors` pools
+σ_s² = Σ((e·d)² − dᵀPd) / Σ|d|⁴ (over the runs that end away from their start) and
+σ_c² = Σ(e_z² − P_zz) L² / ΣL⁴ (clipped at 0) — and
+:func:`summary_lines` shows each module's NEES with priors estimated on the other modules.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .runs import map_runs
 
-__all__ = ["SCENARIOS", "consistency_rows", "consistency_run", "nees_interval", "summary_lines"]
+if TYPE_CHECKING:
+    from hostlib.module_errors import ModuleErrors
+
+__all__ = ["SCENARIOS", "consistency_rows", "consistency_run", "module_error_priors", "nees_interval",
+           "summary_lines"]
 
 #: The routes of the consistency check: a straight, a rectangle with four turns, the default
 #: route (two laps with stairs).
 SCENARIOS = ("walk", "rectangle", "default")
 #: The normal quantiles of a two-sided 95 % interval.
 _Z95 = 1.959963984540054
+#: The routes the module's error priors are estimated on: the default route's stairs are left out,
+#: because their shared error is the gait model's, not the module's (docs/accuracy.md).
+PRIOR_SCENARIOS = ("walk", "rectangle")
+#: A run teaches the step-length scale only if it ends this far from its start [m]: on a closed
+#: loop the scale error cancels, and (e·d)² is then the noise of a tiny number.
+SCALE_MIN_DISPLACEMENT_M = 10.0
 #: The dimensions of the NEES: horizontal position, height, heading.
 DOF = {"h": 2, "z": 1, "chi": 1}
 
@@ -65,7 +84,10 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
     e_chi = math.remainder(float(track.final_pose[3]) - truth.heading_change(), 2.0 * math.pi)
     p = track.final_covariance
     sigma = np.sqrt(np.diagonal(p))
+    d = track.final_pose[:2] - track.poses[0][:2]
     return {"scenario": scenario, "seed": seed, "steps": track.motion_steps, "distance_m": track.distance,
+            "d_north_m": float(d[0]), "d_east_m": float(d[1]),
+            "p_nn": float(p[0, 0]), "p_ne": float(p[0, 1]), "p_ee": float(p[1, 1]), "p_zz": float(p[2, 2]),
             "e_north_m": float(e[0]), "e_east_m": float(e[1]), "e_down_m": float(e[2]),
             "e_heading_deg": math.degrees(e_chi),
             "sigma_north_m": float(sigma[0]), "sigma_east_m": float(sigma[1]),
@@ -83,6 +105,46 @@ def consistency_rows(seeds: Sequence[int], workers: int = 2,
 def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
     """√(mean NEES / dof) of *rows* for *what* ("h", "z" or "chi")."""
     return math.sqrt(float(np.mean([r[f"nees_{what}"] for r in rows])) / DOF[what])
+
+
+def module_error_priors(rows: Sequence[dict[str, Any]]) -> ModuleErrors:
+    """The step-length scale's and climb's 1σ estimated from *rows*' end errors (module docstring)."""
+    from hostlib.module_errors import ModuleErrors
+
+    num_s = den_s = num_c = den_c = 0.0
+    for r in rows:
+        d, e, p = _displacement(r), np.array([r["e_north_m"], r["e_east_m"]]), _horizontal_p(r)
+        if float(np.hypot(*d)) >= SCALE_MIN_DISPLACEMENT_M:
+            num_s += float(e @ d) ** 2 - float(d @ p @ d)
+            den_s += float(d @ d) ** 2
+        length = r["distance_m"]
+        num_c += (r["e_down_m"] ** 2 - r["p_zz"]) * length ** 2
+        den_c += length ** 4
+    return ModuleErrors(math.sqrt(max(num_s / den_s, 0.0)) if den_s > 0 else 0.0,
+                        math.sqrt(max(num_c / den_c, 0.0)) if den_c > 0 else 0.0)
+
+
+def _priors_without(rows: Sequence[dict[str, Any]], seed: int) -> ModuleErrors:
+    """The priors estimated on every module of *rows* but *seed*'s (leave one module out)."""
+    return module_error_priors([r for r in rows if r["seed"] != seed])
+
+
+def _displacement(r: dict[str, Any]) -> np.ndarray:
+    return np.array([r["d_north_m"], r["d_east_m"]])
+
+
+def _horizontal_p(r: dict[str, Any]) -> np.ndarray:
+    return np.array([[r["p_nn"], r["p_ne"]], [r["p_ne"], r["p_ee"]]])
+
+
+def nees_with_module_errors(r: dict[str, Any], errors: ModuleErrors) -> tuple[float, float]:
+    """The horizontal and height NEES of run *r* against its covariance with the module's errors
+    held at the priors *errors* (the estimate does not move without an aid)."""
+    d = _displacement(r)
+    e = np.array([r["e_north_m"], r["e_east_m"]])
+    p = _horizontal_p(r) + errors.step_scale_sigma ** 2 * np.outer(d, d)
+    pz = r["p_zz"] + (errors.climb_sigma * r["distance_m"]) ** 2
+    return float(e @ np.linalg.solve(p, e)), r["e_down_m"] ** 2 / pz
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -116,4 +178,17 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
             axis, unit = key.split("_")
             cells.append(f"{axis} {e.mean():+.3f} ± {e.std():.3f} (1σ {sigma:.3f}) {unit}")
         lines.append(f"  {s:10s} " + " | ".join(cells))
+    flat = [r for r in rows if r["scenario"] in PRIOR_SCENARIOS]
+    if not flat:
+        return lines
+    lines.append("with the module's step-length scale and climb held as states, their priors estimated "
+                 f"on the other modules' {' and '.join(PRIOR_SCENARIOS)} (σ ratio h / z; heading unchanged):")
+    for s in scenarios:
+        nees = np.array([nees_with_module_errors(r, _priors_without(flat, r["seed"]))
+                         for r in by[s]])
+        ratio_h, ratio_z = math.sqrt(nees[:, 0].mean() / 2), math.sqrt(nees[:, 1].mean())
+        lines.append(f"  {s:10s} σ ratio {ratio_h:5.2f} / {ratio_z:5.2f}")
+    errors = module_error_priors(flat)
+    lines.append(f"priors from every module's {' and '.join(PRIOR_SCENARIOS)}: "
+                 f"σ_s {errors.step_scale_sigma:.5f}, σ_c {errors.climb_sigma:.5f} m/m")
     return lines

@@ -1,0 +1,98 @@
+"""The module's step-length scale and climb held as states: an honest covariance along the track and
+in height, learned from GPS when there is some, and nothing changed when they are not held."""
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from hostlib.fusion import FusionSettings, FusionTracker
+from hostlib.module_errors import ModuleErrors, error_jacobian
+from hostlib.tracking import StepTracker
+
+DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
+
+
+def _steps(rng, n=60):
+    for k in range(n):
+        yield np.array([0.7 + 0.1 * rng.standard_normal(), 0.05 * rng.standard_normal(),
+                        0.01 * rng.standard_normal(), 0.05 * rng.standard_normal()]), k + 1
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2 ** 16), scale=st.floats(0.0, 0.01), climb=st.floats(0.0, 0.01))
+def test_without_aids_the_errors_widen_the_covariance_by_the_distance_and_leave_the_track(seed, scale, climb):
+    """No aid: the track is the plain sum, and the covariance is the plain one plus σ_s² d dᵀ
+    horizontally and σ_c² L² in height (d the displacement, L the path)."""
+    errors = ModuleErrors(scale, climb)
+    held, plain = FusionTracker(FusionSettings(module_errors=errors)), StepTracker()
+    for dx, counter in _steps(np.random.default_rng(seed)):
+        held.add_step(dx, DP, counter)
+        plain.add_step(dx, DP, counter)
+    assert np.array_equal(held.pose, plain.pose)
+    d, length = plain.pose[:2], plain.distance
+    expected = plain.covariance
+    expected[:2, :2] += scale ** 2 * np.outer(d, d)
+    expected[2, 2] += (climb * length) ** 2
+    np.testing.assert_allclose(held.covariance, expected, rtol=1e-9, atol=1e-15)
+    assert held.module_errors == (0.0, 0.0)
+
+
+def test_not_held_the_tracker_is_the_five_state_filter():
+    tracker = FusionTracker()
+    assert tracker.module_errors is None
+    assert tracker.state_covariance.shape == (5, 5)
+    held = FusionTracker(FusionSettings(module_errors=ModuleErrors(0.001, 0.001)))
+    assert held.state_covariance.shape == (7, 7)
+
+
+def test_a_straight_walk_is_uncertain_along_its_length_a_loop_is_not():
+    errors = ModuleErrors(0.002, 0.0)
+    walks = {"straight": 0.0, "loop": 2 * math.pi / 40}  # the loop: a circle back to the start
+    for name, turn in walks.items():
+        held, plain = FusionTracker(FusionSettings(module_errors=errors)), StepTracker()
+        for k in range(40):
+            for t in (held, plain):
+                t.add_step([0.75, 0.0, 0.0, turn], DP, k + 1)
+        extra = held.covariance[:2, :2] - plain.covariance[:2, :2]
+        if name == "straight":
+            assert math.sqrt(extra[0, 0]) == pytest.approx(0.002 * 30.0)
+            assert abs(extra[1, 1]) < 1e-12
+        else:
+            assert np.abs(extra).max() < 1e-9
+
+
+def test_gps_teaches_the_step_length_scale_and_the_steps_after_are_corrected():
+    """A module whose steps are 3 % short walks 400 m north with fixes of the truth: the filter
+    learns s ≈ +3 %, and ends closer to the truth than one that does not hold the scale."""
+    gps = dict(gps=True, gps_sigma_m=5.0, gps_interval_s=5.0, gps_align_distance_m=20.0)
+    held = FusionTracker(FusionSettings(module_errors=ModuleErrors(0.02, 0.001), **gps))
+    plain = FusionTracker(FusionSettings(**gps))
+    rng = np.random.default_rng(3)
+    step, dt = 0.8, 0.5
+    fix_times = np.arange(0.0, 500 * dt, 1.0)
+    truth = np.column_stack([fix_times / dt * step, np.zeros_like(fix_times)])
+    fixes = truth + rng.normal(0, 1.0, (len(fix_times), 2))
+    for t in (held, plain):
+        t.add_fixes(fix_times, fixes)
+    for k in range(500):
+        for t in (held, plain):
+            t.add_step([step * 0.97, 0.0, 0.0, 0.0], DP, k + 1, time_s=(k + 1) * dt)
+    s, _c = held.module_errors
+    assert s == pytest.approx(1 / 0.97 - 1, abs=0.005)
+    truth = 500 * step
+    assert abs(held.pose[0] - truth) < abs(plain.pose[0] - truth)
+
+
+def test_error_jacobian_is_the_rotated_step_and_its_length():
+    j = error_jacobian(math.pi / 2, np.array([3.0, 4.0, 1.0, 0.2]))
+    np.testing.assert_allclose(j[:, 0], [-4.0, 3.0, 0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(j[:, 1], [0.0, 0.0, 5.0, 0.0])
+
+
+@pytest.mark.parametrize("bad", [-0.1, math.nan, math.inf])
+def test_priors_must_be_finite_and_not_negative(bad):
+    with pytest.raises(ValueError, match="step_scale_sigma"):
+        ModuleErrors(bad, 0.0)
