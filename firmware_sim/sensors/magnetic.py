@@ -76,6 +76,14 @@ class MagneticWorld:
             d *= (np.linalg.norm(pos, axis=1) >= self.indoor_radius_m)[:, None]
         return d
 
+    def heading_deviation(self, pos: np.ndarray) -> np.ndarray:
+        """The compass heading error [rad] the indoor deviation makes at NED positions (n, 3): the
+        direction of the horizontal field there minus the Earth's (east positive, in −π..π). A level
+        compass free of the shoe's iron reads the true heading minus the declination minus this."""
+        m = self.earth_ned + self.deviation_ned(np.atleast_2d(pos))
+        error = np.arctan2(m[:, 1], m[:, 0]) - np.arctan2(self.earth_ned[1], self.earth_ned[0])
+        return (error + np.pi) % (2 * np.pi) - np.pi
+
     def board_field(self, pos: np.ndarray, R: np.ndarray) -> np.ndarray:
         """Field in the board frame [µT] at positions (n, 3) with attitudes R (n, 3, 3)."""
         m_n = self.earth_ned + self.deviation_ned(pos)

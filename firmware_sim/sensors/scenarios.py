@@ -93,6 +93,26 @@ SCENARIOS: dict[str, str] = {
     # joined by 5 m arcs: 1031 m, back at the start within centimetres
     "navshoe-outage": "face:50+stand:5+walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90"
                       "+walk:100:2+walk:100:-2+walk:99.71+arc:5:90+walk:200+arc:5:90+stand:5",
+    # NavShoe's house walk (aids.md §1): 118 m through a two-storey house, indoors without GPS
+    # (ENVIRONMENTS), back to the front door within millimetres. Doorways are turns on the spot,
+    # corridor corners short arcs; the wearer stops for a few seconds in four rooms
+    "navshoe-house": (
+        # ground floor: the hall, a corridor, through a door to the living room's window; back
+        # through the dining room, once round its table, into the corridor and round to the stairs
+        "stand:5+walk:3+arc:0.75:90+walk:3+turn:-90+walk:6+arc:1:90+walk:3+stand:3"
+        "+turn:90+walk:4.5+arc:1.2:-360+turn:90+walk:2+turn:-90+walk:3.5+arc:0.75:-180"
+        # a flight of 16 stairs up (2.72 m, one storey), then the upper floor's loop: the landing,
+        # a corridor with the bathroom and the study off it, a bedroom (round the bed), through
+        # the second bedroom and back to the top of the stairs, and down the same flight
+        "+stairs_up:16+walk:1.5+turn:-90+walk:3+turn:-90+walk:2.5+stand:3+turn:180+walk:2.5"
+        "+turn:-90+walk:3+turn:-90+walk:3+stand:2+turn:180+walk:3+turn:-90"
+        "+arc:0.75:90+walk:3+arc:1:90+walk:4+stand:3+arc:1.2:360+walk:2+arc:1:90+walk:2.5"
+        "+turn:90+walk:1.25+turn:-90+walk:2.75+stairs_down:16"
+        # ground floor again: the kitchen, its pantry and back, the hall to the front door
+        "+walk:1+turn:-90+walk:3+arc:1:90+walk:3+arc:1:90+walk:5+stand:3"
+        "+turn:-90+walk:2.5+turn:180+walk:2.5+turn:-90+walk:3+arc:1:90+walk:2.25+turn:-90+walk:1.25"
+        "+turn:90+stand:5"
+    ),
 }
 
 
@@ -110,6 +130,10 @@ class Environment:
 #: name → environment of the scenarios not walked indoors with the sky always in view.
 ENVIRONMENTS: dict[str, Environment] = {
     "navshoe-outage": Environment(outdoors=True, gps_outage_after_m=400.0),
+    # a building's deviation (the default, MagConfig: 5 µT per axis varying over 3 m — about 20°
+    # RMS of heading, correlated 0.2 a metre away, not at all a stride away, and about 0.4 a storey
+    # up), and no sky: not one fix
+    "navshoe-house": Environment(gps_outage_after_m=0.0),
 }
 
 

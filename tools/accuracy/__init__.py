@@ -18,6 +18,12 @@ each run through the emulated module and the host SDK exactly as a user runs the
     height error at the top of the ramp and at the end, mean and largest over the seeds, and
     writes ``OUT/slopes.csv`` and ``OUT/height-ramp.png``.
 
+The heading aids' and two feet's experiments (§1–3, §6) have their own subcommands, each
+documented in its module and listed by ``openshoe-accuracy --help``: ``navshoe-outage``
+(:mod:`.navshoe`), ``navshoe-house`` (:mod:`.house`), ``walks-compass FILE...``
+(:mod:`.walks_compass`: the real walks with their magnetometers), ``two-feet-*``
+(:mod:`.two_feet`), ``consistency`` (:mod:`.consistency`: is the summed covariance honest?).
+
 The runs go through :func:`firmware_sim.app.cluster.execute` (a local Dask cluster of
 ``--workers`` processes, or here with ``--workers 0``).
 """

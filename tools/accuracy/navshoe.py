@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["SCENARIO", "HOSTS", "WalkFixes", "error_table", "outage_rows", "outage_run", "outdoor_compass",
-           "shoe_iron", "summary_lines", "walk_fixes"]
+           "shoe_iron", "summary_lines", "walk_fixes", "wmm_declination_rad"]
 
 SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
@@ -76,15 +76,20 @@ def walk_fixes(scenario: str, t: np.ndarray, pos: np.ndarray, vel: np.ndarray, s
                      float(walked[-1] - np.interp(outage_start, t, walked)))
 
 
-def outdoor_compass() -> dict[str, Any]:
-    """The per-step compass outdoors, as :class:`hostlib.fusion.FusionSettings` fields: σ
-    :data:`OUTDOOR_COMPASS_SIGMA_DEG`, the declination prior from the World Magnetic Model at the
-    default origin and start."""
+def wmm_declination_rad() -> float:
+    """The World Magnetic Model's declination [rad] at the simulated walks' default origin and start."""
     from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START
     from hostlib.declination import declination_deg
 
+    return math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))
+
+
+def outdoor_compass() -> dict[str, Any]:
+    """The per-step compass outdoors, as :class:`hostlib.fusion.FusionSettings` fields: σ
+    :data:`OUTDOOR_COMPASS_SIGMA_DEG`, the declination prior from the World Magnetic Model
+    (:func:`wmm_declination_rad`)."""
     return {"compass": True, "compass_sigma_rad": math.radians(OUTDOOR_COMPASS_SIGMA_DEG),
-            "declination_rad": math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))}
+            "declination_rad": wmm_declination_rad()}
 
 
 def shoe_iron(source: Any) -> Any:
@@ -97,18 +102,16 @@ def shoe_iron(source: Any) -> Any:
 
 def outage_run(seed: int) -> list[dict[str, Any]]:
     """The four hosts' rows of one seed (module docstring)."""
-    from firmware_sim.app.batch import run_replay
-    from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.sensors.imu_array import make_source
-    from firmware_sim.transports.factory import module_serial
     from hostlib.compass import wrap_angle
     from hostlib.fusion import FusionSettings, FusionTracker
     from hostlib.replay import replay_session
 
+    from .runs import fusion_capture
+
     source = make_source(SCENARIO, seed=seed)
     truth = source.truth
-    config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(None))
-    data = bytes(run_replay(source, config=config, announce=None, host="fusion"))
+    data = fusion_capture(source)
     gps = walk_fixes(SCENARIO, truth.t, truth.pos, truth.vel, seed)
     true_declination = source.config.mag.declination_deg
     end = truth.pos[-1, :2]
@@ -163,11 +166,13 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
             ] + error_table(rows, "host", HOSTS)
 
 
-def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str]) -> list[str]:
+def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str], height: bool = False
+                ) -> list[str]:
     """The table of :func:`summary_lines`, a line per *key* in *names*: mean ± sd and worst of the
-    end error and |heading error|, the declination (learned where compass and GPS are on)."""
-    out = [f"{key:<26} {'end error [m]':>16} {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14}"
-           f" {'declination [°]':>16}"]
+    end error (horizontal) and |heading error|, the declination (learned where compass and GPS are
+    on); with *height*, mean ± sd of |height error| at the end too (the rows' ``height_error_m``)."""
+    out = [f"{key:<26} {'end error [m]':>16}" + (f" {'|height| [m]':>14}" if height else "")
+           + f" {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14} {'declination [°]':>16}"]
     for name in names:
         sel = [r for r in rows if r[key] == name]
         if not sel:
@@ -178,8 +183,10 @@ def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str]) 
         d = np.array([r["declination_deg"] for r in sel])
         learned = "compass+gps" in name
         dec = f"{d.mean():6.2f} ± {d.std():4.2f}" if learned else f"{d.mean():6.2f} (fixed)"
-        out.append(f"{name:<26} {e.mean():7.2f} ± {e.std():5.2f} {pct.mean():14.2f} {pct.max():8.2f} "
-                   f"{h.mean():6.2f} ± {h.std():5.2f} {dec:>16}")
+        z = np.abs([r["height_error_m"] for r in sel]) if height else None
+        out.append(f"{name:<26} {e.mean():7.2f} ± {e.std():5.2f}"
+                   + (f" {z.mean():6.2f} ± {z.std():5.2f}" if height else "")
+                   + f" {pct.mean():14.2f} {pct.max():8.2f} {h.mean():6.2f} ± {h.std():5.2f} {dec:>16}")
     truth = rows[0]
     out.append(f"simulated declination {truth['true_declination_deg']:.2f}°, WMM prior "
                f"{truth['wmm_declination_deg']:.2f}°")

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Replayed", "replay_track", "height_profile", "map_runs", "seeded_rows"]
+__all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "map_runs", "seeded_rows"]
 
 
 @dataclass
@@ -25,18 +25,26 @@ class Replayed:
     truth: Any = None  #: the simulated walk's GroundTruth (None for a recording)
 
 
-def replay_track(source: Any, height_compensation: bool, module: int | None = None,
-                 truth: Any = None) -> Replayed:
-    """Replay *source* (a sensor source) through the module with the fusion host."""
+def fusion_capture(source: Any, module: int | None = None, height_compensation: bool = False) -> bytes:
+    """The bytes the module sends replaying *source* (a sensor source) with the fusion host
+    (``openshoe-emu replay --host fusion``): each step packet carries the step's time, swing time,
+    and the attitude and magnetometers at the end of its stance. *module* names the module's
+    serial number (None: the emulator's default)."""
     from firmware_sim.app.batch import run_replay
     from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.transports.factory import module_serial
-    from hostlib.replay import replay_session
 
     config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(module))
-    data = run_replay(source, config=config, announce=None, host="fusion",
-                      height_compensation=height_compensation)
-    session = replay_session(bytes(data))
+    return bytes(run_replay(source, config=config, announce=None, host="fusion",
+                            height_compensation=height_compensation))
+
+
+def replay_track(source: Any, height_compensation: bool, module: int | None = None,
+                 truth: Any = None) -> Replayed:
+    """Replay *source* (a sensor source) through the module with the fusion host."""
+    from hostlib.replay import replay_session
+
+    session = replay_session(fusion_capture(source, module, height_compensation))
     return Replayed(session.tracker.track, session.mcu_serial, truth)
 
 

@@ -105,17 +105,12 @@ def feet_captures(scenario: str, seed: int, walker: int | None = None
     """A module on each foot of a walker walking *scenario* (walk *seed*; *walker*'s two modules,
     None: the seed's own), each replayed with the fusion host: side → sensor source, side → the
     bytes its module sent."""
-    from firmware_sim.app.batch import run_replay
-    from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.sensors.imu_array import make_feet_sources
-    from firmware_sim.transports.factory import module_serial
+
+    from .runs import fusion_capture
 
     sources = make_feet_sources(scenario, seed=seed, walker=walker)
-    captures = {}
-    for side, source in sources.items():
-        config = ModuleConfig(rate_hz=float(source.rate_hz), mcu_serial=module_serial(source.module))
-        captures[side] = bytes(run_replay(source, config=config, announce=None, host="fusion"))
-    return sources, captures
+    return sources, {side: fusion_capture(source, source.module) for side, source in sources.items()}
 
 
 def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None) -> FeetWalk:
