@@ -23,6 +23,11 @@ def build_parser() -> argparse.ArgumentParser:
     w = sub.add_parser("walks", help="closed-loop recordings: height compensation and leave-one-out drift "
                                      "correction, per walk")
     w.add_argument("files", nargs="+", type=Path, metavar="FILE", help="closed-loop recordings (≥ 2)")
+    wc = sub.add_parser("walks-compass",
+                        help="closed-loop recordings with magnetometers: closure plain and with the "
+                             "per-step compass, uncalibrated and with the shoe's iron fitted on the other "
+                             "walks, and why")
+    wc.add_argument("files", nargs="+", type=Path, metavar="FILE", help="closed-loop recordings (≥ 2)")
     s = _seeded(sub, "slopes", "simulated ramps up and down, height error with and without compensation",
                 "1:6", "modules", "five")
     v = _seeded(sub, "speeds", "simulated 100 m straight at 3–8 km/h and running, at 1 kHz and 250 Hz: the "
@@ -30,6 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
     n = _seeded(sub, "navshoe-outage", "NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the "
                                        "first 400 m; compass + GPS, GPS only, compass only, plain",
                 "1:21", "walks", "twenty")
+    hs = _seeded(sub, "navshoe-house", "NavShoe's house walk: 118 m through a two-storey house, indoors; the "
+                                       "compass per step, at every reset, continuously, none",
+                 "1:21", "walks", "twenty")
     f = _seeded(sub, "two-feet-straight", "the module paper's experiment: 100 m straight walks with a module "
                                           "on each foot; each foot, their average and the constrained fusion",
                 "1:51", "walkers", "fifty")
@@ -50,7 +58,7 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, s, v, n, f, lp, a, d, c, h):
+    for q in (w, wc, s, v, n, hs, f, lp, a, d, c, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -73,14 +81,20 @@ def _write_csv(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
     return write_rows(rows, path, [k for k in rows[0] if k != "profile"])
 
 
+def _missing_recordings(files: Sequence[Path]) -> bool:
+    """Whether a recording of *files* is not there (said on stderr)."""
+    missing = [str(f) for f in files if not f.is_file()]
+    if missing:
+        print(f"{PROG}: no such recording: {', '.join(missing)}", file=sys.stderr)
+    return bool(missing)
+
+
 def _walks(args: argparse.Namespace, out) -> int:
     from . import walks
     from .figure import plot_heights
     from .runs import height_profile
 
-    missing = [str(f) for f in args.files if not f.is_file()]
-    if missing:
-        print(f"{PROG}: no such recording: {', '.join(missing)}", file=sys.stderr)
+    if _missing_recordings(args.files):
         return 2
     results = walks.walk_results(args.files, workers=args.workers)
     for line in walks.table_lines(results):
@@ -89,6 +103,22 @@ def _walks(args: argparse.Namespace, out) -> int:
     png = plot_heights(args.out / "height-walk.png", f"{first.name}: a closed loop's height (returns to 0)",
                        height_profile(first.tracks["plain"]), height_profile(first.tracks["height"]))
     print(f"results: {_write_csv(args.out / 'walks.csv', walks.rows(results))}, {png}", file=out)
+    return 0
+
+
+def _walks_compass(args: argparse.Namespace, out) -> int:
+    from . import walks_compass
+
+    if _missing_recordings(args.files):
+        return 2
+    if len(args.files) < 2:
+        print(f"{PROG}: walks-compass: each walk's calibration and compass σ come from the other walks: "
+              f"give at least two recordings", file=sys.stderr)
+        return 2
+    results = walks_compass.compass_walk_results(args.files, workers=args.workers)
+    for line in walks_compass.table_lines(results):
+        print(line, file=out)
+    print(f"results: {_write_csv(args.out / 'walks-compass.csv', walks_compass.rows(results))}", file=out)
     return 0
 
 
@@ -141,6 +171,12 @@ def _navshoe_outage(args: argparse.Namespace, out) -> int:
     from . import navshoe
 
     return _seeded_table(args, out, navshoe.outage_rows, navshoe.summary_lines, "navshoe-outage.csv")
+
+
+def _navshoe_house(args: argparse.Namespace, out) -> int:
+    from . import house
+
+    return _seeded_table(args, out, house.house_rows, house.summary_lines, "navshoe-house.csv")
 
 
 def _two_feet_straight(args: argparse.Namespace, out) -> int:
@@ -224,7 +260,9 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     if args.workers < 0:
         print(f"{PROG}: --workers must be ≥ 0, got {args.workers}", file=sys.stderr)
         return 2
-    return {"walks": _walks, "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
+    return {"walks": _walks, "walks-compass": _walks_compass,
+            "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
+            "navshoe-house": _navshoe_house,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
             "two-feet-aids": _two_feet_aids, "two-feet-drift": _two_feet_drift,
             "consistency": _consistency, "two-feet-heading": _two_feet_heading}[args.experiment](args, out)
