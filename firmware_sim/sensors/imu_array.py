@@ -58,6 +58,8 @@ __all__ = ["SimulatedSource", "make_feet_sources", "make_foot_source", "make_sou
 
 #: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
 _MODULE_STREAM = 0x4D4F44  # "MOD"
+#: Mixed into the seed of a shared building's generator (:class:`SimulatedSource`'s *building_seed*).
+_BUILDING_STREAM = 0x424C44  # "BLD"
 
 
 def module_rng(module: int) -> np.random.Generator:
@@ -72,12 +74,15 @@ class SimulatedSource:
     identity), ``truth`` (:class:`GroundTruth` at the sample times), ``imu``
     int16 (n, 4, 6), ``temp`` int16 (n, 4), ``mag`` int16 (n, 4, 3), ``chips``
     the module's :class:`ChipErrors`, ``clipped`` the number of saturated
-    accelerometer/gyro registers.
+    accelerometer/gyro registers, ``magnetic`` the :class:`MagneticWorld`.
+
+    *building_seed* (None: the walk's own *seed*) draws the building's magnetic field instead,
+    so that two walks share one building: both feet of a walker do.
     """
 
     def __init__(self, motion: Trajectory | str = "default", config: SensorConfig | None = None,
                  seed: int = 0, rate_hz: float = 1000.0, geometry: BoardGeometry = MIMU22BT,
-                 params: GaitParams = WALKING, module: int | None = None):
+                 params: GaitParams = WALKING, module: int | None = None, building_seed: int | None = None):
         self.config = config or DEFAULT_CONFIG
         if isinstance(motion, str) and environment(motion).outdoors:
             self.config = replace(self.config, mag=self.config.mag.outdoors())
@@ -99,6 +104,9 @@ class SimulatedSource:
         self.chips = [ChipErrors.draw(device, cfg) for _ in range(chips)]
         rng = np.random.default_rng(seed)
         self.magnetic = MagneticWorld.draw(rng, device, cfg)
+        if building_seed is not None:  # another walk's building (the walker's, on a foot)
+            building = np.random.default_rng([_BUILDING_STREAM, int(building_seed)])
+            self.magnetic = self.magnetic.in_building(building, cfg)
         sa = white_sigma(cfg.accel.noise_density_g, self.rate_hz) if cfg.noise else 0.0
         sg = white_sigma(cfg.gyro.noise_density_rad_s, self.rate_hz) if cfg.noise else 0.0
         sm = cfg.mag.noise_ut if cfg.noise else 0.0
@@ -243,18 +251,19 @@ def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.
 
 def make_foot_source(scenario: str, side: str, seed: int = 0, rate_hz: float = 1000.0,
                      config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
-                     module: int | None = None) -> SimulatedSource:
+                     module: int | None = None, walker_seed: int | None = None) -> SimulatedSource:
     """The module on the *side* foot of a walker walking *scenario* (:func:`.scenarios.feet`).
 
     *seed* draws this foot's walk and *module* is this module's identity (None: the seed's own),
     as in :func:`make_source`; :func:`make_feet_sources` gives both feet of a walker their own.
-    The scenario's environment (outdoors or not) applies.
+    *walker_seed* draws the building's magnetic field, which both feet of that walker walk
+    through (None: the foot's own). The scenario's environment (outdoors or not) applies.
     """
     config = config or DEFAULT_CONFIG
     if environment(scenario).outdoors:
         config = replace(config, mag=config.mag.outdoors())
     source = SimulatedSource(feet(scenario).foot(side), config=config, seed=seed, rate_hz=rate_hz,
-                             geometry=geometry, module=module)
+                             geometry=geometry, module=module, building_seed=walker_seed)
     source.name = f"{scenario} ({side} foot)"
     return source
 
@@ -266,9 +275,11 @@ def make_feet_sources(scenario: str = "default", seed: int = 0, rate_hz: float =
     source, :data:`~.feet.SIDES` order.
 
     Each foot's module draws its own walk from :func:`~.feet.foot_seed` (*seed*, side) and, with
-    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own).
+    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own); both
+    walk through the one building *seed* draws.
     """
     return {side: make_foot_source(scenario, side, seed=foot_seed(seed, side), rate_hz=rate_hz,
                                    config=config, geometry=geometry,
-                                   module=None if walker is None else foot_module(walker, side))
+                                   module=None if walker is None else foot_module(walker, side),
+                                   walker_seed=seed)
             for side in SIDES}

@@ -11,13 +11,13 @@
 * Shoe: soft iron (a matrix I + S) and hard iron (a constant vector h) in the
   board frame: m_b = (I + S) Rᵀ (m_n + d(p)) + h.
 
-The building's field is drawn once per walk (from the walk's seed), the shoe's
-iron once per module (from its identity).
+The building's field is drawn once per walk (from the walk's seed; both feet of one walker share
+the walker's), the shoe's iron once per module (from its identity).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -54,19 +54,20 @@ class MagneticWorld:
         """The building's field from the walk's generator *rng*, the shoe's iron from the
         module's own generator *device* (the module is fixed in its shoe)."""
         m = config.mag
-        direction = rng.normal(size=(_MODES, 3))
-        direction[:, 2] *= 0.3  # buildings vary mostly along the floor
-        direction /= np.linalg.norm(direction, axis=1, keepdims=True)
-        k = direction * (2 * np.pi / m.indoor_length_m) * rng.uniform(0.5, 1.5, (_MODES, 1))
-        amp = rng.normal(size=(_MODES, 3)) * m.indoor_rms_ut * np.sqrt(2.0 / _MODES)
-        phase = rng.uniform(0, 2 * np.pi, _MODES)
+        k, amp, phase = _building(rng, config)
         soft = np.eye(3) + device.uniform(-1, 1, (3, 3)) * m.soft_iron_bound
         hard = device.uniform(-1, 1, 3) * m.hard_iron_bound_ut
         if not config.mag_disturbance:
-            amp = np.zeros_like(amp)
             soft = np.eye(3)
             hard = np.zeros(3)
         return cls(earth_field_ned(config), k, amp, phase, soft, hard, m.indoor_radius_m)
+
+    def in_building(self, rng: np.random.Generator, config: SensorConfig) -> MagneticWorld:
+        """The same shoe in another building's field, drawn from *rng*: how both feet of one
+        walker see one building (each foot's walk draws its noise from its own seed, the
+        building from the walker's)."""
+        k, amp, phase = _building(rng, config)
+        return replace(self, wave_vectors=k, wave_amplitudes=amp, wave_phases=phase)
 
     def deviation_ned(self, pos: np.ndarray) -> np.ndarray:
         """Indoor deviation at NED positions (n, 3) [µT]."""
@@ -89,3 +90,18 @@ class MagneticWorld:
         m_n = self.earth_ned + self.deviation_ned(pos)
         m_b = mul_transposed(R, m_n)
         return m_b @ self.soft_iron.T + self.hard_iron
+
+
+def _building(rng: np.random.Generator, config: SensorConfig) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A building's deviation field: the wave vectors (J, 3), amplitudes (J, 3) and phases (J,)
+    (zero amplitudes without ``mag_disturbance``; the draws are the same either way)."""
+    m = config.mag
+    direction = rng.normal(size=(_MODES, 3))
+    direction[:, 2] *= 0.3  # buildings vary mostly along the floor
+    direction /= np.linalg.norm(direction, axis=1, keepdims=True)
+    k = direction * (2 * np.pi / m.indoor_length_m) * rng.uniform(0.5, 1.5, (_MODES, 1))
+    amp = rng.normal(size=(_MODES, 3)) * m.indoor_rms_ut * np.sqrt(2.0 / _MODES)
+    phase = rng.uniform(0, 2 * np.pi, _MODES)
+    if not config.mag_disturbance:
+        amp = np.zeros_like(amp)
+    return k, amp, phase

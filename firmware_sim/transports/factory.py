@@ -275,10 +275,11 @@ def module_identity(settings: EmulatorSettings, index: int) -> int | None:
 
 
 def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = None,
-                 side: str | None = None) -> SensorSource:
+                 side: str | None = None, walker_seed: int | None = None) -> SensorSource:
     """The sensor source of a scenario as a served module plays it: module *module* (None: the
     seed's own) walking the scenario with seed *seed*; with *side*, worn on that foot of the
-    walker (:func:`~firmware_sim.sensors.imu_array.make_foot_source`).
+    walker whose walk *walker_seed* draws the building
+    (:func:`~firmware_sim.sensors.imu_array.make_foot_source`).
 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
@@ -288,7 +289,8 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
         if side is None:
             source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module)
         else:
-            source = make_foot_source(scenario, side, seed=seed, rate_hz=rate_hz, module=module)
+            source = make_foot_source(scenario, side, seed=seed, rate_hz=rate_hz, module=module,
+                                      walker_seed=walker_seed)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
     return served_source(source)
@@ -423,8 +425,9 @@ def _sensors(settings: EmulatorSettings, index: int) -> SensorSource:
         from firmware_sim.sensors.replay import ReplaySource
 
         return served_source(ReplaySource.from_file(settings.replay))
+    side = settings.side(index)
     return make_sensors(settings.scenario, module_seed(settings, index), DEFAULT_RATE_HZ,
-                        module_identity(settings, index), settings.side(index))
+                        module_identity(settings, index), side, None if side is None else settings.seed)
 
 
 def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource | None = None) -> BuiltModule:

@@ -89,3 +89,18 @@ def test_feet_sources_draw_independent_errors():
     assert (left.module, right.module) == (14, 15) and (left.seed, right.seed) == (8, 9)
     assert "left foot" in left.name and "right foot" in right.name
     assert not np.array_equal(left.imu[:100], right.imu[:100])  # standing alike, read differently
+
+
+def test_both_feet_of_a_walker_walk_through_one_building():
+    """The building's deviation is the walker's, so the two feet see the same field at the same
+    place (their shoes' iron and their noise stay their own); another walker is in another."""
+    from firmware_sim.sensors.imu_array import make_feet_sources
+
+    points = np.random.default_rng(0).uniform(-20, 20, (50, 3))
+    sources = make_feet_sources("stand:2", seed=4, walker=7)
+    left, right = sources["left"].magnetic, sources["right"].magnetic
+    np.testing.assert_array_equal(left.deviation_ned(points), right.deviation_ned(points))
+    assert np.abs(left.deviation_ned(points)).max() > 1.0  # a building, not open ground
+    assert not np.array_equal(left.hard_iron, right.hard_iron)
+    other = make_feet_sources("stand:2", seed=5, walker=7)["left"].magnetic
+    assert not np.allclose(other.deviation_ned(points), left.deviation_ned(points))
