@@ -35,7 +35,7 @@ import numpy as np
 
 from protocol.board import FOOT_SIDES
 
-from .gait import GaitBuilder, Pose, Swing, Trajectory
+from .gait import WIGGLE, GaitBuilder, Pose, Swing, Trajectory
 from .truth import GroundTruth
 
 __all__ = ["SIDES", "STEP_WIDTH_M", "Feet", "body_truth", "feet_from_body", "foot_module", "foot_seed",
@@ -108,7 +108,11 @@ def _strides(swings: list[Swing]) -> list[list[Swing]]:
 
 
 def feet_from_body(body: GaitBuilder, step_width: float = STEP_WIDTH_M) -> Feet:
-    """The two feet of a walker whose body path *body* built (module docstring)."""
+    """The two feet of a walker whose body path *body* built (module docstring). A wiggle (one
+    foot's calibration motion, :meth:`~.gait.GaitBuilder.wiggle`) is no step of the body: refused."""
+    if any(s.params == WIGGLE for s in body.swings):
+        raise ValueError("a wiggle is one foot's magnetometer calibration, not a walker's step: walk a "
+                         "scenario with a wiggle with one module")
     half = 0.5 * step_width
     start = body.swings[0].a if body.swings else body.pose
     left = [Swing(s.t0, _aside(s.a, -half), _aside(s.b, -half), s.params) for s in body.swings]

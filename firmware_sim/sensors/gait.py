@@ -31,7 +31,8 @@ vectorised over any array of times (:meth:`Trajectory.evaluate`).
 
 :class:`GaitBuilder` composes motions — standing, straight and curved walks,
 slopes and ramps walked at an angle to their fall line, stairs, turns on the
-spot, side and back steps, running — from
+spot, side and back steps, running, and the wiggle of an in-situ magnetometer
+calibration (:meth:`GaitBuilder.wiggle`) — from
 :class:`GaitParams` (stride length, stance and swing time (so cadence and
 speed), clearance, pitch profile, impact). Named scenarios live in
 :mod:`firmware_sim.sensors.scenarios`.
@@ -45,9 +46,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.polynomial import polynomial as P
 
-from .truth import GroundTruth, Kinematics
+from .truth import GroundTruth, Kinematics, euler_to_matrix
 
-__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "Pose", "Swing", "GaitBuilder",
+__all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS", "SHUFFLE", "WIGGLE", "Pose", "Swing", "GaitBuilder",
            "Trajectory", "flat_on", "ramp_normal"]
 
 DEG = math.pi / 180.0
@@ -151,6 +152,25 @@ STAIRS = GaitParams(stride_length=0.56, stance_s=0.6, swing_s=0.5, clearance=0.1
                     toe_off_pitch_deg=-15.0, heel_strike_pitch_deg=5.0, impact_g=2.0)
 SHUFFLE = GaitParams(stride_length=0.4, stance_s=0.5, swing_s=0.4, clearance=0.04,
                      toe_off_pitch_deg=-5.0, heel_strike_pitch_deg=3.0, impact_g=1.0)
+#: The wiggle of an in-situ magnetometer calibration (:meth:`GaitBuilder.wiggle`): each turn of the
+#: foot takes 0.8 s and is held still for 0.4 s — longer than the ZUPT detector's window and delay
+#: (a few tens of ms), so every hold is a stance — with no lift, pitch profile or impact.
+WIGGLE = GaitParams(stride_length=0.0, stance_s=0.4, swing_s=0.8, clearance=0.0, toe_off_pitch_deg=0.0,
+                    heel_strike_pitch_deg=0.0, impact_g=0.0)
+#: Where the module sits from the point the foot turns about (the ankle), in the board frame
+#: (x forward, y right, z down) [m]: 5 cm ahead and 8 cm below it. Turning about the ankle moves
+#: the module by at most twice this (19 cm) from one held orientation to the next.
+WIGGLE_LEVER_M = (0.05, 0.0, 0.08)
+#: The largest pitch or roll of a wiggle [deg]: the toe pointing straight down (the foot lifted
+#: behind) or up, the sole turned to face sideways. An ellipsoid fit needs the field seen from
+#: nearly every side: at the emulator's inclination (72.5°, Stockholm) tilts of at most 65° keep it
+#: within 78° of the board's z axis, a cap on which the fit cannot pin the centre and extent along
+#: that axis (the fit's own heading error 3.4° on level ground, and hostlib.wiggle refuses it);
+#: 90° takes it to 102°, and the error to 0.1° (``openshoe-accuracy magcal``, docs/heading-aids.md).
+WIGGLE_TILT_DEG = 90.0
+#: The golden angle [rad]: successive tilt directions of a wiggle never repeat and fill the circle
+#: evenly.
+_GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 
 @dataclass(frozen=True)
@@ -469,6 +489,45 @@ class GaitBuilder:
             yaw = self.pose.yaw + angle_deg * DEG / n
             roll, pitch = flat_on(normal, yaw)
             self.step_to(replace(self.pose, yaw=yaw, roll=roll, pitch=pitch), params)
+        return self
+
+    def wiggle(self, seconds: float = 30.0, tilt_deg: float = WIGGLE_TILT_DEG,
+               params: GaitParams = WIGGLE) -> GaitBuilder:
+        """Wiggle the foot in place for about *seconds*, as a wearer does to calibrate the shoe's
+        magnetometers (shared/spec/aids.md §3): turns about the ankle (:data:`WIGGLE_LEVER_M`), each
+        held still for a moment, through many orientations, then back to where it started.
+
+        The k-th of n orientations (n = *seconds* / the turn and hold time, at least 4) turns the
+        heading by 180° · sin(2πk/n) from the start's — all round, left then right, and back — and
+        tilts the foot by *tilt_deg* (odd k) or half of it (even k) towards a direction
+        that advances by the golden angle each time: pitch α cos β, roll α sin β on top of the
+        start's. The last orientation is the start's own pose, so the foot ends where it began,
+        flat on the ground it stood on. The module moves along the chord between its positions at
+        two orientations (within a centimetre or two of the arc it would follow about the ankle).
+
+        The module's ZUPT detector sees every hold as a stance: its INS resets once per turn and
+        each step it reports is a few centimetres long (the module's own drift during a 0.8 s turn
+        adds a few more), far below the half metre that ends NavShoe's calibration.
+        """
+        n = max(4, round(seconds / params.stride_s))
+        start = self.pose
+        lever = np.asarray(WIGGLE_LEVER_M)
+
+        def at(roll: float, pitch: float, yaw: float) -> np.ndarray:
+            return euler_to_matrix(np.array(roll), np.array(pitch), np.array(yaw)) @ lever
+
+        ankle = np.array([start.x, start.y, start.z]) - at(start.roll, start.pitch, start.yaw)
+        for k in range(1, n + 1):
+            if k == n:
+                self.step_to(start, params)
+                break
+            tilt = tilt_deg * DEG * (1.0 if k % 2 else 0.5)
+            direction = k * _GOLDEN_ANGLE
+            roll = start.roll + tilt * math.sin(direction)
+            pitch = start.pitch + tilt * math.cos(direction)
+            yaw = start.yaw + math.pi * math.sin(2.0 * math.pi * k / n)
+            x, y, z = ankle + at(roll, pitch, yaw)
+            self.step_to(Pose(float(x), float(y), float(z), roll, pitch, yaw), params)
         return self
 
     def stairs(self, n_stairs: int, up: bool = True, rise: float = 0.17, tread: float = 0.28,

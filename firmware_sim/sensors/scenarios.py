@@ -30,6 +30,10 @@ Pieces (arguments optional, defaults in brackets):
 ``track400[:laps=1]``  laps of a 400 m running track (lane 1), turning left
 ``pace[:v=1.55]``      from here on, walk at v m/s (stride length follows)
 ``face[:deg=0]``       first piece only: the walker starts facing deg (east of north)
+``wiggle[:s=30[:deg=90]]`` about s seconds of turning the foot in place through many
+                       orientations (heading all round, pitch and roll up to ±deg),
+                       each turn held still for a moment, ending flat where it began:
+                       the in-situ magnetometer calibration (aids.md §3)
 =====================  ===========================================================
 
 Every scenario starts and ends at rest (a recipe that does not start with
@@ -48,7 +52,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .feet import STEP_WIDTH_M, Feet, feet_from_body
-from .gait import RUNNING, WALKING, GaitBuilder, GaitParams, Trajectory
+from .gait import RUNNING, WALKING, WIGGLE_TILT_DEG, GaitBuilder, GaitParams, Trajectory
 
 __all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "feet", "list_scenarios", "recipe",
            "trajectory"]
@@ -93,6 +97,11 @@ SCENARIOS: dict[str, str] = {
     # joined by 5 m arcs: 1031 m, back at the start within centimetres
     "navshoe-outage": "face:50+stand:5+walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90"
                       "+walk:100:2+walk:100:-2+walk:99.71+arc:5:90+walk:200+arc:5:90+stand:5",
+    # NavShoe's in-situ magnetometer calibration (aids.md §3): standing outdoors facing 30°, the
+    # wearer wiggles the shoe for 30 s, stands, then walks 76 m with three turns; the first stride
+    # (1.5 m) ends the calibration
+    "navshoe-calibration": "face:30+stand:5+wiggle:30+stand:3+walk:20+arc:3:90+walk:15+arc:3:90"
+                           "+walk:20+turn:-90+walk:12+stand:3",
     # NavShoe's house walk (aids.md §1): 118 m through a two-storey house, indoors without GPS
     # (ENVIRONMENTS), back to the front door within millimetres. Doorways are turns on the spot,
     # corridor corners short arcs; the wearer stops for a few seconds in four rooms
@@ -130,6 +139,10 @@ class Environment:
 #: name → environment of the scenarios not walked indoors with the sky always in view.
 ENVIRONMENTS: dict[str, Environment] = {
     "navshoe-outage": Environment(outdoors=True, gps_outage_after_m=400.0),
+    # outdoors: the field is the same within the few centimetres the wiggle moves the module
+    # (open ground varies over tens of metres, a building's over a few), so the readings lie on
+    # one ellipsoid, and the compass on the walk after it measures the calibration, not a building
+    "navshoe-calibration": Environment(outdoors=True),
     # a building's deviation (the default, MagConfig: 5 µT per axis varying over 3 m — about 20°
     # RMS of heading, correlated 0.2 a metre away, not at all a stride away, and about 0.4 a storey
     # up), and no sky: not one fix
@@ -161,6 +174,7 @@ PIECES: dict[str, Callable[..., object]] = {
     "track400": lambda b, laps=1: b.track_400m(laps=int(laps)),
     "pace": _pace,
     "face": lambda b, deg=0.0: b.face(deg),
+    "wiggle": lambda b, s=30.0, deg=WIGGLE_TILT_DEG: b.wiggle(s, deg),
 }
 
 
