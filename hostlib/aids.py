@@ -45,6 +45,8 @@ class AidSetup:
     origin: tuple[float, float, float] | None  #: lat, lon, alt of the track's (0, 0, 0), if known
     declination_source: str  #: "WMM at the first fix, 2026-06-01", "given", "none (magnetic headings)"
     gps_stats: NmeaStats | None = None
+    #: where the magnetometer calibration came from, for the summary ("saved <path>", "in situ, …")
+    calibration_source: str = ""
 
     def describe(self) -> str:
         s = self.tracker.aid_settings
@@ -58,7 +60,9 @@ class AidSetup:
 
     def _calibrated(self) -> str:
         if isinstance(self.tracker, FusionTracker):
-            return " (calibrated)" if self.tracker.settings.mag_calibration is not None else ""
+            if self.tracker.settings.mag_calibration is None:
+                return f" (not calibrated: {self.calibration_source})" if self.calibration_source else ""
+            return f" (calibrated: {self.calibration_source})" if self.calibration_source else " (calibrated)"
         sides = [side for side in FOOT_SIDES if self.tracker.foot(side).settings.mag_calibration is not None]
         return f" (calibrated: {' and '.join(sides)} foot)" if sides else ""
 

@@ -22,6 +22,15 @@ module's clock::
 
     openshoe-host track /dev/rfcomm0 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
 
+In-situ magnetometer calibration (hostlib.wiggle, NavShoe's): once tracking started, wiggle the
+shoe in one place for about 30 s — toe down and up, the sole to either side, all round — then walk
+off: the first step longer than 0.5 m ends it. It is saved for the module (hostlib.magcal; the
+directory --mag-cal-dir, else $OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/openshoe/magcal), and
+--compass without --mag-cal takes the saved one of the module it talks to::
+
+    openshoe-host track /dev/rfcomm0 --fusion --compass --calibrate-mag --csv walk.csv
+    openshoe-host track /dev/rfcomm0 --fusion --compass --csv later.csv
+
 Closed-loop drift correction (per module; hostlib.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
@@ -102,7 +111,19 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                             "and the CSV gets lat_deg, lon_deg, alt_m")
     g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
-                        "foot's then the right foot's (- for none)")
+                        "foot's then the right foot's (- for none). Without it, --compass takes the module's "
+                        "saved calibration, if there is one (--mag-cal-dir)")
+    where = "once tracking started" if live else "the capture's"
+    g.add_argument("--calibrate-mag", action="store_true",
+                   help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
+                        "of the shoe in one place, ended by the first step longer than 0.5 m; the compass "
+                        "waits for it, and the calibration is saved for the module (--mag-cal-dir)"
+                        + ("; the module streams its magnetometers meanwhile" if live else
+                           " (a capture of the stream: openshoe-emu replay --host fusion --calibrate-mag)"))
+    g.add_argument("--mag-cal-dir", metavar="DIR", default=None,
+                   help="where each module's magnetometer calibration is kept, as <serial>.json (default: "
+                        "$OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/openshoe/magcal, else "
+                        "~/.config/openshoe/magcal)")
     g.add_argument("--declination", type=float, default=None, metavar="DEG",
                    help="magnetic declination, east positive (default: the World Magnetic Model at the "
                         "first fix or at --origin)")
@@ -148,7 +169,8 @@ def _second(args: argparse.Namespace) -> str | None:
 
 #: The heading aids' options: (dest, flag).
 _AID_OPTIONS = (("compass", "--compass"), ("compass_sigma", "--compass-sigma"), ("gps", "--gps"),
-                ("mag_cal", "--mag-cal"), ("declination", "--declination"))
+                ("mag_cal", "--mag-cal"), ("declination", "--declination"),
+                ("calibrate_mag", "--calibrate-mag"))
 
 
 def _track_aid_refusal(args: argparse.Namespace) -> str | None:
@@ -188,6 +210,22 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
     if args.cmd == "track" and args.drift and not args.fusion:
         return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
                 "module's serial number, which the fusion set-up asks the module for")
+    return _calibration_refusal(args, two)
+
+
+def _calibration_refusal(args: argparse.Namespace, two: bool) -> str | None:
+    """Why ``--calibrate-mag`` does not go with the other options, or None."""
+    if not args.calibrate_mag:
+        return None
+    if two:
+        what = "URL" if args.cmd == "track" else "capture"
+        return f"--calibrate-mag calibrates one module: give one {what}"
+    if not args.compass:
+        return ("--calibrate-mag needs --compass: the calibration removes the shoe's iron from the compass's "
+                "readings, and the compass waits for it")
+    if args.mag_cal:
+        return ("--calibrate-mag fits a new calibration: give it or --mag-cal CAL.json (an earlier one), "
+                "not both")
     return None
 
 
@@ -204,15 +242,36 @@ def _fusion_settings(args: argparse.Namespace):
     return FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
 
 
-def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, **more: Any):
-    """The fusion tracker the aid options ask for (hostlib.aids; *more*: to :func:`prepare_aids`)."""
+def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
+                  saved: tuple[Any, Path] | None = None, **more: Any):
+    """The fusion tracker the aid options ask for (hostlib.aids; *more*: to :func:`prepare_aids`),
+    with the calibration of --mag-cal, else the module's *saved* one (calibration, file)."""
     from .aids import prepare_aids
     from .magcal import MagCalibration
 
-    cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else None
+    cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else saved[0] if saved else None
     gps_path = None if more.get("live_gps") else args.gps
-    return prepare_aids(compass=args.compass, gps_path=gps_path, mag_calibration=cal,
+    aids = prepare_aids(compass=args.compass, gps_path=gps_path, mag_calibration=cal,
                         declination=args.declination, origin=origin, settings=_fusion_settings(args), **more)
+    if saved is not None and not args.mag_cal:
+        aids.calibration_source = f"saved {saved[1]}"
+    return aids
+
+
+def _wants_saved_calibration(args: argparse.Namespace) -> bool:
+    """Whether the compass takes the module's saved magnetometer calibration: ``--compass`` without
+    --mag-cal and --calibrate-mag."""
+    return bool(args.compass and not (args.mag_cal or args.calibrate_mag))
+
+
+def _saved_calibration(args: argparse.Namespace, serial: bytes | None) -> tuple[Any, Path] | None:
+    """The saved magnetometer calibration (calibration, file) of the module whose serial number is
+    *serial*, when the options want one (:func:`_wants_saved_calibration`); else None."""
+    from .magcal import load_for_module
+
+    if not _wants_saved_calibration(args) or not serial:
+        return None
+    return load_for_module(serial_text(serial), args.mag_cal_dir)
 
 
 def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[str, Any]:
@@ -443,17 +502,98 @@ class _HostSetup:
         self.dev = dev
         self.fusion = fusion
         self.height_compensation_pending = height_compensation
+        #: the in-situ magnetometer calibration (``--calibrate-mag``), started after the fusion set-up
+        self.in_situ: _InSitu | None = None
 
     def after_start(self) -> None:
         """Right after 0x34 (or, attaching, at once)."""
         if self.fusion:
             self.dev.fusion_setup()
+        if self.in_situ is not None:
+            self.in_situ.start()
 
     def poll(self) -> None:
-        """Between reads: turn height compensation on once the first step packet came."""
+        """Between reads: turn height compensation on once the first step packet came; stop the
+        in-situ calibration's stream once it ended."""
         if self.height_compensation_pending and self.dev.session.stats.steps > 0:
             self.height_compensation_pending = False
             self.dev.height_compensation_on()
+        if self.in_situ is not None:
+            self.in_situ.poll()
+
+
+class _InSitu:
+    """``track --calibrate-mag``: the in-situ magnetometer calibration of one module
+    (hostlib.wiggle). The device's reader thread hands it the session's packets and steps, in their
+    order, and when the first long step ends it, its result goes to the tracker at once; the main
+    loop then stops the stream, saves the calibration for the module and says what it did."""
+
+    def __init__(self, dev: Device, aids: Any, directory: str | None):
+        from .wiggle import WiggleCalibration
+
+        self.dev, self.aids, self.directory = dev, aids, directory
+        self.wiggle = WiggleCalibration()
+        self.reported = False
+        aids.tracker.hold_compass()
+        dev.on_packet(lambda ev: self.wiggle.add_packet(ev.states))
+        dev.on_step(self._step)
+
+    def start(self) -> None:
+        """Start the magnetometer stream (after the fusion set-up) and tell the wearer what to do."""
+        for meaning, fields in self.wiggle.START:
+            self.dev.command(meaning, **fields)
+        print("calibrating the magnetometers: wiggle the shoe in one place for about 30 s — toe down and "
+              f"up, the sole to either side, all round — then walk off (a step longer than "
+              f"{self.wiggle.stop_step_m:g} m ends it)", file=sys.stderr)
+
+    def _step(self, ev: Any) -> None:
+        serial = self.dev.session.mcu_serial
+        if self.wiggle.add_step(ev.step.dx, serial_text(serial) if serial else ""):
+            with self.dev.session_lock:
+                self.wiggle.release(self.aids.tracker)
+
+    def poll(self) -> None:
+        """Once the calibration ended: stop the stream, save, say so (once)."""
+        if self.wiggle.done and not self.reported:
+            self._stop_stream()
+            self._report()
+
+    def close(self, leave_running: bool) -> None:
+        """The walk ended (its outputs off unless *leave_running*): a calibration that ended in the
+        last moments is saved and reported; one that did not end says so. The stream is stopped if
+        the outputs stay on."""
+        if self.reported:
+            return
+        if leave_running:
+            self._stop_stream()
+        if self.wiggle.done:
+            self._report()
+        else:
+            self.aids.calibration_source = "the wiggle did not end"
+
+    def _stop_stream(self) -> None:
+        for meaning, fields in self.wiggle.STOP:
+            self.dev.command(meaning, **fields)
+
+    def _report(self) -> None:
+        self.reported = True
+        self.aids.calibration_source = _keep_in_situ(self.wiggle, self.directory, "track")
+        print(f"openshoe-host track: {self.wiggle.summary()}", file=sys.stderr)
+
+
+def _keep_in_situ(wiggle: Any, directory: str | None, cmd: str) -> str:
+    """Save an in-situ calibration for its module (hostlib.magcal.save_for_module); returns where
+    the tracker's calibration came from, for the summary."""
+    from .magcal import MagCalibrationError, save_for_module
+
+    if wiggle.calibration is None:
+        return "the in-situ calibration was refused"
+    try:
+        path = save_for_module(wiggle.calibration, directory)
+    except (MagCalibrationError, OSError) as exc:
+        print(f"openshoe-host {cmd}: the magnetometer calibration was not saved: {exc}", file=sys.stderr)
+        return "in situ, not saved"
+    return f"in situ, saved {path}"
 
 
 def _await_serial(dev: Device, timeout: float) -> None:
@@ -564,16 +704,31 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
         live = _open_live_gps(args, stack) if args.gps and not Path(args.gps).is_file() else None
         aids = _track_aids(args, origin, live, heading=heading, last_counter=last_counter)
         tracker = StepTracker(heading=heading, last_counter=last_counter) if aids is None else aids.tracker
-        (module,) = _start_tracking(args, stack, {None: (args.url, tracker)},
-                                    None if live is None else lambda ms: _feed_live_gps(live, ms[0].dev))
+        saved = aids is not None and _wants_saved_calibration(args)
+
+        def opened(modules: list[_Tracked]) -> None:
+            if live is not None:
+                _feed_live_gps(live, modules[0].dev)
+            if args.calibrate_mag:
+                modules[0].setup.in_situ = _InSitu(modules[0].dev, aids, args.mag_cal_dir)
+            elif saved:
+                _use_saved_calibration(modules[0].dev, aids, args)
+
+        (module,) = _start_tracking(args, stack, {None: (args.url, tracker)}, opened)
         dev = module.dev
         cal = None if aids is None else aids.tracker.settings.mag_calibration
         first = None if drift is None and cal is None else \
             lambda: _check_calibrations(dev, drift, cal, args.ack_timeout)
-        _follow(args, [module], _LiveLine(out), lambda: _track_status(dev, drift, aids, live), first)
+        try:
+            _follow(args, [module], _LiveLine(out), lambda: _track_status(dev, drift, aids, live), first)
+        finally:
+            if module.setup.in_situ is not None:
+                module.setup.in_situ.close(args.leave_running)
         track = dev.track_snapshot()
         if aids is not None:
             origin = _aids_summary(aids, live, out) or origin
+        if module.setup.in_situ is not None:
+            print(module.setup.in_situ.wiggle.summary(), file=out)
         if drift is not None:
             corrected = drift.apply(track, module_serial=dev.session.mcu_serial)
             moved = corrected.final_pose[:3] - track.final_pose[:3]
@@ -668,6 +823,17 @@ def _check_feet_drift(feet: TwoFeetTracker, modules: list[_Tracked], ack_timeout
         _await_serial(m.dev, max(2.0, 2 * ack_timeout))
     _check_feet_modules(feet, {m.side: m.dev.session.mcu_serial for m in modules},
                         {m.side: m.dev.name for m in modules})
+
+
+def _use_saved_calibration(dev: Device, aids: Any, args: argparse.Namespace) -> None:
+    """Before tracking starts: ask the module its serial number (MCU_ID) and give the compass the
+    module's saved magnetometer calibration, if there is one (hostlib.magcal.load_for_module)."""
+    dev.request_mcu_id()
+    _await_serial(dev, max(2.0, 2 * args.ack_timeout))
+    found = _saved_calibration(args, dev.session.mcu_serial)
+    if found is not None:
+        aids.tracker.release_compass(found[0])
+        aids.calibration_source = f"saved {found[1]}"
 
 
 def _check_calibrations(dev: Device, drift: DriftCalibration | None, cal: Any, ack_timeout: float) -> None:
@@ -809,21 +975,36 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
 
 def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     from .export import parse_origin
-    from .replay import replay_capture_session
+    from .replay import replay_calibrating, replay_session
 
     if args.capture2 is not None:
         return _replay_feet(args, out)
     drift = DriftCalibration.load(args.drift[0]) if args.drift else None
     origin = parse_origin(args.origin) if args.origin else None
-    aids = _prepare_aids(args, origin) if _uses_aids(args) else None
-    session = replay_capture_session(args.capture, command_set=args.command_set,
-                                     tracker=None if aids is None else aids.tracker)
+    data = Path(args.capture).read_bytes()
+    saved = None
+    if _wants_saved_calibration(args):  # the capture's module's own, if one was saved
+        saved = _saved_calibration(args, replay_session(data, command_set=args.command_set).mcu_serial)
+    aids = _prepare_aids(args, origin, saved=saved) if _uses_aids(args) else None
+    wiggle = None
+    if args.calibrate_mag:
+        from .wiggle import WiggleCalibration
+
+        wiggle = WiggleCalibration()
+        session = replay_calibrating(data, wiggle, aids.tracker, command_set=args.command_set)
+        aids.calibration_source = (_keep_in_situ(wiggle, args.mag_cal_dir, "replay") if wiggle.done
+                                   else "the wiggle did not end")
+    else:
+        session = replay_session(data, command_set=args.command_set,
+                                 tracker=None if aids is None else aids.tracker)
     track, stats = session.tracker.track, session.stats
     if aids is not None:
         cal = aids.tracker.settings.mag_calibration
         if cal is not None:
             _check_mag_module(cal, session.mcu_serial)
         origin = _aids_summary(aids, None, out) or origin
+    if wiggle is not None:
+        print(wiggle.summary(), file=out)
     if drift is not None:
         corrected = drift.apply(track, module_serial=session.mcu_serial, what=args.capture)
         print(f"drift correction: {drift}", file=out)

@@ -11,7 +11,11 @@ by :class:`FusionSettings` (shared/spec/aids.md §1–2, NavShoe):
   variance σ_c² (the local deviation, not the sensor noise: tens of degrees indoors). One reading
   per step that moved the foot; the module's resets while the wearer stands still carry no
   update (their readings are the same reading again, and the module's ZARU holds the heading).
-  The first reading aligns the heading: χ ← ψ_c + D, with variance σ_c² + var D;
+  The first reading aligns the heading: χ ← ψ_c + D, with variance σ_c² + var D. While the
+  shoe's iron is being calibrated in situ (:mod:`hostlib.wiggle`) the compass waits
+  (:meth:`FusionTracker.hold_compass`); the calibration then applies, and the first reading after
+  it aligns the heading with the calibration's σ (NavShoe: 10°,
+  :meth:`FusionTracker.release_compass`);
 * **GPS fixes** — north and east of a fix, about the first fix, measure ``[x, y]`` with an
   inflated variance σ_gps² (a receiver's errors are correlated over minutes, so fixes a second
   apart are not independent measurements). A fix is applied at the first step at or after its
@@ -48,7 +52,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -143,6 +147,8 @@ class AidedFilter:
     """
 
     _heading_indices: tuple[int, ...] = (3,)
+    #: 1σ [rad] of the heading the first compass reading aligns (None: the compass's own σ_c)
+    _align_sigma_rad: float | None = None
 
     def _init_aids(self) -> None:
         s = self.aid_settings
@@ -235,7 +241,8 @@ class AidedFilter:
         x, p = self._aid_state()
         if not self._aligned:
             var_d = float(p[-1, -1])
-            self._align(heading_index, psi + float(x[-1]), s.compass_sigma_rad ** 2 + var_d, cov_with_d=var_d)
+            sigma = s.compass_sigma_rad if self._align_sigma_rad is None else self._align_sigma_rad
+            self._align(heading_index, psi + float(x[-1]), sigma ** 2 + var_d, cov_with_d=var_d)
             self.fusion.heading_aligned_by = "compass"
             return
         h = np.zeros(len(x))
@@ -344,6 +351,7 @@ class FusionTracker(AidedFilter, StepTracker):
             self._aa[:2, :2] = errors.prior
         self._aa[-1, -1] = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._init_aids()
+        self._compass_held = False
         self._clock = ModuleClock()
         self._time = 0.0  # module time of the last step [s]
         #: per summed step: module time [s] (NaN: the packet had no T_INT_K)
@@ -383,6 +391,20 @@ class FusionTracker(AidedFilter, StepTracker):
             field_b = self.settings.mag_calibration.apply(field_b)
         return compass_heading(field_b, reading.rotation)
 
+    def hold_compass(self) -> None:
+        """No compass update until :meth:`release_compass`: the shoe's iron is being calibrated
+        (:class:`hostlib.wiggle.WiggleCalibration`). The readings meanwhile count as skipped."""
+        self._compass_held = True
+
+    def release_compass(self, calibration: MagCalibration | None,
+                        align_sigma_rad: float | None = None) -> None:
+        """Compass updates again, *calibration* removing the shoe's iron from now on (None: none,
+        the readings uncalibrated); if the heading is not aligned yet, the next reading aligns it
+        with σ *align_sigma_rad* (None: the compass's own σ_c)."""
+        self.settings = replace(self.settings, mag_calibration=calibration)
+        self._align_sigma_rad = align_sigma_rad
+        self._compass_held = False
+
     # -- input -------------------------------------------------------------------------
 
     def add(self, step, swing_time: float = math.nan, states: Mapping[int, np.ndarray] | None = None
@@ -410,7 +432,9 @@ class FusionTracker(AidedFilter, StepTracker):
         if math.isfinite(time_s):
             self._time = time_s
         self.step_times.append(time_s)
-        if self.settings.compass:
+        if self.settings.compass and self._compass_held:
+            self.fusion.compass_skipped += 1
+        elif self.settings.compass:
             self._compass_step(self.compass_heading(reading), 3, is_motion_step(dxa))
         if self.settings.gps:
             self._gps_until(self._time)

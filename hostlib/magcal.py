@@ -9,13 +9,22 @@ mapping it back onto a sphere of the local field's magnitude recovers::
 
 with A symmetric (a rotation of the whole sphere is not observable from the readings alone; it
 is the part of the soft iron no fit recovers). :func:`fit_ellipsoid` is the algebraic
-least-squares fit of the general quadric ``mᵀ M m + 2 vᵀ m = 1``; :class:`MagCalibration` applies,
-saves and loads the result, with the module's serial number it belongs to.
+least-squares fit of the general quadric ``mᵀ M m + 2 vᵀ m = 1`` (:func:`fit_quadric`, which also
+gives the covariance of its nine coefficients, from which a caller can judge how well the readings
+determine what it needs); :class:`MagCalibration` applies, saves and loads the result, with the
+module's serial number it belongs to.
+
+Saved per module: :func:`save_for_module` writes ``<serial>.json`` into :func:`calibration_dir` —
+``$OPENSHOE_MAGCAL_DIR`` when set, else ``$XDG_CONFIG_HOME/openshoe/magcal`` (``~/.config`` when
+XDG_CONFIG_HOME is unset) — and :func:`load_for_module` finds it again for the same module.
 """
 
 from __future__ import annotations
 
 import json
+import os
+import re
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,10 +33,13 @@ import numpy as np
 
 from .errors import HostError
 
-__all__ = ["MagCalibration", "MagCalibrationError", "fit_ellipsoid"]
+__all__ = ["MAGCAL_DIR_ENV", "MagCalibration", "MagCalibrationError", "QuadricFit", "calibration_dir",
+           "fit_ellipsoid", "fit_quadric", "load_for_module", "module_file", "save_for_module"]
 
 #: Readings needed at the least (9 unknowns; a wiggle gives thousands).
 MIN_READINGS = 30
+#: The environment variable that names the directory of the per-module calibrations.
+MAGCAL_DIR_ENV = "OPENSHOE_MAGCAL_DIR"
 
 
 class MagCalibrationError(HostError, ValueError):
@@ -55,7 +67,11 @@ class MagCalibration:
                 "field_ut": self.field_ut, "rms_residual_ut": self.rms_residual_ut}
 
     def save(self, path: str | Path) -> None:
-        Path(path).write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        """Write the calibration as JSON to *path* (whole: a file half written is never left there)."""
+        path = Path(path)
+        partial = path.with_name(path.name + ".partial")
+        partial.write_text(json.dumps(self.to_json(), indent=2) + "\n")
+        partial.replace(path)
 
     @classmethod
     def load(cls, path: str | Path) -> MagCalibration:
@@ -81,10 +97,49 @@ class MagCalibration:
                                       f"{self.module_serial}, not {module_serial}")
 
 
-def fit_ellipsoid(readings, field_ut: float | None = None, module_serial: str = "") -> MagCalibration:
-    """Fit readings (n, 3) [µT] taken while the field was constant and the shoe turned through
-    many orientations; map them onto a sphere of radius *field_ut* (default: the readings' mean
-    magnitude after the fit's centring — it scales the field, never the heading)."""
+_NOT_AN_ELLIPSOID = "the readings do not span an ellipsoid (turn the shoe more)"
+
+
+@dataclass(frozen=True)
+class QuadricFit:
+    """The least-squares quadric ``uᵀ M u + 2 vᵀ u = 1`` of readings scaled by 1/*scale*
+    (u = m / scale, so that the nine coefficients are of order one)."""
+
+    readings: np.ndarray  #: (n, 3) µT, the finite readings fitted
+    scale: float  #: µT
+    coef: np.ndarray  #: (9,) M's xx, yy, zz, xy, xz, yz, then v's x, y, z
+    #: (9, 9) the coefficients' covariance: the equation residuals' variance times (DᵀD)⁻¹
+    covariance: np.ndarray
+
+    def calibration(self, coef=None, field_ut: float | None = None,
+                    module_serial: str = "") -> MagCalibration:
+        """The calibration of the quadric *coef* (default: the fitted one): its centre is the hard
+        iron, and the symmetric square root of its shape, scaled to *field_ut* (default: the
+        readings' mean magnitude about the centre — it scales the field, never the heading), the
+        soft iron. :class:`MagCalibrationError` when the quadric is no ellipsoid."""
+        a, b, c, d, e, f, g, h, i = self.coef if coef is None else coef
+        quad = np.array([[a, d, e], [d, b, f], [e, f, c]])
+        try:
+            centre = -np.linalg.solve(quad, np.array([g, h, i]))
+        except np.linalg.LinAlgError as exc:
+            raise MagCalibrationError(_NOT_AN_ELLIPSOID) from exc
+        k = 1.0 + float(centre @ quad @ centre)
+        w, v = np.linalg.eigh(quad / k)
+        if not (w > 0).all():
+            raise MagCalibrationError(_NOT_AN_ELLIPSOID)
+        sqrt_shape = v @ np.diag(np.sqrt(w)) @ v.T  # maps the ellipsoid onto the unit sphere
+        m = self.readings
+        hard = centre * self.scale
+        radius = float(field_ut) if field_ut is not None else float(np.mean(np.linalg.norm(m - hard, axis=1)))
+        soft = sqrt_shape / self.scale * radius
+        residual = np.linalg.norm((m - hard) @ soft.T, axis=1) - radius
+        return MagCalibration(hard, soft, module_serial, radius, float(np.sqrt(np.mean(residual ** 2))))
+
+
+def fit_quadric(readings) -> QuadricFit:
+    """The algebraic least-squares quadric of readings (n, 3) [µT] (non-finite rows left out);
+    :class:`MagCalibrationError` with fewer than :data:`MIN_READINGS` or when they do not
+    determine all nine coefficients."""
     m = np.asarray(readings, dtype=np.float64)
     if m.ndim != 2 or m.shape[1] != 3:
         raise MagCalibrationError(f"readings must be (n, 3), got {m.shape}")
@@ -97,23 +152,62 @@ def fit_ellipsoid(readings, field_ut: float | None = None, module_serial: str = 
     design = np.column_stack([x * x, y * y, z * z, 2 * x * y, 2 * x * z, 2 * y * z, 2 * x, 2 * y, 2 * z])
     coef, _, rank, _ = np.linalg.lstsq(design, np.ones(len(u)), rcond=1e-9)
     if rank < design.shape[1]:
-        raise MagCalibrationError("the readings do not span an ellipsoid (turn the shoe more)")
-    a, b, c, d, e, f, g, h, i = coef
-    quad = np.array([[a, d, e], [d, b, f], [e, f, c]])
-    lin = np.array([g, h, i])
+        raise MagCalibrationError(_NOT_AN_ELLIPSOID)
+    dof = max(len(u) - design.shape[1], 1)
+    variance = float(np.sum((design @ coef - 1.0) ** 2)) / dof
+    covariance = variance * np.linalg.pinv(design.T @ design)
+    return QuadricFit(m, scale, coef, covariance)
+
+
+def fit_ellipsoid(readings, field_ut: float | None = None, module_serial: str = "") -> MagCalibration:
+    """Fit readings (n, 3) [µT] taken while the field was constant and the shoe turned through
+    many orientations; map them onto a sphere of radius *field_ut* (default: the readings' mean
+    magnitude after the fit's centring — it scales the field, never the heading)."""
+    return fit_quadric(readings).calibration(field_ut=field_ut, module_serial=module_serial)
+
+
+def calibration_dir(environ: Mapping[str, str] | None = None) -> Path:
+    """Where the per-module calibrations are kept (module docstring); *environ* defaults to the
+    process's environment."""
+    env = os.environ if environ is None else environ
+    if env.get(MAGCAL_DIR_ENV):
+        return Path(env[MAGCAL_DIR_ENV]).expanduser()
+    config = Path(env["XDG_CONFIG_HOME"]) if env.get("XDG_CONFIG_HOME") else Path.home() / ".config"
+    return config / "openshoe" / "magcal"
+
+
+def module_file(module_serial: str, directory: str | Path | None = None) -> Path:
+    """The file of module *module_serial*'s calibration in *directory* (default
+    :func:`calibration_dir`): its serial number as the name, anything but letters, digits, ``.``,
+    ``_`` and ``-`` turned into ``-``."""
+    name = re.sub(r"[^A-Za-z0-9._-]+", "-", module_serial).strip("-.")
+    if not name:
+        raise MagCalibrationError(f"no file name for the module serial number {module_serial!r}")
+    return Path(calibration_dir() if directory is None else directory) / f"{name}.json"
+
+
+def save_for_module(calibration: MagCalibration, directory: str | Path | None = None) -> Path:
+    """Save *calibration* as its module's (:func:`module_file`; the directory is made); returns
+    the file. A calibration that names no module is refused: it could not be found again."""
+    if not calibration.module_serial:
+        raise MagCalibrationError("this calibration names no module: save it with save() to a file of "
+                                  "your choice")
+    path = module_file(calibration.module_serial, directory)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    calibration.save(path)
+    return path
+
+
+def load_for_module(module_serial: str, directory: str | Path | None = None
+                    ) -> tuple[MagCalibration, Path] | None:
+    """Module *module_serial*'s saved calibration and its file, or None when there is none;
+    :class:`MagCalibrationError` for a file that is not one, or that belongs to another module."""
+    path = module_file(module_serial, directory)
+    if not path.is_file():
+        return None
+    calibration = MagCalibration.load(path)
     try:
-        centre = -np.linalg.solve(quad, lin)
-    except np.linalg.LinAlgError as exc:
-        raise MagCalibrationError("the readings do not span an ellipsoid (turn the shoe more)") from exc
-    k = 1.0 + float(centre @ quad @ centre)
-    shape = quad / k
-    w, v = np.linalg.eigh(shape)
-    if not (w > 0).all():
-        raise MagCalibrationError("the readings do not span an ellipsoid (turn the shoe more)")
-    sqrt_shape = v @ np.diag(np.sqrt(w)) @ v.T  # maps the ellipsoid onto the unit sphere
-    hard = centre * scale
-    unit = (m - hard) @ (sqrt_shape / scale).T
-    radius = float(field_ut) if field_ut is not None else float(np.mean(np.linalg.norm(unit, axis=1)))
-    soft = sqrt_shape / scale * radius
-    residual = np.linalg.norm((m - hard) @ soft.T, axis=1) - radius
-    return MagCalibration(hard, soft, module_serial, radius, float(np.sqrt(np.mean(residual ** 2))))
+        calibration.check_module(module_serial)
+    except MagCalibrationError as exc:
+        raise MagCalibrationError(f"{path}: {exc}") from None
+    return calibration, path

@@ -19,6 +19,16 @@ has none of the emulator's extension states (:data:`protocol.extensions.EXTENSIO
 so the conditional set without them fits too. This is what tells IMU_TS riding
 along by the checksum quirk from SWING_TIME (both 4 bytes) on a real module,
 which sends the first and not the second.
+
+Failing that, it is split as the periodic outputs (OUTPUT_STATE, OUTPUT_MULTIPLE_STATES with a
+rate), all of them, or as those and the conditional states together. States switched on at one
+rate fire together, and the firmware starts a slower output in step with the faster ones
+(protocol.md §5), so a periodic packet carries them all; in the cycle of a step the firmware puts
+the step's pulled states in the same packet (§6). This is how the magnetometer stream of the
+in-situ calibration (:data:`protocol.extensions.MAG_STREAM_START`: the quaternion and three
+magnetometers, a subset of the fusion step packet's states) is told from a step packet and from
+other subsets of the same size (DX and QUATERNION are both 16 bytes). Switching a periodic
+output off leaves the states the conditional output sends in the candidates.
 """
 
 from __future__ import annotations
@@ -56,6 +66,7 @@ class _Effect:
     lossless: bool | None  # None: unchanged
     restart_steps: bool = False
     conditional: tuple[int, ...] | None = _UNCHANGED  # the conditional output's states; None: off
+    periodic: frozenset[int] | None = None  # the periodic outputs' states; None: unchanged
 
 
 class OutputPlan:
@@ -72,6 +83,8 @@ class OutputPlan:
         self.lossless: bool | None = lossless
         #: the states of the conditional output (ascending), None when it is off or unknown
         self.conditional: tuple[int, ...] | None = tuple(sorted(outputs)) if outputs == STEP_STATES else None
+        #: the states on periodic output (confirmed by acks)
+        self.periodic: frozenset[int] = frozenset()
         self._pending: dict[int, _Effect] = {}
 
     @property
@@ -105,20 +118,21 @@ class OutputPlan:
             self.lossless = eff.lossless
         if eff.conditional is not _UNCHANGED:
             self.conditional = eff.conditional
+        if eff.periodic is not None:
+            self.periodic = eff.periodic
 
     def _effect(self, meaning: Command, f: dict[str, Any], frame: bytes) -> _Effect | None:
         cur = set(self.outputs)
         if meaning is Command.STEPWISE_DEAD_RECKONING:
-            return _Effect(STEP_STATES, True, restart_steps=True, conditional=tuple(sorted(STEP_STATES)))
+            return _Effect(STEP_STATES, True, restart_steps=True, conditional=tuple(sorted(STEP_STATES)),
+                           periodic=frozenset())
         if meaning in (Command.OUTPUT_ALL_OFF, Command.RESET_ZUPT_AIDED_INS):
-            return _Effect(frozenset(), None, conditional=None)
+            return _Effect(frozenset(), None, conditional=None, periodic=frozenset())
         if meaning is Command.MCU_ID:
             return _Effect(frozenset(cur | {StateId.MCU_ID}), None)
-        if meaning is Command.OUTPUT_STATE:
-            return _Effect(_switch(cur, [f["state_id"]], f["mode"]), bool(f["mode"] & OutputMode.LOSSLESS))
-        if meaning is Command.OUTPUT_MULTIPLE_STATES:
-            ids = [i for i in f["state_ids"] if i]
-            return _Effect(_switch(cur, ids, f["mode"]), bool(f["mode"] & OutputMode.LOSSLESS))
+        if meaning in (Command.OUTPUT_STATE, Command.OUTPUT_MULTIPLE_STATES):
+            ids = [f["state_id"]] if meaning is Command.OUTPUT_STATE else [i for i in f["state_ids"] if i]
+            return self._output(cur, ids, f["mode"])
         if meaning is Command.STATE_IF_SETUP:
             # Quirk §9: the firmware reads 10 ids, the 8 given and the frame's checksum bytes.
             ck = frame[-2:]
@@ -135,39 +149,57 @@ class OutputPlan:
                         ids.add(IMU_TEMP_BASE + i)
                     if mode & OutputMode.MAGNETOMETER:
                         ids.add(IMU_MAG_BASE + i)
-            return _Effect(_switch(cur, sorted(ids), mode), bool(mode & OutputMode.LOSSLESS))
+            return self._output(cur, sorted(ids), mode)
         if meaning in (Command.NORMAL_IMU, Command.NORMAL_IMU_WITH_BIAS_EST):
             mode = f["mode"]
-            return _Effect(frozenset({StateId.IMU_TS, StateId.U_K}), bool(mode & OutputMode.LOSSLESS),
-                           conditional=None)
+            ids = frozenset({StateId.IMU_TS, StateId.U_K})
+            return _Effect(ids, bool(mode & OutputMode.LOSSLESS), conditional=None,
+                           periodic=ids if mode & OutputMode.RATE_MASK and not mode & OutputMode.PULL
+                           else frozenset())
         if meaning is Command.SETUP_DEBUG_PROC:
             ids = [i for i in f["state_ids"] if i in STATES]
             return _Effect(frozenset(cur | set(ids)), None, conditional=tuple(sorted(set(ids))))
         return None
 
+    def _output(self, cur: set[int], ids: list[int], mode: int) -> _Effect:
+        """OUTPUT_STATE and its relatives: *ids* pulled, or on periodic output at the mode's rate,
+        or off (rate 0); the lossless flag from the mode (protocol.md §9)."""
+        ids = [i for i in ids if i in STATES]
+        lossless = bool(mode & OutputMode.LOSSLESS)
+        if mode & OutputMode.PULL:
+            return _Effect(frozenset(cur | set(ids)), lossless)
+        if mode & OutputMode.RATE_MASK:
+            return _Effect(frozenset(cur | set(ids)), lossless, periodic=self.periodic | set(ids))
+        # off: a state the conditional output sends stays a candidate
+        gone = set(ids) - set(self.conditional or ())
+        return _Effect(frozenset(cur - gone), lossless, periodic=self.periodic - set(ids))
+
     def layout(self, payload_len: int) -> tuple[int, ...] | None:
         """The state ids (ascending) in a packet with this payload length: the one subset of the
         candidates that fits, else the conditional output if it fits (with or without the
-        extension states), else the plain step packet 0x34 sets up if it fits, else None."""
+        extension states), else the periodic outputs, alone or with the conditional output, else
+        the plain step packet 0x34 sets up if it fits, else None."""
         ids = match_layout(self.candidates, payload_len)
-        if ids is not None or self.conditional is None:
+        if ids is not None:
             return ids
-        for cond in (self.conditional, tuple(i for i in self.conditional if i not in EXTENSION_STATES),
-                     STEP_IDS):
-            if set(cond) <= self.candidates and sum(STATES[i].size for i in cond) == payload_len:
-                return cond
+        tries: list[tuple[int, ...]] = []
+        if self.conditional is not None:
+            tries += [self.conditional, tuple(i for i in self.conditional if i not in EXTENSION_STATES)]
+        if self.periodic:
+            with_steps = self.periodic | set(self.conditional or ())
+            tries += [tuple(sorted(self.periodic)), tuple(sorted(with_steps))]
+        if self.conditional is not None:
+            tries.append(STEP_IDS)
+        for layout in tries:
+            if set(layout) <= self.candidates and sum(STATES[i].size for i in layout) == payload_len:
+                return layout
         return None
 
     def __repr__(self) -> str:
         ids = " ".join(f"{i:02X}" for i in sorted(self.outputs))
-        return f"OutputPlan(outputs=[{ids}], lossless={self.lossless}, pending={len(self._pending)})"
-
-
-def _switch(cur: set[int], ids: list[int], mode: int) -> frozenset[int]:
-    ids = [i for i in ids if i in STATES]
-    if mode & OutputMode.PULL or mode & OutputMode.RATE_MASK:
-        return frozenset(cur | set(ids))
-    return frozenset(cur - set(ids))
+        periodic = " ".join(f"{i:02X}" for i in sorted(self.periodic))
+        return (f"OutputPlan(outputs=[{ids}], periodic=[{periodic}], lossless={self.lossless}, "
+                f"pending={len(self._pending)})")
 
 
 @lru_cache(maxsize=1024)

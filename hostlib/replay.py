@@ -7,41 +7,57 @@ gives the same steps, gaps and counters as the live session did.
 
 A capture does not show what the host asked for, only the module's acks of it.
 The replay takes the acks of the commands an openshoe host sends after 0x34
-(:data:`CAPTURE_HOST_COMMANDS`: the fusion set-up, :data:`protocol.extensions.FUSION_SETUP`)
-as those commands, so the step packets of a fusion capture are split into their
-states (with the swing time) and its module serial number is read. Both
+(:data:`CAPTURE_HOST_COMMANDS`: the fusion set-up, :data:`protocol.extensions.FUSION_SETUP`,
+and the in-situ calibration's magnetometer stream, on then off) as those commands, in the
+order the host sends them, so the step packets of a fusion capture are split into their
+states (with the swing time), its module serial number is read, and the stream's packets
+(the magnetometers and the attitude, many a second while the wearer wiggles the shoe) are
+told from the steps. A capture without the stream has no ack of it: nothing changes.
+
+:func:`replay_calibrating` replays a capture of the in-situ calibration
+(``openshoe-host replay --calibrate-mag``): a :class:`hostlib.wiggle.WiggleCalibration` follows
+the session's events as it does live, and hands its result to the tracker when the first long
+step ends it. Both
 ``openshoe-host log --raw`` and ``openshoe-emu replay --wire`` write such a
 capture: every byte the module transmitted, in order.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from protocol.commands import command_set as _command_set
-from protocol.extensions import FUSION_SETUP
+from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP
 from protocol.ids import Command
 
+from .drift import serial_text
+from .events import StreamEvent
 from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from .session import HostSession, SessionStats
 from .tracking import StepTracker, Track
+from .wiggle import WiggleCalibration
 
-__all__ = ["CAPTURE_HOST_COMMANDS", "decode_feet", "implied_commands", "replay_bytes", "replay_capture",
-           "replay_capture_session", "replay_feet", "replay_session"]
+__all__ = ["CALIBRATION_CHUNK", "CAPTURE_HOST_COMMANDS", "decode_feet", "implied_commands", "replay_bytes",
+           "replay_calibrating", "replay_capture", "replay_capture_session", "replay_feet", "replay_session"]
 
-#: The commands a capture's host is taken to have sent when the module acknowledges them:
-#: those of the fusion set-up (STATE_IF_SETUP, MCU_ID).
-CAPTURE_HOST_COMMANDS: tuple[tuple[Command, Mapping[str, Any]], ...] = FUSION_SETUP
+#: The commands a capture's host is taken to have sent when the module acknowledges them, in the
+#: order it sends them: those of the fusion set-up (STATE_IF_SETUP, MCU_ID), then the in-situ
+#: calibration's magnetometer stream on and off (OUTPUT_MULTIPLE_STATES twice).
+CAPTURE_HOST_COMMANDS: tuple[tuple[Command, Mapping[str, Any]], ...] = (FUSION_SETUP + MAG_STREAM_START
+                                                                        + MAG_STREAM_STOP)
 
 
-def implied_commands(command_set: str) -> dict[int, tuple[Command, Mapping[str, Any]]]:
-    """Wire id → command of :data:`CAPTURE_HOST_COMMANDS` in *command_set*: a
-    :class:`HostSession`'s *implied_commands* when it decodes a capture."""
+def implied_commands(command_set: str) -> dict[int, list[tuple[Command, Mapping[str, Any]]]]:
+    """Wire id → the commands of :data:`CAPTURE_HOST_COMMANDS` with that id in *command_set*, in
+    order: a :class:`HostSession`'s *implied_commands* when it decodes a capture."""
     cs = _command_set(command_set)
-    return {cs.spec(meaning).wire_id: (meaning, fields) for meaning, fields in CAPTURE_HOST_COMMANDS
-            if cs.supports(meaning)}
+    implied: dict[int, list[tuple[Command, Mapping[str, Any]]]] = {}
+    for meaning, fields in CAPTURE_HOST_COMMANDS:
+        if cs.supports(meaning):
+            implied.setdefault(cs.spec(meaning).wire_id, []).append((meaning, fields))
+    return implied
 
 
 def replay_session(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
@@ -59,6 +75,38 @@ def replay_session(data: bytes, *, command_set: str = "2015", chunk: int = 4096,
     for i in range(0, len(data), chunk):
         session.feed(data[i : i + chunk])
     session.finish()
+    return session
+
+
+#: Bytes fed at a time while an in-situ calibration follows a replay: fewer than a fusion step
+#: packet has (110), so that no chunk completes two steps and the calibration sees each step
+#: before the tracker sums the next — the step that ends it is the last one summed without it,
+#: as when the host follows a live module.
+CALIBRATION_CHUNK = 64
+
+
+def replay_calibrating(data: bytes, wiggle: WiggleCalibration, tracker: Any, *, command_set: str = "2015",
+                       on_events: Callable[[list[StreamEvent]], object] | None = None) -> HostSession:
+    """The host session after the capture *data* of an in-situ calibration: *tracker* (a
+    :class:`hostlib.fusion.FusionTracker`) holds its compass while *wiggle* takes the stream's
+    readings and the steps; when the first long step ends it, the result goes to the tracker
+    (:meth:`~hostlib.wiggle.WiggleCalibration.release`), named after the module's serial number.
+    *on_events* sees the session's events too, after the calibration. The step counter before the
+    first step is unknown, as in :func:`replay_session`."""
+    tracker.hold_compass()
+    session = HostSession(command_set, ack_policy="never", tracker=tracker,
+                          implied_commands=implied_commands(command_set))
+
+    def follow(events: list[StreamEvent]) -> None:
+        serial = serial_text(session.mcu_serial) if session.mcu_serial is not None else ""
+        if wiggle.feed(events, serial):
+            wiggle.release(tracker)
+        if on_events is not None:
+            on_events(events)
+
+    for i in range(0, len(data), CALIBRATION_CHUNK):
+        follow(session.feed(data[i : i + CALIBRATION_CHUNK])[0])
+    follow(session.finish()[0])
     return session
 
 

@@ -18,7 +18,9 @@ stream, without any I/O, so it can be tested byte by byte:
 
 Replaying a capture, the session sees only the module's bytes: *implied_commands*
 tells it which commands the capture's host sent, so that the module's ack of one
-has that command's effect on the expected outputs (:mod:`hostlib.replay`).
+has that command's effect on the expected outputs (:mod:`hostlib.replay`). A host
+may send several commands with one wire id (the magnetometer stream on, later off):
+the acks of that id stand for them in the order given.
 
 The events it reports are declared in :mod:`hostlib.events`.
 
@@ -29,7 +31,8 @@ moves bytes between the port and this object.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections import deque
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -89,8 +92,9 @@ class HostSession:
     :class:`StepTracker` at the origin by default; it counts from step 0 as
     after 0x34 — pass ``StepTracker(last_counter=None)`` to attach to a module
     already tracking). *implied_commands* maps wire ids to the (meaning, fields)
-    of commands someone else sent (a capture's host): when the module acknowledges
-    one this session did not send, it takes effect as if sent here.
+    of commands someone else sent (a capture's host), or to a sequence of them: when
+    the module acknowledges one this session did not send, it takes effect as if sent
+    here — the next of that id's sequence, the last one again once it is used up.
     """
 
     def __init__(
@@ -100,7 +104,8 @@ class HostSession:
         ack_policy: AckPolicy = "auto",
         tracker: StepTracker | None = None,
         plan: OutputPlan | None = None,
-        implied_commands: Mapping[int, tuple[Command, Mapping[str, Any]]] | None = None,
+        implied_commands: Mapping[int, tuple[Command, Mapping[str, Any]]
+                                  | Sequence[tuple[Command, Mapping[str, Any]]]] | None = None,
     ):
         if ack_policy not in ("auto", "always", "never"):
             raise ValueError(f"ack_policy must be 'auto', 'always' or 'never', not {ack_policy!r}")
@@ -110,7 +115,8 @@ class HostSession:
         self.plan = plan if plan is not None else OutputPlan()
         self.decoder = StreamDecoder(self.command_set)
         self.stats = SessionStats()
-        self.implied_commands = dict(implied_commands or {})
+        self.implied_commands = {wire_id: _script(implied)
+                                 for wire_id, implied in (implied_commands or {}).items()}
         #: the module's serial number (state 0x04), once a packet carried it
         self.mcu_serial: bytes | None = None
         self._last_number: int | None = None
@@ -179,9 +185,10 @@ class HostSession:
         for frame in frames:
             if isinstance(frame, CommandAck):
                 self.stats.command_acks += 1
-                implied = self.implied_commands.get(frame.command_id)
-                if implied is not None and not self.plan.awaiting(frame.command_id):
-                    self.encode_command(implied[0], **implied[1])
+                script = self.implied_commands.get(frame.command_id)
+                if script and not self.plan.awaiting(frame.command_id):
+                    meaning, fields = script[0] if len(script) == 1 else script.popleft()
+                    self.encode_command(meaning, **fields)
                 self.plan.acked(frame.command_id)
                 events.append(CommandAckEvent(frame.command_id))
             elif isinstance(frame, StatePacket):
@@ -252,3 +259,10 @@ class HostSession:
             f"HostSession({self.command_set.name}, lossless={self.lossless}, packets={self.stats.packets}, "
             f"steps={self.stats.steps}, garbage={self.stats.garbage_bytes})"
         )
+
+
+def _script(implied) -> deque[tuple[Command, Mapping[str, Any]]]:
+    """One implied command, or a sequence of them, as the queue its acks consume."""
+    if len(implied) == 2 and isinstance(implied[0], Command):
+        return deque([implied])
+    return deque(implied)

@@ -1,4 +1,5 @@
-"""Shared test fixtures: where the real walk recordings are, and skipping without them."""
+"""Shared test fixtures: where the real walk recordings are, and skipping without them; every test
+keeps its magnetometer calibrations in a folder of its own (never the user's)."""
 
 from __future__ import annotations
 
@@ -34,3 +35,12 @@ def walks_dir() -> Path:
     if not have_walks():
         pytest.skip(f"shared walk recordings not found at {WALKS_DIR}")
     return WALKS_DIR
+
+
+@pytest.fixture(autouse=True)
+def own_magcal_dir(tmp_path_factory, monkeypatch) -> Path:
+    """``OPENSHOE_MAGCAL_DIR`` (hostlib.magcal's per-module calibrations) set to an empty folder of
+    this test's, for it and the processes it starts: no test reads or writes the user's."""
+    folder = tmp_path_factory.mktemp("magcal")
+    monkeypatch.setenv("OPENSHOE_MAGCAL_DIR", str(folder))
+    return folder

@@ -24,7 +24,13 @@ The replayed host may also use the emulator's extensions, as a host app would:
 ``--host fusion`` sends :data:`protocol.extensions.FUSION_SETUP` after the ack of 0x34 (the
 step packets then carry each step's swing time, and the module outputs its serial number
 once), and ``--height-compensation`` turns the module's height compensation on when the first
-step packet arrives (:func:`protocol.extensions.height_compensation_on`). Each command goes
+step packet arrives (:func:`protocol.extensions.height_compensation_on`). ``--calibrate-mag``
+(with ``--host fusion``) runs the in-situ magnetometer calibration as ``openshoe-host track
+--calibrate-mag`` does, with the same :class:`hostlib.wiggle.WiggleCalibration`: after the fusion
+set-up the host starts the magnetometer stream (:data:`protocol.extensions.MAG_STREAM_START`) and
+stops it (:data:`~protocol.extensions.MAG_STREAM_STOP`) at the first step longer than 0.5 m, so
+that ``openshoe-host replay OUT --compass --calibrate-mag`` fits the calibration from the capture
+(walk the ``navshoe-calibration`` scenario, which starts with a wiggle). Each command goes
 out once the module acknowledged the one before; frames are built by the host session
 (:class:`hostlib.session.HostSession`). Without them the host sends ``34 00 34`` only, and
 the bytes are those of before. A module made with ``--module N`` has the MCU serial number
@@ -100,7 +106,7 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
                progress: Callable[[int, int | None], None] | None = None,
                progress_every: int = 5000, announce: Announce | None = to_stderr,
                bt_port: Port | None = None, host: str = "plain",
-               height_compensation: bool = False) -> ReplayResult:
+               height_compensation: bool = False, calibrate_mag: bool = False) -> ReplayResult:
     """Run the module on *source* as a lossless Bluetooth host would; returns the bytes sent.
 
     *config* defaults to ``ModuleConfig(rate_hz=source.rate_hz)``; without its own ``ins`` noise
@@ -111,17 +117,21 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     path being prepared, :mod:`firmware_sim.nav.warmup`) or a fallback to the pure path.
     *bt_port* is the Bluetooth interface's port (default: an ideal one; a link model
     with faults makes the host receive what that link delivers). *host* is the replayed host
-    (:data:`HOSTS`); *height_compensation*: it turns height compensation on at the first step.
+    (:data:`HOSTS`); *height_compensation*: it turns height compensation on at the first step;
+    *calibrate_mag* (the fusion host only): it runs the in-situ magnetometer calibration.
     """
     if host not in HOSTS:
         raise ValueError(f"host must be one of {', '.join(HOSTS)}, not {host!r}")
+    if calibrate_mag and host != "fusion":
+        raise ValueError("the in-situ magnetometer calibration goes with the fusion host")
     if config is None:
         config = ModuleConfig(rate_hz=float(source.rate_hz))
     if config.ins is None:
         config = profile_for(source).configure(config)
     module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
-    replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation)
+    replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation,
+                             calibrate_mag=calibrate_mag)
     replayed.run_source(_source_length(source), progress, progress_every)
     replayed.drain()
     result = ReplayResult(bytes(replayed.out))
@@ -137,17 +147,19 @@ class _LosslessHost:
     """The host side of a batch replay: starts step-wise tracking over Bluetooth, keeps every
     byte the module sends and acknowledges each state packet, as a lossless host does.
 
-    With *fusion* or *height_compensation* it also sends the extensions' commands
+    With *fusion*, *height_compensation* or *calibrate_mag* it also sends the extensions' commands
     (:class:`_HostSetup`)."""
 
-    def __init__(self, module: Module, *, fusion: bool = False, height_compensation: bool = False):
+    def __init__(self, module: Module, *, fusion: bool = False, height_compensation: bool = False,
+                 calibrate_mag: bool = False):
         self.module = module
         self.port = module.bt.port
         self.decoder = StreamDecoder()
         self.out = bytearray()
         self.packets = 0
         self.ticks = 0
-        self.setup = _HostSetup(fusion, height_compensation) if fusion or height_compensation else None
+        self.setup = (_HostSetup(fusion, height_compensation, calibrate_mag)
+                      if fusion or height_compensation else None)
         self.port.host_write(START_STEPWISE if self.setup is None else self.setup.start())
 
     def loop_once(self, max_ticks: int = 1) -> int:
@@ -159,14 +171,15 @@ class _LosslessHost:
         if not data:
             return 0
         self.out.extend(data)
-        for frame in self.decoder.feed(data):
-            if isinstance(frame, StatePacket):
-                self.port.host_write(build_packet_ack(frame.number))
-                self.packets += 1
-        if self.setup is not None:
-            command = self.setup.received(data)
-            if command:
-                self.port.host_write(command)
+        if self.setup is None:
+            for frame in self.decoder.feed(data):
+                if isinstance(frame, StatePacket):
+                    self.port.host_write(build_packet_ack(frame.number))
+                    self.packets += 1
+            return len(data)
+        acks, command = self.setup.received(data)
+        self.port.host_write(acks + command)
+        self.packets += len(acks) // len(build_packet_ack(0))
         return len(data)
 
     def run_source(self, total: int | None, progress: Callable[[int, int | None], None] | None,
@@ -207,16 +220,24 @@ class _HostSetup:
     """The commands the replayed host sends besides its packet acks, one at a time: 0x34, then
     (*fusion*) :data:`~protocol.extensions.FUSION_SETUP` once 0x34 is acked, and
     (*height_compensation*) :func:`~protocol.extensions.height_compensation_on` once the first
-    step packet came; each waits for the ack of the command before it.
+    step packet came; (*calibrate_mag*) the magnetometer stream's start after the fusion set-up and
+    its stop when the in-situ calibration (:class:`hostlib.wiggle.WiggleCalibration`) ends at the
+    first long step; each waits for the ack of the command before it.
 
-    A host session (:class:`hostlib.session.HostSession`, sending nothing itself) builds the
-    frames and follows the module's bytes: acks, and packets split by what was asked for."""
+    A host session (:class:`hostlib.session.HostSession`) builds the frames, follows the module's
+    bytes (acks, and packets split by what was asked for) and says which packets to acknowledge:
+    every one while the module is lossless, only the steps while the magnetometer stream has it
+    lossy, as ``openshoe-host`` does."""
 
-    def __init__(self, fusion: bool, height_compensation: bool):
+    def __init__(self, fusion: bool, height_compensation: bool, calibrate_mag: bool = False):
         from hostlib.session import HostSession
+        from hostlib.wiggle import WiggleCalibration
 
-        self.session = HostSession(ack_policy="never")
-        self.queue: deque[tuple[Command, Mapping[str, Any]]] = deque(FUSION_SETUP if fusion else ())
+        self.session = HostSession(ack_policy="auto")
+        self.wiggle = WiggleCalibration() if calibrate_mag else None
+        start = self.wiggle.START if self.wiggle is not None else ()
+        self.queue: deque[tuple[Command, Mapping[str, Any]]] = deque((*FUSION_SETUP, *start) if fusion
+                                                                      else ())
         self.height_compensation = height_compensation
         self.awaiting: int | None = None  #: wire id of the command sent and not yet acked
 
@@ -228,20 +249,23 @@ class _HostSetup:
         self.awaiting = self.session.wire_id(meaning)
         return self.session.encode_command(meaning, **fields)
 
-    def received(self, data: bytes) -> bytes:
-        """Follow the module's *data*; the next command's frame when it is due, else b""."""
+    def received(self, data: bytes) -> tuple[bytes, bytes]:
+        """Follow the module's *data*: the packet acks to send, and the next command's frame when it
+        is due (else b"")."""
         from hostlib.events import CommandAckEvent, StepEvent
 
-        events, _acks = self.session.feed(data)
+        events, acks = self.session.feed(data)
         for event in events:
             if isinstance(event, CommandAckEvent) and event.command_id == self.awaiting:
                 self.awaiting = None
             elif isinstance(event, StepEvent) and self.height_compensation:
                 self.height_compensation = False
                 self.queue.append(height_compensation_on())
+        if self.wiggle is not None and self.wiggle.feed(events):
+            self.queue.extend(self.wiggle.STOP)
         if self.awaiting is None and self.queue:
-            return self._send(*self.queue.popleft())
-        return b""
+            return acks, self._send(*self.queue.popleft())
+        return acks, b""
 
 
 # ---------------------------------------------------------------------------------------------
@@ -300,6 +324,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--height-compensation", action="store_true",
                    help="the replayed host turns the module's height compensation (function 0x25) on when "
                         "the first step packet arrives")
+    p.add_argument("--calibrate-mag", action="store_true",
+                   help="with --host fusion and --wire: the replayed host runs the in-situ magnetometer "
+                        "calibration (hostlib.wiggle): it streams the magnetometers after the fusion set-up "
+                        "and stops the stream at the first step longer than 0.5 m (walk a scenario that "
+                        "starts with a wiggle, e.g. navshoe-calibration); openshoe-host replay OUT --compass "
+                        "--calibrate-mag then fits the calibration from the capture")
     p.add_argument("--profile", choices=sorted(PROFILES), default=None,
                    help="the sensor profile (the filter's noise figures) to navigate with; default: the "
                         "recording's sensor (an OpenShoe walk: 3dm-gx2; a CSV: the module's own, mimu22bt), "
@@ -339,6 +369,9 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--origin and --gps-outage go with --gps"
     if getattr(args, "feet", 1) == 2 and (args.scenario is None or args.wire is None):
         return "--feet 2 goes with --scenario and --wire: a walker's two feet are simulated"
+    if getattr(args, "calibrate_mag", False) and (args.host != "fusion" or args.wire is None):
+        return ("--calibrate-mag goes with --host fusion and --wire: the calibration streams the "
+                "magnetometers after the fusion set-up, in one replay")
     return None
 
 
@@ -436,7 +469,8 @@ def _replay_to(args: argparse.Namespace, source: SensorSource, name: str, module
         config = profile.configure(ModuleConfig(rate_hz=float(source.rate_hz),
                                                 mcu_serial=module_serial(module)))
         data = run_replay(source, config=config, progress=lambda done, _total: bar.update(done - bar.n),
-                          announce=announce, host=args.host, height_compensation=args.height_compensation)
+                          announce=announce, host=args.host, height_compensation=args.height_compensation,
+                          calibrate_mag=getattr(args, "calibrate_mag", False))
     wire.write_bytes(data)
     if not args.quiet:
         elapsed = time.monotonic() - t0

@@ -9,9 +9,11 @@ On 0x04 it sends the MCU id packet.
 "aligns" until the host's MCU_ID (0x04, the last command of the fusion set-up),
 then walks; its step packets carry the conditional output a STATE_IF_SETUP set up
 (the 8 ids and the frame's checksum bytes, protocol.md §9), each step with a swing
-time of :data:`SWING_TIME_S`. ``fakeshoe://N/dropK`` loses its link once the host acked its K-th
-step packet (a port re-opened after that is a module that was never started: silent). Every port
-made is kept in :data:`PORTS`.
+time of :data:`SWING_TIME_S`. ``fakeshoe://N/fusion/wiggle`` is worn through an in-situ
+calibration: after MCU_ID it waits for the magnetometer stream (0x21 with a rate), then sends a
+wiggle's stream packets (:func:`.wiggles.wiggle_packets`) and walks; 0x21 with rate 0 stops it.
+``fakeshoe://N/dropK`` loses its link once the host acked its K-th step packet (a port re-opened
+after that is a module that was never started: silent). Every port made is kept in :data:`PORTS`.
 """
 
 from __future__ import annotations
@@ -19,8 +21,9 @@ from __future__ import annotations
 import numpy as np
 
 from protocol.codec import STEP_IDS, encode_state, encode_states, fitting_ids
+from protocol.extensions import MAG_STREAM_STATES
 from protocol.frames import build_command_ack, build_state_packet
-from protocol.ids import StateId
+from protocol.ids import OutputMode, StateId
 
 from .fakes import FakeModulePort
 from .loops import STANCE_STATES
@@ -42,6 +45,7 @@ class Serial(FakeModulePort):
         self._number = 0
         self.on_command = self._reply
         self.fusion = False
+        self.wiggle = False
         self.drop_after: int | None = None
         self._output_ids: tuple[int, ...] = STEP_IDS
         PORTS.append(self)
@@ -50,6 +54,7 @@ class Serial(FakeModulePort):
         n, *variants = (str(self.port).split("://", 1)[1] or "3").split("/")
         self._steps_total = int(n)
         self.fusion = "fusion" in variants
+        self.wiggle = "wiggle" in variants
         drops = [int(v[4:]) for v in variants if v.startswith("drop")]
         self.drop_after = drops[0] if drops else None
         self.is_open = True
@@ -70,8 +75,14 @@ class Serial(FakeModulePort):
             self._output_ids = tuple(fitting_ids([*frame[3:11], frame[-2], frame[-1]]))
         elif frame[0] == 0x04:
             out += build_state_packet(self._next_number(), encode_state(StateId.MCU_ID, MCU_ID))
-            if self.fusion and self._step_counter == 0:
+            if self.fusion and not self.wiggle and self._step_counter == 0:
                 out += self._next_step()
+        elif frame[0] == 0x21 and self.wiggle and frame[9] & OutputMode.RATE_MASK:
+            from .wiggles import wiggle_packets
+
+            for states in wiggle_packets()[0]:
+                out += build_state_packet(self._next_number(), encode_states(MAG_STREAM_STATES, states))
+            out += self._next_step()
         return out
 
     def _next_step(self) -> bytes:

@@ -103,3 +103,41 @@ def test_track_without_the_aids_writes_the_plain_csv(tmp_path):
     assert main(["track", "fakeshoe://2/fusion", "--fusion", "--duration", "0.5", "--csv", str(csv)],
                 io.StringIO()) == 0
     assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS
+
+
+def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tmp_path, capsys):
+    from protocol.extensions import MAG_STREAM_START, MAG_STREAM_STOP
+    from protocol.frames import build_command
+
+    from .protocol_fakeshoe import MCU_ID, PORTS
+
+    out = io.StringIO()
+    argv = ["track", "fakeshoe://5/fusion/wiggle", "--fusion", "--compass", "--calibrate-mag",
+            "--mag-cal-dir", str(tmp_path), "--duration", "1.5"]
+    assert main(argv, out) == 0
+    text, err = out.getvalue(), capsys.readouterr().err
+    sent = PORTS[-1].commands
+    start, stop = (build_command(m, **f) for (m, f) in (*MAG_STREAM_START, *MAG_STREAM_STOP))
+    assert sent.index(start) == sent.index(bytes.fromhex("04 00 04")) + 1, "after the fusion set-up"
+    assert stop in sent and sent.index(stop) > sent.index(start)
+    saved = tmp_path / f"{MCU_ID.hex('-').upper()}.json"
+    assert f"(calibrated: in situ, saved {saved})" in text and saved.is_file()
+    assert "wiggle the shoe in one place" in err and "magnetometers calibrated from" in err
+    compass, _ = fusion_counts(text)
+    assert compass == 3, "the first of 5 steps ends the calibration, the next aligns, 3 update"
+    again = io.StringIO()
+    argv = ["track", "fakeshoe://5/fusion", "--fusion", "--compass", "--mag-cal-dir", str(tmp_path),
+            "--duration", "1.5"]
+    assert main(argv, again) == 0
+    assert f"(calibrated: saved {saved})" in again.getvalue()
+
+
+@pytest.mark.parametrize(("argv", "message"), [
+    (["--fusion", "--calibrate-mag"], "--calibrate-mag needs --compass"),
+    (["--fusion", "--compass", "--calibrate-mag", "--mag-cal", "c.json"], "give it or --mag-cal CAL.json"),
+    (["/dev/right-does-not-exist", "--fusion", "--compass", "--calibrate-mag"],
+     "--compass, --calibrate-mag work with one URL for now"),
+])
+def test_track_refuses_a_calibration_it_cannot_run_before_opening_a_port(argv, message, capsys):
+    assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
+    assert message in capsys.readouterr().err

@@ -1,12 +1,25 @@
 """The shoe's hard and soft iron from a wiggle: an ellipsoid fit recovers the offset and, up to
-the rotation no fit can see, the distortion; files are checked and bound to their module."""
+the rotation no fit can see, the distortion; files are checked and bound to their module, and kept
+per module where the host finds them again."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
-from hostlib.magcal import MagCalibration, MagCalibrationError, fit_ellipsoid
+from hostlib.magcal import (
+    MagCalibration,
+    MagCalibrationError,
+    calibration_dir,
+    fit_ellipsoid,
+    load_for_module,
+    module_file,
+    save_for_module,
+)
 
 
 def _wiggle(rng, n=1500, field=51.5, noise=0.6):
@@ -61,3 +74,65 @@ def test_a_file_that_is_not_a_calibration_is_refused_by_name(tmp_path):
     bad.write_text("not json")
     with pytest.raises(MagCalibrationError, match="x.json"):
         MagCalibration.load(bad)
+
+
+def test_by_default_the_fit_maps_the_readings_onto_the_fields_own_magnitude():
+    readings, _, _ = _wiggle(np.random.default_rng(2))
+    cal = fit_ellipsoid(readings)
+    assert 48.0 < cal.field_ut < 55.0 and cal.rms_residual_ut < 0.8
+    assert np.mean(np.linalg.norm(cal.apply(readings), axis=1)) == pytest.approx(cal.field_ut, rel=1e-3)
+
+
+def test_the_calibration_directory_is_the_variable_else_the_xdg_config_home(tmp_path):
+    assert calibration_dir({"OPENSHOE_MAGCAL_DIR": str(tmp_path / "mine"), "XDG_CONFIG_HOME": "/x"}) == \
+        tmp_path / "mine"
+    assert calibration_dir({"XDG_CONFIG_HOME": str(tmp_path)}) == tmp_path / "openshoe" / "magcal"
+    assert calibration_dir({}) == Path.home() / ".config" / "openshoe" / "magcal"
+
+
+def test_a_calibration_is_saved_for_its_module_and_found_again(tmp_path):
+    readings, _, _ = _wiggle(np.random.default_rng(3))
+    cal = fit_ellipsoid(readings, module_serial="OSEMU-M00000007")
+    path = save_for_module(cal, tmp_path / "new")
+    assert path == tmp_path / "new" / "OSEMU-M00000007.json" and not list(path.parent.glob("*.partial"))
+    found, where = load_for_module("OSEMU-M00000007", tmp_path / "new")
+    assert where == path
+    np.testing.assert_array_equal(found.soft_iron, cal.soft_iron)
+    assert load_for_module("OSEMU-M00000008", tmp_path / "new") is None
+    with pytest.raises(MagCalibrationError, match="names no module"):
+        save_for_module(fit_ellipsoid(readings), tmp_path)
+
+
+def test_a_file_of_another_module_under_this_ones_name_is_refused(tmp_path):
+    readings, _, _ = _wiggle(np.random.default_rng(4))
+    fit_ellipsoid(readings, module_serial="OSEMU-M00000001").save(tmp_path / "OSEMU-M00000002.json")
+    with pytest.raises(MagCalibrationError, match="M00000002.json: .*belongs to module OSEMU-M00000001"):
+        load_for_module("OSEMU-M00000002", tmp_path)
+
+
+@settings(max_examples=200, deadline=None)
+@given(serial=st.text(min_size=1, max_size=40))
+def test_any_serial_number_names_a_file_in_the_directory_or_is_refused(serial):
+    try:
+        path = module_file(serial, "/calibrations")
+    except MagCalibrationError:
+        assert not any(c.isascii() and (c.isalnum()) for c in serial)
+        return
+    assert path.parent == Path("/calibrations") and path.suffix == ".json"
+    assert path.name[0] not in "-." and "/" not in path.name and "\\" not in path.name
+
+
+finite = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=100, deadline=None)
+@given(hard=st.lists(finite, min_size=3, max_size=3), soft=st.lists(finite, min_size=9, max_size=9),
+       serial=st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789-", min_size=1, max_size=15))
+def test_any_calibration_saves_and_loads_back_unchanged(tmp_path_factory, hard, soft, serial):
+    cal = MagCalibration(np.array(hard), np.array(soft).reshape(3, 3), serial, 51.5, 0.3)
+    path = tmp_path_factory.mktemp("cal") / "c.json"
+    cal.save(path)
+    back = MagCalibration.load(path)
+    np.testing.assert_array_equal(back.hard_iron, cal.hard_iron)
+    np.testing.assert_array_equal(back.soft_iron, cal.soft_iron)
+    assert back.module_serial == serial
