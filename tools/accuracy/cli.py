@@ -38,6 +38,10 @@ def build_parser() -> argparse.ArgumentParser:
     hs = _seeded(sub, "navshoe-house", "NavShoe's house walk: 118 m through a two-storey house, indoors; the "
                                        "compass per step, at every reset, continuously, none",
                  "1:21", "walks", "twenty")
+    mc = _seeded(sub, "magcal", "NavShoe's in-situ magnetometer calibration: a 30 s wiggle then a walk "
+                                "outdoors; the fitted iron against the simulated, the per-step compass with "
+                                "it, the true one and none; wiggles of less tilt",
+                 "1:21", "modules", "twenty")
     f = _seeded(sub, "two-feet-straight", "the module paper's experiment: 100 m straight walks with a module "
                                           "on each foot; each foot, their average and the constrained fusion",
                 "1:51", "walkers", "fifty")
@@ -58,7 +62,7 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, wc, s, v, n, hs, f, lp, a, d, c, h):
+    for q in (w, wc, s, v, n, hs, mc, f, lp, a, d, c, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -179,6 +183,20 @@ def _navshoe_house(args: argparse.Namespace, out) -> int:
     return _seeded_table(args, out, house.house_rows, house.summary_lines, "navshoe-house.csv")
 
 
+def _magcal(args: argparse.Namespace, out) -> int:
+    from . import magcal
+
+    seeds = _seeds(args)
+    if seeds is None:
+        return 2
+    code = _seeded_table(args, out, magcal.calibration_rows, magcal.summary_lines, "magcal.csv")
+    rows = magcal.tilt_rows(seeds, workers=args.workers)
+    for line in magcal.tilt_lines(rows):
+        print(line, file=out)
+    print(f"results: {_write_csv(args.out / 'magcal-tilt.csv', rows)}", file=out)
+    return code
+
+
 def _two_feet_straight(args: argparse.Namespace, out) -> int:
     from . import two_feet
 
@@ -262,7 +280,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
         return 2
     return {"walks": _walks, "walks-compass": _walks_compass,
             "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
-            "navshoe-house": _navshoe_house,
+            "navshoe-house": _navshoe_house, "magcal": _magcal,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
             "two-feet-aids": _two_feet_aids, "two-feet-drift": _two_feet_drift,
             "consistency": _consistency, "two-feet-heading": _two_feet_heading}[args.experiment](args, out)

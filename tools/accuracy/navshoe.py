@@ -14,11 +14,12 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
 * ``compass+gps uncalibrated``: as the first, without removing the shoe's iron;
 * ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do).
 
-The compass runs remove the shoe's hard and soft iron as simulated (the in-situ calibration from a
-wiggle is not built yet). Per run: the horizontal position error and the heading error at the end
-of the walk (the end of the outage), the distance walked without GPS, and the learned declination
-against the simulated Earth field's. Positions of a GPS run are about its first fix; they are put
-back in the walk's frame with that fix's own position before comparing.
+The compass runs remove the shoe's hard and soft iron as simulated (the walk has no wiggle for the
+in-situ calibration; :mod:`.magcal` measures what that leaves). Per run: the horizontal position
+error and the heading error at the end of the walk (the end of the outage), the distance walked
+without GPS, and the learned declination against the simulated Earth field's. Positions of a GPS
+run are about its first fix; they are put back in the walk's frame with that fix's own position
+before comparing.
 """
 
 from __future__ import annotations
@@ -94,7 +95,8 @@ def outdoor_compass() -> dict[str, Any]:
 
 def shoe_iron(source: Any) -> Any:
     """The hard and soft iron of *source*'s shoe as simulated, as the host's
-    :class:`hostlib.magcal.MagCalibration` (the in-situ calibration from a wiggle is not built yet)."""
+    :class:`hostlib.magcal.MagCalibration`: the whole iron, the rotation no in-situ ellipsoid fit sees
+    included (:mod:`.magcal`)."""
     from hostlib.magcal import MagCalibration
 
     return MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))

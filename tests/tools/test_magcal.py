@@ -1,0 +1,37 @@
+"""openshoe-accuracy magcal: one module's wiggle and walk through the module and the calibrating
+host: the fitted iron close to the simulated one, the per-step compass with it as good as the best
+ellipsoid's, between the true iron's and none; and the wiggles of less tilt, the least tilted
+refused."""
+
+from __future__ import annotations
+
+import csv
+import io
+
+import pytest
+
+from tools.accuracy import magcal, main
+
+
+@pytest.mark.slow
+def test_one_module_is_calibrated_and_its_compass_compared_four_ways(tmp_path):
+    out = io.StringIO()
+    assert main(["magcal", "--seeds", "3", "--workers", "0", "--out", str(tmp_path)], out) == 0
+    text = out.getvalue()
+    assert "navshoe-calibration, 1 modules" in text and "refused 0" in text
+    with (tmp_path / "magcal.csv").open() as f:
+        rows = {r["calibration"]: r for r in csv.DictReader(f)}
+    assert set(rows) == set(magcal.CALIBRATIONS)
+    fitted, none = rows["fitted"], rows["none"]
+    assert float(fitted["hard_iron_error_ut"]) < 1.0 < float(none["hard_iron_error_ut"])
+    assert float(fitted["soft_iron_residual"]) < 0.02 < float(none["soft_iron_residual"])
+    assert float(fitted["longest_wiggle_step_m"]) < 0.25 and int(fitted["compass_steps"]) > 40
+    rms = {name: float(r["compass_rms_deg"]) for name, r in rows.items()}
+    assert rms["true"] < rms["fitted"] < rms["none"]
+    assert abs(rms["fitted"] - rms["best ellipsoid"]) < 0.3, "as good as an ellipsoid fit can be"
+    with (tmp_path / "magcal-tilt.csv").open() as f:
+        tilts = {float(r["tilt_deg"]): r for r in csv.DictReader(f)}
+    assert set(tilts) == set(magcal.TILTS_DEG)
+    assert tilts[50.0]["refused"] and not tilts[90.0]["refused"]
+    assert float(tilts[90.0]["fit_error_deg"]) < float(tilts[70.0]["fit_error_deg"]) < 3.0
+    assert "wiggles of less tilt" in text
