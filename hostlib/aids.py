@@ -56,6 +56,9 @@ class AidSetup:
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
+        if s.module_errors is not None:
+            parts.append(f"module errors held: step-length scale σ {s.module_errors.step_scale_sigma:g}, "
+                         f"climb σ {s.module_errors.climb_sigma:g} m/m")
         return "; ".join(parts)
 
     def _calibrated(self) -> str:

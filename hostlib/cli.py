@@ -113,6 +113,11 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
                         "foot's then the right foot's (- for none). Without it, --compass takes the module's "
                         "saved calibration, if there is one (--mag-cal-dir)")
+    g.add_argument("--module-errors", type=_module_errors, default=None, metavar="SCALE,CLIMB",
+                   help="hold the module's step-length scale and climb per metre as states of the filter "
+                        "(hostlib.module_errors), with these 1σ priors (e.g. 0.001,0.0017), or 'emulated' "
+                        "for the emulated module's: the covariance then grows with the distance along the "
+                        "track and in height, as a module's systematic errors do (one module)")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -210,6 +215,8 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
     if args.cmd == "track" and args.drift and not args.fusion:
         return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
                 "module's serial number, which the fusion set-up asks the module for")
+    if two and args.module_errors is not None:
+        return "--module-errors works with one module for now: the two feet's filter does not hold them"
     return _calibration_refusal(args, two)
 
 
@@ -230,7 +237,21 @@ def _calibration_refusal(args: argparse.Namespace, two: bool) -> str | None:
 
 
 def _uses_aids(args: argparse.Namespace) -> bool:
-    return bool(args.compass or args.gps)
+    return bool(args.compass or args.gps or args.module_errors is not None)
+
+
+def _module_errors(text: str):
+    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB (two numbers ≥ 0)."""
+    from .module_errors import EMULATED_MODULE, ModuleErrors
+
+    if text.strip().lower() == "emulated":
+        return EMULATED_MODULE
+    try:
+        scale, climb = (float(v) for v in text.split(","))
+        return ModuleErrors(scale, climb)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB (two numbers ≥ 0, e.g. 0.001,0.0017) or "
+                                         f"'emulated', got {text!r}") from None
 
 
 def _fusion_settings(args: argparse.Namespace):
@@ -238,8 +259,9 @@ def _fusion_settings(args: argparse.Namespace):
     from .fusion import FusionSettings
 
     if args.compass_sigma is None:
-        return FusionSettings()
-    return FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma))
+        return FusionSettings(module_errors=args.module_errors)
+    return FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma),
+                          module_errors=args.module_errors)
 
 
 def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,

@@ -108,3 +108,14 @@ def test_heading_is_shown_in_0_to_360_and_never_as_360():
     assert heading_deg(-1e-9) == 0.0
     assert heading_deg(math.radians(-90.0)) == pytest.approx(270.0)
     assert f"{heading_deg(math.radians(-0.06)):5.1f}" == "359.9"
+
+
+def test_track_with_the_module_errors_holds_them_live(tmp_path):
+    """A live track with --module-errors sums the same steps; its covariance grows along the track."""
+    out, csv_path = io.StringIO(), tmp_path / "w.csv"
+    assert main(["track", "fakeshoe://5", "--duration", "1.0", "--module-errors", "0.01,0",
+                 "--csv", str(csv_path)], out) == 0
+    assert "module errors held" in out.getvalue()
+    track = read_csv(csv_path)
+    assert len(track) == 5 and track.final_pose[0] == pytest.approx(5.0)
+    assert math.sqrt(track.final_covariance[0, 0]) >= 0.01 * 5.0 * 0.999  # 1 % of the 5 m walked

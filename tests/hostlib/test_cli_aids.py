@@ -6,6 +6,7 @@ from __future__ import annotations
 import io
 
 import numpy as np
+import pytest
 
 from firmware_sim.sensors.gps import simulate_fixes, write_nmea
 from hostlib.cli import main
@@ -87,3 +88,24 @@ def test_a_magnetometer_calibration_is_applied(tmp_path):
     args = ["replay", _capture(tmp_path), "--compass", "--mag-cal", str(cal), "--declination", "0"]
     assert main(args, out) == 0
     assert "(calibrated)" in out.getvalue()
+
+
+def test_replay_with_the_module_errors_widens_the_covariance_and_leaves_the_track(tmp_path, capsys):
+    """--module-errors holds the module's step-length scale and climb: the track is the plain sum,
+    its covariance grows by the distance (the rectangle's height most); two captures refuse it."""
+    capture = _capture(tmp_path)
+    plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
+    assert main(["replay", capture, "--csv", str(plain_csv)], io.StringIO()) == 0
+    out = io.StringIO()
+    assert main(["replay", capture, "--module-errors", "0.001,0.002", "--csv", str(held_csv)], out) == 0
+    assert "module errors held: step-length scale σ 0.001, climb σ 0.002 m/m" in out.getvalue()
+    plain, held = read_csv(plain_csv), read_csv(held_csv)
+    np.testing.assert_allclose(held.poses, plain.poses, atol=1e-12)
+    path = plain.distance
+    extra_z = held.final_covariance[2, 2] - plain.final_covariance[2, 2]
+    np.testing.assert_allclose(extra_z, (0.002 * path) ** 2, rtol=1e-6)
+    assert main(["replay", capture, capture, "--module-errors", "emulated"], io.StringIO()) == 2
+    assert "--module-errors works with one module" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["replay", capture, "--module-errors", "0.1"], io.StringIO())
+    assert exit_.value.code == 2 and "SCALE,CLIMB" in capsys.readouterr().err
