@@ -57,8 +57,9 @@ class AidSetup:
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
         if s.module_errors is not None:
-            parts.append(f"module errors held: step-length scale σ {s.module_errors.step_scale_sigma:g}, "
-                         f"climb σ {s.module_errors.climb_sigma:g} m/m")
+            e = s.module_errors
+            parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "
+                         f"climb σ {e.climb_sigma:g} m/m, turn scale σ {e.turn_scale_sigma:g}")
         return "; ".join(parts)
 
     def _calibrated(self) -> str:

@@ -113,11 +113,11 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
                         "foot's then the right foot's (- for none). Without it, --compass takes the module's "
                         "saved calibration, if there is one (--mag-cal-dir)")
-    g.add_argument("--module-errors", type=_module_errors, default=None, metavar="SCALE,CLIMB",
-                   help="hold the module's step-length scale and climb per metre as states of the filter "
-                        "(hostlib.module_errors), with these 1σ priors (e.g. 0.001,0.0017), or 'emulated' "
-                        "for the emulated module's: the covariance then grows with the distance along the "
-                        "track and in height, as a module's systematic errors do (one module)")
+    g.add_argument("--module-errors", type=_module_errors, default=None, metavar="SCALE,CLIMB[,TURN]",
+                   help="hold the module's step-length scale, climb per metre and turn scale as states of "
+                        "the filter (hostlib.module_errors), with these 1σ priors (e.g. 0.001,0.0017,0.01), "
+                        "or 'emulated' for the emulated module's: the covariance then grows with the "
+                        "distance and the angle turned, as a module's systematic errors do (one module)")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -241,17 +241,19 @@ def _uses_aids(args: argparse.Namespace) -> bool:
 
 
 def _module_errors(text: str):
-    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB (two numbers ≥ 0)."""
+    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB[,TURN] (numbers ≥ 0)."""
     from .module_errors import EMULATED_MODULE, ModuleErrors
 
     if text.strip().lower() == "emulated":
         return EMULATED_MODULE
     try:
-        scale, climb = (float(v) for v in text.split(","))
-        return ModuleErrors(scale, climb)
+        sigmas = [float(v) for v in text.split(",")]
+        if len(sigmas) not in (2, 3):
+            raise ValueError(f"{len(sigmas)} numbers")
+        return ModuleErrors(*sigmas)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB (two numbers ≥ 0, e.g. 0.001,0.0017) or "
-                                         f"'emulated', got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB[,TURN] (1σ, numbers ≥ 0, e.g. "
+                                         f"0.001,0.0017,0.01) or 'emulated', got {text!r}") from None
 
 
 def _fusion_settings(args: argparse.Namespace):

@@ -32,10 +32,10 @@ With every aid off the track is :class:`~hostlib.tracking.StepTracker`'s, bit fo
 summation is the same code, and D is uncorrelated with the pose until an aid correlates it.
 
 **The module's errors** (:attr:`FusionSettings.module_errors`, :mod:`hostlib.module_errors`): a
-step-length scale s and a climb c per metre, held as two more states before D
-(``[x, y, z, χ, s, c, D]``). Without an aid they leave the track as it is and widen its covariance
-along the displacement and in height, as a module's systematic errors do; GPS makes them
-observable, and the steps after are corrected by what it taught.
+step-length scale s, a climb c per metre and a turn scale k, held as three more states before D
+(``[x, y, z, χ, s, c, k, D]``). Without an aid they leave the track as it is and widen its
+covariance along the displacement, in height and with the angle turned, as a module's systematic
+errors do; the aids make them observable, and the steps after are corrected by what they taught.
 
 The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
 holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
@@ -60,7 +60,7 @@ from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .events import StepOutcome
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
-from .module_errors import ModuleErrors, error_jacobian
+from .module_errors import ERROR_STATES, ModuleErrors, error_jacobian
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
@@ -96,7 +96,7 @@ class FusionSettings:
     #: the declination prior D₀ [rad] (east positive) and its 1σ while GPS is used
     declination_rad: float = 0.0
     declination_sigma_rad: float = math.radians(15.0)
-    #: the module's step-length scale and climb as states (:mod:`hostlib.module_errors`; None: not
+    #: the module's step-length scale, climb and turn scale as states (:mod:`hostlib.module_errors`; None: not
     #: held, and the covariance is the steps' own)
     module_errors: ModuleErrors | None = None
 
@@ -343,12 +343,12 @@ class FusionTracker(AidedFilter, StepTracker):
         s = self.settings
         # the states beside the pose: the module's errors [s, c] if held, then D
         errors = s.module_errors
-        self._a = np.zeros(3 if errors is not None else 1)
+        self._a = np.zeros(1 + (ERROR_STATES if errors is not None else 0))
         self._a[-1] = float(s.declination_rad)
         self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c,] D)
         self._aa = np.zeros((len(self._a), len(self._a)))
         if errors is not None:
-            self._aa[:2, :2] = errors.prior
+            self._aa[:ERROR_STATES, :ERROR_STATES] = errors.prior
         self._aa[-1, -1] = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._init_aids()
         self._compass_held = False
@@ -366,8 +366,8 @@ class FusionTracker(AidedFilter, StepTracker):
 
     @property
     def state_covariance(self) -> np.ndarray:
-        """The covariance of the whole state: [x, y, z, χ, D], or [x, y, z, χ, s, c, D] with the
-        module's errors held (:attr:`FusionSettings.module_errors`)."""
+        """The covariance of the whole state: [x, y, z, χ, D], or [x, y, z, χ, s, c, k, D] with
+        the module's errors held (:attr:`FusionSettings.module_errors`)."""
         n = 4 + len(self._a)
         p = np.zeros((n, n))
         p[:4, :4] = self.track._covs[-1]
@@ -377,9 +377,9 @@ class FusionTracker(AidedFilter, StepTracker):
         return p
 
     @property
-    def module_errors(self) -> tuple[float, float] | None:
-        """The estimated step-length scale s and climb c [m/m] (None: not held)."""
-        return None if len(self._a) == 1 else (float(self._a[0]), float(self._a[1]))
+    def module_errors(self) -> tuple[float, ...] | None:
+        """The estimated step-length scale s, climb c [m/m] and turn scale k (None: not held)."""
+        return None if len(self._a) == 1 else tuple(float(v) for v in self._a[:ERROR_STATES])
 
     def compass_heading(self, reading: StanceReading | None) -> float | None:
         """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
@@ -442,14 +442,14 @@ class FusionTracker(AidedFilter, StepTracker):
 
     def _module_errors_through(self, f: np.ndarray, j: np.ndarray) -> None:
         """The step just summed, with the module's errors held: its pose moves by the learned
-        scale and climb (nothing while they are 0), and the covariance goes through the step's
-        Jacobians (F for the pose, J for [s, c]; the steps' own dP is already in)."""
+        errors (nothing while they are 0), and the covariance goes through the step's Jacobians
+        (F for the pose, J for [s, c, k]; the steps' own dP is already in)."""
         m = len(self._a)
         fa = np.zeros((4, m))
-        fa[:, :2] = j
-        if self._a[0] != 0.0 or self._a[1] != 0.0:
+        fa[:, :ERROR_STATES] = j
+        if np.any(self._a[:ERROR_STATES] != 0.0):
             pose = self.track._poses[-1].copy()
-            pose += j @ self._a[:2]
+            pose += j @ self._a[:ERROR_STATES]
             self.track._poses[-1] = pose
         cross = f @ self._pa @ fa.T
         p = self.track._covs[-1] + cross + cross.T + fa @ self._aa @ fa.T

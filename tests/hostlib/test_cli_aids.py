@@ -98,7 +98,8 @@ def test_replay_with_the_module_errors_widens_the_covariance_and_leaves_the_trac
     assert main(["replay", capture, "--csv", str(plain_csv)], io.StringIO()) == 0
     out = io.StringIO()
     assert main(["replay", capture, "--module-errors", "0.001,0.002", "--csv", str(held_csv)], out) == 0
-    assert "module errors held: step-length scale σ 0.001, climb σ 0.002 m/m" in out.getvalue()
+    held_text = "module errors held: step-length scale σ 0.001, climb σ 0.002 m/m, turn scale σ 0"
+    assert held_text in out.getvalue()
     plain, held = read_csv(plain_csv), read_csv(held_csv)
     np.testing.assert_allclose(held.poses, plain.poses, atol=1e-12)
     path = plain.distance

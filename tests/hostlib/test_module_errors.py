@@ -37,7 +37,7 @@ def test_without_aids_the_errors_widen_the_covariance_by_the_distance_and_leave_
     expected[:2, :2] += scale ** 2 * np.outer(d, d)
     expected[2, 2] += (climb * length) ** 2
     np.testing.assert_allclose(held.covariance, expected, rtol=1e-9, atol=1e-15)
-    assert held.module_errors == (0.0, 0.0)
+    assert held.module_errors == (0.0, 0.0, 0.0)
 
 
 def test_not_held_the_tracker_is_the_five_state_filter():
@@ -45,7 +45,7 @@ def test_not_held_the_tracker_is_the_five_state_filter():
     assert tracker.module_errors is None
     assert tracker.state_covariance.shape == (5, 5)
     held = FusionTracker(FusionSettings(module_errors=ModuleErrors(0.001, 0.001)))
-    assert held.state_covariance.shape == (7, 7)
+    assert held.state_covariance.shape == (8, 8)
 
 
 def test_a_straight_walk_is_uncertain_along_its_length_a_loop_is_not():
@@ -80,16 +80,34 @@ def test_gps_teaches_the_step_length_scale_and_the_steps_after_are_corrected():
     for k in range(500):
         for t in (held, plain):
             t.add_step([step * 0.97, 0.0, 0.0, 0.0], DP, k + 1, time_s=(k + 1) * dt)
-    s, _c = held.module_errors
+    s, _c, _k = held.module_errors
     assert s == pytest.approx(1 / 0.97 - 1, abs=0.005)
     truth = 500 * step
     assert abs(held.pose[0] - truth) < abs(plain.pose[0] - truth)
 
 
-def test_error_jacobian_is_the_rotated_step_and_its_length():
+def test_error_jacobian_is_the_rotated_step_its_length_and_its_turn():
     j = error_jacobian(math.pi / 2, np.array([3.0, 4.0, 1.0, 0.2]))
     np.testing.assert_allclose(j[:, 0], [-4.0, 3.0, 0.0, 0.0], atol=1e-12)
     np.testing.assert_allclose(j[:, 1], [0.0, 0.0, 5.0, 0.0])
+    np.testing.assert_allclose(j[:, 2], [0.0, 0.0, 0.0, 0.2])
+
+
+def test_the_turn_scale_widens_the_heading_by_the_angle_turned():
+    """A walk round a circle twice: the heading's variance grows by σ_k² (4π)², and the positions
+    it carried are less certain than the plain sum says; a straight walk's heading is untouched."""
+    errors = ModuleErrors(0.0, 0.0, 0.01)
+    for turn, turned in ((2 * math.pi / 40, 4 * math.pi), (0.0, 0.0)):
+        held, plain = FusionTracker(FusionSettings(module_errors=errors)), StepTracker()
+        for k in range(80):
+            for t in (held, plain):
+                t.add_step([0.75, 0.0, 0.0, turn], DP, k + 1)
+        extra = held.covariance - plain.covariance
+        assert extra[3, 3] == pytest.approx((0.01 * turned) ** 2, abs=1e-15)
+        if turned:
+            assert np.trace(extra[:2, :2]) > 0.0
+        else:
+            assert np.abs(extra).max() < 1e-15
 
 
 @pytest.mark.parametrize("bad", [-0.1, math.nan, math.inf])

@@ -16,6 +16,7 @@ from tools.accuracy.consistency import (
     consistency_run,
     module_error_priors,
     nees_interval,
+    nees_with_module_errors,
     sigma_ratio,
     summary_lines,
 )
@@ -75,20 +76,33 @@ def test_the_command_writes_its_table(tmp_path):
 
 
 def test_the_module_error_priors_are_recovered_from_end_errors_drawn_from_their_model():
-    """Straight walks with a step-length scale of 1σ 0.2 % and a climb of 1σ 3 mm/m on top of the
-    steps' own noise: the method-of-moments estimate gives both back; closed loops teach no scale."""
+    """Straight walks and loops with a step-length scale of 1σ 0.2 %, a climb of 1σ 3 mm/m and a
+    turn scale of 1σ 1 % on top of the steps' own noise: the method-of-moments estimate gives all
+    three back; straight walks teach no turn scale, closed loops no step-length scale."""
     rng = np.random.default_rng(7)
     rows = []
-    for k in range(2000):
+    for k in range(4000):
         length = 100.0
-        d = np.array([length, 0.0]) if k % 2 else np.array([0.3, -0.2])  # straight walks and loops
+        straight = bool(k % 2)
+        d = np.array([length, 0.0]) if straight else np.array([0.3, -0.2])
+        turned = 0.05 if straight else 4 * math.pi
         p = np.diag([0.03 ** 2, 0.25 ** 2])
         e = rng.multivariate_normal(np.zeros(2), p) + rng.normal(0.0, 0.002) * d
         e_z = rng.normal(0.0, 0.03) + rng.normal(0.0, 0.003) * length
+        e_chi = rng.normal(0.0, 0.004) + rng.normal(0.0, 0.01) * turned
+        jac = {"j_ns": d[0], "j_es": d[1], "j_zc": length, "j_hk": turned}
         rows.append({"seed": k, "distance_m": length, "d_north_m": d[0], "d_east_m": d[1],
                      "e_north_m": e[0], "e_east_m": e[1], "e_down_m": e_z,
-                     "p_nn": p[0, 0], "p_ne": 0.0, "p_ee": p[1, 1], "p_zz": 0.03 ** 2})
+                     "e_heading_deg": math.degrees(e_chi),
+                     "p_nn": p[0, 0], "p_ne": 0.0, "p_ee": p[1, 1], "p_zz": 0.03 ** 2, "p_chichi": 0.004 ** 2,
+                     **{f"j_{r}{c}": jac.get(f"j_{r}{c}", 0.0) for r in "nezh" for c in "sck"}})
     errors = module_error_priors(rows)
     assert errors.step_scale_sigma == pytest.approx(0.002, rel=0.1)
     assert errors.climb_sigma == pytest.approx(0.003, rel=0.1)
+    assert errors.turn_scale_sigma == pytest.approx(0.01, rel=0.1)
     assert module_error_priors(rows[::2]).step_scale_sigma == 0.0  # loops only: no scale to learn
+    assert module_error_priors(rows[1::2]).turn_scale_sigma == 0.0  # straight only: no turns
+    nees = np.array([nees_with_module_errors(r, errors) for r in rows])
+    assert nees[:, 0].mean() / 2 == pytest.approx(1.0, abs=0.1)
+    assert nees[:, 1].mean() == pytest.approx(1.0, abs=0.1)
+    assert nees[:, 2].mean() == pytest.approx(1.0, abs=0.1)

@@ -20,14 +20,17 @@ k for a module is only worth having if it holds across routes: :func:`summary_li
 on the other scenarios (leave one scenario out: the geometric mean of their horizontal σ ratios)
 and shows what it does to the one left out.
 
-**The module's errors as states.** A systematic step-length scale s and climb c
+**The module's errors as states.** A systematic step-length scale s, climb c and turn scale k
 (:mod:`hostlib.module_errors`) add σ_s² d dᵀ to the horizontal covariance (d: the displacement
-from the start) and σ_c² L² to the height's (L: the path walked). Their priors are estimated by
-the method of moments on the other routes — the model says E[(e·d)²] = dᵀPd + σ_s²|d|⁴ and
-E[e_z²] = P_zz + σ_c² L², so :func:`module_error_priors` pools
-σ_s² = Σ((e·d)² − dᵀPd) / Σ|d|⁴ (over the runs that end away from their start) and
-σ_c² = Σ(e_z² − P_zz) L² / ΣL⁴ (clipped at 0) — and
-:func:`summary_lines` shows each module's NEES with priors estimated on the other modules.
+from the start), σ_c² L² to the height's (L: the path walked) and σ_k² Θ² to the heading's (Θ:
+the angle turned), with what that heading does to the positions after; each run carries the end
+pose's Jacobian J with respect to [s, c, k], so its covariance with priors Σ is P + J Σ Jᵀ. The
+priors are estimated by the method of moments on the other modules — the model says
+E[(e·d)²] = dᵀPd + σ_s²|d|⁴, E[e_z²] = P_zz + σ_c² L² and E[e_χ²] = P_χχ + σ_k² Θ², so
+:func:`module_error_priors` pools σ_s² = Σ((e·d)² − dᵀPd) / Σ|d|⁴ (over the runs that end away
+from their start), σ_c² = Σ(e_z² − P_zz) L² / ΣL⁴ and σ_k² = Σ(e_χ² − P_χχ) Θ² / ΣΘ⁴ (over the
+runs that turned), clipped at 0 — and :func:`summary_lines` shows each module's NEES with priors
+estimated on the other modules.
 """
 
 from __future__ import annotations
@@ -57,6 +60,9 @@ PRIOR_SCENARIOS = ("walk", "rectangle")
 #: A run teaches the step-length scale only if it ends this far from its start [m]: on a closed
 #: loop the scale error cancels, and (e·d)² is then the noise of a tiny number.
 SCALE_MIN_DISPLACEMENT_M = 10.0
+#: … and the turn scale only if it turned this much in all [rad] (a straight walk's few degrees of
+#: net turn are noise against its heading error).
+TURN_MIN_RAD = math.pi / 2
 #: The dimensions of the NEES: horizontal position, height, heading.
 DOF = {"h": 2, "z": 1, "chi": 1}
 
@@ -74,11 +80,18 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
     """One walk: *job* = (scenario, seed). Its end errors, their 1σ and NEES."""
     from firmware_sim.app.batch import run_replay
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.replay import replay_bytes
+    from hostlib.fusion import FusionSettings, FusionTracker
+    from hostlib.module_errors import ModuleErrors
+    from hostlib.replay import replay_bytes, replay_session
 
     scenario, seed = job
     source = make_source(scenario, seed=seed)
-    track, _ = replay_bytes(run_replay(source, announce=None))
+    data = run_replay(source, announce=None)
+    track, _ = replay_bytes(data)
+    # the end pose's Jacobian with respect to the module's errors: their cross-covariance with the
+    # pose when held with unit priors (the estimate does not move without an aid)
+    unit = FusionTracker(FusionSettings(module_errors=ModuleErrors(1.0, 1.0, 1.0)))
+    jacobian = replay_session(data, tracker=unit).tracker.state_covariance[:4, 4:7]
     truth = source.truth
     e = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
     e_chi = math.remainder(float(track.final_pose[3]) - truth.heading_change(), 2.0 * math.pi)
@@ -88,6 +101,8 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
     return {"scenario": scenario, "seed": seed, "steps": track.motion_steps, "distance_m": track.distance,
             "d_north_m": float(d[0]), "d_east_m": float(d[1]),
             "p_nn": float(p[0, 0]), "p_ne": float(p[0, 1]), "p_ee": float(p[1, 1]), "p_zz": float(p[2, 2]),
+            "p_chichi": float(p[3, 3]),
+            **{f"j_{r}{c}": float(jacobian[i, k]) for i, r in enumerate("nezh") for k, c in enumerate("sck")},
             "e_north_m": float(e[0]), "e_east_m": float(e[1]), "e_down_m": float(e[2]),
             "e_heading_deg": math.degrees(e_chi),
             "sigma_north_m": float(sigma[0]), "sigma_east_m": float(sigma[1]),
@@ -108,20 +123,26 @@ def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
 
 
 def module_error_priors(rows: Sequence[dict[str, Any]]) -> ModuleErrors:
-    """The step-length scale's and climb's 1σ estimated from *rows*' end errors (module docstring)."""
+    """The step-length scale's, climb's and turn scale's 1σ estimated from *rows*' end errors
+    (module docstring)."""
     from hostlib.module_errors import ModuleErrors
 
-    num_s = den_s = num_c = den_c = 0.0
+    num = np.zeros(3)
+    den = np.zeros(3)
     for r in rows:
         d, e, p = _displacement(r), np.array([r["e_north_m"], r["e_east_m"]]), _horizontal_p(r)
         if float(np.hypot(*d)) >= SCALE_MIN_DISPLACEMENT_M:
-            num_s += float(e @ d) ** 2 - float(d @ p @ d)
-            den_s += float(d @ d) ** 2
+            num[0] += float(e @ d) ** 2 - float(d @ p @ d)
+            den[0] += float(d @ d) ** 2
         length = r["distance_m"]
-        num_c += (r["e_down_m"] ** 2 - r["p_zz"]) * length ** 2
-        den_c += length ** 4
-    return ModuleErrors(math.sqrt(max(num_s / den_s, 0.0)) if den_s > 0 else 0.0,
-                        math.sqrt(max(num_c / den_c, 0.0)) if den_c > 0 else 0.0)
+        num[1] += (r["e_down_m"] ** 2 - r["p_zz"]) * length ** 2
+        den[1] += length ** 4
+        turned = r["j_hk"]
+        if abs(turned) >= TURN_MIN_RAD:
+            num[2] += (math.radians(r["e_heading_deg"]) ** 2 - r["p_chichi"]) * turned ** 2
+            den[2] += turned ** 4
+    sigmas = [math.sqrt(max(n / m, 0.0)) if m > 0 else 0.0 for n, m in zip(num, den, strict=True)]
+    return ModuleErrors(*sigmas)
 
 
 def _priors_without(rows: Sequence[dict[str, Any]], seed: int) -> ModuleErrors:
@@ -137,14 +158,21 @@ def _horizontal_p(r: dict[str, Any]) -> np.ndarray:
     return np.array([[r["p_nn"], r["p_ne"]], [r["p_ne"], r["p_ee"]]])
 
 
-def nees_with_module_errors(r: dict[str, Any], errors: ModuleErrors) -> tuple[float, float]:
-    """The horizontal and height NEES of run *r* against its covariance with the module's errors
-    held at the priors *errors* (the estimate does not move without an aid)."""
-    d = _displacement(r)
+def _jacobian(r: dict[str, Any]) -> np.ndarray:
+    """∂(end pose)/∂[s, c, k] (4×3) of run *r*."""
+    return np.array([[r[f"j_{row}{col}"] for col in "sck"] for row in "nezh"])
+
+
+def nees_with_module_errors(r: dict[str, Any], errors: ModuleErrors) -> tuple[float, float, float]:
+    """The horizontal, height and heading NEES of run *r* against its covariance with the module's
+    errors held at the priors *errors* (the estimate does not move without an aid)."""
+    j = _jacobian(r)
+    extra = j @ errors.prior @ j.T
     e = np.array([r["e_north_m"], r["e_east_m"]])
-    p = _horizontal_p(r) + errors.step_scale_sigma ** 2 * np.outer(d, d)
-    pz = r["p_zz"] + (errors.climb_sigma * r["distance_m"]) ** 2
-    return float(e @ np.linalg.solve(p, e)), r["e_down_m"] ** 2 / pz
+    p = _horizontal_p(r) + extra[:2, :2]
+    e_chi = math.radians(r["e_heading_deg"])
+    return (float(e @ np.linalg.solve(p, e)), r["e_down_m"] ** 2 / (r["p_zz"] + extra[2, 2]),
+            e_chi ** 2 / (r["p_chichi"] + extra[3, 3]))
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -181,14 +209,15 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     flat = [r for r in rows if r["scenario"] in PRIOR_SCENARIOS]
     if not flat:
         return lines
-    lines.append("with the module's step-length scale and climb held as states, their priors estimated "
-                 f"on the other modules' {' and '.join(PRIOR_SCENARIOS)} (σ ratio h / z; heading unchanged):")
+    lines.append("with the module's step-length scale, climb and turn scale held as states, their priors "
+                 f"estimated on the other modules' {' and '.join(PRIOR_SCENARIOS)} (σ ratio h / z / χ):")
     for s in scenarios:
         nees = np.array([nees_with_module_errors(r, _priors_without(flat, r["seed"]))
                          for r in by[s]])
-        ratio_h, ratio_z = math.sqrt(nees[:, 0].mean() / 2), math.sqrt(nees[:, 1].mean())
-        lines.append(f"  {s:10s} σ ratio {ratio_h:5.2f} / {ratio_z:5.2f}")
+        ratio_h, ratio_z, ratio_chi = (math.sqrt(nees[:, i].mean() / dof) for i, dof in enumerate((2, 1, 1)))
+        lines.append(f"  {s:10s} σ ratio {ratio_h:5.2f} / {ratio_z:5.2f} / {ratio_chi:5.2f}")
     errors = module_error_priors(flat)
     lines.append(f"priors from every module's {' and '.join(PRIOR_SCENARIOS)}: "
-                 f"σ_s {errors.step_scale_sigma:.5f}, σ_c {errors.climb_sigma:.5f} m/m")
+                 f"σ_s {errors.step_scale_sigma:.5f}, σ_c {errors.climb_sigma:.5f} m/m, "
+                 f"σ_k {errors.turn_scale_sigma:.5f}")
     return lines
