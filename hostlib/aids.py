@@ -15,7 +15,8 @@
 
 :func:`prepare_feet_aids` does the same for a module on each foot: a
 :class:`~hostlib.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
-magnetometer and drift calibration, the fixes queued for the body and for each foot.
+magnetometer and drift calibration, the fixes queued for the body and for each foot (or, from a
+receiver read live, its first fix placing the walk as for one module).
 """
 
 from __future__ import annotations
@@ -23,7 +24,7 @@ from __future__ import annotations
 import datetime as dt
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from .declination import declination_deg
@@ -47,6 +48,8 @@ class AidSetup:
     gps_stats: NmeaStats | None = None
     #: where the magnetometer calibration came from, for the summary ("saved <path>", "in situ, …")
     calibration_source: str = ""
+    #: with two feet: side → where that foot's calibration came from, if said ("saved <path>")
+    foot_calibration_sources: dict[str, str] = field(default_factory=dict)
 
     def describe(self) -> str:
         s = self.tracker.aid_settings
@@ -68,7 +71,13 @@ class AidSetup:
                 return f" (not calibrated: {self.calibration_source})" if self.calibration_source else ""
             return f" (calibrated: {self.calibration_source})" if self.calibration_source else " (calibrated)"
         sides = [side for side in FOOT_SIDES if self.tracker.foot(side).settings.mag_calibration is not None]
-        return f" (calibrated: {' and '.join(sides)} foot)" if sides else ""
+        if not sides:
+            return ""
+        sources = self.foot_calibration_sources
+        if not any(side in sources for side in sides):
+            return f" (calibrated: {' and '.join(sides)} foot)"
+        return " (calibrated: " + "; ".join(f"{side} foot" + (f", {sources[side]}" if side in sources else "")
+                                            for side in sides) + ")"
 
 
 @dataclass
@@ -142,12 +151,14 @@ def prepare_feet_aids(*, compass: bool, gps_path: str | Path | None = None,
                       declination: float | None = None, origin: Sequence[float] | None = None,
                       when: dt.date | None = None, settings: FusionSettings | None = None,
                       feet: FeetSettings | None = None, drift: Mapping[str, DriftCalibration] | None = None,
-                      last_counter: int | None = None, defer: bool = True, heading: float = 0.0) -> AidSetup:
+                      last_counter: int | None = None, defer: bool = True, heading: float = 0.0,
+                      live_gps: bool = False, first_fix: GpsFix | None = None) -> AidSetup:
     """:func:`prepare_aids` for a module on each foot: a :class:`TwoFeetTracker` (*feet*, *defer*,
     *heading*, *last_counter*) with the aids on the joint filter and on each foot's tracker,
     each foot's magnetometer calibration (side → calibration) and drift calibration; the GPS
-    log's fixes are the body's."""
-    plan = _plan(compass, gps_path, declination, origin, when, settings)
+    log's fixes are the body's. *live_gps* and *first_fix*: a receiver read live, as for
+    :func:`prepare_aids` (:mod:`hostlib.gps_stream` queues its fixes for the body and each foot)."""
+    plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
     tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading,
                              aids=plan.settings, mag_calibrations=mag_calibrations, drift=drift)
     return plan.setup(tracker)

@@ -16,11 +16,12 @@ other foot, it never stops it::
 Per-module calibrations (--drift, --mag-cal) then take one file per foot, the left foot's first
 (- for none); each is checked against the serial number of the module on its foot.
 
-Heading aids on a live walk (one module, the fusion set-up; hostlib.fusion): a compass update per
-step, and GPS fixes from a receiver read as they come (hostlib.gps_stream), each put on the
-module's clock::
+Heading aids on a live walk (the fusion set-up; hostlib.fusion): a compass update per step, and GPS
+fixes from a receiver read as they come (hostlib.gps_stream), each put on the module's clock; with a
+module on each foot, each foot's compass and the body's fixes, each fix on each module's clock::
 
     openshoe-host track /dev/rfcomm0 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
+    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
 
 In-situ magnetometer calibration (hostlib.wiggle, NavShoe's): once tracking started, wiggle the
 shoe in one place for about 30 s — toe down and up, the sole to either side, all round — then walk
@@ -110,9 +111,9 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                        help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
                             "and the CSV gets lat_deg, lon_deg, alt_m")
     g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
-                   help="the shoe's magnetometer calibration (hard/soft iron); with two captures, the left "
-                        "foot's then the right foot's (- for none). Without it, --compass takes the module's "
-                        "saved calibration, if there is one (--mag-cal-dir)")
+                   help="the shoe's magnetometer calibration (hard/soft iron); with two captures or URLs, "
+                        "the left foot's then the right foot's (- for none). Without it, --compass takes the "
+                        "module's saved calibration, if there is one (--mag-cal-dir)")
     g.add_argument("--module-errors", type=_module_errors, default=None, metavar="SCALE,CLIMB[,TURN]",
                    help="hold the module's step-length scale, climb per metre and turn scale as states of "
                         "the filter (hostlib.module_errors), with these 1σ priors (e.g. 0.001,0.0017,0.01), "
@@ -172,18 +173,8 @@ def _second(args: argparse.Namespace) -> str | None:
     return getattr(args, "url2", None) or getattr(args, "capture2", None)
 
 
-#: The heading aids' options: (dest, flag).
-_AID_OPTIONS = (("compass", "--compass"), ("compass_sigma", "--compass-sigma"), ("gps", "--gps"),
-                ("mag_cal", "--mag-cal"), ("declination", "--declination"),
-                ("calibrate_mag", "--calibrate-mag"))
-
-
 def _track_aid_refusal(args: argparse.Namespace) -> str | None:
     """Why the aid options of ``track`` do not go together, or None."""
-    given = [flag for dest, flag in _AID_OPTIONS if getattr(args, dest, None) not in (None, False)]
-    if given and args.url2 is not None:
-        return (f"{', '.join(given)} work with one URL for now; for two feet, log each foot's module "
-                "(log --start --fusion) and fuse the captures: replay LEFT RIGHT --compass --gps FILE")
     for flag, why in (("compass", "the compass needs the magnetometers and the attitude at the end of each "
                                   "stance"),
                       ("gps", "a fix is put on the module's clock, which only the step packets' time "
@@ -226,7 +217,10 @@ def _calibration_refusal(args: argparse.Namespace, two: bool) -> str | None:
         return None
     if two:
         what = "URL" if args.cmd == "track" else "capture"
-        return f"--calibrate-mag calibrates one module: give one {what}"
+        return (f"--calibrate-mag calibrates one module: the wiggle turns one shoe in one place, standing on "
+                f"the other, and the first step ends it; calibrate each foot's module on its own (one "
+                f"{what}, --compass --calibrate-mag), then --compass with two {what}s takes each module's "
+                f"saved calibration")
     if not args.compass:
         return ("--calibrate-mag needs --compass: the calibration removes the shoe's iron from the compass's "
                 "readings, and the compass waits for it")
@@ -304,9 +298,10 @@ def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[s
 
 
 def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
-                  last_counter: int | None, defer: bool, heading: float = 0.0):
+                  last_counter: int | None, defer: bool, heading: float = 0.0, **more: Any):
     """The two-feet tracker the options ask for, with each module's drift calibration, and — with
-    --compass or --gps — the heading aids (hostlib.aids; None otherwise)."""
+    --compass or --gps — the heading aids (hostlib.aids; None otherwise; *more*: to
+    :func:`~hostlib.aids.prepare_feet_aids`, e.g. a receiver read live)."""
     from .aids import prepare_feet_aids
     from .magcal import MagCalibration
 
@@ -314,11 +309,11 @@ def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] |
     if not (getattr(args, "compass", False) or getattr(args, "gps", None)):
         return TwoFeetTracker(_feet_settings(args), last_counter=last_counter, defer=defer, heading=heading,
                               drift=drift), None
-    aids = prepare_feet_aids(compass=args.compass, gps_path=args.gps,
+    aids = prepare_feet_aids(compass=args.compass, gps_path=None if more.get("live_gps") else args.gps,
                              mag_calibrations=_per_foot(args.mag_cal, MagCalibration.load),
                              declination=args.declination, origin=origin, settings=_fusion_settings(args),
                              feet=_feet_settings(args), drift=drift, last_counter=last_counter, defer=defer,
-                             heading=heading)
+                             heading=heading, **more)
     return aids.tracker, aids
 
 
@@ -715,28 +710,20 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     last_counter = None if args.attach else 0
     heading = math.radians(args.heading)
     if args.url2 is not None:
-        feet, _ = _feet_tracker(args, origin, last_counter=last_counter, defer=False, heading=heading)
-        with ExitStack() as stack:
-            modules = _start_tracking(args, stack, {side: (url, feet.foot(side)) for side, url
-                                                    in zip(FOOT_SIDES, (args.url, args.url2), strict=True)})
-            first = None if not feet.drift else lambda: _check_feet_drift(feet, modules, args.ack_timeout)
-            _follow(args, modules, _LiveLine(out), lambda: _feet_status(feet, modules), first)
-            streams = {m.side: (m.dev.name, m.dev.session.stats) for m in modules}
-        _finish_feet(args, feet, streams, origin, out)
-        return 0
+        return _track_feet(args, origin, last_counter, heading, out)
     with ExitStack() as stack:
-        live = _open_live_gps(args, stack) if args.gps and not Path(args.gps).is_file() else None
+        live = _open_live_gps(args, stack) if _reads_live_gps(args) else None
         aids = _track_aids(args, origin, live, heading=heading, last_counter=last_counter)
         tracker = StepTracker(heading=heading, last_counter=last_counter) if aids is None else aids.tracker
         saved = aids is not None and _wants_saved_calibration(args)
 
         def opened(modules: list[_Tracked]) -> None:
             if live is not None:
-                _feed_live_gps(live, modules[0].dev)
+                _feed_live_gps(live, aids.tracker, modules)
             if args.calibrate_mag:
                 modules[0].setup.in_situ = _InSitu(modules[0].dev, aids, args.mag_cal_dir)
             elif saved:
-                _use_saved_calibration(modules[0].dev, aids, args)
+                _use_saved_calibration(modules, aids, args)
 
         (module,) = _start_tracking(args, stack, {None: (args.url, tracker)}, opened)
         dev = module.dev
@@ -764,9 +751,45 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
+def _track_feet(args: argparse.Namespace, origin: tuple[float, float, float] | None, last_counter: int | None,
+                heading: float, out: TextIO) -> int:
+    """``track LEFT RIGHT``: a device per foot, both feet's steps fused in arrival order
+    (hostlib.feet); with the aids, each foot's compass and a receiver read live (its fixes the
+    body's, on each module's clock: hostlib.gps_stream), each foot's calibrations checked against
+    the module on that foot once both named themselves."""
+    with ExitStack() as stack:
+        live = _open_live_gps(args, stack) if _reads_live_gps(args) else None
+        feet, aids = _feet_tracker(args, origin, last_counter=last_counter, defer=False, heading=heading,
+                                   **_live_gps_start(live))
+
+        def opened(modules: list[_Tracked]) -> None:
+            if live is not None:
+                _feed_live_gps(live, feet, modules)
+            if aids is not None and _wants_saved_calibration(args):
+                _use_saved_calibration(modules, aids, args)
+
+        urls = dict(zip(FOOT_SIDES, (args.url, args.url2), strict=True))
+        modules = _start_tracking(args, stack, {side: (urls[side], feet.foot(side)) for side in FOOT_SIDES},
+                                  opened)
+        calibrated = feet.drift or any(feet.foot(side).settings.mag_calibration is not None
+                                       for side in FOOT_SIDES)
+        first = None if not calibrated else lambda: _check_feet_calibrations(feet, modules, args.ack_timeout)
+        _follow(args, modules, _LiveLine(out), lambda: _feet_status(feet, modules, aids, live), first)
+        streams = {m.side: (m.dev.name, m.dev.session.stats) for m in modules}
+        if aids is not None:
+            origin = _aids_summary(aids, live, out) or origin  # with GPS, the first fix: on the globe
+    _finish_feet(args, feet, streams, origin, out)
+    return 0
+
+
 #: How long ``track --gps DEVICE`` waits for the receiver's first fix before the walk starts [s]:
 #: the first fix places the walk on the globe (and gives the declination there).
 FIRST_FIX_WAIT_S = 10.0
+
+
+def _reads_live_gps(args: argparse.Namespace) -> bool:
+    """Whether ``--gps`` names a receiver to read as it talks (a device or URL), not a file."""
+    return bool(args.gps) and not Path(args.gps).is_file()
 
 
 def _open_live_gps(args: argparse.Namespace, stack: ExitStack):
@@ -782,20 +805,20 @@ def _open_live_gps(args: argparse.Namespace, stack: ExitStack):
         raise HostError(f"cannot open the GPS receiver {args.gps}: {exc}") from None
 
 
-def _feed_live_gps(live, dev: Device) -> None:
-    """Queue the receiver's fixes on *dev*'s tracker, between two steps (under the device's session
-    lock), each step renewing their clock (hostlib.gps_stream)."""
-    live.fixes.attach(dev.tracker, dev.session_lock)
-    dev.on_step(lambda _ev: live.fixes.stepped())
+def _feed_live_gps(live, tracker: Any, modules: list[_Tracked]) -> None:
+    """Queue the receiver's fixes on *tracker* (the module's, or the two feet's) between two steps:
+    under the session lock of every module whose steps it sums, taken in the modules' order; each
+    module's step renews that module's clock (hostlib.gps_stream)."""
+    live.fixes.attach(tracker, *(m.dev.session_lock for m in modules))
+    for m in modules:
+        m.dev.on_step(lambda _ev, side=m.side: live.fixes.stepped(module=side))
 
 
-def _track_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, live, **more: Any):
-    """The aids of ``track`` (hostlib.aids; None without --compass or --gps). With a receiver read
-    live, its first fix (waited for up to :data:`FIRST_FIX_WAIT_S`) places the walk."""
-    if not _uses_aids(args):
-        return None
+def _live_gps_start(live) -> dict[str, Any]:
+    """What a receiver read live gives the aids before the walk (to hostlib.aids): its first fix,
+    waited for up to :data:`FIRST_FIX_WAIT_S`, places the walk. Nothing without a receiver."""
     if live is None:
-        return _prepare_aids(args, origin, **more)
+        return {}
     print(f"waiting up to {FIRST_FIX_WAIT_S:g} s for the first fix of the GPS receiver {live.url}",
           file=sys.stderr)
     first = live.wait_first_fix(FIRST_FIX_WAIT_S)
@@ -803,21 +826,34 @@ def _track_aids(args: argparse.Namespace, origin: tuple[float, float, float] | N
         print("no GPS fix yet: the declination is taken without it (--declination, or the World Magnetic "
               "Model at --origin); the fixes still to come are fused", file=sys.stderr)
     when = None if first is None else first.date or live.fixes.reader.date
-    return _prepare_aids(args, origin, live_gps=True, first_fix=first, when=when, **more)
+    return {"live_gps": True, "first_fix": first, "when": when}
+
+
+def _track_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, live, **more: Any):
+    """The aids of ``track`` (hostlib.aids; None without --compass or --gps). With a receiver read
+    live, its first fix (waited for up to :data:`FIRST_FIX_WAIT_S`) places the walk."""
+    if not _uses_aids(args):
+        return None
+    return _prepare_aids(args, origin, **_live_gps_start(live), **more)
 
 
 def _track_status(dev: Device, drift: DriftCalibration | None, aids, live) -> tuple[str, object]:
     """The live line of one module: :func:`summary_line`, and with the aids what they did so far."""
-    line = summary_line(dev, drift)
+    return summary_line(dev, drift) + _aids_status(aids, live), len(dev.tracker)
+
+
+def _aids_status(aids, live) -> str:
+    """What the aids did so far, for a live line ("" without them): compass and GPS updates, and
+    with a receiver read live its fixes and whether it went away."""
     if aids is None:
-        return line, len(dev.tracker)
+        return ""
     f = aids.tracker.fusion
-    line += f" | compass {f.compass_updates} | GPS {f.gps_updates} updates"
+    line = f" | compass {f.compass_updates} | GPS {f.gps_updates} updates"
     if live is not None:
         st = live.fixes.stats
         line += (f" of {st.fixes} fixes ({st.missing_fix} without a fix, {st.garbled} garbled)"
                  + (" RECEIVER GONE" if live.lost else ""))
-    return line, len(dev.tracker)
+    return line
 
 
 def _aids_summary(aids, live, out: TextIO) -> tuple[float, float, float] | None:
@@ -831,33 +867,51 @@ def _aids_summary(aids, live, out: TextIO) -> tuple[float, float, float] | None:
     return aids.origin if aids.gps_stats is not None else None
 
 
-def _feet_status(feet: TwoFeetTracker, modules: list[_Tracked]) -> tuple[str, object]:
-    """The live line of a two-feet walk, and what makes it new: a step, a link going up or down, a
-    walk failing."""
+def _feet_status(feet: TwoFeetTracker, modules: list[_Tracked], aids=None, live=None) -> tuple[str, object]:
+    """The live line of a two-feet walk (with the aids, what they did so far), and what makes it
+    new: a step, a link going up or down, a walk failing."""
     failed = [m.side for m in modules if m.failure is not None]
     devices = {m.side: m.dev for m in modules}
-    return (feet_summary_line(feet, devices, failed),
+    return (feet_summary_line(feet, devices, failed) + _aids_status(aids, live),
             (len(feet), tuple(dev.link_up for dev in devices.values()), tuple(failed)))
 
 
-def _check_feet_drift(feet: TwoFeetTracker, modules: list[_Tracked], ack_timeout: float) -> None:
-    """Refuse a foot's drift calibration made with another module, once both modules named
-    themselves (or did not in time: unknown, accepted as :meth:`DriftCalibration.check_module` does)."""
+def _check_feet_calibrations(feet: TwoFeetTracker, modules: list[_Tracked], ack_timeout: float) -> None:
+    """Refuse a foot's drift or magnetometer calibration made with another module, once both
+    modules named themselves (or did not in time: unknown, accepted as the calibrations'
+    ``check_module`` does)."""
     for m in modules:
         _await_serial(m.dev, max(2.0, 2 * ack_timeout))
     _check_feet_modules(feet, {m.side: m.dev.session.mcu_serial for m in modules},
                         {m.side: m.dev.name for m in modules})
 
 
-def _use_saved_calibration(dev: Device, aids: Any, args: argparse.Namespace) -> None:
-    """Before tracking starts: ask the module its serial number (MCU_ID) and give the compass the
-    module's saved magnetometer calibration, if there is one (hostlib.magcal.load_for_module)."""
-    dev.request_mcu_id()
-    _await_serial(dev, max(2.0, 2 * args.ack_timeout))
-    found = _saved_calibration(args, dev.session.mcu_serial)
-    if found is not None:
-        aids.tracker.release_compass(found[0])
-        aids.calibration_source = f"saved {found[1]}"
+def _use_saved_calibration(modules: list[_Tracked], aids: Any, args: argparse.Namespace) -> None:
+    """Before tracking starts: ask each module its serial number (MCU_ID) and give its compass the
+    module's saved magnetometer calibration, if there is one (:func:`_use_saved_calibrations`)."""
+    for m in modules:
+        m.dev.request_mcu_id()
+    for m in modules:
+        _await_serial(m.dev, max(2.0, 2 * args.ack_timeout))
+    _use_saved_calibrations(args, aids, {m.side: m.dev.session.mcu_serial for m in modules})
+
+
+def _use_saved_calibrations(args: argparse.Namespace, aids: Any, serials: Mapping[str | None, bytes | None]
+                            ) -> None:
+    """Before the first step: give the compass of each module (side → its serial number, None
+    unknown; side None: the only module) the module's saved magnetometer calibration, if there is
+    one (hostlib.magcal.load_for_module); the summary says which file each came from."""
+    for side, serial in serials.items():
+        found = _saved_calibration(args, serial)
+        if found is None:
+            continue
+        source = f"saved {found[1]}"
+        if side is None:
+            aids.tracker.release_compass(found[0])
+            aids.calibration_source = source
+        else:
+            aids.tracker.foot(side).release_compass(found[0])
+            aids.foot_calibration_sources[side] = source
 
 
 def _check_calibrations(dev: Device, drift: DriftCalibration | None, cal: Any, ack_timeout: float) -> None:
@@ -1046,12 +1100,16 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
     """``replay LEFT RIGHT``: each capture decoded by its own session (its counters, resends and
     gaps), the two feet's steps then fused in module-time order."""
     from .export import parse_origin
-    from .replay import decode_feet
+    from .replay import decode_feet, replay_session
 
     origin = parse_origin(args.origin) if args.origin else None
     paths = dict(zip(FOOT_SIDES, (args.capture, args.capture2), strict=True))
     left, right = (Path(paths[side]).read_bytes() for side in FOOT_SIDES)
     tracker, aids = _feet_tracker(args, origin, last_counter=None, defer=True)
+    if aids is not None and _wants_saved_calibration(args):  # each capture's module's own, if saved
+        serials = {side: replay_session(data, command_set=args.command_set).mcu_serial
+                   for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
+        _use_saved_calibrations(args, aids, serials)
     sessions = decode_feet(left, right, tracker, command_set=args.command_set)
     _check_feet_modules(tracker, {side: sessions[side].mcu_serial for side in FOOT_SIDES}, paths)
     tracker.fuse_in_time_order()

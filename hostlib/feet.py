@@ -225,9 +225,16 @@ class TwoFeetTracker(AidedFilter):
 
     def add_fix(self, time_s: float, north_east) -> None:
         """Queue one GPS fix of the body, for the joint filter and each foot's own tracker."""
-        super().add_fix(time_s, north_east)
+        self.add_body_fix(time_s, north_east)
         self.left.add_fix(time_s, north_east)
         self.right.add_fix(time_s, north_east)
+
+    def add_body_fix(self, time_s: float, north_east) -> None:
+        """Queue one GPS fix of the body for the joint filter alone, at *time_s* on the clock it
+        times its steps by (the latest module time of the steps it fused). A receiver read live
+        (:mod:`hostlib.gps_stream`) gives each foot's own tracker the fix on that foot's module
+        clock (``foot(side).add_fix``): the two modules' clocks need not be one."""
+        super().add_fix(time_s, north_east)
 
     def _collect(self, step: FootStep) -> None:
         self._deferred.append(step)

@@ -17,6 +17,14 @@ Before the first step there is nothing to map to: the fixes are held and queued 
 (their times then fall before it, so they apply at the next step). Times never go backwards: a fix
 is never put before the one before.
 
+**A module on each foot** (:class:`~hostlib.feet.TwoFeetTracker`): each module has a clock of its
+own (T_INT_K counts from its power-on), so each has its own :class:`FixClock`, renewed by that
+module's steps. A fix goes to each foot's own tracker on that foot's clock, and to the joint filter
+at the latest of its times on the two clocks (those of the feet that stepped yet): the joint filter
+times itself by the latest module time of the steps it fused, which is the clock that runs ahead.
+With one clock for both modules (the emulator's) the two times agree but for the step packets' way
+to the host. A foot that has not stepped yet holds its own tracker's fixes until it does.
+
 The first fix is the walk's geographic origin (as a log's first fix is, :mod:`hostlib.aids`): the
 fixes are north and east of it (:func:`~hostlib.gps.local_positions`). Garbled lines and epochs
 without a fix are skipped and counted (:class:`~hostlib.gps.NmeaStats`).
@@ -28,10 +36,12 @@ without a fix are skipped and counted (:class:`~hostlib.gps.NmeaStats`).
 
 Threads: a :class:`~hostlib.device.Device`'s reader thread sums the steps — and applies the queued
 fixes — holding the device's session lock (:attr:`Device.session_lock
-<hostlib.device.Device.session_lock>`). The GPS thread queues a fix holding that same lock, so
-``add_fix`` never runs while ``add_step`` does. :meth:`LiveFixes.stepped` runs in the device's
-thread (a step callback). :class:`LiveFixes` keeps its own state under a lock of its own, taken
-before the tracker's, in both threads.
+<hostlib.device.Device.session_lock>`). The GPS thread queues a fix holding that same lock (with
+two feet, both devices' locks, in the feet's order: then neither foot is in the middle of a step,
+nor the joint filter, which each foot's step reaches under that foot's lock), so ``add_fix`` never
+runs while ``add_step`` does. :meth:`LiveFixes.stepped` runs in the device's thread (a step
+callback, outside the session lock). :class:`LiveFixes` keeps its own state under a lock of its
+own, taken before the trackers' locks, in every thread.
 """
 
 from __future__ import annotations
@@ -39,14 +49,15 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable
-from contextlib import AbstractContextManager, nullcontext
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager, ExitStack
 from typing import Any
 
 import numpy as np
 import serial
 
 from .connection import open_port
+from .feet import FOOT_SIDES, TwoFeetTracker
 from .fusion import FusionTracker
 from .gps import GpsFix, NmeaReader, NmeaStats, fix_place, local_positions
 
@@ -88,21 +99,48 @@ class FixClock:
         return t
 
 
+class _Route:
+    """One filter the fixes are queued on (its *add_fix*), with a :class:`FixClock` for each module
+    whose steps it sums (module → clock) and the fixes it holds until one of them stepped."""
+
+    def __init__(self, add_fix: Callable[[float, np.ndarray], None], modules: Sequence[str | None],
+                 clock: Callable[[], float]):
+        self.add_fix = add_fix
+        self.clocks = {module: FixClock(clock) for module in modules}
+        self.held: list[tuple[float, np.ndarray]] = []  # (host time, north-east) not yet queued
+
+    def queue(self) -> int:
+        """Queue the held fixes, each at the latest of its module times on the clocks anchored yet;
+        returns how many (none before a step)."""
+        anchored = [c for c in self.clocks.values() if c.anchor is not None]
+        if not anchored:
+            return 0
+        for h, north_east in self.held:
+            times = [c.module_time(h) for c in anchored]
+            self.add_fix(max(t for t in times if t is not None), north_east)
+        n = len(self.held)
+        self.held.clear()
+        return n
+
+
 class LiveFixes:
-    """A receiver's lines in, fixes queued on a tracker on the module's clock (module docstring).
+    """A receiver's lines in, fixes queued on a tracker on the module's clock (module docstring):
+    a :class:`~hostlib.fusion.FusionTracker` (one module), or a
+    :class:`~hostlib.feet.TwoFeetTracker` (a module on each foot, each with its clock).
 
     Until :meth:`attach` gives it the tracker, and until the first step, fixes are held.
     """
 
     def __init__(self, clock: Callable[[], float] = time.monotonic):
-        self.times = FixClock(clock)
+        self.clock = clock
         self.reader = NmeaReader()
         self.origin: tuple[float, float, float] | None = None  #: the first fix: lat, lon, alt
         self.first_fix: GpsFix | None = None
-        self.queued = 0  #: fixes queued on the tracker
-        self._held: list[tuple[float, np.ndarray]] = []  # (host time, north-east) not yet queued
-        self._tracker: FusionTracker | None = None
-        self._tracker_lock: AbstractContextManager[Any] = nullcontext()
+        self.queued = 0  #: fixes queued on the tracker (with two feet: on the joint filter)
+        self._pending: list[tuple[float, np.ndarray]] = []  # fixes received before attach
+        self._routes: list[_Route] = []  # the tracker's own filter first
+        self._steps: dict[str | None, Callable[[], list[float]]] = {}  # module → its steps' times
+        self._tracker_locks: tuple[AbstractContextManager[Any], ...] = ()
         self._lock = threading.Lock()
 
     @property
@@ -112,46 +150,67 @@ class LiveFixes:
 
     @property
     def held(self) -> int:
-        """Fixes received and not yet queued (no tracker, or no step yet)."""
-        return len(self._held)
+        """Fixes received and not yet queued on every filter (no tracker, or a module with no step
+        yet)."""
+        return max((len(r.held) for r in self._routes), default=len(self._pending))
 
-    def attach(self, tracker: FusionTracker, lock: AbstractContextManager[Any]) -> None:
-        """Queue fixes on *tracker*, holding *lock* (the one its steps are summed under) meanwhile."""
+    def attach(self, tracker: FusionTracker | TwoFeetTracker, *locks: AbstractContextManager[Any]) -> None:
+        """Queue fixes on *tracker*, holding *locks* (those its steps are summed under: one per
+        module, taken in the order given) meanwhile."""
         with self._lock:
-            self._tracker, self._tracker_lock = tracker, lock
+            if isinstance(tracker, TwoFeetTracker):
+                feet = [_Route(tracker.foot(side).add_fix, (side,), self.clock) for side in FOOT_SIDES]
+                self._routes = [_Route(tracker.add_body_fix, FOOT_SIDES, self.clock), *feet]
+                self._steps = {side: (lambda side=side: tracker.foot(side).step_times) for side in FOOT_SIDES}
+            else:
+                self._routes = [_Route(tracker.add_fix, (None,), self.clock)]
+                self._steps = {None: lambda: tracker.step_times}
+            for route in self._routes:
+                route.held = list(self._pending)
+            self._pending.clear()
+            self._tracker_locks = locks
 
     def line(self, text: str | bytes, host_s: float | None = None) -> GpsFix | None:
         """A line from the receiver, arrived at host time *host_s* (default: now); its fix, if any."""
-        h = self.times.clock() if host_s is None else float(host_s)
+        h = self.clock() if host_s is None else float(host_s)
         fix = self.reader.feed(text)
         if fix is None:
             return None
         with self._lock:
             if self.origin is None:
                 self.origin, self.first_fix = fix_place(fix), fix
-            self._held.append((h, local_positions([fix], self.origin)[0, :2]))
+            north_east = local_positions([fix], self.origin)[0, :2]
+            for held in [r.held for r in self._routes] or [self._pending]:
+                held.append((h, north_east))
             self._queue_held()
         return fix
 
-    def stepped(self, host_s: float | None = None) -> None:
-        """A step was summed (call it in the thread that sums them, after each step): it anchors
-        the mapping, and the held fixes are queued."""
+    def stepped(self, host_s: float | None = None, module: str | None = None) -> None:
+        """A step of *module* (the foot's side; None: the only module) was summed — call it in the
+        thread that sums them, after each step: it anchors that module's clock, and the held fixes
+        are queued."""
         with self._lock:
-            tracker = self._tracker
-            if tracker is None or not tracker.step_times:
+            steps = self._steps.get(module)
+            times = [] if steps is None else steps()
+            if not times:
                 return
-            self.times.step(tracker.step_times[-1], host_s)
+            h = self.clock() if host_s is None else float(host_s)
+            for route in self._routes:
+                if module in route.clocks:
+                    route.clocks[module].step(times[-1], h)
             self._queue_held()
 
     def _queue_held(self) -> None:
-        """Queue the held fixes, once there is a tracker and a step to map them with (under _lock)."""
-        if self._tracker is None or self.times.anchor is None or not self._held:
+        """Queue the held fixes on each filter that can place them (under _lock)."""
+        if not any(r.held for r in self._routes):
             return
-        with self._tracker_lock:
-            for h, north_east in self._held:
-                self._tracker.add_fix(self.times.module_time(h), north_east)  # type: ignore[arg-type]
-                self.queued += 1
-        self._held.clear()
+        with ExitStack() as locks:
+            for lock in self._tracker_locks:
+                locks.enter_context(lock)
+            for k, route in enumerate(self._routes):
+                n = route.queue()
+                if k == 0:
+                    self.queued += n
 
 
 class GpsStream:

@@ -1,6 +1,7 @@
 """`openshoe-emu serve --gps-pty` as a real subprocess: the receiver's pty in the READY line, GGA and
 RMC that pynmea2 parses, each fix written once the module's clock reached it, one a second of module
-time; and `openshoe-host track --fusion --compass --gps PTY` walking the served scenario.
+time; and `openshoe-host track --fusion --compass --gps PTY` walking the served scenario, with one
+module and with a module on each foot (`serve --feet 2`: the receiver on the body).
 
 Real time (a subprocess paced at a few times real time): every wait is on bytes or events with a
 deadline, never a fixed sleep; no assertion is on how long something took.
@@ -101,3 +102,22 @@ def test_track_fuses_the_compass_and_the_served_receiver_on_the_module_clock(tmp
     lat, lon = float(first[-3]), float(first[-2])
     assert abs(lat - DEFAULT_ORIGIN[0]) < 1e-3 and abs(lon - DEFAULT_ORIGIN[1]) < 1e-3
     assert len(read_csv(csv)) > 1
+
+
+@pytest.mark.slow
+def test_track_with_two_feet_fuses_both_compasses_and_the_served_receiver_on_the_body(tmp_path, capsys):
+    with spawn("--scenario", RECIPE, "--feet", "2", "--pty", str(tmp_path / "shoe"), "--gps-pty",
+               str(tmp_path / "gps"), "--speed", SPEED, "--status-interval", "0") as srv:
+        out = io.StringIO()
+        argv = ["track", srv.ready["left.bt-pty"], srv.ready["right.bt-pty"], "--fusion", "--compass",
+                "--gps", srv.ready["gps-pty"], "--geojson", str(tmp_path / "body.geojson"), "--duration", "8"]
+        assert main(argv, out) == 0
+    text = out.getvalue()
+    found = re.search(r"fusion: (\d+) compass updates .*?, (\d+) GPS updates", text)
+    assert found, text
+    assert int(found.group(1)) > 0 and int(found.group(2)) > 0
+    steps = re.search(r"fusion: \d+ steps \(left (\d+), right (\d+)\)", text)
+    assert steps and int(steps.group(1)) > 0 and int(steps.group(2)) > 0, text
+    assert "WMM at the first fix, 2026-06-01" in text and "0 garbled" in text
+    assert "is gone" not in capsys.readouterr().err
+    assert '"crs": "local-enu-m"' not in (tmp_path / "body.geojson").read_text()

@@ -13,7 +13,8 @@ time of :data:`SWING_TIME_S`. ``fakeshoe://N/fusion/wiggle`` is worn through an 
 calibration: after MCU_ID it waits for the magnetometer stream (0x21 with a rate), then sends a
 wiggle's stream packets (:func:`.wiggles.wiggle_packets`) and walks; 0x21 with rate 0 stops it.
 ``fakeshoe://N/dropK`` loses its link once the host acked its K-th step packet (a port re-opened
-after that is a module that was never started: silent). Every port made is kept in :data:`PORTS`.
+after that is a module that was never started: silent). ``fakeshoe://N/fusion/moduleK`` is another
+module: its serial number is :func:`module_id` (K). Every port made is kept in :data:`PORTS`.
 """
 
 from __future__ import annotations
@@ -29,6 +30,13 @@ from .fakes import FakeModulePort
 from .loops import STANCE_STATES
 
 MCU_ID = bytes(range(0x10, 0x1F))
+
+
+def module_id(k: int) -> bytes:
+    """The serial number of ``fakeshoe://…/moduleK``: :data:`MCU_ID` with its last byte K."""
+    return MCU_ID[:-1] + bytes([k])
+
+
 #: The swing time of every step of a ``/fusion`` module [s].
 SWING_TIME_S = 0.5
 #: Every port opened, in order (a test reads what the host sent from the last one).
@@ -57,6 +65,8 @@ class Serial(FakeModulePort):
         self.wiggle = "wiggle" in variants
         drops = [int(v[4:]) for v in variants if v.startswith("drop")]
         self.drop_after = drops[0] if drops else None
+        modules = [int(v[6:]) for v in variants if v.startswith("module")]
+        self.mcu_id = module_id(modules[0]) if modules else MCU_ID
         self.is_open = True
 
     def _next_number(self) -> int:
@@ -74,7 +84,7 @@ class Serial(FakeModulePort):
         elif frame[0] == 0x23:  # quirk: the frame's checksum bytes are ids 9 and 10
             self._output_ids = tuple(fitting_ids([*frame[3:11], frame[-2], frame[-1]]))
         elif frame[0] == 0x04:
-            out += build_state_packet(self._next_number(), encode_state(StateId.MCU_ID, MCU_ID))
+            out += build_state_packet(self._next_number(), encode_state(StateId.MCU_ID, self.mcu_id))
             if self.fusion and not self.wiggle and self._step_counter == 0:
                 out += self._next_step()
         elif frame[0] == 0x21 and self.wiggle and frame[9] & OutputMode.RATE_MASK:

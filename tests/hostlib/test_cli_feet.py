@@ -218,6 +218,16 @@ def test_a_magnetometer_calibration_per_foot_is_checked_against_that_foots_modul
     assert "the left foot" in capsys.readouterr().err
 
 
+def test_two_captures_with_the_compass_take_each_modules_saved_magnetometer_calibration(captures, tmp_path):
+    from hostlib.magcal import MagCalibration, save_for_module
+
+    saved = save_for_module(MagCalibration(np.zeros(3), np.eye(3), module_serial="OSEMU-M00000003"), tmp_path)
+    out = io.StringIO()
+    assert main(["replay", captures["left"], captures["right"], "--compass", "--mag-cal-dir", str(tmp_path)],
+                out) == 0
+    assert f"(calibrated: right foot, saved {saved})" in out.getvalue(), "none saved for the left module"
+
+
 @pytest.mark.parametrize("option", ["--drift", "--mag-cal"])
 def test_a_per_module_calibration_takes_one_file_per_foot(captures, capsys, option):
     assert main(["replay", captures["left"], captures["right"], option, "a.json"], io.StringIO()) == 2

@@ -1,5 +1,7 @@
-"""openshoe-host track with the heading aids (one module): --compass and --gps from a receiver read
-live (its fixes on the module's clock) or from a file; the CSV gets lat/lon/alt with GPS; what does
+"""openshoe-host track with the heading aids, of one module and of a module on each foot: --compass
+and --gps from a receiver read live (its fixes on the module's clock; with two feet, the body's, on
+each module's clock) or from a file; the CSV gets lat/lon/alt with GPS; each foot's magnetometer
+calibration (a file, or the module's saved one) checked against the module on that foot; what does
 not go together is refused with status 2 before any port opens.
 
 Scripted module and receiver behind pyserial URLs (tests/hostlib/protocol_fakeshoe.py,
@@ -44,10 +46,10 @@ def csv_header_and_first_row(path) -> tuple[tuple[str, ...], list[str]]:
 @pytest.mark.parametrize(("argv", "message"), [
     (["--compass"], "--compass needs --fusion: the compass needs the magnetometers and the attitude"),
     (["--gps", "/dev/gps-does-not-exist"], "--gps needs --fusion: a fix is put on the module's clock"),
-    (["/dev/right-does-not-exist", "--fusion", "--compass", "--gps", "x.nmea"],
-     "--compass, --gps work with one URL for now"),
-    (["/dev/right-does-not-exist", "--fusion", "--mag-cal", "l.json", "r.json"],
-     "--mag-cal work with one URL for now"),
+    (["/dev/right-does-not-exist", "--compass", "--gps", "/dev/gps-does-not-exist"],
+     "--compass needs --fusion"),
+    (["/dev/right-does-not-exist", "--fusion", "--compass", "--mag-cal", "l.json"],
+     "--mag-cal takes one file per module with two URLs"),
 ])
 def test_track_refuses_aids_it_cannot_use_before_opening_a_port(argv, message, capsys):
     assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
@@ -136,8 +138,85 @@ def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tm
     (["--fusion", "--calibrate-mag"], "--calibrate-mag needs --compass"),
     (["--fusion", "--compass", "--calibrate-mag", "--mag-cal", "c.json"], "give it or --mag-cal CAL.json"),
     (["/dev/right-does-not-exist", "--fusion", "--compass", "--calibrate-mag"],
-     "--compass, --calibrate-mag work with one URL for now"),
+     "--calibrate-mag calibrates one module: the wiggle turns one shoe in one place, standing on the other"),
 ])
 def test_track_refuses_a_calibration_it_cannot_run_before_opening_a_port(argv, message, capsys):
     assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
     assert message in capsys.readouterr().err
+
+
+# -- a module on each foot ------------------------------------------------------------------
+
+#: Two scripted modules of 5 steps (1 m north each) with the fusion set-up, serial numbers 2 and 3.
+FEET = ["fakeshoe://5/fusion/module2", "fakeshoe://5/fusion/module3"]
+
+
+def _mag_calibration(module: int):
+    """A magnetometer calibration (no iron) of ``fakeshoe://…/moduleK``."""
+    import numpy as np
+
+    from hostlib.drift import serial_text
+    from hostlib.magcal import MagCalibration
+
+    from .protocol_fakeshoe import module_id
+
+    return MagCalibration(np.zeros(3), np.eye(3), module_serial=serial_text(module_id(module)))
+
+
+def test_two_feet_fuse_each_foots_compass_and_a_live_receiver_that_is_then_pulled_out(tmp_path, capsys):
+    out, geojson = io.StringIO(), tmp_path / "body.geojson"
+    argv = ["track", *FEET, "--fusion", "--compass", "--gps", "fakegps://3", "--geojson", str(geojson),
+            "--duration", "1.5"]
+    assert main(argv, out) == 0
+    text, err = out.getvalue(), capsys.readouterr().err
+    # ten steps, five a foot: the first reading aligns the body's heading, the nine others (of both
+    # feet) update it; the three fixes came before the first step: held, put before it, applied at
+    # the next (the first places the origin, the second updates, the third is within the interval)
+    assert fusion_counts(text) == (9, 1)
+    assert "aids: compass σ 20° per step; declination" in text
+    assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"
+    assert "3 fixes, 0 without a fix, 1 garbled (skipped)" in text
+    assert err.count("the GPS receiver fakegps://3 is gone") == 1, err
+    for side, url in zip(("left", "right"), FEET, strict=True):
+        assert f"{side} foot ({url}): 5 step packets" in text
+    assert "fusion: 10 steps (left 5, right 5)" in text, "tracking went on without the receiver"
+    assert '"crs": "local-enu-m"' not in geojson.read_text(), "placed on the globe at the first fix"
+
+
+def test_two_feet_read_a_gps_file_as_replay_does(tmp_path):
+    nmea = tmp_path / "walk.nmea"
+    nmea.write_text("".join(line + "\r\n" for line in epochs(3)))
+    out = io.StringIO()
+    assert main(["track", *FEET, "--fusion", "--gps", str(nmea), "--duration", "1.0"], out) == 0
+    assert "6 NMEA lines: 3 fixes" in out.getvalue() and "WMM at the first fix" in out.getvalue()
+
+
+def test_two_feet_check_each_foots_magnetometer_calibration_against_the_module_on_that_foot(tmp_path, capsys):
+    files = {}
+    for module in (2, 3):
+        files[module] = str(tmp_path / f"mag{module}.json")
+        _mag_calibration(module).save(files[module])
+    base = ["track", *FEET, "--fusion", "--compass", "--duration", "1.0"]
+    out = io.StringIO()
+    assert main([*base, "--mag-cal", files[2], files[3]], out) == 0
+    assert "(calibrated: left and right foot)" in out.getvalue()
+    assert main([*base, "--mag-cal", "-", files[2]], io.StringIO()) == 1
+    err = capsys.readouterr().err
+    assert f"the right foot ({FEET[1]}): magnetometer calibration" in err
+    assert "it fits the left foot's module: give the left foot's calibration first" in err
+    assert main([*base, "--mag-cal", files[3], "-"], io.StringIO()) == 1
+    assert f"the left foot ({FEET[0]}): magnetometer calibration" in capsys.readouterr().err
+
+
+def test_two_feet_take_each_modules_saved_magnetometer_calibration(tmp_path):
+    from hostlib.magcal import save_for_module
+
+    right = save_for_module(_mag_calibration(3), tmp_path)
+    out = io.StringIO()
+    argv = ["track", *FEET, "--fusion", "--compass", "--mag-cal-dir", str(tmp_path), "--duration", "1.0"]
+    assert main(argv, out) == 0
+    assert f"(calibrated: right foot, saved {right})" in out.getvalue(), "none saved for the left module"
+    left = save_for_module(_mag_calibration(2), tmp_path)
+    out = io.StringIO()
+    assert main(argv, out) == 0
+    assert f"(calibrated: left foot, saved {left}; right foot, saved {right})" in out.getvalue()

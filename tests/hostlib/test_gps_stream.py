@@ -1,6 +1,7 @@
 """A GPS receiver read live: each fix put on the module's clock by the latest step, held until a
-step came, queued only under the tracker's lock; garbled lines and missing fixes counted; a
-receiver read in its own thread, whose loss is reported once.
+step came, queued only under the tracker's lock; with a module on each foot, on each foot's own
+clock and the joint filter's latest, under both feet's locks; garbled lines and missing fixes
+counted; a receiver read in its own thread, whose loss is reported once.
 
 The host's clock is a fake one the tests set (no sleeps); the reader thread is waited on through
 events with deadlines.
@@ -147,3 +148,50 @@ def test_a_receiver_that_never_gives_a_fix_is_not_waited_for_beyond_the_deadline
     port = serial.serial_for_url("loop://", timeout=0.05)
     with GpsStream("loop://", LiveFixes(), open_port=lambda url, **kw: port) as stream:
         assert stream.wait_first_fix(timeout=0.01) is None
+
+
+class FeetLocks:
+    """Both feet's session locks, recording whether both were held whenever a fix was queued."""
+
+    def __init__(self):
+        self.locks = {side: threading.Lock() for side in ("left", "right")}
+        self.queued_without_both = 0
+
+    def check(self, add_fix):
+        """*add_fix*, counting the fixes queued without both locks held."""
+        def add(time_s, north_east):
+            self.queued_without_both += not all(lock.locked() for lock in self.locks.values())
+            add_fix(time_s, north_east)
+        return add
+
+
+def test_with_two_feet_each_foot_takes_a_fix_on_its_own_module_clock_and_the_joint_filter_on_the_latest():
+    from hostlib.feet import TwoFeetTracker
+
+    clock = HostClock(0.0)
+    live = LiveFixes(clock)
+    tracker = TwoFeetTracker(aids=FusionSettings(gps=True))
+    locks = FeetLocks()
+    tracker.add_body_fix = locks.check(tracker.add_body_fix)
+    for side in ("left", "right"):
+        tracker.foot(side).add_fix = locks.check(tracker.foot(side).add_fix)
+    live.attach(tracker, locks.locks["left"], locks.locks["right"])
+    lines = epochs(3)
+    # the two modules were powered on apart: the left one's clock reads 100 s, the right one's 5000 s
+    tracker.left.add_step([0.7, 0, 0, 0], DP, 1, time_s=100.0)
+    live.stepped(host_s=1.0, module="left")
+    live.line(lines[0], host_s=1.2)  # left: 100.2 s; right: no step yet, held for it
+    assert (tracker.left.pending_fixes(), tracker.right.pending_fixes(), tracker.pending_fixes()) == (1, 0, 1)
+    assert live.held == 1 and live.queued == 1
+    tracker.right.add_step([0.7, 0, 0, 0], DP, 1, time_s=5000.0)
+    live.stepped(host_s=1.5, module="right")  # the held fix on the right clock: 5000 + (1.2 − 1.5)
+    assert tracker.right.pending_fixes() == 1 and live.held == 0
+    assert tracker.pending_fixes() == 0, "the joint filter reached 100.2 s with the right foot's step"
+    live.line(lines[2], host_s=2.0)  # left: 101.0 s, right: 5000.5 s; the joint filter: the latest
+    tracker.left.add_step([0.7, 0, 0, 0], DP, 2, time_s=101.1)
+    assert tracker.left.pending_fixes() == 0, "both fixes reached on the left foot's clock"
+    assert tracker.pending_fixes() == 1, "the joint filter is at 5000 s: the second fix (5000.5 s) waits"
+    tracker.right.add_step([0.7, 0, 0, 0], DP, 2, time_s=5000.6)
+    assert (tracker.right.pending_fixes(), tracker.pending_fixes()) == (0, 0)
+    assert locks.queued_without_both == 0, "every fix was queued holding both feet's locks"
+    assert live.queued == 2
