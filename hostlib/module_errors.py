@@ -79,8 +79,8 @@ def error_jacobian(chi: float, dx: np.ndarray) -> np.ndarray:
 
 
 #: The emulated MIMU22BT's priors: the method-of-moments estimate on 20 simulated modules each of
-#: the straight walk and the rectangle (the default route's stairs excluded: their shared error is
-#: the gait model's, docs/accuracy.md), σ² = Σ(e² − P) / Σ d² pooled over the walks, e the end
+#: the straight walk and the rectangle (the default route held out, a check of them:
+#: docs/accuracy.md), σ² = Σ(e² − P) / Σ d² pooled over the walks, e the end
 #: error along the displacement (scale), in height (climb) or in heading (turn scale, the rectangle's
 #: full turn), P its summed 1σ² and d the displacement, path or angle turned
 #: (``openshoe-accuracy consistency`` prints them).

@@ -20,7 +20,9 @@ Turns on the spot, side and back steps and stairs follow from the same rule: the
 feet pivot round the body's centre line, side steps close up, each foot climbs
 two stairs a stride. Both feet point along the body's heading (no toe-out: the
 modules' initial headings agree, as the host assumes). Each foot's swing keeps
-the gait of the body swing it belongs to (its clearance, pitch profile, impact).
+the gait of the body swing it belongs to (its clearance, pitch profile, impact);
+a swing's roll and yaw on the way (the stairs' sole turned in and toe out,
+:class:`~.gait.GaitParams`) are a right foot's, which the left foot mirrors.
 
 The **body** is the midpoint of the two feet (:meth:`Feet.body`), the point the
 host's two-foot fusion reports.
@@ -28,14 +30,14 @@ host's two-foot fusion reports.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from protocol.board import FOOT_SIDES
 
-from .gait import WIGGLE, GaitBuilder, Pose, Swing, Trajectory
+from .gait import WIGGLE, GaitBuilder, GaitParams, Pose, Swing, Trajectory
 from .truth import GroundTruth
 
 __all__ = ["SIDES", "STEP_WIDTH_M", "Feet", "body_truth", "feet_from_body", "foot_module", "foot_seed",
@@ -93,6 +95,13 @@ def _aside(pose: Pose, right: float) -> Pose:
     return pose.moved(right=right)
 
 
+def _left_foot(params: GaitParams) -> GaitParams:
+    """A right foot's gait as the left foot walks it: the sole turns in and the toe out the other way."""
+    if params.swing_roll_deg == 0.0 and params.swing_yaw_deg == 0.0:
+        return params
+    return replace(params, swing_roll_deg=-params.swing_roll_deg, swing_yaw_deg=-params.swing_yaw_deg)
+
+
 def _strides(swings: list[Swing]) -> list[list[Swing]]:
     """The body's swings in runs of walking: a run ends where the body stands still for longer
     than a stride (the walker stops, feet side by side)."""
@@ -115,7 +124,7 @@ def feet_from_body(body: GaitBuilder, step_width: float = STEP_WIDTH_M) -> Feet:
                          "scenario with a wiggle with one module")
     half = 0.5 * step_width
     start = body.swings[0].a if body.swings else body.pose
-    left = [Swing(s.t0, _aside(s.a, -half), _aside(s.b, -half), s.params) for s in body.swings]
+    left = [Swing(s.t0, _aside(s.a, -half), _aside(s.b, -half), _left_foot(s.params)) for s in body.swings]
     right: list[Swing] = []
     for run in _strides(body.swings):
         where = _aside(run[0].a, half)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from firmware_sim.sensors.feet import SIDES, STEP_WIDTH_M, foot_module, foot_seed
-from firmware_sim.sensors.gait import WALKING
+from firmware_sim.sensors.gait import STAIRS_UP, WALKING
 from firmware_sim.sensors.scenarios import feet, trajectory
 
 
@@ -62,6 +62,18 @@ def test_stairs_each_foot_climbs_two_stairs_a_stride_in_turn():
     heights = sorted(-np.concatenate([walked.left.sample(100.0).stance_positions[:, 2],
                                       walked.right.sample(100.0).stance_positions[:, 2]]))
     assert np.allclose(np.unique(np.round(heights, 6)), 0.17 * np.arange(9))
+
+
+def test_on_stairs_the_left_foot_rolls_and_turns_as_the_mirror_of_the_right():
+    """A stair swing turns the sole in and the toe out: right side down and toe right for the right
+    foot, left side down and toe left for the left."""
+    walked = feet("stand:3+stairs_up:8+stand:2")
+    left, right = walked.left.sample(1000.0), walked.right.sample(1000.0)
+    for truth, sign in ((left, -1.0), (right, 1.0)):
+        roll, _, yaw = np.degrees(truth.euler).T
+        assert np.all(sign * roll > -1e-6) and np.all(sign * yaw > -1e-6)
+        assert np.abs(roll).max() == pytest.approx(STAIRS_UP.swing_roll_deg, rel=1e-3)
+        assert np.abs(yaw).max() == pytest.approx(STAIRS_UP.swing_yaw_deg, rel=1e-3)
 
 
 def test_body_is_the_feet_midpoint():

@@ -54,8 +54,8 @@ __all__ = ["SCENARIOS", "consistency_rows", "consistency_run", "module_error_pri
 SCENARIOS = ("walk", "rectangle", "default")
 #: The normal quantiles of a two-sided 95 % interval.
 _Z95 = 1.959963984540054
-#: The routes the module's error priors are estimated on: the default route's stairs are left out,
-#: because their shared error is the gait model's, not the module's (docs/accuracy.md).
+#: The routes the module's error priors are estimated on; the default route is held out, a check of
+#: them on a route they were not estimated on (docs/accuracy.md).
 PRIOR_SCENARIOS = ("walk", "rectangle")
 #: A run teaches the step-length scale only if it ends this far from its start [m]: on a closed
 #: loop the scale error cancels, and (e·d)² is then the noise of a tiny number.

@@ -1,0 +1,86 @@
+"""The error-free scenario table: every named scenario walked by an error-free module at 1 kHz.
+
+Each scenario (:func:`firmware_sim.sensors.scenarios.list_scenarios`) is simulated with
+``SensorConfig.ideal()`` and seed 0 at the module's own 1 kHz, replayed through the module
+(:func:`firmware_sim.app.batch.run_replay`) and its steps summed by a host
+(:func:`hostlib.replay.replay_bytes`). Each row: the end error of the summed steps against the
+truth's last stance (in the frame the track starts in) in % of the true 3-D path (the straight
+lines between the foot's rests), the height error (track minus truth, up positive), the step
+packets and the true stances. What the navigation itself loses, with no sensor error to blame
+(docs/accuracy.md, "Error-free scenarios at 1 kHz").
+
+``python -m tools.accuracy.error_free [--workers N]`` prints the table as docs/accuracy.md has it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from .runs import map_runs
+
+__all__ = ["RATE_HZ", "error_free_run", "error_free_rows", "table_lines"]
+
+#: The module's own loop rate [Hz].
+RATE_HZ = 1000.0
+
+
+def error_free_run(scenario: str) -> dict[str, Any]:
+    """One scenario walked by an error-free module (module docstring)."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.app.runs import end_errors
+    from firmware_sim.sensors.config import SensorConfig
+    from firmware_sim.sensors.imu_array import make_source
+    from hostlib.replay import replay_bytes
+
+    source = make_source(scenario, seed=0, rate_hz=RATE_HZ, config=SensorConfig.ideal())
+    truth = source.truth
+    track, _ = replay_bytes(run_replay(source, announce=None))
+    error = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
+    path = truth.distance_m()
+    return {"scenario": scenario, "path_m": path, "end_error_m": float(np.linalg.norm(error)),
+            "end_error_pct": 100.0 * float(np.linalg.norm(error)) / path if path > 0 else math.nan,
+            "north_m": float(error[0]), "east_m": float(error[1]),
+            "height_m": end_errors(track, truth)["end_height_m"], "step_packets": len(track),
+            "steps": track.motion_steps, "true_stances": len(truth.stance_positions)}
+
+
+def error_free_rows(scenarios: Sequence[str] | None = None, workers: int = 2) -> list[dict[str, Any]]:
+    """:func:`error_free_run` of every named scenario (or of *scenarios*), in that order."""
+    from firmware_sim.sensors.scenarios import list_scenarios
+
+    return map_runs(error_free_run, list(scenarios or list_scenarios()), workers)
+
+
+def table_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """The rows as docs/accuracy.md's Markdown table; scenarios without a path (standing, turning
+    on the spot) are left out."""
+    lines = ["| scenario | 3-D % | height [m] | step packets | true stances |", "|---|---|---|---|---|"]
+    for r in rows:
+        if math.isnan(r["end_error_pct"]):
+            continue
+        height = f"{r['height_m']:+.3f}".replace("-", "−")
+        lines.append(f"| {r['scenario']} | {r['end_error_pct']:.3f} | {height} | {r['step_packets']} | "
+                     f"{r['true_stances']} |")
+    return lines
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m tools.accuracy.error_free",
+                                     description=__doc__.split("\n")[0])
+    parser.add_argument("--workers", type=int, default=2,
+                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
+    parser.add_argument("scenarios", nargs="*", help="scenarios or recipes (default: every named scenario)")
+    args = parser.parse_args(argv)
+    for line in table_lines(error_free_rows(args.scenarios or None, args.workers)):
+        print(line)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
