@@ -7,8 +7,10 @@ mapping it back onto a sphere of the local field's magnitude recovers::
 
     m_true ≈ A (m_read − b)
 
-with A symmetric (a rotation of the whole sphere is not observable from the readings alone; it
-is the part of the soft iron no fit recovers). :func:`fit_ellipsoid` is the algebraic
+with A symmetric: a rotation of the whole sphere is not observable from the readings alone, so it
+is the part of the soft iron no fit of them recovers. With the attitude of each reading it is
+(:mod:`hostlib.iron_rotation`), and :meth:`MagCalibration.turned` makes the soft iron R_m A, no
+longer symmetric. :func:`fit_ellipsoid` is the algebraic
 least-squares fit of the general quadric ``mᵀ M m + 2 vᵀ m = 1`` (:func:`fit_quadric`, which also
 gives the covariance of its nine coefficients, from which a caller can judge how well the readings
 determine what it needs); :class:`MagCalibration` applies, saves and loads the result, with the
@@ -22,10 +24,11 @@ XDG_CONFIG_HOME is unset) — and :func:`load_for_module` finds it again for the
 from __future__ import annotations
 
 import json
+import math
 import os
 import re
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -51,20 +54,31 @@ class MagCalibration:
     """``m_true = soft_iron @ (m_read − hard_iron)`` in the board frame [µT]."""
 
     hard_iron: np.ndarray  #: (3,) µT
-    soft_iron: np.ndarray  #: (3, 3), symmetric
+    #: (3, 3): symmetric from an ellipsoid fit; a rotation times that once turned with the attitude
+    soft_iron: np.ndarray
     module_serial: str = ""  #: the module it was fitted on ("" unknown)
     field_ut: float = float("nan")  #: the field magnitude the readings were mapped onto
     rms_residual_ut: float = float("nan")  #: RMS of |A(m − b)| − field over the readings
+    #: how far [deg] the attitude turned the ellipsoid's soft iron (:meth:`turned`; NaN: it did not)
+    rotation_deg: float = float("nan")
 
     def apply(self, field_board) -> np.ndarray:
         """The calibrated field of a reading (3,) or readings (n, 3)."""
         m = np.asarray(field_board, dtype=np.float64)
         return (m - self.hard_iron) @ self.soft_iron.T
 
+    def turned(self, rotation) -> MagCalibration:
+        """The calibration whose calibrated field is this one's turned by *rotation* (3, 3): the
+        soft iron ``rotation @ soft_iron``; the field's magnitude, and so the residual, stay."""
+        r = np.asarray(rotation, dtype=np.float64)
+        angle = math.degrees(math.acos(float(np.clip((np.trace(r) - 1.0) / 2.0, -1.0, 1.0))))
+        return replace(self, soft_iron=r @ self.soft_iron, rotation_deg=angle)
+
     def to_json(self) -> dict[str, Any]:
         return {"kind": "openshoe-mag-calibration", "module_serial": self.module_serial,
                 "hard_iron_ut": self.hard_iron.tolist(), "soft_iron": self.soft_iron.tolist(),
-                "field_ut": self.field_ut, "rms_residual_ut": self.rms_residual_ut}
+                "field_ut": self.field_ut, "rms_residual_ut": self.rms_residual_ut,
+                "rotation_deg": self.rotation_deg}
 
     def save(self, path: str | Path) -> None:
         """Write the calibration as JSON to *path* (whole: a file half written is never left there)."""
@@ -86,7 +100,7 @@ class MagCalibration:
                                                                   and np.isfinite(soft).all()):
                 raise ValueError("hard_iron_ut must be 3 and soft_iron 3×3 finite numbers")
             return cls(hard, soft, str(doc.get("module_serial", "")), float(doc.get("field_ut", "nan")),
-                       float(doc.get("rms_residual_ut", "nan")))
+                       float(doc.get("rms_residual_ut", "nan")), float(doc.get("rotation_deg", "nan")))
         except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
             raise MagCalibrationError(f"{path}: {exc}") from exc
 

@@ -17,7 +17,9 @@ replayed host ``openshoe-emu replay --host fusion --calibrate-mag``):
   with the attitude), each step its horizontal length; step packets are steps, not readings (the
   first long step's reading is taken a stride away). At the first step whose horizontal length
   exceeds :data:`STOP_STEP_M` it fits the readings (:func:`hostlib.magcal.fit_quadric`, the
-  calibration named after the module's serial number) and returns True: then send
+  calibration named after the module's serial number), turns the fit's soft iron by the field's
+  rotation the readings' attitudes show (:func:`hostlib.iron_rotation.fit_iron_rotation`, the part
+  of the iron no ellipsoid sees) and returns True: then send
   :data:`WiggleCalibration.STOP` (:data:`protocol.extensions.MAG_STREAM_STOP`), and hand the result
   to the tracker (:meth:`hostlib.fusion.FusionTracker.release_compass`, σ :data:`HEADING_SIGMA_DEG`
   for the first reading).
@@ -43,6 +45,13 @@ It refuses — :attr:`~WiggleCalibration.calibration` stays None and
 
 Navigation then goes on uncalibrated.
 
+The rotation is a second step: when the attitudes do not determine it (too few readings held
+still, a shoe not tilted while held, an inclination that scatters: the attitude does not go with
+the magnetometers) the calibration is the ellipsoid's alone, and
+:attr:`~WiggleCalibration.rotation_refusal` says why — the ellipsoid's calibration still halves a
+compass's error, so that is no reason to go on uncalibrated. The same 1σ limit on a level
+compass's heading holds for it.
+
 Steps lost while the stream runs (it is lossy, and so are the step packets meanwhile) are no
 concern: a lost wiggle step is a few centimetres, and if the first long step is lost the next one
 ends the calibration.
@@ -61,6 +70,7 @@ from protocol.ids import Command, StateId
 
 from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .events import PacketEvent, StepEvent
+from .iron_rotation import IronRotation, fit_iron_rotation
 from .magcal import MagCalibration, MagCalibrationError, QuadricFit, fit_quadric
 from .tracking import rotation_z
 
@@ -175,6 +185,12 @@ class WiggleCalibration:
         self.calibration: MagCalibration | None = None
         #: why it was refused (None: not refused)
         self.refusal: str | None = None
+        #: the ellipsoid fit's calibration, before the attitude turned it (None: no fit)
+        self.ellipsoid: MagCalibration | None = None
+        #: the field's rotation from the attitudes (None: not fitted, or refused)
+        self.rotation: IronRotation | None = None
+        #: why the calibration is the ellipsoid's alone (None: turned, or no calibration)
+        self.rotation_refusal: str | None = None
         #: the fit's 1σ heading error on a level compass [deg] (:func:`fit_heading_sigma_deg`)
         self.heading_sigma_deg = math.nan
         #: how far the readings reach into every half of the sphere [deg] (:func:`coverage_deg`)
@@ -243,6 +259,13 @@ class WiggleCalibration:
             self.refusal = (f"the readings leave a level compass uncertain by {self.heading_sigma_deg:.1f}° "
                             f"(1σ; at most {self.max_heading_sigma_deg:.1f}°; {residual}) — {_WIGGLE_HOW}")
             return None
+        self.ellipsoid = calibration
+        try:
+            self.rotation = fit_iron_rotation(calibration, self.readings, self.max_heading_sigma_deg)
+        except MagCalibrationError as exc:
+            self.rotation_refusal = f"{exc}"
+        else:
+            calibration = calibration.turned(self.rotation.rotation)
         self.calibration = calibration
         return calibration
 
@@ -265,9 +288,16 @@ class WiggleCalibration:
             return f"magnetometers not calibrated ({what}): {self.refusal}; navigating uncalibrated"
         cal = self.calibration
         hard = ", ".join(f"{v:+.2f}" for v in cal.hard_iron)
+        if self.rotation is not None:
+            turned = (f"the attitude turned the field {cal.rotation_deg:.1f}° (inclination "
+                      f"{self.rotation.inclination_deg:.1f}°, ±{self.rotation.heading_sigma_deg():.2f}° in "
+                      f"heading)")
+        else:
+            turned = f"the ellipsoid's alone, not turned with the attitude: {self.rotation_refusal}"
         return (f"magnetometers calibrated from {what}: hard iron [{hard}] µT, field "
                 f"{cal.field_ut:.1f} µT, residual {cal.rms_residual_ut:.2f} µT RMS, coverage "
-                f"{self.coverage_deg:+.0f}°, heading ±{self.heading_sigma_deg:.2f}° from the fit's scatter")
+                f"{self.coverage_deg:+.0f}°, heading ±{self.heading_sigma_deg:.2f}° from the fit's scatter; "
+                f"{turned}")
 
     def __repr__(self) -> str:
         state = "calibrated" if self.calibration is not None else "refused" if self.done else "collecting"

@@ -1,9 +1,11 @@
 """The shoe's hard and soft iron from a wiggle: an ellipsoid fit recovers the offset and, up to
-the rotation no fit can see, the distortion; files are checked and bound to their module, and kept
-per module where the host finds them again."""
+the rotation no fit can see, the distortion, which the attitude's rotation then turns; files are
+checked and bound to their module, kept per module where the host finds them again, and those
+saved before the turn still load."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
@@ -64,6 +66,33 @@ def test_a_saved_calibration_loads_back_and_knows_its_module(tmp_path):
     back.check_module("OSEMU-M00000003")
     with pytest.raises(MagCalibrationError, match="belongs to module OSEMU-M00000003"):
         back.check_module("OSEMU-M00000004")
+
+
+def test_a_calibration_turned_by_the_attitude_keeps_the_fields_magnitude_and_saves_the_turn(tmp_path):
+    readings, _, _ = _wiggle(np.random.default_rng(5))
+    cal = fit_ellipsoid(readings, module_serial="OSEMU-M00000005")
+    c, s = math.cos(math.radians(2.0)), math.sin(math.radians(2.0))
+    about_z = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+    turned = cal.turned(about_z)
+    np.testing.assert_allclose(turned.apply(readings), cal.apply(readings) @ about_z.T, atol=1e-12)
+    np.testing.assert_allclose(turned.soft_iron, about_z @ cal.soft_iron)
+    assert turned.rotation_deg == pytest.approx(2.0) and math.isnan(cal.rotation_deg)
+    assert (turned.field_ut, turned.rms_residual_ut, turned.module_serial) == \
+        (cal.field_ut, cal.rms_residual_ut, cal.module_serial)
+    turned.save(tmp_path / "t.json")
+    back = MagCalibration.load(tmp_path / "t.json")
+    np.testing.assert_array_equal(back.soft_iron, turned.soft_iron)
+    assert back.rotation_deg == turned.rotation_deg
+
+
+def test_a_file_saved_before_the_attitude_turned_calibrations_still_loads(tmp_path):
+    old = tmp_path / "OSEMU-M00000009.json"
+    old.write_text('{"kind": "openshoe-mag-calibration", "module_serial": "OSEMU-M00000009", '
+                   '"hard_iron_ut": [1.0, -2.0, 0.5], "soft_iron": [[1.02, 0.01, 0.0], [0.01, 0.98, 0.02], '
+                   '[0.0, 0.02, 1.0]], "field_ut": 51.5, "rms_residual_ut": 0.3}')
+    cal, _ = load_for_module("OSEMU-M00000009", tmp_path)
+    np.testing.assert_array_equal(cal.hard_iron, [1.0, -2.0, 0.5])
+    assert cal.soft_iron[1, 2] == 0.02 and math.isnan(cal.rotation_deg) and cal.field_ut == 51.5
 
 
 def test_a_file_that_is_not_a_calibration_is_refused_by_name(tmp_path):

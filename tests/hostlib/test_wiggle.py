@@ -1,7 +1,8 @@
 """The in-situ calibration (hostlib.wiggle): it collects the stream's readings, ends by itself at
-the first step longer than half a metre and not before, fits the shoe's iron, and refuses — saying
-why — readings that do not determine an ellipsoid; the fusion tracker's compass waits for it and
-then starts from it with NavShoe's 10°."""
+the first step longer than half a metre and not before, fits the shoe's iron — the ellipsoid, then
+its rotation from the attitude — and refuses, saying why, readings that do not determine an
+ellipsoid (attitudes that do not determine the rotation leave the ellipsoid's calibration); the
+fusion tracker's compass waits for it and then starts from it with NavShoe's 10°."""
 
 from __future__ import annotations
 
@@ -63,6 +64,38 @@ def test_the_fit_recovers_the_iron_of_a_wiggle(good_wiggle):
     np.testing.assert_allclose(m / np.cbrt(np.linalg.det(m)), np.eye(3), atol=0.01)
     assert w.coverage_deg > -10.0 and w.heading_sigma_deg < 0.2
     assert "magnetometers calibrated from" in w.summary()
+
+
+def _rotation_left_deg(soft_iron: np.ndarray, true_soft: np.ndarray) -> float:
+    """The angle [deg] of the rotation in soft_iron · true_soft (its polar decomposition's)."""
+    w, _, vt = np.linalg.svd(soft_iron @ true_soft)
+    return math.degrees(math.acos(float(np.clip((np.trace(w @ vt) - 1.0) / 2.0, -1.0, 1.0))))
+
+
+@pytest.mark.parametrize("lag_cycles", [0, 16])
+def test_the_attitude_turns_the_fit_by_the_irons_rotation_even_when_it_lags_the_field(lag_cycles):
+    # the module's attitude is up to 16 ms older than its magnetometers: while the shoe tilts they
+    # disagree, and only the readings held still tell the rotation
+    packets, soft, _ = wiggle_packets(turn_deg=(1.5, -1.0, 2.0), attitude_lag_cycles=lag_cycles)
+    w = _collected(packets)
+    cal = w.finish("M1")
+    assert _rotation_left_deg(w.ellipsoid.soft_iron, soft) == pytest.approx(2.7, abs=0.1)
+    assert _rotation_left_deg(cal.soft_iron, soft) < 0.05
+    assert cal.rotation_deg == pytest.approx(2.7, abs=0.1) and w.rotation_refusal is None
+    assert w.rotation.inclination_deg == pytest.approx(72.5, abs=0.2)
+    assert 0.4 * len(w.readings) < w.rotation.readings < 0.6 * len(w.readings)
+    assert "the attitude turned the field 2.7° (inclination 72.5°" in w.summary()
+
+
+def test_attitudes_that_do_not_go_with_the_field_leave_the_ellipsoids_calibration(good_wiggle):
+    packets, soft, hard = good_wiggle
+    level = {StateId.QUATERNION: np.array([0.0, 0.0, 0.0, 1.0])}
+    w = _collected([{**p, **level} for p in packets])
+    cal = w.finish("M1")
+    assert cal is w.ellipsoid and w.rotation is None and math.isnan(cal.rotation_deg)
+    assert "the attitude does not go with the magnetometers" in w.rotation_refusal
+    assert "the ellipsoid's alone, not turned with the attitude" in w.summary()
+    np.testing.assert_allclose(cal.hard_iron, hard, atol=0.5)
 
 
 def test_step_packets_are_steps_not_readings(good_wiggle):

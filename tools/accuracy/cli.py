@@ -39,8 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
                                        "compass per step, at every reset, continuously, none",
                  "1:21", "walks", "twenty")
     mc = _seeded(sub, "magcal", "NavShoe's in-situ magnetometer calibration: a 30 s wiggle then a walk "
-                                "outdoors; the fitted iron against the simulated, the per-step compass with "
-                                "it, the true one and none; wiggles of less tilt",
+                                "outdoors; the fitted iron (the ellipsoid, turned by the attitude) against "
+                                "the simulated, the per-step compass with it, the ellipsoid alone, the true "
+                                "one and none; wiggles of less tilt",
                  "1:21", "modules", "twenty")
     f = _seeded(sub, "two-feet-straight", "the module paper's experiment: 100 m straight walks with a module "
                                           "on each foot; each foot, their average and the constrained fusion",
