@@ -106,3 +106,16 @@ def test_the_speed_tables_sweep_spec_is_the_tools_product_and_gives_its_row():
     tool = speed_run((5.0, 250.0, None))
     for k in ("along", "across", "height"):
         assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # metres on 100 m = % of it
+
+
+def test_every_experiment_explains_itself(capsys):
+    """`openshoe-accuracy --help` and each experiment's --help print (argparse formats help with %,
+    so a stray percent sign would crash it)."""
+    from tools.accuracy.cli import build_parser
+
+    parser = build_parser()
+    parser.format_help()
+    commands = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction").choices
+    assert {"error-free", "consistency", "navshoe-house", "walks-compass", "magcal"} <= set(commands)
+    for name, sub in commands.items():
+        assert name.split("-")[0] in sub.format_help()

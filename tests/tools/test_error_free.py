@@ -45,3 +45,15 @@ def test_the_table_leaves_out_what_has_no_path():
              "true_stances": 1}]
     assert table_lines(rows) == ["| scenario | 3-D % | height [m] | step packets | true stances |",
                                  "|---|---|---|---|---|", "| walk | 0.069 | −0.069 | 71 | 68 |"]
+
+
+def test_the_command_prints_the_table_and_writes_its_csv(tmp_path):
+    import io
+
+    from tools.accuracy import main
+
+    out = io.StringIO()
+    assert main(["error-free", "stand:3+walk:5+stand:2", "--workers", "0", "--out", str(tmp_path)], out) == 0
+    lines = out.getvalue().splitlines()
+    assert lines[0].startswith("| scenario | 3-D % |") and lines[2].startswith("| stand:3+walk:5+stand:2 |")
+    assert (tmp_path / "error-free.csv").read_text().count("\n") == 2

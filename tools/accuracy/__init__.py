@@ -22,7 +22,8 @@ The heading aids' and two feet's experiments (§1–3, §6) have their own subco
 documented in its module and listed by ``openshoe-accuracy --help``: ``navshoe-outage``
 (:mod:`.navshoe`), ``navshoe-house`` (:mod:`.house`), ``walks-compass FILE...``
 (:mod:`.walks_compass`: the real walks with their magnetometers), ``two-feet-*``
-(:mod:`.two_feet`), ``consistency`` (:mod:`.consistency`: is the summed covariance honest?).
+(:mod:`.two_feet`), ``consistency`` (:mod:`.consistency`: is the summed covariance honest?),
+``error-free [SCENARIO...]`` (:mod:`.error_free`: what the navigation loses with error-free sensors).
 
 The runs go through :func:`firmware_sim.app.cluster.execute` (a local Dask cluster of
 ``--workers`` processes, or here with ``--workers 0``).

@@ -57,13 +57,17 @@ def build_parser() -> argparse.ArgumentParser:
     c = _seeded(sub, "consistency", "is the summed covariance honest? the end pose's normalised squared "
                                     "error on walk, rectangle and default, and a constant inflation "
                                     "estimated on the other routes", "0:20", "modules", "twenty")
+    ef = sub.add_parser("error-free", help="every named scenario walked by an error-free module at 1 kHz: "
+                                           "the end error in %% of the 3-D path and the height error")
+    ef.add_argument("scenarios", nargs="*", metavar="SCENARIO",
+                    help="scenarios or recipes (default: every named scenario)")
     h = sub.add_parser("two-feet-heading",
                        help="the feet's headings over a 22-minute walk with and without the constraint, "
                             "and the same walk with the right foot's link down for 30 s")
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, wc, s, v, n, hs, mc, f, lp, a, d, c, h):
+    for q in (w, wc, s, v, n, hs, mc, f, lp, a, d, c, ef, h):
         q.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
@@ -108,6 +112,16 @@ def _walks(args: argparse.Namespace, out) -> int:
     png = plot_heights(args.out / "height-walk.png", f"{first.name}: a closed loop's height (returns to 0)",
                        height_profile(first.tracks["plain"]), height_profile(first.tracks["height"]))
     print(f"results: {_write_csv(args.out / 'walks.csv', walks.rows(results))}, {png}", file=out)
+    return 0
+
+
+def _error_free(args: argparse.Namespace, out) -> int:
+    from . import error_free
+
+    rows = error_free.error_free_rows(args.scenarios or None, args.workers)
+    for line in error_free.table_lines(rows):
+        print(line, file=out)
+    print(f"results: {_write_csv(args.out / 'error-free.csv', rows)}", file=out)
     return 0
 
 
@@ -284,4 +298,5 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
             "navshoe-house": _navshoe_house, "magcal": _magcal,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
             "two-feet-aids": _two_feet_aids, "two-feet-drift": _two_feet_drift,
-            "consistency": _consistency, "two-feet-heading": _two_feet_heading}[args.experiment](args, out)
+            "consistency": _consistency, "error-free": _error_free,
+            "two-feet-heading": _two_feet_heading}[args.experiment](args, out)

@@ -9,14 +9,12 @@ lines between the foot's rests), the height error (track minus truth, up positiv
 packets and the true stances. What the navigation itself loses, with no sensor error to blame
 (docs/accuracy.md, "Error-free scenarios at 1 kHz").
 
-``python -m tools.accuracy.error_free [--workers N]`` prints the table as docs/accuracy.md has it.
+``openshoe-accuracy error-free [SCENARIO...]`` prints the table as docs/accuracy.md has it.
 """
 
 from __future__ import annotations
 
-import argparse
 import math
-import sys
 from collections.abc import Sequence
 from typing import Any
 
@@ -68,19 +66,3 @@ def table_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
         lines.append(f"| {r['scenario']} | {r['end_error_pct']:.3f} | {height} | {r['step_packets']} | "
                      f"{r['true_stances']} |")
     return lines
-
-
-def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m tools.accuracy.error_free",
-                                     description=__doc__.split("\n")[0])
-    parser.add_argument("--workers", type=int, default=2,
-                        help="local Dask worker processes (default 2; 0 = here, one after the other)")
-    parser.add_argument("scenarios", nargs="*", help="scenarios or recipes (default: every named scenario)")
-    args = parser.parse_args(argv)
-    for line in table_lines(error_free_rows(args.scenarios or None, args.workers)):
-        print(line)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
