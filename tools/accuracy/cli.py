@@ -111,7 +111,7 @@ def _walks(args: argparse.Namespace, out) -> int:
     first = results[0]
     png = plot_heights(args.out / "height-walk.png", f"{first.name}: a closed loop's height (returns to 0)",
                        height_profile(first.tracks["plain"]), height_profile(first.tracks["height"]))
-    print(f"results: {_write_csv(args.out / 'walks.csv', walks.rows(results))}, {png}", file=out)
+    _report(out, (), _write_csv(args.out / "walks.csv", walks.rows(results)), png)
     return 0
 
 
@@ -119,9 +119,7 @@ def _error_free(args: argparse.Namespace, out) -> int:
     from . import error_free
 
     rows = error_free.error_free_rows(args.scenarios or None, args.workers)
-    for line in error_free.table_lines(rows):
-        print(line, file=out)
-    print(f"results: {_write_csv(args.out / 'error-free.csv', rows)}", file=out)
+    _report(out, error_free.table_lines(rows), _write_csv(args.out / "error-free.csv", rows))
     return 0
 
 
@@ -135,9 +133,8 @@ def _walks_compass(args: argparse.Namespace, out) -> int:
               f"give at least two recordings", file=sys.stderr)
         return 2
     results = walks_compass.compass_walk_results(args.files, workers=args.workers)
-    for line in walks_compass.table_lines(results):
-        print(line, file=out)
-    print(f"results: {_write_csv(args.out / 'walks-compass.csv', walks_compass.rows(results))}", file=out)
+    csv = _write_csv(args.out / "walks-compass.csv", walks_compass.rows(results))
+    _report(out, walks_compass.table_lines(results), csv)
     return 0
 
 
@@ -173,11 +170,17 @@ def _seeded_table(args: argparse.Namespace, out, rows_of: Any, summary_of: Any, 
     if seeds is None:
         return 2
     rows = rows_of(seeds, workers=args.workers)
-    for line in summary_of(rows):
-        print(line, file=out)
-    written = [_write_csv(args.out / name, rows)] + ([picture(rows, seeds)] if picture is not None else [])
-    print(f"results: {', '.join(str(p) for p in written)}", file=out)
+    lines = summary_of(rows)
+    csv = _write_csv(args.out / name, rows)
+    _report(out, lines, csv, *([picture(rows, seeds)] if picture is not None else []))
     return 0
+
+
+def _report(out, lines: Sequence[str], *written: Path) -> None:
+    """Print a table's *lines*, then where its results were *written*."""
+    for line in lines:
+        print(line, file=out)
+    print(f"results: {', '.join(str(p) for p in written)}", file=out)
 
 
 def _speeds(args: argparse.Namespace, out) -> int:
@@ -206,9 +209,7 @@ def _magcal(args: argparse.Namespace, out) -> int:
         return 2
     code = _seeded_table(args, out, magcal.calibration_rows, magcal.summary_lines, "magcal.csv")
     rows = magcal.tilt_rows(seeds, workers=args.workers)
-    for line in magcal.tilt_lines(rows):
-        print(line, file=out)
-    print(f"results: {_write_csv(args.out / 'magcal-tilt.csv', rows)}", file=out)
+    _report(out, magcal.tilt_lines(rows), _write_csv(args.out / "magcal-tilt.csv", rows))
     return code
 
 
@@ -274,7 +275,7 @@ def _two_feet_heading(args: argparse.Namespace, out) -> int:
         for line in two_feet.heading_summary(result):
             print(line, file=out)
         pngs.append(two_feet.plot_heading(args.out / name, result))
-    print(f"results: {', '.join(str(p) for p in pngs)}", file=out)
+    _report(out, (), *pngs)
     return 0
 
 
