@@ -1,15 +1,19 @@
 """openshoe-accuracy navshoe-outage: one seed of NavShoe's outage loop through the module and the
-receiver's NMEA, tracked five ways; GPS trains the declination, the compass aligns the heading."""
+receiver's NMEA, tracked by every host; GPS trains the declination, the compass aligns the heading,
+and the oracle hosts put the truth into the compass readings."""
 
 from __future__ import annotations
 
 import csv
 import io
+import math
+
+import numpy as np
 
 from tools.accuracy import main, navshoe
 
 
-def test_one_seed_of_the_outage_loop_is_tracked_five_ways(tmp_path):
+def test_one_seed_of_the_outage_loop_is_tracked_by_every_host(tmp_path):
     out = io.StringIO()
     assert main(["navshoe-outage", "--seeds", "3", "--workers", "0", "--out", str(tmp_path)], out) == 0
     text = out.getvalue()
@@ -24,3 +28,24 @@ def test_one_seed_of_the_outage_loop_is_tracked_five_ways(tmp_path):
     assert rows["plain"]["gps_updates"] == rows["plain"]["compass_updates"] == "0"
     uncalibrated = rows["compass+gps uncalibrated"]
     assert float(both["end_error_pct_without_gps"]) < float(uncalibrated["end_error_pct_without_gps"])
+    # where the receiver fell silent: a GPS run's error is the receiver's, a few metres
+    assert 0.0 < float(rows["gps"]["last_fix_error_m"]) < 10.0
+    assert rows["plain"]["last_fix_error_m"] == "nan"
+    assert "error where the receiver fell silent" in text
+
+
+def test_the_perfect_compass_oracle_reads_the_true_heading_from_magnetic_north():
+    from firmware_sim.sensors.imu_array import make_source
+    from hostlib.compass import StanceReading, wrap_angle
+    from hostlib.fusion import FusionSettings
+
+    source = make_source("walk", seed=0)
+    truth = source.truth
+    oracle = navshoe.OracleCompassTracker(FusionSettings(compass=True), source, "all", last_counter=None)
+    k = len(truth.t) // 2
+    oracle._time = float(truth.t[k])
+    r = truth.R[k]
+    expected = math.atan2(r[1, 0], r[0, 0]) - math.radians(source.config.mag.declination_deg)
+    psi = oracle.compass_heading(StanceReading(np.array([15.0, 5.0, 49.0]), np.eye(3), 3))  # any reading
+    assert abs(wrap_angle(psi - expected)) < 1e-9
+    assert oracle.compass_heading(None) is None

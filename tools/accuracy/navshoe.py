@@ -12,7 +12,15 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
 * ``gps``: GPS only — the heading is aligned on the GPS course, then transfer-aligned;
 * ``compass``: the compass with the WMM declination, no GPS;
 * ``compass+gps uncalibrated``: as the first, without removing the shoe's iron;
-* ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do).
+* ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do);
+* ``compass true declination``: the compass without GPS, given the simulated declination (what
+  the compass alone holds when the declination is not to be learned);
+* two oracles, as ``compass+gps`` with the truth put into each compass reading
+  (:class:`OracleCompassTracker`), to show what bounds the compass's gain:
+  ``compass+gps deviation removed`` (the simulated open-ground deviation at the true position
+  taken out: what remains is the chips' noise and the attitude's error) and
+  ``compass+gps perfect compass`` (every reading the true heading minus the true declination:
+  what remains is the declination GPS taught and the INS between readings).
 
 The compass runs remove the shoe's hard and soft iron as simulated (the walk has no wiggle for the
 in-situ calibration; :mod:`.magcal` measures what that leaves). Per run: the horizontal position
@@ -31,11 +39,17 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["SCENARIO", "HOSTS", "WalkFixes", "error_table", "outage_rows", "outage_run", "outdoor_compass",
+from hostlib.fusion import FusionSettings, FusionTracker
+
+__all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", "error_table", "outage_rows",
+           "outage_run", "outdoor_compass",
            "shoe_iron", "summary_lines", "walk_fixes", "wmm_declination_rad"]
 
 SCENARIO = "navshoe-outage"
-HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain")
+HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain",
+         "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass")
+#: the oracle hosts: what :class:`OracleCompassTracker` takes out of each reading
+ORACLES = {"compass+gps deviation removed": "deviation", "compass+gps perfect compass": "all"}
 #: 1σ of one compass reading outdoors [deg]: the emulator's open-ground deviation (0.8 µT per axis
 #: against a 15.5 µT horizontal field, ≈ 3°) and three chips' noise (≈ 1.3°), rounded up.
 OUTDOOR_COMPASS_SIGMA_DEG = 5.0
@@ -102,11 +116,38 @@ def shoe_iron(source: Any) -> Any:
     return MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))
 
 
+class OracleCompassTracker(FusionTracker):
+    """A :class:`~hostlib.fusion.FusionTracker` whose compass readings have the simulated truth put
+    in, at the step's time (the foot stands at the end of its stance, so the nearest truth sample is
+    the reading's pose). *take_out* ``"deviation"`` adds back the heading error the simulated
+    deviation makes at the true position
+    (:meth:`~firmware_sim.sensors.magnetic.MagneticWorld.heading_deviation`); ``"all"`` replaces
+    the reading with the true heading minus the true declination (*source*'s)."""
+
+    def __init__(self, settings: FusionSettings, source: Any, take_out: str, **tracker_args):
+        if take_out not in ("deviation", "all"):
+            raise ValueError(f"take_out is 'deviation' or 'all', not {take_out!r}")
+        super().__init__(settings, **tracker_args)
+        self._source = source
+        self._take_out = take_out
+
+    def compass_heading(self, reading):
+        psi = super().compass_heading(reading)
+        if psi is None:
+            return None
+        truth = self._source.truth
+        i = min(int(np.searchsorted(truth.t, self._time)), len(truth.t) - 1)
+        if self._take_out == "deviation":
+            return psi + float(self._source.magnetic.heading_deviation(truth.pos[i])[0])
+        r = truth.R[i]
+        return math.atan2(r[1, 0], r[0, 0]) - math.radians(self._source.config.mag.declination_deg)
+
+
 def outage_run(seed: int) -> list[dict[str, Any]]:
-    """The four hosts' rows of one seed (module docstring)."""
+    """The hosts' rows of one seed (module docstring); a GPS host's also give its horizontal error
+    where the receiver fell silent (``last_fix_error_m``: the error the outage starts with)."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.compass import wrap_angle
-    from hostlib.fusion import FusionSettings, FusionTracker
     from hostlib.replay import replay_session
 
     from .runs import fusion_capture
@@ -128,18 +169,29 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         "compass": FusionSettings(**compass),
         "compass+gps uncalibrated": FusionSettings(gps=True, **{**compass, "mag_calibration": None}),
         "plain": FusionSettings(),
+        "compass true declination": FusionSettings(**{**compass,
+                                                      "declination_rad": math.radians(true_declination)}),
+        **{host: FusionSettings(gps=True, **compass) for host in ORACLES},
     }
     rows = []
     for host in HOSTS:
         cfg = settings[host]
         heading0 = math.atan2(r0[1, 0], r0[0, 0]) if host == "plain" else 0.0
-        tracker = FusionTracker(cfg, last_counter=None, heading=heading0)
+        if host in ORACLES:
+            tracker = OracleCompassTracker(cfg, source, ORACLES[host], last_counter=None)
+        else:
+            tracker = FusionTracker(cfg, last_counter=None, heading=heading0)
         if cfg.gps:
             tracker.add_fixes(gps.times_s, gps.north_east)
         replay_session(data, tracker=tracker)
         pose = tracker.track.final_pose
         position = pose[:2] + (gps.first_fix if cfg.gps else 0.0)
         error = float(np.hypot(*(position - end)))
+        # where the receiver fell silent: the first step at or after its last fix
+        k = int(np.searchsorted(np.asarray(tracker.step_times), gps.times_s[-1]))
+        k = min(k, len(tracker.step_times) - 1)
+        at = np.array([np.interp(tracker.step_times[k], truth.t, truth.pos[:, i]) for i in (0, 1)])
+        last_fix_error = float(np.hypot(*(tracker.track._poses[k + 1][:2] + gps.first_fix - at)))
         rows.append({
             "seed": seed, "host": host, "distance_m": round(tracker.track.distance, 1),
             "without_gps_m": round(gps.without_gps_m, 1), "end_error_m": error,
@@ -150,6 +202,7 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
             "true_declination_deg": true_declination, "wmm_declination_deg": math.degrees(wmm),
             "compass_updates": tracker.fusion.compass_updates, "gps_updates": tracker.fusion.gps_updates,
             "aligned_by": tracker.fusion.heading_aligned_by or "truth",
+            "last_fix_error_m": last_fix_error if cfg.gps else math.nan,
         })
     return rows
 
@@ -165,7 +218,18 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
     return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
             f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
-            ] + error_table(rows, "host", HOSTS)
+            ] + error_table(rows, "host", HOSTS) + _silent_lines(rows)
+
+
+def _silent_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per GPS host, mean ± sd of the horizontal error where the receiver fell silent."""
+    out = ["error where the receiver fell silent [m]:"]
+    for host in HOSTS:
+        e = [r["last_fix_error_m"] for r in rows
+             if r["host"] == host and math.isfinite(r["last_fix_error_m"])]
+        if e:
+            out.append(f"  {host:<30} {np.mean(e):5.2f} ± {np.std(e):4.2f}")
+    return out
 
 
 def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str], height: bool = False
@@ -173,7 +237,8 @@ def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str], 
     """The table of :func:`summary_lines`, a line per *key* in *names*: mean ± sd and worst of the
     end error (horizontal) and |heading error|, the declination (learned where compass and GPS are
     on); with *height*, mean ± sd of |height error| at the end too (the rows' ``height_error_m``)."""
-    out = [f"{key:<26} {'end error [m]':>16}" + (f" {'|height| [m]':>14}" if height else "")
+    w = max(26, *(len(n) for n in names))
+    out = [f"{key:<{w}} {'end error [m]':>16}" + (f" {'|height| [m]':>14}" if height else "")
            + f" {'% of no-GPS m':>14} {'worst %':>8} {'|heading| [°]':>14} {'declination [°]':>16}"]
     for name in names:
         sel = [r for r in rows if r[key] == name]
@@ -186,7 +251,7 @@ def error_table(rows: Sequence[dict[str, Any]], key: str, names: Sequence[str], 
         learned = "compass+gps" in name
         dec = f"{d.mean():6.2f} ± {d.std():4.2f}" if learned else f"{d.mean():6.2f} (fixed)"
         z = np.abs([r["height_error_m"] for r in sel]) if height else None
-        out.append(f"{name:<26} {e.mean():7.2f} ± {e.std():5.2f}"
+        out.append(f"{name:<{w}} {e.mean():7.2f} ± {e.std():5.2f}"
                    + (f" {z.mean():6.2f} ± {z.std():5.2f}" if height else "")
                    + f" {pct.mean():14.2f} {pct.max():8.2f} {h.mean():6.2f} ± {h.std():5.2f} {dec:>16}")
     truth = rows[0]
