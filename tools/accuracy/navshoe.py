@@ -192,11 +192,16 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         k = min(k, len(tracker.step_times) - 1)
         at = np.array([np.interp(tracker.step_times[k], truth.t, truth.pos[:, i]) for i in (0, 1)])
         last_fix_error = float(np.hypot(*(tracker.track._poses[k + 1][:2] + gps.first_fix - at)))
+        cov = tracker.state_covariance
+        heading_error = wrap_angle(float(pose[3]) - true_heading)
         rows.append({
             "seed": seed, "host": host, "distance_m": round(tracker.track.distance, 1),
             "without_gps_m": round(gps.without_gps_m, 1), "end_error_m": error,
             "end_error_pct_without_gps": 100.0 * error / gps.without_gps_m,
-            "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_heading)),
+            "heading_error_deg": math.degrees(heading_error),
+            # the normalised squared errors at the end: horizontal (2 dof) and heading (1 dof)
+            "nees_horizontal": float((position - end) @ np.linalg.solve(cov[:2, :2], position - end)),
+            "nees_heading": heading_error ** 2 / float(cov[3, 3]) if cov[3, 3] > 0 else math.nan,
             "declination_deg": math.degrees(tracker.declination),
             "declination_sigma_deg": math.degrees(tracker.declination_sigma),
             "true_declination_deg": true_declination, "wmm_declination_deg": math.degrees(wmm),
@@ -218,7 +223,20 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
     return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
             f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
-            ] + error_table(rows, "host", HOSTS) + _silent_lines(rows)
+            ] + error_table(rows, "host", HOSTS) + _silent_lines(rows) + _consistency_lines(rows)
+
+
+def _consistency_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per host whose heading an aid aligned: the mean normalised squared error per degree of
+    freedom at the end (1 is consistent), horizontal and heading."""
+    out = ["mean NEES per dof at the end (1: the covariance is honest), horizontal / heading:"]
+    for host in HOSTS:
+        sel = [r for r in rows if r["host"] == host and r["aligned_by"] != "truth"]
+        if sel:
+            h = np.mean([r["nees_horizontal"] for r in sel]) / 2.0
+            c = np.nanmean([r["nees_heading"] for r in sel])
+            out.append(f"  {host:<30} {h:6.2f} / {c:6.2f}")
+    return out
 
 
 def _silent_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
