@@ -22,7 +22,7 @@ from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
-__all__ = ["FirmwareTrace", "trace_module", "align", "best_lag", "DESIGN_LAG"]
+__all__ = ["FirmwareTrace", "trace_module", "align", "best_lag", "quaternion_yaw", "DESIGN_LAG"]
 
 
 @dataclass
@@ -34,28 +34,34 @@ class FirmwareTrace:
     velocity: np.ndarray  #: (n, 3) [m/s], the INS's
     position: np.ndarray  #: (n, 3) the host's pose: summed steps + the INS's position since the reset
     heading: np.ndarray  #: (n,) [rad], likewise
+    reset: np.ndarray | None = None  #: (n,) bool, a step ended (FILTER_RESET_FLAG)
+    reset_yaw: np.ndarray | None = None  #: (n,) the yaw each reset took away (DX's heading) [rad]
 
 
-def _yaw(q: np.ndarray) -> float:
+def quaternion_yaw(q: np.ndarray) -> float:
+    """The yaw [rad] of the QUATERNION state (scalar last)."""
     x, y, z, w = (float(c) for c in q)
     return float(np.arctan2(2 * (x * y + z * w), 1 - 2 * (y * y + z * z)))
 
 
-def trace_module(source, profile: str | None = None, th_zupt: int | None = None) -> FirmwareTrace:
+def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
+                 firmware=None) -> FirmwareTrace:
     """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
-    navigates with the sensor profile *profile* (default: the source's, as a replay does) and boots
-    with the ZUPT threshold *th_zupt* (default: its power-on TH_ZUPT)."""
+    navigates with the sensor profile *profile* (default: the source's, as a replay does), boots
+    with the ZUPT threshold *th_zupt* (default: its power-on TH_ZUPT) and runs *firmware* (default:
+    the OpenShoe firmware; an experiment may swap a processing function)."""
     states = {} if th_zupt is None else {StateId.TH_ZUPT: th_zupt}
     config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=states)
     cfg = profile_for(source, profile).configure(config)
-    module = build_module(cfg, sensors=source)
+    module = build_module(cfg, sensors=source, firmware=firmware)
     port = module.bt.port
     port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
     decoder = StreamDecoder()
     mem = module.memory
     n = len(source)
-    zupt = np.zeros(n, bool)
+    zupt, reset = np.zeros(n, bool), np.zeros(n, bool)
     t1 = np.zeros(n, np.int64)
+    reset_yaw = np.zeros(n)
     vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
     heading = np.zeros(n)
     base_p, base_chi = np.zeros(3), 0.0
@@ -68,15 +74,17 @@ def trace_module(source, profile: str | None = None, th_zupt: int | None = None)
         t1[k] = int(mem[StateId.T1S2F])
         vel[k] = mem[StateId.VELOCITY]
         if mem.flag(StateId.FILTER_RESET_FLAG):
+            reset[k] = True
             dx = np.asarray(mem[StateId.DX], dtype=np.float64)
             c, s = np.cos(base_chi), np.sin(base_chi)
             base_p = base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
             base_chi += float(dx[3])
+            reset_yaw[k] = float(dx[3])
         p = np.asarray(mem[StateId.POSITION], dtype=np.float64)
         c, s = np.cos(base_chi), np.sin(base_chi)
         pos[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
-        heading[k] = base_chi + _yaw(mem[StateId.QUATERNION])
-    return FirmwareTrace(zupt, t1, vel, pos, heading)
+        heading[k] = base_chi + quaternion_yaw(mem[StateId.QUATERNION])
+    return FirmwareTrace(zupt, t1, vel, pos, heading, reset, reset_yaw)
 
 
 #: Loops the filter runs behind the sensors by design: the middle of the detector's N-sample
@@ -93,5 +101,6 @@ def best_lag(trace: FirmwareTrace, oracle_stance: np.ndarray, max_lag: int = 64)
 def align(trace: FirmwareTrace, lag: int = DESIGN_LAG) -> FirmwareTrace:
     """*trace* shifted back by *lag* loops: index k is then the recorded sample k (the last *lag*
     samples are lost)."""
-    return FirmwareTrace(trace.zupt[lag:], trace.t1[lag:],
-                         trace.velocity[lag:], trace.position[lag:], trace.heading[lag:])
+    return FirmwareTrace(trace.zupt[lag:], trace.t1[lag:], trace.velocity[lag:], trace.position[lag:],
+                         trace.heading[lag:], None if trace.reset is None else trace.reset[lag:],
+                         None if trace.reset_yaw is None else trace.reset_yaw[lag:])

@@ -9,6 +9,7 @@ import pytest
 
 from firmware_sim.sensors.gait import (
     RUNNING,
+    SHORT_STEPS,
     SHUFFLE,
     STAIRS_DOWN,
     STAIRS_UP,
@@ -25,6 +26,8 @@ G = 9.81
 #: smallest |ω| in the middle 80 % of a swing is 2.9 °/s at the slowest, below this in 5 % of swings,
 #: 25 °/s in the median one (tests/oracle/swing_rotation.py).
 REAL_SWING_MIN_RATE_P5_DPS = 8.9
+#: The slowest of those 296 real swings' smallest mid-swing |ω| [°/s].
+REAL_SWING_MIN_RATE_FLOOR_DPS = 2.9
 
 
 @pytest.fixture(scope="module")
@@ -131,7 +134,8 @@ def test_a_stair_swing_keeps_rotating_through_mid_swing():
     pitching the foot rolls its sole and turns its toe on the way, as real feet do: nowhere in the middle
     80 % of a stair swing does it come near to stopping — its slowest |ω| there is faster than 19 in 20
     real swings' (a stair swing that only pitched stopped, roll and yaw rates 0, where the pitch turned,
-    and the module's detector took it for a stance). Level gaits neither roll nor turn in the swing."""
+    and the module's detector took it for a stance). Walking, running, turning on the spot and the
+    wiggle neither roll nor turn in the swing."""
     for recipe, gait in (("stand:2+stairs_up:8+stand:2", STAIRS_UP),
                          ("stand:2+stairs_down:8+stand:2", STAIRS_DOWN)):
         gt = trajectory(recipe).sample(1000.0)
@@ -149,6 +153,33 @@ def test_a_stair_swing_keeps_rotating_through_mid_swing():
             assert yaw.max() == pytest.approx(gait.swing_yaw_deg, rel=1e-3) and yaw.min() > -1e-6
     for gait in (WALKING, RUNNING, SHUFFLE, WIGGLE):
         assert gait.swing_roll_deg == gait.swing_yaw_deg == 0.0
+
+
+def test_side_and_back_steps_keep_rotating_through_mid_swing():
+    """A side or back step rolls its sole and turns its toe on the way as a stair swing does: it never
+    comes near to stopping in mid-swing (a side step that only pitched stopped, |ω| 0.8 °/s, at 38 %
+    of its swing and the module's detector took it for a stance). A back step is a forward step
+    reversed in time: it lifts off toe up and lands toe first."""
+    for recipe, back in (("stand:2+side:3:1+side:3:-1+stand:2", False), ("stand:2+back:4+stand:2", True)):
+        gt = trajectory(recipe).sample(1000.0)
+        swings = list(zip(gt.stance_end[:-1], gt.stance_start[1:], strict=True))
+        assert len(swings) == (4 if back else 6)
+        rate = np.degrees(np.linalg.norm(gt.omega_b, axis=1))
+        for lift_off, landing in swings:
+            edge = 0.1 * (landing - lift_off)
+            middle = (gt.t >= lift_off + edge) & (gt.t <= landing - edge)
+            assert rate[middle].min() > REAL_SWING_MIN_RATE_FLOOR_DPS, (recipe, rate[middle].min())
+            inner = (gt.t >= lift_off + 2 * edge) & (gt.t <= landing - 2 * edge)
+            assert rate[inner].min() > 5 * REAL_SWING_MIN_RATE_P5_DPS, (recipe, rate[inner].min())
+            swing = (gt.t > lift_off) & (gt.t < landing)
+            roll, pitch, yaw = np.degrees(gt.euler[swing]).T
+            assert roll.max() == pytest.approx(SHORT_STEPS.swing_roll_deg, rel=1e-3)
+            assert yaw.max() == pytest.approx(SHORT_STEPS.swing_yaw_deg, rel=1e-3)
+            if back:
+                half = 0.5 * (lift_off + landing)
+                first, last = swing & (gt.t < half), swing & (gt.t > half)
+                assert np.degrees(gt.euler[first, 1]).max() > 0.5 * SHUFFLE.heel_strike_pitch_deg > 0.0
+                assert np.degrees(gt.euler[last, 1]).min() < 0.5 * SHUFFLE.toe_off_pitch_deg < 0.0
 
 
 def test_scenarios_are_registered_and_composable():
