@@ -54,7 +54,10 @@ class AidSetup:
     def describe(self) -> str:
         s = self.tracker.aid_settings
         parts = []
-        if s.compass:
+        if s.compass and s.compass_deviation is not None:
+            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):g}° per step, local deviation held "
+                         f"({s.compass_deviation.describe()})" + self._calibrated())
+        elif s.compass:
             parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step" + self._calibrated())
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:

@@ -99,7 +99,14 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "each stance")
     g.add_argument("--compass-sigma", type=float, default=None, metavar="DEG",
                    help="1σ of one compass reading (the local deviation; default 20, indoors; "
-                        "outdoors about 5)")
+                        "outdoors about 5; with --compass-deviation only the reading's own white error, "
+                        "default 1.5)")
+    g.add_argument("--compass-deviation", type=_compass_deviation, default=None,
+                   metavar="outdoors|indoors|SIGMA_DEG,LENGTH_M",
+                   help="hold the local magnetic deviation as a state of the filter (hostlib.deviation), "
+                        "correlated over the distance walked: 'outdoors' (3° over 9 m), 'indoors' "
+                        "(20° over 0.5 m) or its 1σ [deg] and correlation length [m]; with two modules "
+                        "one deviation for both feet (with --compass)")
     if live:
         g.add_argument("--gps", metavar="DEVICE_OR_FILE",
                        help="a GPS receiver to fuse (NMEA GGA/RMC): a device or pyserial URL, read as it "
@@ -208,6 +215,9 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
                 "module's serial number, which the fusion set-up asks the module for")
     if two and args.module_errors is not None:
         return "--module-errors works with one module for now: the two feet's filter does not hold them"
+    if args.compass_deviation is not None and not args.compass:
+        return ("--compass-deviation needs --compass: it is the local deviation of the compass's "
+                "readings")
     return _calibration_refusal(args, two)
 
 
@@ -250,14 +260,36 @@ def _module_errors(text: str):
                                          f"0.001,0.0017,0.01) or 'emulated', got {text!r}") from None
 
 
+def _compass_deviation(text: str):
+    """The argparse type of ``--compass-deviation``: 'outdoors', 'indoors' or SIGMA_DEG,LENGTH_M
+    (numbers > 0)."""
+    from .deviation import INDOORS, OUTDOORS, CompassDeviation
+
+    presets = {"outdoors": OUTDOORS, "indoors": INDOORS}
+    if text.strip().lower() in presets:
+        return presets[text.strip().lower()]
+    try:
+        values = [float(v) for v in text.split(",")]
+        if len(values) != 2:
+            raise ValueError(f"{len(values)} numbers")
+        return CompassDeviation(math.radians(values[0]), values[1])
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected 'outdoors', 'indoors' or SIGMA_DEG,LENGTH_M (numbers "
+                                         f"> 0, e.g. 3,50), got {text!r}") from None
+
+
 def _fusion_settings(args: argparse.Namespace):
-    """The aids' settings the options change (``--compass-sigma``); the rest as hostlib.aids sets them."""
+    """The aids' settings the options change (``--compass-sigma``, ``--compass-deviation``: σ_c is
+    then only the white part, 1.5° unless given); the rest as hostlib.aids sets them."""
+    from .deviation import WHITE_SIGMA_RAD
     from .fusion import FusionSettings
 
-    if args.compass_sigma is None:
+    deviation = args.compass_deviation
+    if args.compass_sigma is None and deviation is None:
         return FusionSettings(module_errors=args.module_errors)
-    return FusionSettings(compass_sigma_rad=math.radians(args.compass_sigma),
-                          module_errors=args.module_errors)
+    sigma = WHITE_SIGMA_RAD if args.compass_sigma is None else math.radians(args.compass_sigma)
+    return FusionSettings(compass_sigma_rad=sigma, module_errors=args.module_errors,
+                          compass_deviation=deviation)
 
 
 def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
@@ -937,7 +969,10 @@ def _fusion_line(tracker) -> str:
     return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped), "
             f"{f.gps_updates} GPS updates ({f.gps_skipped} fixes between updates, "
             f"{f.gps_before_alignment} before alignment); {aligned}; declination "
-            f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°")
+            f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°"
+            + ("" if tracker.deviation is None else
+               f"; local deviation at the end {math.degrees(tracker.deviation):+.2f}° ± "
+               f"{math.degrees(tracker.deviation_sigma):.2f}°"))
 
 
 def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,

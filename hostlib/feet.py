@@ -56,6 +56,14 @@ constraint pulls it in. The gap stays reported on that foot's tracker (``tracker
   *that foot's* heading minus D, with its own module's magnetometer calibration; a GPS fix
   measures the body. The first reading (or the GPS course) turns both feet about the body's
   start; the other foot's heading keeps its uncertainty relative to the aligned one;
+* with the local compass deviation held (:attr:`~hostlib.fusion.FusionSettings.compass_deviation`,
+  :mod:`hostlib.deviation`) the joint state holds **one** d for both feet, just before D
+  (``[…L, …R, d, D]``): the feet walk through one field, and their rests, half a stride apart,
+  read nearly the same deviation, so each foot's compass measures its heading minus D minus the
+  same d. d walks with the body: each step moves the feet's midpoint by half the stepping foot's
+  displacement, so d's Gauss–Markov step is half that foot's horizontal step (each foot's own
+  step would walk it twice as far as the body goes: the readings, one from each foot in turn,
+  lie half a stride apart along the walk, not a stride);
 * each module's drift calibration (:mod:`hostlib.drift`) moves that foot's every step by
   ``R(χ₀) Δv · T_swing`` before the constraint sees it, χ₀ the walk's start heading (turned with
   the alignment). A step without a swing time is fused uncorrected and counted;
@@ -87,8 +95,9 @@ __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootT
 #: many steps since its last one (one more than a transition from standing to walking can make).
 STALE_AFTER_STEPS = 3
 
-#: Where the declination D sits in the joint state (after both feet's poses).
-_D = 8
+#: Where the local compass deviation d sits in the joint state, if held (after both feet's
+#: poses; D is then one further on).
+_DEVIATION = 8
 
 
 @dataclass(frozen=True)
@@ -164,8 +173,9 @@ class TwoFeetTracker(AidedFilter):
     the feet start half of :attr:`FeetSettings.step_width_m` to either side of the origin.
 
     *aids* (:class:`~hostlib.fusion.FusionSettings`) are the heading aids on the joint filter —
-    each foot's compass measures its heading minus the declination D (a ninth state), a GPS fix
-    the body — and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
+    each foot's compass measures its heading minus the declination D (a ninth state; minus the
+    local deviation d too, one shared state before D, if the aids hold it), a GPS fix the body —
+    and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
     module's magnetometer calibration, *drift* each module's drift calibration
     (:mod:`hostlib.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
 
@@ -191,11 +201,15 @@ class TwoFeetTracker(AidedFilter):
             for side, sign in zip(FOOT_SIDES, (-1.0, 1.0), strict=True))
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
+        deviation = self.aids.compass_deviation
         self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
-                                  [self.aids.declination_rad]])
-        self._p = np.zeros((9, 9))
+                                  [0.0] * (deviation is not None), [self.aids.declination_rad]])
+        n = len(self._s)
+        self._p = np.zeros((n, n))
+        if deviation is not None:
+            self._p[_DEVIATION, _DEVIATION] = deviation.variance
         if self.aids.gps and self.aids.compass:
-            self._p[_D, _D] = self.aids.declination_sigma_rad ** 2
+            self._p[-1, -1] = self.aids.declination_sigma_rad ** 2
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
@@ -255,7 +269,7 @@ class TwoFeetTracker(AidedFilter):
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
         block = slice(4 * i, 4 * i + 4)
-        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, _D]
+        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]  # the other foot, [d,] D
         if step.after_gap and len(self._sides) > 0:
             self._restart_at_other(i)
         # the stepping foot's block through the summation map, its cross terms through its Jacobian
@@ -272,6 +286,9 @@ class TwoFeetTracker(AidedFilter):
         self._fused[step.side] += 1
         if math.isfinite(step.time_s):
             self._time = max(self._time, step.time_s)
+        if self.aids.compass_deviation is not None:
+            # d walks with the body: the feet's midpoint moves half the stepping foot's step
+            self._walk_deviation(0.5 * math.hypot(step.dx[0], step.dx[1]))
         if self.aids.compass:
             self._compass_step(step.compass, 4 * i + 3, is_motion_step(step.dx))
         if self.aids.gps:
@@ -352,10 +369,10 @@ class TwoFeetTracker(AidedFilter):
 
     def _gps_rows(self) -> np.ndarray:
         """A fix measures the body: the feet's midpoint, or the fresh foot while the other is stale."""
-        return _BODY[self._stale_foot()][:2]
+        return _body_rows(len(self._s))[self._stale_foot()][:2]
 
     def _origin_rows(self) -> np.ndarray:
-        rows = np.zeros((2, 9))
+        rows = np.zeros((2, len(self._s)))
         rows[0, [0, 4]] = rows[1, [1, 5]] = 1.0
         return rows
 
@@ -364,9 +381,9 @@ class TwoFeetTracker(AidedFilter):
 
     def _rotate_frame(self, turn: float) -> None:
         """Turn both feet, now and in every recorded row, about the origin (the body's start)."""
-        t = np.eye(9)
+        t = np.eye(len(self._s))
         t[0:3, 0:3] = t[4:7, 4:7] = rotation_z(turn)
-        shift = np.zeros(9)
+        shift = np.zeros(len(self._s))
         shift[[3, 7]] = turn
         self._states = [t @ s + shift for s in self._states]
         self._covs = [t @ c @ t.T for c in self._covs]
@@ -453,21 +470,19 @@ class TwoFeetTracker(AidedFilter):
                 f"{len(self.restarts)} restarts)")
 
 
-def _body_rows() -> np.ndarray:
-    """(3, 4, 9): the body pose from the joint state — the midpoint; the right foot while the
-    left is stale; the left foot while the right is stale."""
-    mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, 1))])
-    left, right = np.zeros((4, 9)), np.zeros((4, 9))
+def _body_rows(width: int = 9) -> np.ndarray:
+    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [d,]
+    D) — the midpoint; the right foot while the left is stale; the left foot while the right is
+    stale."""
+    mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, width - 8))])
+    left, right = np.zeros((4, width)), np.zeros((4, width))
     left[:, 0:4] = right[:, 4:8] = np.eye(4)
     return np.stack([mid, right, left])
 
 
-_BODY = _body_rows()
-
-
 def _body_track(states: np.ndarray, covs: np.ndarray, stale: np.ndarray) -> Track:
-    """The body's track from (n, 9) joint states, their (n, 9, 9) covariances and stale codes."""
-    m = _BODY[stale]
+    """The body's track from (n, m) joint states, their (n, m, m) covariances and stale codes."""
+    m = _body_rows(states.shape[1])[stale]
     poses = np.einsum("kij,kj->ki", m, states)
     return Track.from_arrays(poses, m @ covs @ np.transpose(m, (0, 2, 1)))
 

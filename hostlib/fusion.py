@@ -37,6 +37,17 @@ step-length scale s, a climb c per metre and a turn scale k, held as three more 
 covariance along the displacement, in height and with the angle turned, as a module's systematic
 errors do; the aids make them observable, and the steps after are corrected by what they taught.
 
+**The local deviation** (:attr:`FusionSettings.compass_deviation`, :mod:`hostlib.deviation`):
+a compass reading's error is mostly the deviation d of the field where the foot stands, which is
+the same for readings a step apart. Held, d is one more state just before D
+(``[x, y, z, χ, d, D]``, or ``[x, y, z, χ, s, c, k, d, D]`` with the module's errors), a
+Gauss–Markov process in the distance walked: each step of horizontal length Δs takes
+d ← φ d and adds (1 − φ²) σ_d² to its variance, φ = exp(−Δs / ℓ); it starts at 0 with variance
+σ_d². The compass then measures ``χ − D − d``, and σ_c is only the reading's own, white error
+(the chips' noise and the attitude: about 1.5°, :data:`hostlib.deviation.WHITE_SIGMA_RAD`). The
+first reading aligns χ ← ψ_c + D + d, correlated with D and d. Not held, the filter is the one
+without it, bit for bit.
+
 The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
 holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
 fix's north and east are applied one after the other, the second with the state the first left.
@@ -57,6 +68,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from .deviation import CompassDeviation
 from .events import StepOutcome
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
@@ -72,7 +84,9 @@ class FusionSettings:
     #: per-step compass updates on
     compass: bool = False
     #: 1σ of one compass reading [rad]: the local deviation. Our default is indoor: the emulator's
-    #: building deviation (5 µT RMS per axis against a 15.5 µT horizontal field) is ≈ 18°.
+    #: building deviation (5 µT RMS per axis against a 15.5 µT horizontal field) is ≈ 18°. With
+    #: :attr:`compass_deviation` held, only the reading's own white error beyond the deviation (the
+    #: chips' noise, the attitude): about 1.5° (:data:`hostlib.deviation.WHITE_SIGMA_RAD`)
     compass_sigma_rad: float = math.radians(20.0)
     #: "step": one update per step that moved the foot (NavShoe); "every-reset": at every reset,
     #: standing ones too (the continuous compass NavShoe warns against, kept for comparison)
@@ -99,6 +113,10 @@ class FusionSettings:
     #: the module's step-length scale, climb and turn scale as states (:mod:`hostlib.module_errors`; None: not
     #: held, and the covariance is the steps' own)
     module_errors: ModuleErrors | None = None
+    #: the local compass deviation d as a state, correlated over the distance walked
+    #: (:mod:`hostlib.deviation`: :data:`~hostlib.deviation.OUTDOORS`, :data:`~hostlib.deviation.INDOORS`;
+    #: None: not held, each reading's deviation is in σ_c as white noise)
+    compass_deviation: CompassDeviation | None = None
 
     def __post_init__(self) -> None:
         if self.compass_mode not in ("step", "every-reset"):
@@ -126,10 +144,13 @@ class AidedFilter:
     """The aids of :class:`FusionSettings` on a filter whose state is poses and, last, the declination D.
 
     The aids do not care how many poses the state holds: :class:`FusionTracker` holds one foot's
-    ``[x, y, z, χ, D]``, :class:`hostlib.feet.TwoFeetTracker` both feet's and D. A subclass keeps
-    the state and gives the aids these views of it:
+    ``[x, y, z, χ, D]``, :class:`hostlib.feet.TwoFeetTracker` both feet's and D. With
+    :attr:`FusionSettings.compass_deviation` the local deviation d sits just before D, one for
+    all the poses (they walk through one field). A subclass keeps the state and gives the aids
+    these views of it:
 
-    * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (D last) and its covariance;
+    * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (d, if held, then D last) and
+      its covariance;
     * :attr:`_heading_indices`: where the headings χ are in it (one per foot);
     * :meth:`_gps_rows`: the (2, n) rows of the point a fix measures (north, east), and
       :meth:`_origin_rows` those of a shift of the whole frame (every pose's x, y);
@@ -137,8 +158,9 @@ class AidedFilter:
     * :meth:`_travelled`: the horizontal displacement of the measured point since the start;
     * :attr:`aid_settings`: the :class:`FusionSettings`; ``len(self)``: the steps fused.
 
-    It calls :meth:`_init_aids` in its ``__init__``, then for each step :meth:`_compass_step` with
-    the step's compass heading, and :meth:`_gps_until` with the step's module time.
+    It calls :meth:`_init_aids` in its ``__init__``, then for each step (with d held)
+    :meth:`_walk_deviation` with the distance walked, :meth:`_compass_step` with the step's
+    compass heading, and :meth:`_gps_until` with the step's module time.
 
     **Aligning two headings.** The first compass reading (or the GPS course) gives one heading
     χ_k; every pose turns with it about the start. Another heading χ_j was known relative to χ_k
@@ -169,7 +191,7 @@ class AidedFilter:
         raise NotImplementedError
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """The state (D last) and its covariance, as copies."""
+        """The state (d, if held, then D last) and its covariance, as copies."""
         raise NotImplementedError
 
     def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
@@ -197,6 +219,21 @@ class AidedFilter:
     @property
     def declination_sigma(self) -> float:
         return math.sqrt(max(float(self._aid_state()[1][-1, -1]), 0.0))
+
+    @property
+    def deviation(self) -> float | None:
+        """The estimate of the local compass deviation d [rad] where the last step ended, east
+        positive as D (None: not held, :attr:`FusionSettings.compass_deviation`)."""
+        if self.aid_settings.compass_deviation is None:
+            return None
+        return float(self._aid_state()[0][-2])
+
+    @property
+    def deviation_sigma(self) -> float | None:
+        """The 1σ of :attr:`deviation` [rad] (None: not held)."""
+        if self.aid_settings.compass_deviation is None:
+            return None
+        return math.sqrt(max(float(self._aid_state()[1][-2, -2]), 0.0))
 
     @property
     def heading_aligned(self) -> bool:
@@ -228,9 +265,20 @@ class AidedFilter:
 
     # -- the aids ---------------------------------------------------------------------
 
+    def _walk_deviation(self, distance_m: float) -> None:
+        """The local deviation d (held: just before D) after a walk of *distance_m* [m]: d ← φ d,
+        its variance φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs."""
+        phi, q = self.aid_settings.compass_deviation.transition(distance_m)
+        x, p = self._aid_state()
+        x[-2] *= phi
+        p[-2, :] *= phi
+        p[:, -2] *= phi
+        p[-2, -2] += q
+        self._aid_set_state(x, p)
+
     def _compass_step(self, psi: float | None, heading_index: int, moved: bool) -> None:
         """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
-        heading at *heading_index* minus D; *moved*: the step moved the foot."""
+        heading at *heading_index* minus D (minus d, held); *moved*: the step moved the foot."""
         s = self.aid_settings
         if psi is None:
             self.fusion.compass_skipped += 1
@@ -239,15 +287,27 @@ class AidedFilter:
             self.fusion.compass_skipped += 1
             return
         x, p = self._aid_state()
+        deviation = s.compass_deviation is not None
         if not self._aligned:
             var_d = float(p[-1, -1])
             sigma = s.compass_sigma_rad if self._align_sigma_rad is None else self._align_sigma_rad
-            self._align(heading_index, psi + float(x[-1]), sigma ** 2 + var_d, cov_with_d=var_d)
+            if deviation:
+                # χ ← ψ + D + d: the reading's white error, and D's and d's uncertainty and covariance
+                var_dev, cov = float(p[-2, -2]), float(p[-2, -1])
+                self._align(heading_index, psi + float(x[-1]) + float(x[-2]),
+                            sigma ** 2 + var_d + var_dev + 2.0 * cov, cov_with_d=var_d + cov,
+                            cov_with_deviation=var_dev + cov)
+            else:
+                self._align(heading_index, psi + float(x[-1]), sigma ** 2 + var_d, cov_with_d=var_d)
             self.fusion.heading_aligned_by = "compass"
             return
         h = np.zeros(len(x))
         h[heading_index], h[-1] = 1.0, -1.0
-        innovation = wrap_angle(psi - (x[heading_index] - x[-1]))
+        if deviation:
+            h[-2] = -1.0
+            innovation = wrap_angle(psi - (x[heading_index] - x[-1] - x[-2]))
+        else:
+            innovation = wrap_angle(psi - (x[heading_index] - x[-1]))
         self._update(h, innovation, s.compass_sigma_rad ** 2)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
@@ -291,13 +351,16 @@ class AidedFilter:
         turn = math.atan2(gps[1], gps[0]) - math.atan2(dr[1], dr[0])
         sigma = math.sqrt(2.0) * s.gps_receiver_sigma_m / distance
         k = self._heading_indices[0]
-        self._align(k, float(self._aid_state()[0][k]) + turn, sigma ** 2, cov_with_d=0.0)
+        self._align(k, float(self._aid_state()[0][k]) + turn, sigma ** 2, cov_with_d=0.0,
+                    cov_with_deviation=None if s.compass_deviation is None else 0.0)
         self.fusion.heading_aligned_by = "gps"
         return True
 
-    def _align(self, k: int, chi: float, var_chi: float, *, cov_with_d: float) -> None:
+    def _align(self, k: int, chi: float, var_chi: float, *, cov_with_d: float,
+               cov_with_deviation: float | None = None) -> None:
         """Turn every pose about the start so that heading *k* is *chi*, with variance *var_chi* and
-        covariance *cov_with_d* with D (class docstring: the other headings follow it)."""
+        covariance *cov_with_d* with D and *cov_with_deviation* with the local deviation d (None:
+        not held) (class docstring: the other headings follow it)."""
         x, _ = self._aid_state()
         self._rotate_frame(wrap_angle(chi - float(x[k])))
         x, p = self._aid_state()
@@ -307,11 +370,16 @@ class AidedFilter:
         b[:, hs.index(k)] -= 1.0  # χ_j' = χ_k' + (χ_j − χ_k)
         hh = b @ p[np.ix_(hs, hs)] @ b.T + var_chi * np.outer(ones, ones)
         hd = b @ p[hs, -1] + ones * cov_with_d
+        if cov_with_deviation is not None:
+            hdev = b @ p[hs, -2] + ones * cov_with_deviation
         p[hs, :] = 0.0
         p[:, hs] = 0.0
         p[np.ix_(hs, hs)] = hh
         p[hs, -1] = hd
         p[-1, hs] = hd
+        if cov_with_deviation is not None:
+            p[hs, -2] = hdev
+            p[-2, hs] = hdev
         self._aid_set_state(x, p)
         self._aligned = True
 
@@ -334,21 +402,26 @@ class FusionTracker(AidedFilter, StepTracker):
 
     Use it wherever a step tracker goes (a :class:`~hostlib.session.HostSession`'s tracker): the
     session hands it each step packet's decoded states, which carry the stance reading and the
-    step's time. :attr:`declination` and :attr:`covariance5` give the full state.
+    step's time. :attr:`declination` and :attr:`covariance5` give the full state,
+    :attr:`state_covariance` all of it (with the module's errors and the local deviation, if held).
     """
 
     def __init__(self, settings: FusionSettings | None = None, **tracker_args):
         StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        # the states beside the pose: the module's errors [s, c] if held, then D
+        # the states beside the pose: the module's errors [s, c, k] if held, the deviation d if
+        # held, then D
         errors = s.module_errors
-        self._a = np.zeros(1 + (ERROR_STATES if errors is not None else 0))
+        self._a = np.zeros(1 + (ERROR_STATES if errors is not None else 0)
+                           + (1 if s.compass_deviation is not None else 0))
         self._a[-1] = float(s.declination_rad)
-        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c,] D)
+        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k,] [d,] D)
         self._aa = np.zeros((len(self._a), len(self._a)))
         if errors is not None:
             self._aa[:ERROR_STATES, :ERROR_STATES] = errors.prior
+        if s.compass_deviation is not None:
+            self._aa[-2, -2] = s.compass_deviation.variance
         self._aa[-1, -1] = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
         self._init_aids()
         self._compass_held = False
@@ -361,13 +434,15 @@ class FusionTracker(AidedFilter, StepTracker):
 
     @property
     def covariance5(self) -> np.ndarray:
-        """The 5×5 covariance of [x, y, z, χ, D]."""
+        """The 5×5 covariance of [x, y, z, χ, D] (whatever else is held)."""
         return self.state_covariance[np.ix_([0, 1, 2, 3, -1], [0, 1, 2, 3, -1])]
 
     @property
     def state_covariance(self) -> np.ndarray:
-        """The covariance of the whole state: [x, y, z, χ, D], or [x, y, z, χ, s, c, k, D] with
-        the module's errors held (:attr:`FusionSettings.module_errors`)."""
+        """The covariance of the whole state: [x, y, z, χ, D]; [x, y, z, χ, s, c, k, D] with
+        the module's errors held (:attr:`FusionSettings.module_errors`); [x, y, z, χ, d, D] with
+        the local compass deviation d held (:attr:`FusionSettings.compass_deviation`); with both,
+        [x, y, z, χ, s, c, k, d, D]."""
         n = 4 + len(self._a)
         p = np.zeros((n, n))
         p[:4, :4] = self.track._covs[-1]
@@ -379,7 +454,9 @@ class FusionTracker(AidedFilter, StepTracker):
     @property
     def module_errors(self) -> tuple[float, ...] | None:
         """The estimated step-length scale s, climb c [m/m] and turn scale k (None: not held)."""
-        return None if len(self._a) == 1 else tuple(float(v) for v in self._a[:ERROR_STATES])
+        if self.settings.module_errors is None:
+            return None
+        return tuple(float(v) for v in self._a[:ERROR_STATES])
 
     def compass_heading(self, reading: StanceReading | None) -> float | None:
         """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
@@ -400,7 +477,8 @@ class FusionTracker(AidedFilter, StepTracker):
                         align_sigma_rad: float | None = None) -> None:
         """Compass updates again, *calibration* removing the shoe's iron from now on (None: none,
         the readings uncalibrated); if the heading is not aligned yet, the next reading aligns it
-        with σ *align_sigma_rad* (None: the compass's own σ_c)."""
+        with σ *align_sigma_rad* (None: the compass's own σ_c; with the local deviation held, in
+        place of σ_c, d's and D's uncertainty added as at any first reading)."""
         self.settings = replace(self.settings, mag_calibration=calibration)
         self._align_sigma_rad = align_sigma_rad
         self._compass_held = False
@@ -424,11 +502,13 @@ class FusionTracker(AidedFilter, StepTracker):
             return outcome
         dxa = np.asarray(dx, dtype=np.float64)
         f = step_jacobian(float(prev[3]), dxa)
-        if len(self._a) == 1:
-            # cov(pose, D) through the step: the pose's Jacobian; D does not move
+        if self.settings.module_errors is None:
+            # cov(pose, [d,] D) through the step: the pose's Jacobian; D does not move
             self._pa = f @ self._pa
         else:
             self._module_errors_through(f, error_jacobian(float(prev[3]), dxa))
+        if self.settings.compass_deviation is not None:
+            self._walk_deviation(math.hypot(dxa[0], dxa[1]))  # where this step's reading is taken
         if math.isfinite(time_s):
             self._time = time_s
         self.step_times.append(time_s)
@@ -443,7 +523,8 @@ class FusionTracker(AidedFilter, StepTracker):
     def _module_errors_through(self, f: np.ndarray, j: np.ndarray) -> None:
         """The step just summed, with the module's errors held: its pose moves by the learned
         errors (nothing while they are 0), and the covariance goes through the step's Jacobians
-        (F for the pose, J for [s, c, k]; the steps' own dP is already in)."""
+        (F for the pose, J for [s, c, k]; d and D do not move it; the steps' own dP is already
+        in)."""
         m = len(self._a)
         fa = np.zeros((4, m))
         fa[:, :ERROR_STATES] = j

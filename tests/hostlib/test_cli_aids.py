@@ -110,3 +110,25 @@ def test_replay_with_the_module_errors_widens_the_covariance_and_leaves_the_trac
     with pytest.raises(SystemExit) as exit_:
         main(["replay", capture, "--module-errors", "0.1"], io.StringIO())
     assert exit_.value.code == 2 and "SCALE,CLIMB" in capsys.readouterr().err
+
+
+def test_replay_with_the_compass_deviation_holds_it_for_one_module_or_both_feet(tmp_path, capsys):
+    """--compass-deviation holds the local deviation (a preset or σ,ℓ), the compass σ then only the
+    white part; with two captures one for both feet; without --compass, or malformed, refused."""
+    capture = _capture(tmp_path)
+    out = io.StringIO()
+    args = ["replay", capture, "--compass", "--compass-deviation", "outdoors", "--declination", "0"]
+    assert main(args, out) == 0
+    text = out.getvalue()
+    assert "compass σ 1.5° per step, local deviation held (σ 3° over 9 m)" in text
+    assert "local deviation at the end" in text
+    out = io.StringIO()
+    args = ["replay", capture, capture, "--compass", "--compass-deviation", "5,10", "--compass-sigma", "2",
+            "--declination", "0"]
+    assert main(args, out) == 0
+    assert "compass σ 2° per step, local deviation held (σ 5° over 10 m)" in out.getvalue()
+    assert main(["replay", capture, "--compass-deviation", "indoors"], io.StringIO()) == 2
+    assert "--compass-deviation needs --compass" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as exit_:
+        main(["replay", capture, "--compass", "--compass-deviation", "3"], io.StringIO())
+    assert exit_.value.code == 2 and "SIGMA_DEG,LENGTH_M" in capsys.readouterr().err

@@ -13,6 +13,9 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
 * ``compass``: the compass with the WMM declination, no GPS;
 * ``compass+gps uncalibrated``: as the first, without removing the shoe's iron;
 * ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do);
+* ``compass+gps deviation state`` and ``compass deviation state``: as ``compass+gps`` and
+  ``compass`` with the local deviation held as a state (:data:`hostlib.deviation.OUTDOORS`, each
+  reading's own σ :data:`hostlib.deviation.WHITE_SIGMA_RAD`);
 * ``compass true declination``: the compass without GPS, given the simulated declination (what
   the compass alone holds when the declination is not to be learned);
 * two oracles, as ``compass+gps`` with the truth put into each compass reading
@@ -39,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion import FusionSettings, FusionTracker
 
 __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", "error_table", "outage_rows",
@@ -47,6 +51,7 @@ __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", 
 
 SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain",
+         "compass+gps deviation state", "compass deviation state",
          "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass")
 #: the oracle hosts: what :class:`OracleCompassTracker` takes out of each reading
 ORACLES = {"compass+gps deviation removed": "deviation", "compass+gps perfect compass": "all"}
@@ -163,12 +168,15 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
     r0 = truth.R[0]
     compass = {**outdoor_compass(), "mag_calibration": shoe_iron(source)}
     wmm = compass["declination_rad"]
+    deviation_held = {**compass, "compass_sigma_rad": WHITE_SIGMA_RAD, "compass_deviation": OUTDOORS}
     settings = {
         "compass+gps": FusionSettings(gps=True, **compass),
         "gps": FusionSettings(gps=True),
         "compass": FusionSettings(**compass),
         "compass+gps uncalibrated": FusionSettings(gps=True, **{**compass, "mag_calibration": None}),
         "plain": FusionSettings(),
+        "compass+gps deviation state": FusionSettings(gps=True, **deviation_held),
+        "compass deviation state": FusionSettings(**deviation_held),
         "compass true declination": FusionSettings(**{**compass,
                                                       "declination_rad": math.radians(true_declination)}),
         **{host: FusionSettings(gps=True, **compass) for host in ORACLES},
