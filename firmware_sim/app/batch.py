@@ -325,7 +325,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="the replayed host turns the module's height compensation (function 0x25) on when "
                         "the first step packet arrives")
     p.add_argument("--calibrate-mag", action="store_true",
-                   help="with --host fusion and --wire: the replayed host runs the in-situ magnetometer "
+                   help="with --host fusion (one replay, or every run of --wire-dir): the replayed host "
+                        "runs the in-situ magnetometer "
                         "calibration (hostlib.wiggle): it streams the magnetometers after the fusion set-up "
                         "and stops the stream at the first step longer than 0.5 m (walk a scenario that "
                         "starts with a wiggle, e.g. navshoe-calibration); openshoe-host replay OUT --compass "
@@ -369,9 +370,12 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--origin and --gps-outage go with --gps"
     if getattr(args, "feet", 1) == 2 and (args.scenario is None or args.wire is None):
         return "--feet 2 goes with --scenario and --wire: a walker's two feet are simulated"
-    if getattr(args, "calibrate_mag", False) and (args.host != "fusion" or args.wire is None):
-        return ("--calibrate-mag goes with --host fusion and --wire: the calibration streams the "
-                "magnetometers after the fusion set-up, in one replay")
+    if getattr(args, "calibrate_mag", False) and args.host != "fusion":
+        return ("--calibrate-mag goes with --host fusion: the calibration streams the magnetometers "
+                "after the fusion set-up")
+    if getattr(args, "calibrate_mag", False) and getattr(args, "feet", 1) == 2:
+        return ("--calibrate-mag calibrates one module: the wiggle turns one shoe while you stand on the "
+                "other; replay each foot's wiggle alone")
     return None
 
 

@@ -8,7 +8,8 @@ each run writes ``DIR/<name>.bin`` (a scenario also ``<name>.bin.truth.csv``),
 byte for byte what a replay of it alone writes, and a table of the runs goes to stdout: steps,
 distance, closure (for closed loops) and time (:mod:`firmware_sim.app.runs`). The compiled
 tracking path is prepared once, before the first run; a reader thread reads the next file
-while the current one runs. ``--host fusion`` and ``--height-compensation`` apply to every run.
+while the current one runs. ``--host fusion``, ``--height-compensation`` and ``--calibrate-mag``
+apply to every run.
 """
 
 from __future__ import annotations
@@ -46,7 +47,8 @@ def main(args: argparse.Namespace) -> int:
         runs = scenario_runs([args.scenario], seeds, rate_hz=args.rate, module=args.module)
     else:
         runs = file_runs(args.files)
-    runs = [dataclasses.replace(spec, host=args.host, height_compensation=args.height_compensation)
+    runs = [dataclasses.replace(spec, host=args.host, height_compensation=args.height_compensation,
+                                calibrate_mag=args.calibrate_mag)
             for spec in runs]
     return replay_many(runs, args.wire_dir, table=args.table, quiet=args.quiet)
 

@@ -64,6 +64,8 @@ class RunSpec:
     #: compensation on; they change the wire bytes, not the row's columns
     host: str = "plain"
     height_compensation: bool = False
+    #: the replayed fusion host also runs the in-situ magnetometer calibration (the wiggle's stream)
+    calibrate_mag: bool = False
 
     @property
     def walking_module(self) -> int | None:
@@ -207,7 +209,8 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
     config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=applied.initial_states,
                           mcu_serial=module_serial(spec.module))
     data = run_replay(source, config=config, announce=None, bt_port=applied.make_link(spec.seed),
-                      host=spec.host, height_compensation=spec.height_compensation)
+                      host=spec.host, height_compensation=spec.height_compensation,
+                      calibrate_mag=spec.calibrate_mag)
     t2 = time.perf_counter()
     if wire_dir is not None:
         wire = Path(wire_dir) / f"{spec.name}.bin"

@@ -111,8 +111,19 @@ def test_a_capture_without_the_stream_is_refused_and_tracked_uncalibrated(tmp_pa
     assert not list(own_magcal_dir.iterdir())
 
 
+def test_many_calibrating_replays_write_what_each_alone_writes(capture, tmp_path):
+    """``--seeds A:B --wire-dir DIR --calibrate-mag``: every run streams the wiggle, byte for byte as
+    its own ``--wire`` replay does."""
+    argv = ["replay", "--scenario", SCENARIO, "--module", str(MODULE), "--seeds", "1:2", "--host", "fusion",
+            "--calibrate-mag", "--wire-dir", str(tmp_path), "--quiet"]
+    assert cli.main(argv) == 0
+    (many,) = tmp_path.glob("*.bin")
+    assert many.read_bytes() == capture.read_bytes()
+
+
 @pytest.mark.parametrize(("argv", "message"), [
-    (["--host", "plain", "--calibrate-mag"], "--calibrate-mag goes with --host fusion and --wire"),
+    (["--host", "plain", "--calibrate-mag"], "--calibrate-mag goes with --host fusion"),
+    (["--host", "fusion", "--calibrate-mag", "--feet", "2"], "--calibrate-mag calibrates one module"),
 ])
 def test_the_emulator_refuses_a_calibration_it_cannot_run(argv, message, tmp_path, capsys):
     assert cli.main(["replay", "--scenario", "stand:3", *argv, "--wire", str(tmp_path / "x.bin"), "-q"]) == 2
