@@ -62,6 +62,10 @@ class AidSetup:
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
+        if s.gps and s.gps_bias is not None:
+            every = s.gps_update_interval_s
+            parts.append(f"GPS receiver's bias held ({s.gps_bias.describe()}; "
+                         + ("every fix used)" if every == 0 else f"a fix every {every:g} s)"))
         if s.module_errors is not None:
             e = s.module_errors
             parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "

@@ -117,6 +117,11 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
         g.add_argument("--gps", metavar="FILE.nmea",
                        help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
                             "and the CSV gets lat_deg, lon_deg, alt_m")
+    g.add_argument("--gps-bias", action="store_true",
+                   help="hold the receiver's correlated error as a state of the filter (hostlib.gps_bias): "
+                        "a bias wandering over minutes (3 m RMS, τ 120 s) plus 0.3 m white per fix, every "
+                        "fix used (without it a fix is white noise of 15 m every 10 s); with two modules one "
+                        "bias for the body's receiver (with --gps)")
     g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures or URLs, "
                         "the left foot's then the right foot's (- for none). Without it, --compass takes the "
@@ -218,6 +223,8 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
     if args.compass_deviation is not None and not args.compass:
         return ("--compass-deviation needs --compass: it is the local deviation of the compass's "
                 "readings")
+    if args.gps_bias and not args.gps:
+        return "--gps-bias needs --gps: it is the error of the receiver's fixes"
     return _calibration_refusal(args, two)
 
 
@@ -280,16 +287,19 @@ def _compass_deviation(text: str):
 
 def _fusion_settings(args: argparse.Namespace):
     """The aids' settings the options change (``--compass-sigma``, ``--compass-deviation``: σ_c is
-    then only the white part, 1.5° unless given); the rest as hostlib.aids sets them."""
+    then only the white part, 1.5° unless given; ``--gps-bias``: the receiver's defaults); the rest
+    as hostlib.aids sets them."""
     from .deviation import WHITE_SIGMA_RAD
     from .fusion import FusionSettings
+    from .gps_bias import GpsBias
 
     deviation = args.compass_deviation
+    bias = GpsBias() if args.gps_bias else None
     if args.compass_sigma is None and deviation is None:
-        return FusionSettings(module_errors=args.module_errors)
+        return FusionSettings(module_errors=args.module_errors, gps_bias=bias)
     sigma = WHITE_SIGMA_RAD if args.compass_sigma is None else math.radians(args.compass_sigma)
     return FusionSettings(compass_sigma_rad=sigma, module_errors=args.module_errors,
-                          compass_deviation=deviation)
+                          compass_deviation=deviation, gps_bias=bias)
 
 
 def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
@@ -972,7 +982,11 @@ def _fusion_line(tracker) -> str:
             f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°"
             + ("" if tracker.deviation is None else
                f"; local deviation at the end {math.degrees(tracker.deviation):+.2f}° ± "
-               f"{math.degrees(tracker.deviation_sigma):.2f}°"))
+               f"{math.degrees(tracker.deviation_sigma):.2f}°")
+            + ("" if tracker.gps_bias is None else
+               "; GPS bias at the end N {:+.2f} ± {:.2f} m, E {:+.2f} ± {:.2f} m".format(
+                   *(float(v) for pair in zip(tracker.gps_bias, tracker.gps_bias_sigma, strict=True)
+                     for v in pair))))
 
 
 def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,

@@ -64,6 +64,11 @@ constraint pulls it in. The gap stays reported on that foot's tracker (``tracker
   displacement, so d's Gauss–Markov step is half that foot's horizontal step (each foot's own
   step would walk it twice as far as the body goes: the readings, one from each foot in turn,
   lie half a stride apart along the walk, not a stride);
+* with the receiver's bias held (:attr:`~hostlib.fusion.FusionSettings.gps_bias`,
+  :mod:`hostlib.gps_bias`) the joint state holds **one** b = [b_n, b_e] for the body's receiver,
+  before d (``[…L, …R, b_n, b_e, [d,] D]``): a fix measures the body plus b. The first fix moves
+  both feet by the same unknown translation (the start's error, b₀ plus the fix's white part), so
+  each foot's position is correlated with b as the body's is;
 * each module's drift calibration (:mod:`hostlib.drift`) moves that foot's every step by
   ``R(χ₀) Δv · T_swing`` before the constraint sees it, χ₀ the walk's start heading (turned with
   the alignment). A step without a swing time is fused uncorrected and counted;
@@ -85,7 +90,7 @@ from protocol.board import FOOT_SIDES
 from .compass import StanceReading
 from .drift import DriftCalibration
 from .events import StepOutcome
-from .fusion import AidedFilter, FusionSettings, FusionTracker
+from .fusion import AidedFilter, AidIndices, FusionSettings, FusionTracker
 from .magcal import MagCalibration
 from .tracking import Track, is_motion_step, propagate, rotation_z, step_jacobian
 
@@ -94,10 +99,6 @@ __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootT
 #: A foot is stale — the body follows the other foot alone — once the other foot has summed this
 #: many steps since its last one (one more than a transition from standing to walking can make).
 STALE_AFTER_STEPS = 3
-
-#: Where the local compass deviation d sits in the joint state, if held (after both feet's
-#: poses; D is then one further on).
-_DEVIATION = 8
 
 
 @dataclass(frozen=True)
@@ -174,7 +175,8 @@ class TwoFeetTracker(AidedFilter):
 
     *aids* (:class:`~hostlib.fusion.FusionSettings`) are the heading aids on the joint filter —
     each foot's compass measures its heading minus the declination D (a ninth state; minus the
-    local deviation d too, one shared state before D, if the aids hold it), a GPS fix the body —
+    local deviation d too, one shared state before D, if the aids hold it), a GPS fix the body
+    (plus the receiver's bias b, two states before d and D, if held) —
     and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
     module's magnetometer calibration, *drift* each module's drift calibration
     (:mod:`hostlib.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
@@ -201,15 +203,19 @@ class TwoFeetTracker(AidedFilter):
             for side, sign in zip(FOOT_SIDES, (-1.0, 1.0), strict=True))
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
-        deviation = self.aids.compass_deviation
-        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
-                                  [0.0] * (deviation is not None), [self.aids.declination_rad]])
+        # both feet's poses, then the aid states (AidIndices): [b_n, b_e,] [d,] D
+        idx = AidIndices.of(self.aids)
+        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0], np.zeros(idx.count)])
+        self._s[idx.declination] = self.aids.declination_rad
         n = len(self._s)
         self._p = np.zeros((n, n))
-        if deviation is not None:
-            self._p[_DEVIATION, _DEVIATION] = deviation.variance
+        if self.aids.gps_bias is not None:
+            for i in idx.gps_bias:
+                self._p[i, i] = self.aids.gps_bias.variance
+        if self.aids.compass_deviation is not None:
+            self._p[idx.deviation, idx.deviation] = self.aids.compass_deviation.variance
         if self.aids.gps and self.aids.compass:
-            self._p[-1, -1] = self.aids.declination_sigma_rad ** 2
+            self._p[idx.declination, idx.declination] = self.aids.declination_sigma_rad ** 2
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
@@ -269,7 +275,7 @@ class TwoFeetTracker(AidedFilter):
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
         block = slice(4 * i, 4 * i + 4)
-        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]  # the other foot, [d,] D
+        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]  # the other foot, [b,] [d,] D
         if step.after_gap and len(self._sides) > 0:
             self._restart_at_other(i)
         # the stepping foot's block through the summation map, its cross terms through its Jacobian
@@ -471,8 +477,8 @@ class TwoFeetTracker(AidedFilter):
 
 
 def _body_rows(width: int = 9) -> np.ndarray:
-    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [d,]
-    D) — the midpoint; the right foot while the left is stale; the left foot while the right is
+    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [b,]
+    [d,] D) — the midpoint; the right foot while the left is stale; the left foot while the right is
     stale."""
     mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, width - 8))])
     left, right = np.zeros((4, width)), np.zeros((4, width))

@@ -48,6 +48,20 @@ d ← φ d and adds (1 − φ²) σ_d² to its variance, φ = exp(−Δs / ℓ);
 first reading aligns χ ← ψ_c + D + d, correlated with D and d. Not held, the filter is the one
 without it, bit for bit.
 
+**The receiver's bias** (:attr:`FusionSettings.gps_bias`, :mod:`hostlib.gps_bias`): a receiver's
+error is mostly an offset b = [b_north, b_east] that wanders over minutes. Held, b is two more
+states before d (``[x, y, z, χ, b_n, b_e, D]``; with every state held
+``[x, y, z, χ, s, c, k, b_n, b_e, d, D]``), a Gauss–Markov process in the module's time: over Δt,
+b ← φ b and (1 − φ²) σ_b² is added to each axis's variance, φ = exp(−Δt / τ). A fix then
+measures ``[x, y] + b`` with only its white σ_w, and every fix is used (the inflation is not
+needed: fixes a second apart share their b, and the filter knows it). The first fix still places
+the origin, but the start lies at −(b₀ + w₀) from it: every pose moves by that unknown
+translation, so each position's variance grows by var b₀ + σ_w² and its covariance with b is
+−var b₀ (the next fixes, sharing most of b₀, then know the positions relative to the first far
+better than either absolutely). b is north and east: when an aid turns the frame about the start,
+its covariance with the poses (the origin's translation) does not turn. The GPS course aligns the
+heading as without it. Not held, the filter is the one without it, bit for bit.
+
 The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
 holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
 fix's north and east are applied one after the other, the second with the state the first left.
@@ -70,12 +84,13 @@ import numpy as np
 from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .deviation import CompassDeviation
 from .events import StepOutcome
+from .gps_bias import GpsBias
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
 from .module_errors import ERROR_STATES, ModuleErrors, error_jacobian
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
-__all__ = ["AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
+__all__ = ["AidIndices", "AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
 
 @dataclass(frozen=True)
 class FusionSettings:
@@ -99,10 +114,12 @@ class FusionSettings:
     gps_receiver_sigma_m: float = 3.0
     #: 1σ [m] of a horizontal fix as a filter measurement: the receiver's σ inflated for the
     #: correlation of its errors (τ = 120 s: fixes an update interval apart are far from
-    #: independent). 3 m · √(2τ / 10 s) ≈ 15 m (NavShoe: 20 m for a 6 m receiver).
+    #: independent). 3 m · √(2τ / 10 s) ≈ 15 m (NavShoe: 20 m for a 6 m receiver). Not used with
+    #: :attr:`gps_bias` held: a fix's σ is then its white part
     gps_sigma_m: float = 15.0
-    #: seconds between GPS updates (fixes in between are skipped, counted)
-    gps_interval_s: float = 10.0
+    #: seconds between GPS updates (fixes in between are skipped, counted); None: 10 s, what the
+    #: inflated σ assumes, or with :attr:`gps_bias` held every fix (:attr:`gps_update_interval_s`)
+    gps_interval_s: float | None = None
     #: added to every fix time [s] to put it on the module's clock
     gps_offset_s: float = 0.0
     #: without a compass, the GPS course aligns the heading after this distance [m] from the first fix
@@ -117,6 +134,19 @@ class FusionSettings:
     #: (:mod:`hostlib.deviation`: :data:`~hostlib.deviation.OUTDOORS`, :data:`~hostlib.deviation.INDOORS`;
     #: None: not held, each reading's deviation is in σ_c as white noise)
     compass_deviation: CompassDeviation | None = None
+    #: the receiver's correlated error b as states, a Gauss–Markov process in time
+    #: (:mod:`hostlib.gps_bias`; None: not held, a fix's error is white, of σ :attr:`gps_sigma_m`)
+    gps_bias: GpsBias | None = None
+
+    @property
+    def gps_update_interval_s(self) -> float:
+        """The seconds between GPS updates: :attr:`gps_interval_s` if given; else 10 s with the
+        white model (the interval its inflated σ is worked out for) and 0 with :attr:`gps_bias`
+        held: every fix, since the filter knows what fixes a second apart share, and each still
+        brings its white part and the bias's news (two scalar updates a fix)."""
+        if self.gps_interval_s is not None:
+            return self.gps_interval_s
+        return 10.0 if self.gps_bias is None else 0.0
 
     def __post_init__(self) -> None:
         if self.compass_mode not in ("step", "every-reset"):
@@ -124,6 +154,8 @@ class FusionSettings:
         for name in ("compass_sigma_rad", "gps_sigma_m", "gps_receiver_sigma_m", "gps_align_distance_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
+        if self.gps_interval_s is not None and not self.gps_interval_s >= 0:
+            raise ValueError(f"gps_interval_s must be ≥ 0 s (or None), not {self.gps_interval_s}")
 
 
 @dataclass
@@ -133,11 +165,37 @@ class FusionStats:
     compass_updates: int = 0
     compass_skipped: int = 0  #: readings not used (standing resets; no reading in the packet)
     gps_updates: int = 0
-    gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_interval_s`)
+    gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned
     heading_aligned_by: str = ""  #: "compass", "gps" or "" (not aligned: the module's frame)
     #: (step index, innovation [rad]) of every compass update, for consistency checks
     compass_innovations: list[tuple[int, float]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class AidIndices:
+    """Where the aid states sit in a filter's state, counted from its end: they come last, after
+    the poses (and a single foot's module errors), as ``[b_n, b_e,] [d,] D``."""
+
+    #: the declination D: always held, always last
+    declination: int = -1
+    #: the local compass deviation d, just before D (None: not held)
+    deviation: int | None = None
+    #: the receiver's bias [b_north, b_east], before d (None: not held)
+    gps_bias: tuple[int, int] | None = None
+
+    @classmethod
+    def of(cls, settings: FusionSettings) -> AidIndices:
+        """The aid states *settings* hold."""
+        deviation = -2 if settings.compass_deviation is not None else None
+        east = -2 if deviation is None else -3  # b_e: just before d, or before D
+        gps_bias = (east - 1, east) if settings.gps_bias is not None else None
+        return cls(-1, deviation, gps_bias)
+
+    @property
+    def count(self) -> int:
+        """How many aid states there are."""
+        return 1 + (self.deviation is not None) + 2 * (self.gps_bias is not None)
 
 
 class AidedFilter:
@@ -146,11 +204,12 @@ class AidedFilter:
     The aids do not care how many poses the state holds: :class:`FusionTracker` holds one foot's
     ``[x, y, z, χ, D]``, :class:`hostlib.feet.TwoFeetTracker` both feet's and D. With
     :attr:`FusionSettings.compass_deviation` the local deviation d sits just before D, one for
-    all the poses (they walk through one field). A subclass keeps the state and gives the aids
-    these views of it:
+    all the poses (they walk through one field); with :attr:`FusionSettings.gps_bias` the
+    receiver's bias [b_n, b_e] before that, one for the walker's receiver. :attr:`_aid_indices`
+    says where they are. A subclass keeps the state and gives the aids these views of it:
 
-    * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (d, if held, then D last) and
-      its covariance;
+    * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (b and d, if held, then D
+      last) and its covariance;
     * :attr:`_heading_indices`: where the headings χ are in it (one per foot);
     * :meth:`_gps_rows`: the (2, n) rows of the point a fix measures (north, east), and
       :meth:`_origin_rows` those of a shift of the whole frame (every pose's x, y);
@@ -160,7 +219,8 @@ class AidedFilter:
 
     It calls :meth:`_init_aids` in its ``__init__``, then for each step (with d held)
     :meth:`_walk_deviation` with the distance walked, :meth:`_compass_step` with the step's
-    compass heading, and :meth:`_gps_until` with the step's module time.
+    compass heading, and :meth:`_gps_until` with the step's module time (which also carries b, if
+    held, on to it).
 
     **Aligning two headings.** The first compass reading (or the GPS course) gives one heading
     χ_k; every pose turns with it about the start. Another heading χ_j was known relative to χ_k
@@ -182,6 +242,7 @@ class AidedFilter:
         self._origin_set = False
         self._first_fix = np.zeros(2)
         self._last_gps_update = -math.inf
+        self._bias_time: float | None = None  # the module time b was carried to (None: not yet)
 
     # -- what a subclass gives --------------------------------------------------------
 
@@ -191,7 +252,7 @@ class AidedFilter:
         raise NotImplementedError
 
     def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
-        """The state (d, if held, then D last) and its covariance, as copies."""
+        """The state (b and d, if held, then D last) and its covariance, as copies."""
         raise NotImplementedError
 
     def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
@@ -212,28 +273,48 @@ class AidedFilter:
     # -- state ------------------------------------------------------------------------
 
     @property
+    def _aid_indices(self) -> AidIndices:
+        """Where D, d and b are in the state (:class:`AidIndices`)."""
+        return AidIndices.of(self.aid_settings)
+
+    @property
     def declination(self) -> float:
         """The declination estimate D [rad], east positive."""
-        return float(self._aid_state()[0][-1])
+        return float(self._aid_state()[0][self._aid_indices.declination])
 
     @property
     def declination_sigma(self) -> float:
-        return math.sqrt(max(float(self._aid_state()[1][-1, -1]), 0.0))
+        i = self._aid_indices.declination
+        return math.sqrt(max(float(self._aid_state()[1][i, i]), 0.0))
 
     @property
     def deviation(self) -> float | None:
         """The estimate of the local compass deviation d [rad] where the last step ended, east
         positive as D (None: not held, :attr:`FusionSettings.compass_deviation`)."""
-        if self.aid_settings.compass_deviation is None:
-            return None
-        return float(self._aid_state()[0][-2])
+        i = self._aid_indices.deviation
+        return None if i is None else float(self._aid_state()[0][i])
 
     @property
     def deviation_sigma(self) -> float | None:
         """The 1σ of :attr:`deviation` [rad] (None: not held)."""
-        if self.aid_settings.compass_deviation is None:
+        i = self._aid_indices.deviation
+        return None if i is None else math.sqrt(max(float(self._aid_state()[1][i, i]), 0.0))
+
+    @property
+    def gps_bias(self) -> np.ndarray | None:
+        """The estimate of the receiver's bias [north, east] [m] at the last step's time (None: not
+        held, :attr:`FusionSettings.gps_bias`): a fix is the position plus it."""
+        i = self._aid_indices.gps_bias
+        return None if i is None else self._aid_state()[0][list(i)]
+
+    @property
+    def gps_bias_sigma(self) -> np.ndarray | None:
+        """The 1σ [m] of :attr:`gps_bias`, north and east (None: not held)."""
+        i = self._aid_indices.gps_bias
+        if i is None:
             return None
-        return math.sqrt(max(float(self._aid_state()[1][-2, -2]), 0.0))
+        p = self._aid_state()[1]
+        return np.sqrt(np.clip([p[i[0], i[0]], p[i[1], i[1]]], 0.0, None))
 
     @property
     def heading_aligned(self) -> bool:
@@ -269,11 +350,32 @@ class AidedFilter:
         """The local deviation d (held: just before D) after a walk of *distance_m* [m]: d ← φ d,
         its variance φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs."""
         phi, q = self.aid_settings.compass_deviation.transition(distance_m)
+        i = self._aid_indices.deviation
         x, p = self._aid_state()
-        x[-2] *= phi
-        p[-2, :] *= phi
-        p[:, -2] *= phi
-        p[-2, -2] += q
+        x[i] *= phi
+        p[i, :] *= phi
+        p[:, i] *= phi
+        p[i, i] += q
+        self._aid_set_state(x, p)
+
+    def _drift_gps_bias(self, now: float) -> None:
+        """The receiver's bias b (held) carried on to module time *now* [s]: over Δt, b ← φ b, each
+        axis's variance φ² var + (1 − φ²) σ_b², its covariances with the rest φ times theirs.
+        The first call only starts b's clock: b is still its stationary prior."""
+        if self._bias_time is None:
+            self._bias_time = now
+            return
+        dt = now - self._bias_time
+        if not dt > 0.0:
+            return  # a fix that came late: b is already past its time, within a step
+        self._bias_time = now
+        phi, q = self.aid_settings.gps_bias.transition(dt)
+        x, p = self._aid_state()
+        for i in self._aid_indices.gps_bias:
+            x[i] *= phi
+            p[i, :] *= phi
+            p[:, i] *= phi
+            p[i, i] += q
         self._aid_set_state(x, p)
 
     def _compass_step(self, psi: float | None, heading_index: int, moved: bool) -> None:
@@ -287,58 +389,98 @@ class AidedFilter:
             self.fusion.compass_skipped += 1
             return
         x, p = self._aid_state()
-        deviation = s.compass_deviation is not None
+        dec, dev = self._aid_indices.declination, self._aid_indices.deviation
         if not self._aligned:
-            var_d = float(p[-1, -1])
+            var_d = float(p[dec, dec])
             sigma = s.compass_sigma_rad if self._align_sigma_rad is None else self._align_sigma_rad
-            if deviation:
+            if dev is not None:
                 # χ ← ψ + D + d: the reading's white error, and D's and d's uncertainty and covariance
-                var_dev, cov = float(p[-2, -2]), float(p[-2, -1])
-                self._align(heading_index, psi + float(x[-1]) + float(x[-2]),
+                var_dev, cov = float(p[dev, dev]), float(p[dev, dec])
+                self._align(heading_index, psi + float(x[dec]) + float(x[dev]),
                             sigma ** 2 + var_d + var_dev + 2.0 * cov, cov_with_d=var_d + cov,
                             cov_with_deviation=var_dev + cov)
             else:
-                self._align(heading_index, psi + float(x[-1]), sigma ** 2 + var_d, cov_with_d=var_d)
+                self._align(heading_index, psi + float(x[dec]), sigma ** 2 + var_d, cov_with_d=var_d)
             self.fusion.heading_aligned_by = "compass"
             return
         h = np.zeros(len(x))
-        h[heading_index], h[-1] = 1.0, -1.0
-        if deviation:
-            h[-2] = -1.0
-            innovation = wrap_angle(psi - (x[heading_index] - x[-1] - x[-2]))
+        h[heading_index], h[dec] = 1.0, -1.0
+        if dev is not None:
+            h[dev] = -1.0
+            innovation = wrap_angle(psi - (x[heading_index] - x[dec] - x[dev]))
         else:
-            innovation = wrap_angle(psi - (x[heading_index] - x[-1]))
+            innovation = wrap_angle(psi - (x[heading_index] - x[dec]))
         self._update(h, innovation, s.compass_sigma_rad ** 2)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
 
     def _gps_until(self, now: float) -> None:
-        """Apply the queued fixes whose time module time *now* [s] has reached."""
+        """Apply the queued fixes whose time module time *now* [s] has reached (the receiver's
+        bias, held, carried to each fix's time, then to *now*)."""
         s = self.aid_settings
+        bias = s.gps_bias
         while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
             t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
             self._next_fix += 1
+            if bias is not None:
+                self._drift_gps_bias(t)
             if not self._origin_set:
-                # the first fix is the origin: the start lies there, within the receiver's σ
                 self._origin_set = True
-                x, p = self._aid_state()
-                for row in self._origin_rows():
-                    p += s.gps_receiver_sigma_m ** 2 * np.outer(row, row)
-                self._aid_set_state(x, p)
+                self._place_origin()
                 self._first_fix = pos
                 continue
             if not self._aligned:
                 if not self._align_by_course(pos):
                     self.fusion.gps_before_alignment += 1
                     continue
-            if t - self._last_gps_update < s.gps_interval_s:
+            if t - self._last_gps_update < s.gps_update_interval_s:
                 self.fusion.gps_skipped += 1
                 continue
             self._last_gps_update = t
-            for axis, h in enumerate(self._gps_rows()):
-                x, _ = self._aid_state()
-                self._update(h, float(pos[axis] - h @ x), s.gps_sigma_m ** 2)
+            rows = self._gps_rows()
+            if bias is None:
+                for axis, h in enumerate(rows):
+                    x, _ = self._aid_state()
+                    self._update(h, float(pos[axis] - h @ x), s.gps_sigma_m ** 2)
+            else:
+                # the fix is the point plus the bias, with only its white error
+                rows = rows + self._gps_bias_rows(rows.shape[1])
+                for axis, h in enumerate(rows):
+                    x, _ = self._aid_state()
+                    self._update(h, float(pos[axis] - h @ x), bias.white_sigma_m ** 2)
             self.fusion.gps_updates += 1
+        if bias is not None:
+            self._drift_gps_bias(now)
+
+    def _gps_bias_rows(self, n: int) -> np.ndarray:
+        """The (2, *n*) rows of the receiver's bias [b_n, b_e] in a state of *n* (held)."""
+        rows = np.zeros((2, n))
+        for axis, i in enumerate(self._aid_indices.gps_bias):
+            rows[axis, i] = 1.0
+        return rows
+
+    def _place_origin(self) -> None:
+        """The first fix is the origin, and the start lies at it less the fix's error (the track's
+        estimate stays: it starts at 0). Without the bias held, that error is white of the
+        receiver's σ: every position's variance grows by σ². With it held the error is b₀ + w₀,
+        b₀ the bias now: every pose moves by the translation −(b₀ + w₀), x ← x − Oᵀ (b + w) (O the
+        rows of :meth:`_origin_rows`; b's estimate is still 0, so the track's stays), and
+        P ← T P Tᵀ + σ_w² Oᵀ O with T = I − Oᵀ B (B: b's rows): each position's variance grows
+        by var b₀ + σ_w² and its covariance with b is −var b₀. A later fix, whose b is still
+        mostly b₀, then measures the walk since the first fix far better than either fix
+        measures a position."""
+        s = self.aid_settings
+        x, p = self._aid_state()
+        if s.gps_bias is None:
+            for row in self._origin_rows():
+                p += s.gps_receiver_sigma_m ** 2 * np.outer(row, row)
+        else:
+            o = self._origin_rows()
+            t = np.eye(len(x)) - o.T @ self._gps_bias_rows(len(x))
+            x = t @ x
+            p = t @ p @ t.T + s.gps_bias.white_sigma_m ** 2 * (o.T @ o)
+            p = 0.5 * (p + p.T)
+        self._aid_set_state(x, p)
 
     def _align_by_course(self, fix: np.ndarray) -> bool:
         """Turn the track onto the GPS course once the receiver moved far enough (no compass)."""
@@ -360,26 +502,34 @@ class AidedFilter:
                cov_with_deviation: float | None = None) -> None:
         """Turn every pose about the start so that heading *k* is *chi*, with variance *var_chi* and
         covariance *cov_with_d* with D and *cov_with_deviation* with the local deviation d (None:
-        not held) (class docstring: the other headings follow it)."""
-        x, _ = self._aid_state()
+        not held) (class docstring: the other headings follow it). The receiver's bias, held, is
+        north and east and its covariance with the poses is the origin's translation, which
+        turning the frame about the start does not turn: it stays as it was."""
+        x, before = self._aid_state()
         self._rotate_frame(wrap_angle(chi - float(x[k])))
         x, p = self._aid_state()
+        idx = self._aid_indices
+        if idx.gps_bias is not None:
+            bias = list(idx.gps_bias)
+            p[bias, :] = before[bias, :]
+            p[:, bias] = before[:, bias]
+        dec, dev = idx.declination, idx.deviation
         hs = list(self._heading_indices)
         ones = np.ones(len(hs))
         b = np.eye(len(hs))
         b[:, hs.index(k)] -= 1.0  # χ_j' = χ_k' + (χ_j − χ_k)
         hh = b @ p[np.ix_(hs, hs)] @ b.T + var_chi * np.outer(ones, ones)
-        hd = b @ p[hs, -1] + ones * cov_with_d
+        hd = b @ p[hs, dec] + ones * cov_with_d
         if cov_with_deviation is not None:
-            hdev = b @ p[hs, -2] + ones * cov_with_deviation
+            hdev = b @ p[hs, dev] + ones * cov_with_deviation
         p[hs, :] = 0.0
         p[:, hs] = 0.0
         p[np.ix_(hs, hs)] = hh
-        p[hs, -1] = hd
-        p[-1, hs] = hd
+        p[hs, dec] = hd
+        p[dec, hs] = hd
         if cov_with_deviation is not None:
-            p[hs, -2] = hdev
-            p[-2, hs] = hdev
+            p[hs, dev] = hdev
+            p[dev, hs] = hdev
         self._aid_set_state(x, p)
         self._aligned = True
 
@@ -403,26 +553,31 @@ class FusionTracker(AidedFilter, StepTracker):
     Use it wherever a step tracker goes (a :class:`~hostlib.session.HostSession`'s tracker): the
     session hands it each step packet's decoded states, which carry the stance reading and the
     step's time. :attr:`declination` and :attr:`covariance5` give the full state,
-    :attr:`state_covariance` all of it (with the module's errors and the local deviation, if held).
+    :attr:`state_covariance` all of it (with the module's errors, the receiver's bias and the local
+    deviation, if held).
     """
 
     def __init__(self, settings: FusionSettings | None = None, **tracker_args):
         StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        # the states beside the pose: the module's errors [s, c, k] if held, the deviation d if
-        # held, then D
+        # the states beside the pose: the module's errors [s, c, k] if held, then the aid states
+        # (AidIndices): the receiver's bias [b_n, b_e] if held, the deviation d if held, then D
         errors = s.module_errors
-        self._a = np.zeros(1 + (ERROR_STATES if errors is not None else 0)
-                           + (1 if s.compass_deviation is not None else 0))
-        self._a[-1] = float(s.declination_rad)
-        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k,] [d,] D)
+        idx = AidIndices.of(s)
+        self._a = np.zeros((ERROR_STATES if errors is not None else 0) + idx.count)
+        self._a[idx.declination] = float(s.declination_rad)
+        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k,] [b_n, b_e,] [d,] D)
         self._aa = np.zeros((len(self._a), len(self._a)))
         if errors is not None:
             self._aa[:ERROR_STATES, :ERROR_STATES] = errors.prior
+        if s.gps_bias is not None:
+            for i in idx.gps_bias:
+                self._aa[i, i] = s.gps_bias.variance
         if s.compass_deviation is not None:
-            self._aa[-2, -2] = s.compass_deviation.variance
-        self._aa[-1, -1] = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
+            self._aa[idx.deviation, idx.deviation] = s.compass_deviation.variance
+        self._aa[idx.declination, idx.declination] = (s.declination_sigma_rad ** 2 if (s.gps and s.compass)
+                                                      else 0.0)
         self._init_aids()
         self._compass_held = False
         self._clock = ModuleClock()
@@ -435,14 +590,18 @@ class FusionTracker(AidedFilter, StepTracker):
     @property
     def covariance5(self) -> np.ndarray:
         """The 5×5 covariance of [x, y, z, χ, D] (whatever else is held)."""
-        return self.state_covariance[np.ix_([0, 1, 2, 3, -1], [0, 1, 2, 3, -1])]
+        keep = [0, 1, 2, 3, self._aid_indices.declination]
+        return self.state_covariance[np.ix_(keep, keep)]
 
     @property
     def state_covariance(self) -> np.ndarray:
-        """The covariance of the whole state: [x, y, z, χ, D]; [x, y, z, χ, s, c, k, D] with
-        the module's errors held (:attr:`FusionSettings.module_errors`); [x, y, z, χ, d, D] with
-        the local compass deviation d held (:attr:`FusionSettings.compass_deviation`); with both,
-        [x, y, z, χ, s, c, k, d, D]."""
+        """The covariance of the whole state: [x, y, z, χ, D], with what is held between χ and D
+        in this order: the module's errors s, c, k (:attr:`FusionSettings.module_errors`), the
+        receiver's bias b_n, b_e [m] (:attr:`FusionSettings.gps_bias`), the local compass
+        deviation d (:attr:`FusionSettings.compass_deviation`). So [x, y, z, χ, s, c, k, D] with
+        the module's errors; [x, y, z, χ, d, D] with the deviation; [x, y, z, χ, b_n, b_e, D]
+        with the bias; with all three [x, y, z, χ, s, c, k, b_n, b_e, d, D]
+        (:class:`AidIndices` counts the aid states from the end)."""
         n = 4 + len(self._a)
         p = np.zeros((n, n))
         p[:4, :4] = self.track._covs[-1]
@@ -503,7 +662,7 @@ class FusionTracker(AidedFilter, StepTracker):
         dxa = np.asarray(dx, dtype=np.float64)
         f = step_jacobian(float(prev[3]), dxa)
         if self.settings.module_errors is None:
-            # cov(pose, [d,] D) through the step: the pose's Jacobian; D does not move
+            # cov(pose, [b,] [d,] D) through the step: the pose's Jacobian; they do not move it
             self._pa = f @ self._pa
         else:
             self._module_errors_through(f, error_jacobian(float(prev[3]), dxa))
@@ -523,7 +682,7 @@ class FusionTracker(AidedFilter, StepTracker):
     def _module_errors_through(self, f: np.ndarray, j: np.ndarray) -> None:
         """The step just summed, with the module's errors held: its pose moves by the learned
         errors (nothing while they are 0), and the covariance goes through the step's Jacobians
-        (F for the pose, J for [s, c, k]; d and D do not move it; the steps' own dP is already
+        (F for the pose, J for [s, c, k]; b, d and D do not move it; the steps' own dP is already
         in)."""
         m = len(self._a)
         fa = np.zeros((4, m))

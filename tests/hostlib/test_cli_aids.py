@@ -132,3 +132,19 @@ def test_replay_with_the_compass_deviation_holds_it_for_one_module_or_both_feet(
     with pytest.raises(SystemExit) as exit_:
         main(["replay", capture, "--compass", "--compass-deviation", "3"], io.StringIO())
     assert exit_.value.code == 2 and "SIGMA_DEG,LENGTH_M" in capsys.readouterr().err
+
+
+def test_replay_with_the_gps_bias_holds_the_receivers_error_for_one_module_or_both_feet(tmp_path, capsys):
+    """--gps-bias holds the receiver's bias with its defaults and uses every fix; with two captures
+    one bias for the body; without --gps refused."""
+    capture, nmea = _capture(tmp_path), _nmea(tmp_path)
+    out = io.StringIO()
+    assert main(["replay", capture, "--gps", nmea, "--gps-bias"], out) == 0
+    text = out.getvalue()
+    assert "GPS receiver's bias held (σ 2.1 m per axis over τ 120 s, white σ 0.3 m; every fix used)" in text
+    assert "GPS bias at the end N" in text and "0 fixes between updates" in text
+    out = io.StringIO()
+    assert main(["replay", capture, capture, "--gps", nmea, "--gps-bias"], out) == 0
+    assert "GPS bias at the end N" in out.getvalue()
+    assert main(["replay", capture, "--compass", "--gps-bias"], io.StringIO()) == 2
+    assert "--gps-bias needs --gps" in capsys.readouterr().err

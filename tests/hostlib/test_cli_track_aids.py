@@ -50,6 +50,7 @@ def csv_header_and_first_row(path) -> tuple[tuple[str, ...], list[str]]:
      "--compass needs --fusion"),
     (["/dev/right-does-not-exist", "--fusion", "--compass", "--mag-cal", "l.json"],
      "--mag-cal takes one file per module with two URLs"),
+    (["--fusion", "--gps-bias"], "--gps-bias needs --gps: it is the error of the receiver's fixes"),
 ])
 def test_track_refuses_aids_it_cannot_use_before_opening_a_port(argv, message, capsys):
     assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
