@@ -69,7 +69,9 @@ class AidSetup:
         if s.module_errors is not None:
             e = s.module_errors
             parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "
-                         f"climb σ {e.climb_sigma:g} m/m, turn scale σ {e.turn_scale_sigma:g}")
+                         f"climb σ {e.climb_sigma:g} m/m, turn scale σ {e.turn_scale_sigma:g}"
+                         + (f", heading drift σ {math.degrees(e.heading_drift_sigma) * 3600.0:.3g} °/h"
+                            if e.holds_drift else ""))
         return "; ".join(parts)
 
     def _calibrated(self) -> str:

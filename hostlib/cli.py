@@ -126,11 +126,14 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures or URLs, "
                         "the left foot's then the right foot's (- for none). Without it, --compass takes the "
                         "module's saved calibration, if there is one (--mag-cal-dir)")
-    g.add_argument("--module-errors", type=_module_errors, default=None, metavar="SCALE,CLIMB[,TURN]",
-                   help="hold the module's step-length scale, climb per metre and turn scale as states of "
-                        "the filter (hostlib.module_errors), with these 1σ priors (e.g. 0.001,0.0017,0.01), "
-                        "or 'emulated' for the emulated module's: the covariance then grows with the "
-                        "distance and the angle turned, as a module's systematic errors do (one module)")
+    g.add_argument("--module-errors", type=_module_errors, default=None,
+                   metavar="SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]]",
+                   help="hold the module's step-length scale, climb per metre, turn scale and heading drift "
+                        "rate as states of the filter (hostlib.module_errors), with these 1σ priors (e.g. "
+                        "0.001,0.0017,0.01,20: 0.1 %% per metre, 1.7 mm/m, 1 %% of the angle turned, 20 °/h; "
+                        "a drift of 0 or none: not held), or 'emulated' for the emulated module's: the "
+                        "covariance then grows with the distance, the angle turned and the time walked, as "
+                        "a module's systematic errors do (one module)")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -252,19 +255,22 @@ def _uses_aids(args: argparse.Namespace) -> bool:
 
 
 def _module_errors(text: str):
-    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB[,TURN] (numbers ≥ 0)."""
+    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]]
+    (numbers ≥ 0; the heading drift rate's 1σ in °/h, held as [rad/s])."""
     from .module_errors import EMULATED_MODULE, ModuleErrors
 
     if text.strip().lower() == "emulated":
         return EMULATED_MODULE
     try:
         sigmas = [float(v) for v in text.split(",")]
-        if len(sigmas) not in (2, 3):
+        if len(sigmas) not in (2, 3, 4):
             raise ValueError(f"{len(sigmas)} numbers")
+        if len(sigmas) == 4:
+            sigmas[3] = math.radians(sigmas[3]) / 3600.0  # °/h → rad/s
         return ModuleErrors(*sigmas)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB[,TURN] (1σ, numbers ≥ 0, e.g. "
-                                         f"0.001,0.0017,0.01) or 'emulated', got {text!r}") from None
+        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]] (1σ, numbers ≥ 0, "
+                                         f"e.g. 0.001,0.0017,0.01,20) or 'emulated', got {text!r}") from None
 
 
 def _compass_deviation(text: str):

@@ -33,9 +33,12 @@ summation is the same code, and D is uncorrelated with the pose until an aid cor
 
 **The module's errors** (:attr:`FusionSettings.module_errors`, :mod:`hostlib.module_errors`): a
 step-length scale s, a climb c per metre and a turn scale k, held as three more states before D
-(``[x, y, z, χ, s, c, k, D]``). Without an aid they leave the track as it is and widen its
-covariance along the displacement, in height and with the angle turned, as a module's systematic
-errors do; the aids make them observable, and the steps after are corrected by what they taught.
+(``[x, y, z, χ, s, c, k, D]``), and with a heading drift prior the drift rate r [rad/s] as a
+fourth (``[x, y, z, χ, s, c, k, r, D]``: each step's heading turns by r Δt, Δt its duration from
+the steps' module times; a step without a time, or the first, drifts by nothing). Without an aid
+they leave the track as it is and widen its covariance along the displacement, in height, with
+the angle turned and with the time walked, as a module's systematic errors do; the aids make them
+observable, and the steps after are corrected by what they taught.
 
 **The local deviation** (:attr:`FusionSettings.compass_deviation`, :mod:`hostlib.deviation`):
 a compass reading's error is mostly the deviation d of the field where the foot stands, which is
@@ -87,7 +90,7 @@ from .events import StepOutcome
 from .gps_bias import GpsBias
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
-from .module_errors import ERROR_STATES, ModuleErrors, error_jacobian
+from .module_errors import ERROR_STATES, ModuleErrors, error_jacobian, step_duration
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["AidIndices", "AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
@@ -127,8 +130,8 @@ class FusionSettings:
     #: the declination prior D₀ [rad] (east positive) and its 1σ while GPS is used
     declination_rad: float = 0.0
     declination_sigma_rad: float = math.radians(15.0)
-    #: the module's step-length scale, climb and turn scale as states (:mod:`hostlib.module_errors`; None: not
-    #: held, and the covariance is the steps' own)
+    #: the module's step-length scale, climb and turn scale (and, with its prior, heading drift rate)
+    #: as states (:mod:`hostlib.module_errors`; None: not held, and the covariance is the steps' own)
     module_errors: ModuleErrors | None = None
     #: the local compass deviation d as a state, correlated over the distance walked
     #: (:mod:`hostlib.deviation`: :data:`~hostlib.deviation.OUTDOORS`, :data:`~hostlib.deviation.INDOORS`;
@@ -561,16 +564,18 @@ class FusionTracker(AidedFilter, StepTracker):
         StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        # the states beside the pose: the module's errors [s, c, k] if held, then the aid states
-        # (AidIndices): the receiver's bias [b_n, b_e] if held, the deviation d if held, then D
+        # the states beside the pose: the module's errors [s, c, k] (and r, with its prior) if held,
+        # then the aid states (AidIndices): the receiver's bias [b_n, b_e] if held, the deviation d
+        # if held, then D
         errors = s.module_errors
         idx = AidIndices.of(s)
-        self._a = np.zeros((ERROR_STATES if errors is not None else 0) + idx.count)
+        self._errors = errors.states if errors is not None else 0  # how many: 0, 3 or 4
+        self._a = np.zeros(self._errors + idx.count)
         self._a[idx.declination] = float(s.declination_rad)
-        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k,] [b_n, b_e,] [d,] D)
+        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k, [r,]] [b_n, b_e,] [d,] D)
         self._aa = np.zeros((len(self._a), len(self._a)))
         if errors is not None:
-            self._aa[:ERROR_STATES, :ERROR_STATES] = errors.prior
+            self._aa[:self._errors, :self._errors] = errors.prior
         if s.gps_bias is not None:
             for i in idx.gps_bias:
                 self._aa[i, i] = s.gps_bias.variance
@@ -596,7 +601,8 @@ class FusionTracker(AidedFilter, StepTracker):
     @property
     def state_covariance(self) -> np.ndarray:
         """The covariance of the whole state: [x, y, z, χ, D], with what is held between χ and D
-        in this order: the module's errors s, c, k (:attr:`FusionSettings.module_errors`), the
+        in this order: the module's errors s, c, k and, with its prior, the heading drift rate r
+        (:attr:`FusionSettings.module_errors`), the
         receiver's bias b_n, b_e [m] (:attr:`FusionSettings.gps_bias`), the local compass
         deviation d (:attr:`FusionSettings.compass_deviation`). So [x, y, z, χ, s, c, k, D] with
         the module's errors; [x, y, z, χ, d, D] with the deviation; [x, y, z, χ, b_n, b_e, D]
@@ -612,10 +618,11 @@ class FusionTracker(AidedFilter, StepTracker):
 
     @property
     def module_errors(self) -> tuple[float, ...] | None:
-        """The estimated step-length scale s, climb c [m/m] and turn scale k (None: not held)."""
+        """The estimated step-length scale s, climb c [m/m] and turn scale k, and with a heading
+        drift prior the drift rate r [rad/s] (None: not held)."""
         if self.settings.module_errors is None:
             return None
-        return tuple(float(v) for v in self._a[:ERROR_STATES])
+        return tuple(float(v) for v in self._a[:self._errors])
 
     def compass_heading(self, reading: StanceReading | None) -> float | None:
         """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
@@ -656,6 +663,7 @@ class FusionTracker(AidedFilter, StepTracker):
         """Sum a step given as arrays (:meth:`StepTracker.add_step`), with its stance *reading*
         and module time *time_s* [s], and apply the aids."""
         prev = self.track._poses[-1]
+        prev_time = self.step_times[-1] if self.step_times else math.nan
         outcome = StepTracker.add_step(self, dx, dp, counter, swing_time)
         if outcome is StepOutcome.DUPLICATE:
             return outcome
@@ -665,7 +673,9 @@ class FusionTracker(AidedFilter, StepTracker):
             # cov(pose, [b,] [d,] D) through the step: the pose's Jacobian; they do not move it
             self._pa = f @ self._pa
         else:
-            self._module_errors_through(f, error_jacobian(float(prev[3]), dxa))
+            # the drift's Δt: the time since the step before (0 standing still, or without a time)
+            dt = step_duration(dxa, time_s, prev_time) if self._errors > ERROR_STATES else None
+            self._module_errors_through(f, error_jacobian(float(prev[3]), dxa, dt))
         if self.settings.compass_deviation is not None:
             self._walk_deviation(math.hypot(dxa[0], dxa[1]))  # where this step's reading is taken
         if math.isfinite(time_s):
@@ -682,14 +692,14 @@ class FusionTracker(AidedFilter, StepTracker):
     def _module_errors_through(self, f: np.ndarray, j: np.ndarray) -> None:
         """The step just summed, with the module's errors held: its pose moves by the learned
         errors (nothing while they are 0), and the covariance goes through the step's Jacobians
-        (F for the pose, J for [s, c, k]; b, d and D do not move it; the steps' own dP is already
-        in)."""
-        m = len(self._a)
+        (F for the pose, J for [s, c, k] or [s, c, k, r]; b, d and D do not move it; the steps' own
+        dP is already in)."""
+        m, n = len(self._a), self._errors
         fa = np.zeros((4, m))
-        fa[:, :ERROR_STATES] = j
-        if np.any(self._a[:ERROR_STATES] != 0.0):
+        fa[:, :n] = j
+        if np.any(self._a[:n] != 0.0):
             pose = self.track._poses[-1].copy()
-            pose += j @ self._a[:ERROR_STATES]
+            pose += j @ self._a[:n]
             self.track._poses[-1] = pose
         cross = f @ self._pa @ fa.T
         p = self.track._covs[-1] + cross + cross.T + fa @ self._aa @ fa.T

@@ -1,28 +1,38 @@
-"""A module's systematic step errors as states of the host's filter: step length, climb and turns.
+"""A module's systematic step errors as states of the host's filter: step length, climb, turns and drift.
 
 The covariance dP a module sends with each step describes that step's own noise, and summing the
 steps adds those covariances: the track's 1σ grows with the square root of the steps. One module's
 errors are partly *systematic*, the same on every step of a walk: its steps are all a little too
 long or too short (accelerometer scale, the detector's timing), and it sinks or climbs a little
 per metre (the mechanization's skew, g-sensitivity), and it turns a little too much or too little
-(the gyros' scale). Such an error grows with the distance or the angle turned itself, so no
-per-step covariance describes it: the summed covariance is over-confident along the track, in
-height and in heading on routes that turn (docs/accuracy.md, "Is the summed covariance honest?").
+(the gyros' scale), and its heading drifts at a rate of its own (what its INS lets through of
+the vertical gyro's bias its start-up left). Such an error grows with the distance, the angle
+turned or the time walked itself, so no per-step covariance describes it: the summed covariance is
+over-confident along the track, in height and in heading (docs/accuracy.md, "Is the summed
+covariance honest?").
 
-:class:`ModuleErrors` models them as three more states of the host's filter
+:class:`ModuleErrors` models them as three or four more states of the host's filter
 (:class:`hostlib.fusion.FusionTracker`), constant over a walk, zero-mean, with priors:
 
 * the **step-length scale** s: each step's horizontal displacement, turned into the navigation
   frame, is ``(1 + s) R(χ) dp_h``;
 * the **climb** c [m per metre walked]: each step's height change is ``dz + c |dp_h|``;
-* the **turn scale** k: each step's heading change is ``(1 + k) dψ``.
+* the **turn scale** k: each step's heading change is ``(1 + k) dψ``;
+* the **heading drift rate** r [rad/s], held only with a prior above 0
+  (:attr:`ModuleErrors.heading_drift_sigma`): each step's heading change is
+  ``(1 + k) dψ + r Δt``, Δt the step's duration on the module's clock (the time since the step
+  before). The module's INS integrates its gyros the whole step, stance included, and a ZUPT
+  observes velocity, not heading: what is left of the vertical gyro's bias turns the heading
+  through swing and stance alike. Only while the foot is really still (ZARU) does the module
+  remove the vertical rate, so a reset while the wearer stands still (a step that did not move
+  the foot) drifts by nothing: its Δt is 0 (:func:`step_duration`).
 
 Without an aid the estimate does not change (the states stay 0) but the covariance grows by
 σ_s² d dᵀ horizontally (d: the displacement from the start), σ_c² L² in height (L: the path
-walked) and σ_k² Θ² in heading (Θ: the angle turned), with what the heading's does to the
-positions after: a straight walk's along-track uncertainty grows with its length, a closed
-loop's does not. An aid makes them observable (GPS the scale, the compass the turns), and the
-steps after are corrected by the learned values.
+walked) and σ_k² Θ² + σ_r² T² in heading (Θ: the angle turned, T: the time walked), with what the
+heading's does to the positions after: a straight walk's along-track uncertainty grows with its
+length, a closed loop's does not. An aid makes them observable (GPS the scale, the compass the
+turns and the drift), and the steps after are corrected by the learned values.
 
 :data:`EMULATED_MODULE` holds the priors of the emulated MIMU22BT, estimated from simulated
 modules' end errors (``openshoe-accuracy consistency``, the method-of-moments estimate below);
@@ -36,15 +46,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EMULATED_MODULE", "ERROR_STATES", "ModuleErrors", "error_jacobian"]
+from .tracking import is_motion_step
 
-#: The states a :class:`ModuleErrors` adds: s, c, k.
+__all__ = ["DRIFT_STATE", "EMULATED_MODULE", "ERROR_STATES", "ModuleErrors", "error_jacobian",
+           "step_duration"]
+
+#: The states every :class:`ModuleErrors` adds: s, c, k (:attr:`ModuleErrors.states`: one more, r,
+#: with a heading drift prior above 0).
 ERROR_STATES = 3
+#: Where the heading drift rate r sits among the module's errors, when held: after s, c, k.
+DRIFT_STATE = 3
 
 
 @dataclass(frozen=True)
 class ModuleErrors:
-    """Priors (1σ) of a module's step-length scale, climb and turn scale, constant over a walk."""
+    """Priors (1σ) of a module's step-length scale, climb, turn scale and heading drift rate,
+    constant over a walk."""
 
     #: 1σ of the step-length scale s (a fraction: 0.001 is 1 mm per metre)
     step_scale_sigma: float
@@ -52,36 +69,68 @@ class ModuleErrors:
     climb_sigma: float
     #: 1σ of the turn scale k (a fraction: 0.01 is 3.6° per full turn)
     turn_scale_sigma: float = 0.0
+    #: 1σ of the heading drift rate r [rad/s] (0: not held, the filter the three states make; 1e-5
+    #: is about 2 °/h)
+    heading_drift_sigma: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("step_scale_sigma", "climb_sigma", "turn_scale_sigma"):
+        for name in ("step_scale_sigma", "climb_sigma", "turn_scale_sigma", "heading_drift_sigma"):
             value = getattr(self, name)
             if not (math.isfinite(value) and value >= 0.0):
                 raise ValueError(f"{name} must be a finite number ≥ 0, got {value}")
 
     @property
+    def holds_drift(self) -> bool:
+        """Whether the heading drift rate r is a state (its prior above 0)."""
+        return self.heading_drift_sigma > 0.0
+
+    @property
+    def states(self) -> int:
+        """How many states these errors add: s, c, k and, with a drift prior, r."""
+        return ERROR_STATES + self.holds_drift
+
+    @property
     def prior(self) -> np.ndarray:
-        """The 3×3 prior covariance of [s, c, k]."""
-        return np.diag([self.step_scale_sigma ** 2, self.climb_sigma ** 2, self.turn_scale_sigma ** 2])
+        """The prior covariance of [s, c, k] (3×3), or of [s, c, k, r] (4×4) with the drift held."""
+        sigmas = [self.step_scale_sigma, self.climb_sigma, self.turn_scale_sigma]
+        if self.holds_drift:
+            sigmas.append(self.heading_drift_sigma)
+        return np.diag([sigma ** 2 for sigma in sigmas])
 
 
-def error_jacobian(chi: float, dx: np.ndarray) -> np.ndarray:
+def step_duration(dx: np.ndarray, time_s: float, previous_time_s: float) -> float:
+    """The Δt [s] over which a step *dx* drifted in heading: the module time *time_s* of its end
+    less *previous_time_s*, the step before's; 0 for a reset while the wearer stands still (the
+    module's ZARU holds the heading of a still foot) and where either time is unknown (NaN: a
+    packet without its time, or the first step)."""
+    dt = time_s - previous_time_s
+    if not math.isfinite(dt) or dt <= 0.0 or not is_motion_step(dx):
+        return 0.0
+    return dt
+
+
+def error_jacobian(chi: float, dx: np.ndarray, dt: float | None = None) -> np.ndarray:
     """∂pose/∂[s, c, k] (4×3) of one step *dx* (its [dx, dy, dz, dψ]) taken at heading *chi*: the
     step's horizontal displacement in the navigation frame, its horizontal length in height, and
-    its heading change in heading."""
+    its heading change in heading. With *dt* (the step's duration, :func:`step_duration`),
+    ∂pose/∂[s, c, k, r] (4×4): the drift rate turns the heading by Δt."""
     c, s = math.cos(chi), math.sin(chi)
-    j = np.zeros((4, ERROR_STATES))
+    j = np.zeros((4, ERROR_STATES + (dt is not None)))
     j[0, 0] = c * dx[0] - s * dx[1]
     j[1, 0] = s * dx[0] + c * dx[1]
     j[2, 1] = math.hypot(dx[0], dx[1])
     j[3, 2] = dx[3]
+    if dt is not None:
+        j[3, DRIFT_STATE] = dt
     return j
 
 
 #: The emulated MIMU22BT's priors: the method-of-moments estimate on 20 simulated modules each of
 #: the straight walk and the rectangle (the default route held out, a check of them:
 #: docs/accuracy.md), σ² = Σ(e² − P) / Σ d² pooled over the walks, e the end
-#: error along the displacement (scale), in height (climb) or in heading (turn scale, the rectangle's
-#: full turn), P its summed 1σ² and d the displacement, path or angle turned
-#: (``openshoe-accuracy consistency`` prints them).
-EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, turn_scale_sigma=0.00085)
+#: error along the displacement (scale), in height (climb) or in heading, P its summed 1σ² and d the
+#: displacement, path, or (for the heading, fitted together) the angle turned and the time walked:
+#: the rectangle's full turn teaches the turn scale, the straight walks' 67 s the drift rate
+#: (3.2e-5 rad/s, 6.6 °/h) (``openshoe-accuracy consistency`` prints them).
+EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, turn_scale_sigma=0.00079,
+                               heading_drift_sigma=3.2e-5)

@@ -148,3 +148,20 @@ def test_replay_with_the_gps_bias_holds_the_receivers_error_for_one_module_or_bo
     assert "GPS bias at the end N" in out.getvalue()
     assert main(["replay", capture, "--compass", "--gps-bias"], io.StringIO()) == 2
     assert "--gps-bias needs --gps" in capsys.readouterr().err
+
+
+def test_replay_with_a_heading_drift_prior_widens_the_heading_with_the_time_walked(tmp_path, capsys):
+    """--module-errors' fourth number is the heading drift's 1σ in °/h: held, the heading's
+    covariance grows with the time walked; the track is the plain sum."""
+    capture = _capture(tmp_path)
+    plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
+    assert main(["replay", capture, "--module-errors", "0,0,0", "--csv", str(plain_csv)], io.StringIO()) == 0
+    out = io.StringIO()
+    assert main(["replay", capture, "--module-errors", "0,0,0,20", "--csv", str(held_csv)], out) == 0
+    assert "heading drift σ 20 °/h" in out.getvalue()
+    plain, held = read_csv(plain_csv), read_csv(held_csv)
+    np.testing.assert_allclose(held.poses, plain.poses, atol=1e-12)
+    assert held.final_covariance[3, 3] > plain.final_covariance[3, 3]
+    with pytest.raises(SystemExit) as exit_:
+        main(["replay", capture, "--module-errors", "0,0,0,20,1"], io.StringIO())
+    assert exit_.value.code == 2 and "DRIFT_DEG_PER_H" in capsys.readouterr().err

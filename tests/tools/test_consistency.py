@@ -106,3 +106,33 @@ def test_the_module_error_priors_are_recovered_from_end_errors_drawn_from_their_
     assert nees[:, 0].mean() / 2 == pytest.approx(1.0, abs=0.1)
     assert nees[:, 1].mean() == pytest.approx(1.0, abs=0.1)
     assert nees[:, 2].mean() == pytest.approx(1.0, abs=0.1)
+
+
+def test_the_heading_drift_and_the_turn_scale_are_told_apart_by_the_angle_and_the_time():
+    """Straight walks of 70 s and loops of 4π in 60 s, the heading drifting at 1σ 10 °/h and its
+    turns off by 1σ 1 %: the joint fit gives both back, and the heading NEES with them is 1; without
+    the drift the turn scale alone would take the loops' drift for turns."""
+    rng = np.random.default_rng(11)
+    sigma_r = math.radians(10.0) / 3600.0
+    rows = []
+    for k in range(4000):
+        straight = bool(k % 2)
+        turned, duration = (0.02, 70.0) if straight else (4 * math.pi, 60.0)
+        e_chi = rng.normal(0.0, 0.004) + rng.normal(0.0, 0.01) * turned + rng.normal(0.0, sigma_r) * duration
+        rows.append({"seed": k, "distance_m": 90.0, "d_north_m": 0.0, "d_east_m": 0.0,
+                     "e_north_m": 0.0, "e_east_m": 0.0, "e_down_m": 0.0, "e_heading_deg": math.degrees(e_chi),
+                     "p_nn": 1.0, "p_ne": 0.0, "p_ee": 1.0, "p_zz": 1.0, "p_chichi": 0.004 ** 2,
+                     **{f"j_{r}{c}": 0.0 for r in "nezh" for c in "sckr"}, "j_hk": turned, "j_hr": duration})
+    errors = module_error_priors(rows)
+    assert errors.heading_drift_sigma == pytest.approx(sigma_r, rel=0.1)
+    assert errors.turn_scale_sigma == pytest.approx(0.01, rel=0.1)
+    nees = np.array([nees_with_module_errors(r, errors) for r in rows])
+    assert nees[:, 2].mean() == pytest.approx(1.0, abs=0.1)
+    assert module_error_priors(rows[1::2]).turn_scale_sigma == 0.0  # straight only: drift, no turns
+
+
+def test_a_simulated_walk_carries_the_time_it_drifted():
+    """The Jacobian's drift column is the time the foot moved: the straight walk's 100 m in about 67 s."""
+    row = consistency_run(("walk", 0))
+    assert row["j_hr"] == pytest.approx(67.0, abs=3.0)
+    assert row["j_nr"] != 0.0 or row["j_er"] != 0.0  # the drifting heading carries the positions

@@ -20,16 +20,19 @@ k for a module is only worth having if it holds across routes: :func:`summary_li
 on the other scenarios (leave one scenario out: the geometric mean of their horizontal σ ratios)
 and shows what it does to the one left out.
 
-**The module's errors as states.** A systematic step-length scale s, climb c and turn scale k
-(:mod:`hostlib.module_errors`) add σ_s² d dᵀ to the horizontal covariance (d: the displacement
-from the start), σ_c² L² to the height's (L: the path walked) and σ_k² Θ² to the heading's (Θ:
-the angle turned), with what that heading does to the positions after; each run carries the end
-pose's Jacobian J with respect to [s, c, k], so its covariance with priors Σ is P + J Σ Jᵀ. The
-priors are estimated by the method of moments on the other modules — the model says
-E[(e·d)²] = dᵀPd + σ_s²|d|⁴, E[e_z²] = P_zz + σ_c² L² and E[e_χ²] = P_χχ + σ_k² Θ², so
-:func:`module_error_priors` pools σ_s² = Σ((e·d)² − dᵀPd) / Σ|d|⁴ (over the runs that end away
-from their start), σ_c² = Σ(e_z² − P_zz) L² / ΣL⁴ and σ_k² = Σ(e_χ² − P_χχ) Θ² / ΣΘ⁴ (over the
-runs that turned), clipped at 0 — and :func:`summary_lines` shows each module's NEES with priors
+**The module's errors as states.** A systematic step-length scale s, climb c, turn scale k and
+heading drift rate r (:mod:`hostlib.module_errors`) add σ_s² d dᵀ to the horizontal covariance
+(d: the displacement from the start), σ_c² L² to the height's (L: the path walked) and
+σ_k² Θ² + σ_r² T² to the heading's (Θ: the angle turned, T: the time walked, the steps' durations
+on the module's clock summed), with what that heading does to the positions after; each run
+carries the end pose's Jacobian J with respect to [s, c, k, r], so its covariance with priors Σ is
+P + J Σ Jᵀ. The priors are estimated by the method of moments on the other modules — the model
+says E[(e·d)²] = dᵀPd + σ_s²|d|⁴, E[e_z²] = P_zz + σ_c² L² and E[e_χ²] = P_χχ + σ_k² Θ² + σ_r² T²,
+so :func:`module_error_priors` pools σ_s² = Σ((e·d)² − dᵀPd) / Σ|d|⁴ (over the runs that end away
+from their start), σ_c² = Σ(e_z² − P_zz) L² / ΣL⁴ and σ_k², σ_r² as the least-squares fit of
+e_χ² − P_χχ on Θ² (over the runs that turned; 0 on the others) and T² over every run, each clipped
+at 0 (the other then fitted alone): straight walks, which turn no angle, teach the drift; loops
+the turn scale beside it — and :func:`summary_lines` shows each module's NEES with priors
 estimated on the other modules.
 """
 
@@ -65,6 +68,9 @@ SCALE_MIN_DISPLACEMENT_M = 10.0
 TURN_MIN_RAD = math.pi / 2
 #: The dimensions of the NEES: horizontal position, height, heading.
 DOF = {"h": 2, "z": 1, "chi": 1}
+#: The module's errors, the columns of a run's Jacobian (``j_<row><column>``): step-length scale,
+#: climb, turn scale, heading drift rate (a row without the last is a run that drifted by nothing).
+_ERRORS = "sckr"
 
 
 def nees_interval(seeds: int, dof: int, z: float = _Z95) -> tuple[float, float]:
@@ -78,20 +84,22 @@ def nees_interval(seeds: int, dof: int, z: float = _Z95) -> tuple[float, float]:
 
 def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
     """One walk: *job* = (scenario, seed). Its end errors, their 1σ and NEES."""
-    from firmware_sim.app.batch import run_replay
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.fusion import FusionSettings, FusionTracker
     from hostlib.module_errors import ModuleErrors
     from hostlib.replay import replay_bytes, replay_session
 
+    from .runs import fusion_capture
+
     scenario, seed = job
     source = make_source(scenario, seed=seed)
-    data = run_replay(source, announce=None)
+    # the fusion set-up's bytes: the same steps as the plain one's, each with its module time
+    data = fusion_capture(source)
     track, _ = replay_bytes(data)
     # the end pose's Jacobian with respect to the module's errors: their cross-covariance with the
     # pose when held with unit priors (the estimate does not move without an aid)
-    unit = FusionTracker(FusionSettings(module_errors=ModuleErrors(1.0, 1.0, 1.0)))
-    jacobian = replay_session(data, tracker=unit).tracker.state_covariance[:4, 4:7]
+    unit = FusionTracker(FusionSettings(module_errors=ModuleErrors(1.0, 1.0, 1.0, 1.0)))
+    jacobian = replay_session(data, tracker=unit).tracker.state_covariance[:4, 4:4 + len(_ERRORS)]
     truth = source.truth
     e = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
     e_chi = math.remainder(float(track.final_pose[3]) - truth.heading_change(), 2.0 * math.pi)
@@ -102,7 +110,8 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
             "d_north_m": float(d[0]), "d_east_m": float(d[1]),
             "p_nn": float(p[0, 0]), "p_ne": float(p[0, 1]), "p_ee": float(p[1, 1]), "p_zz": float(p[2, 2]),
             "p_chichi": float(p[3, 3]),
-            **{f"j_{r}{c}": float(jacobian[i, k]) for i, r in enumerate("nezh") for k, c in enumerate("sck")},
+            **{f"j_{r}{c}": float(jacobian[i, k])
+               for i, r in enumerate("nezh") for k, c in enumerate(_ERRORS)},
             "e_north_m": float(e[0]), "e_east_m": float(e[1]), "e_down_m": float(e[2]),
             "e_heading_deg": math.degrees(e_chi),
             "sigma_north_m": float(sigma[0]), "sigma_east_m": float(sigma[1]),
@@ -123,12 +132,13 @@ def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
 
 
 def module_error_priors(rows: Sequence[dict[str, Any]]) -> ModuleErrors:
-    """The step-length scale's, climb's and turn scale's 1σ estimated from *rows*' end errors
-    (module docstring)."""
+    """The step-length scale's, climb's, turn scale's and heading drift rate's 1σ estimated from
+    *rows*' end errors (module docstring)."""
     from hostlib.module_errors import ModuleErrors
 
-    num = np.zeros(3)
-    den = np.zeros(3)
+    num = np.zeros(2)
+    den = np.zeros(2)
+    heading, regressors = [], []  # e_χ² − P_χχ against [Θ², T²]
     for r in rows:
         d, e, p = _displacement(r), np.array([r["e_north_m"], r["e_east_m"]]), _horizontal_p(r)
         if float(np.hypot(*d)) >= SCALE_MIN_DISPLACEMENT_M:
@@ -137,12 +147,28 @@ def module_error_priors(rows: Sequence[dict[str, Any]]) -> ModuleErrors:
         length = r["distance_m"]
         num[1] += (r["e_down_m"] ** 2 - r["p_zz"]) * length ** 2
         den[1] += length ** 4
-        turned = r["j_hk"]
-        if abs(turned) >= TURN_MIN_RAD:
-            num[2] += (math.radians(r["e_heading_deg"]) ** 2 - r["p_chichi"]) * turned ** 2
-            den[2] += turned ** 4
+        turned = r["j_hk"] if abs(r["j_hk"]) >= TURN_MIN_RAD else 0.0
+        heading.append(math.radians(r["e_heading_deg"]) ** 2 - r["p_chichi"])
+        regressors.append((turned ** 2, r.get("j_hr", 0.0) ** 2))
     sigmas = [math.sqrt(max(n / m, 0.0)) if m > 0 else 0.0 for n, m in zip(num, den, strict=True)]
-    return ModuleErrors(*sigmas)
+    turn, drift = _non_negative_fit(np.array(regressors).reshape(-1, 2), np.array(heading))
+    return ModuleErrors(*sigmas, math.sqrt(turn), math.sqrt(drift))
+
+
+def _non_negative_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """The least-squares [a, b] ≥ 0 of y ≈ a x₀ + b x₁ (no intercept): both together if both come
+    out ≥ 0, else the better of each alone (clipped at 0), the other 0; a column of zeros is 0."""
+    def alone(i: int) -> float:
+        den = float(x[:, i] @ x[:, i])
+        return max(float(x[:, i] @ y) / den, 0.0) if den > 0 else 0.0
+
+    gram = x.T @ x
+    if np.linalg.matrix_rank(gram) == 2:
+        both = np.linalg.solve(gram, x.T @ y)
+        if np.all(both >= 0.0):
+            return float(both[0]), float(both[1])
+    fits = [(alone(0), 0.0), (0.0, alone(1))]
+    return min(fits, key=lambda ab: float(np.sum((y - x @ np.array(ab)) ** 2)))
 
 
 def _priors_without(rows: Sequence[dict[str, Any]], seed: int) -> ModuleErrors:
@@ -159,15 +185,21 @@ def _horizontal_p(r: dict[str, Any]) -> np.ndarray:
 
 
 def _jacobian(r: dict[str, Any]) -> np.ndarray:
-    """∂(end pose)/∂[s, c, k] (4×3) of run *r*."""
-    return np.array([[r[f"j_{row}{col}"] for col in "sck"] for row in "nezh"])
+    """∂(end pose)/∂[s, c, k, r] (4×4) of run *r* (a run without the drift's column: 0)."""
+    return np.array([[r.get(f"j_{row}{col}", 0.0) for col in _ERRORS] for row in "nezh"])
+
+
+def _prior(errors: ModuleErrors) -> np.ndarray:
+    """The 4×4 prior covariance of [s, c, k, r] (r's 0 when not held)."""
+    return np.diag(np.square([errors.step_scale_sigma, errors.climb_sigma, errors.turn_scale_sigma,
+                              errors.heading_drift_sigma]))
 
 
 def nees_with_module_errors(r: dict[str, Any], errors: ModuleErrors) -> tuple[float, float, float]:
     """The horizontal, height and heading NEES of run *r* against its covariance with the module's
     errors held at the priors *errors* (the estimate does not move without an aid)."""
     j = _jacobian(r)
-    extra = j @ errors.prior @ j.T
+    extra = j @ _prior(errors) @ j.T
     e = np.array([r["e_north_m"], r["e_east_m"]])
     p = _horizontal_p(r) + extra[:2, :2]
     e_chi = math.radians(r["e_heading_deg"])
@@ -209,7 +241,8 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     flat = [r for r in rows if r["scenario"] in PRIOR_SCENARIOS]
     if not flat:
         return lines
-    lines.append("with the module's step-length scale, climb and turn scale held as states, their priors "
+    lines.append("with the module's step-length scale, climb, turn scale and heading drift held as states, "
+                 "their priors "
                  f"estimated on the other modules' {' and '.join(PRIOR_SCENARIOS)} (σ ratio h / z / χ):")
     for s in scenarios:
         nees = np.array([nees_with_module_errors(r, _priors_without(flat, r["seed"]))
@@ -219,5 +252,6 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     errors = module_error_priors(flat)
     lines.append(f"priors from every module's {' and '.join(PRIOR_SCENARIOS)}: "
                  f"σ_s {errors.step_scale_sigma:.5f}, σ_c {errors.climb_sigma:.5f} m/m, "
-                 f"σ_k {errors.turn_scale_sigma:.5f}")
+                 f"σ_k {errors.turn_scale_sigma:.5f}, σ_r {errors.heading_drift_sigma:.3g} rad/s "
+                 f"({math.degrees(errors.heading_drift_sigma) * 3600.0:.2f} °/h)")
     return lines

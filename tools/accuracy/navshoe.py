@@ -19,6 +19,10 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
 * ``gps bias state`` and ``compass+gps bias state``: as ``gps`` and ``compass+gps`` with the
   receiver's correlated error held as a state (:class:`hostlib.gps_bias.GpsBias`, its defaults: the
   receiver's 3 m RMS over τ = 120 s, the fix's white 0.3 m) and every fix used;
+* ``gps module errors`` and ``compass+gps module errors``: as ``gps`` and ``compass+gps`` with the
+  module's errors held as states at the emulated module's priors
+  (:data:`hostlib.module_errors.EMULATED_MODULE`: step-length scale, climb, turn scale and heading
+  drift rate), which GPS trains and the outage then carries on;
 * ``compass true declination``: the compass without GPS, given the simulated declination (what
   the compass alone holds when the declination is not to be learned);
 * two oracles, as ``compass+gps`` with the truth put into each compass reading
@@ -48,6 +52,7 @@ import numpy as np
 from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion import FusionSettings, FusionTracker
 from hostlib.gps_bias import GpsBias
+from hostlib.module_errors import EMULATED_MODULE
 
 __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", "error_table", "outage_rows",
            "outage_run", "outdoor_compass",
@@ -56,7 +61,8 @@ __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", 
 SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain",
          "compass+gps deviation state", "compass deviation state", "gps bias state", "compass+gps bias state",
-         "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass")
+         "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass",
+         "gps module errors", "compass+gps module errors")
 #: the oracle hosts: what :class:`OracleCompassTracker` takes out of each reading
 ORACLES = {"compass+gps deviation removed": "deviation", "compass+gps perfect compass": "all"}
 #: 1σ of one compass reading outdoors [deg]: the emulator's open-ground deviation (0.8 µT per axis
@@ -186,6 +192,8 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         "compass true declination": FusionSettings(**{**compass,
                                                       "declination_rad": math.radians(true_declination)}),
         **{host: FusionSettings(gps=True, **compass) for host in ORACLES},
+        "gps module errors": FusionSettings(gps=True, module_errors=EMULATED_MODULE),
+        "compass+gps module errors": FusionSettings(gps=True, module_errors=EMULATED_MODULE, **compass),
     }
     rows = []
     for host in HOSTS:
