@@ -15,11 +15,13 @@ from hypothesis import strategies as st
 
 from hostlib.compass import StanceReading
 from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
-from hostlib.feet import FOOT_SIDES, FootStep, TwoFeetTracker
+from hostlib.feet import FOOT_SIDES, TwoFeetTracker
 from hostlib.fusion import AidIndices, FusionSettings, FusionTracker
 from hostlib.gps_bias import GpsBias
 from hostlib.module_errors import ModuleErrors
 from hostlib.tracking import StepTracker, rotation_z
+
+from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
 
 DP = np.diag([1e-4, 1e-4, 1e-4, 1e-6])
 FIELD_NED = 51.5 * np.array([math.cos(math.radians(72.5)), 0.0, math.sin(math.radians(72.5))])
@@ -328,9 +330,7 @@ def test_the_covariance_stays_symmetric_and_positive_semi_definite(seed, sigma, 
         reading = None if rng.random() < 0.1 else _reading(rng.uniform(-3, 3), rng.normal(0.0, 0.5))
         f.add_step(dx, np.diag(rng.uniform(1e-6, 1e-2, 4)), k + 1, reading=reading,
                    time_s=float(k + 1) * rng.uniform(0.5, 1.5))
-        p = f.state_covariance
-        np.testing.assert_allclose(p, p.T, rtol=0, atol=1e-12 * max(1.0, np.abs(p).max()))
-        assert np.linalg.eigvalsh(0.5 * (p + p.T)).min() >= -1e-9 * max(1.0, np.abs(p).max())
+        assert_symmetric_psd(f.state_covariance)
     assert np.all(f.gps_bias_sigma <= sigma * (1 + 1e-9))
 
 
@@ -409,15 +409,5 @@ def test_two_feet_covariance_stays_symmetric_and_positive_semi_definite(seed, si
     times = np.arange(0.0, 40.0, 1.0)
     path = np.column_stack([0.6 * times, 0.1 * times])
     feet.add_fixes(times, path + rng.normal(0.0, sigma, (times.size, 2)))
-    for n in range(80):
-        side = FOOT_SIDES[n % 2]
-        length_m = 0.0 if rng.random() < 0.2 else rng.uniform(0.2, 1.6)
-        dx = np.array([length_m, 0.05 * rng.standard_normal(), 0.01 * rng.standard_normal(),
-                       0.1 * rng.standard_normal()])
-        reading = None if rng.random() < 0.1 else rng.uniform(-3, 3)
-        feet.take(FootStep(side, dx, np.diag(rng.uniform(1e-6, 1e-2, 4)), 0.5 * (n + 1),
-                           after_gap=rng.random() < 0.03, compass=reading))
-        p = feet._p
-        np.testing.assert_allclose(p, p.T, rtol=0, atol=1e-12 * max(1.0, np.abs(p).max()))
-        assert np.linalg.eigvalsh(0.5 * (p + p.T)).min() >= -1e-9 * max(1.0, np.abs(p).max())
+    walk_two_feet_at_random(feet, rng)
     assert np.all(feet.gps_bias_sigma <= sigma * (1 + 1e-9))
