@@ -133,7 +133,7 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "0.001,0.0017,0.01,20: 0.1 %% per metre, 1.7 mm/m, 1 %% of the angle turned, 20 °/h; "
                         "a drift of 0 or none: not held), or 'emulated' for the emulated module's: the "
                         "covariance then grows with the distance, the angle turned and the time walked, as "
-                        "a module's systematic errors do (one module)")
+                        "a module's systematic errors do; with two modules each foot's module holds its own")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -221,8 +221,6 @@ def _usage_refusal(args: argparse.Namespace) -> str | None:
     if args.cmd == "track" and args.drift and not args.fusion:
         return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
                 "module's serial number, which the fusion set-up asks the module for")
-    if two and args.module_errors is not None:
-        return "--module-errors works with one module for now: the two feet's filter does not hold them"
     if args.compass_deviation is not None and not args.compass:
         return ("--compass-deviation needs --compass: it is the local deviation of the compass's "
                 "readings")
@@ -348,13 +346,13 @@ def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[s
 def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
                   last_counter: int | None, defer: bool, heading: float = 0.0, **more: Any):
     """The two-feet tracker the options ask for, with each module's drift calibration, and — with
-    --compass or --gps — the heading aids (hostlib.aids; None otherwise; *more*: to
+    --compass, --gps or --module-errors — the aids (hostlib.aids; None otherwise; *more*: to
     :func:`~hostlib.aids.prepare_feet_aids`, e.g. a receiver read live)."""
     from .aids import prepare_feet_aids
     from .magcal import MagCalibration
 
     drift = _per_foot(args.drift, DriftCalibration.load)
-    if not (getattr(args, "compass", False) or getattr(args, "gps", None)):
+    if not _uses_aids(args):
         return TwoFeetTracker(_feet_settings(args), last_counter=last_counter, defer=defer, heading=heading,
                               drift=drift), None
     aids = prepare_feet_aids(compass=args.compass, gps_path=None if more.get("live_gps") else args.gps,

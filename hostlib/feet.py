@@ -69,6 +69,19 @@ constraint pulls it in. The gap stays reported on that foot's tracker (``tracker
   before d (``[…L, …R, b_n, b_e, [d,] D]``): a fix measures the body plus b. The first fix moves
   both feet by the same unknown translation (the start's error, b₀ plus the fix's white part), so
   each foot's position is correlated with b as the body's is;
+* with the module's errors held (:attr:`~hostlib.fusion.FusionSettings.module_errors`,
+  :mod:`hostlib.module_errors`) each foot's module has **its own** step-length scale, climb, turn
+  scale (and, with a drift prior, heading drift rate), after both feet's poses and before the aid
+  states: ``[…L, …R, s_L, c_L, k_L, [r_L,] s_R, c_R, k_R, [r_R,] [b_n, b_e,] [d,] D]``. They are
+  two modules' errors: independent priors, uncorrelated until an aid correlates them (the
+  constraint, which moves the estimate only, does not). A step of one foot takes its pose and its
+  module's errors through the step as one foot's :class:`~hostlib.fusion.FusionTracker` does
+  (:func:`hostlib.module_errors.through_step`), the drift over the time since that foot's step
+  before (0 for the step that restarts a foot after a gap: its heading is the other foot's);
+  without an aid the feet's estimates stay and each foot's covariance grows as its single-module
+  track's. A GPS fix of the body then teaches the scales' sum, the constraint (which holds the feet
+  together) their difference (in the estimate: it leaves the covariance, so their σ stays what
+  the aids left), each foot's compass that module's turns and drift;
 * each module's drift calibration (:mod:`hostlib.drift`) moves that foot's every step by
   ``R(χ₀) Δv · T_swing`` before the constraint sees it, χ₀ the walk's start heading (turned with
   the alignment). A step without a swing time is fused uncorrected and counted;
@@ -92,6 +105,7 @@ from .drift import DriftCalibration
 from .events import StepOutcome
 from .fusion import AidedFilter, AidIndices, FusionSettings, FusionTracker
 from .magcal import MagCalibration
+from .module_errors import through_step
 from .tracking import Track, is_motion_step, propagate, rotation_z, step_jacobian
 
 __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
@@ -176,7 +190,8 @@ class TwoFeetTracker(AidedFilter):
     *aids* (:class:`~hostlib.fusion.FusionSettings`) are the heading aids on the joint filter —
     each foot's compass measures its heading minus the declination D (a ninth state; minus the
     local deviation d too, one shared state before D, if the aids hold it), a GPS fix the body
-    (plus the receiver's bias b, two states before d and D, if held) —
+    (plus the receiver's bias b, two states before d and D, if held); with the module's errors
+    held each foot's module has its own, after the poses (module docstring) —
     and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
     module's magnetometer calibration, *drift* each module's drift calibration
     (:mod:`hostlib.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
@@ -203,12 +218,20 @@ class TwoFeetTracker(AidedFilter):
             for side, sign in zip(FOOT_SIDES, (-1.0, 1.0), strict=True))
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
-        # both feet's poses, then the aid states (AidIndices): [b_n, b_e,] [d,] D
+        # both feet's poses, then each module's errors if held (the left's, then the right's), then
+        # the aid states (AidIndices): [b_n, b_e,] [d,] D
         idx = AidIndices.of(self.aids)
-        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0], np.zeros(idx.count)])
+        errors = self.aids.module_errors
+        self._errors = 0 if errors is None else errors.states  # per module: 0, 3 or 4
+        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
+                                  np.zeros(2 * self._errors + idx.count)])
         self._s[idx.declination] = self.aids.declination_rad
         n = len(self._s)
         self._p = np.zeros((n, n))
+        if errors is not None:
+            for i in range(len(FOOT_SIDES)):
+                e = self._error_slice(i)
+                self._p[e, e] = errors.prior
         if self.aids.gps_bias is not None:
             for i in idx.gps_bias:
                 self._p[i, i] = self.aids.gps_bias.variance
@@ -219,6 +242,7 @@ class TwoFeetTracker(AidedFilter):
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
+        self._step_time = dict.fromkeys(FOOT_SIDES, math.nan)  # module time of each foot's last step [s]
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
         self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
         self._covs: list[np.ndarray] = []  # its covariance
@@ -275,19 +299,31 @@ class TwoFeetTracker(AidedFilter):
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
         block = slice(4 * i, 4 * i + 4)
-        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]  # the other foot, [b,] [d,] D
+        # the other foot, [the modules' errors,] [b,] [d,] D
+        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]
         if step.after_gap and len(self._sides) > 0:
             self._restart_at_other(i)
         # the stepping foot's block through the summation map, its cross terms through its Jacobian
-        f = step_jacobian(float(self._s[block][3]), step.dx)
+        chi = float(self._s[block][3])
+        f = step_jacobian(chi, step.dx)
         pose, cov = propagate(self._s[block], self._p[block, block], step.dx, step.dp)
-        self._p[block, rest] = f @ self._p[block, rest]
+        errors = self.aids.module_errors
+        if errors is None:
+            self._p[block, rest] = f @ self._p[block, rest]
+        else:
+            # and through its module's errors (in the rest, 4 places earlier than in the state)
+            j = errors.jacobian(chi, step.dx, step.time_s, self._step_time[step.side])
+            e = self._error_slice(i)
+            pose, cov, self._p[block, rest] = through_step(
+                pose, cov, self._p[block, rest], f, j, self._s[rest], self._p[np.ix_(rest, rest)],
+                slice(e.start - 4, e.stop - 4))
         self._p[rest, block] = self._p[block, rest].T
         self._s[block] = pose
         self._p[block, block] = cov
         self._correct_drift(step, block)
         self._since[step.side] = 0
         self._since[FOOT_SIDES[1 - i]] += 1
+        self._step_time[step.side] = step.time_s
         self._sides.append(step.side)
         self._fused[step.side] += 1
         if math.isfinite(step.time_s):
@@ -321,13 +357,15 @@ class TwoFeetTracker(AidedFilter):
 
     def _restart_at_other(self, i: int) -> None:
         """Foot *i* lost steps: put it where the other foot is, as uncertain as that foot plus γ
-        in position and the restart σ in heading, correlated with it as a copy is."""
+        in position and the restart σ in heading, correlated with it as a copy is (its module's
+        errors stay; its next step drifts over no time: the heading is the other foot's)."""
         a, b = slice(4 * i, 4 * i + 4), slice(4 * (1 - i), 4 * (1 - i) + 4)
         self._s[a] = self._s[b]
         self._p[a, :] = self._p[b, :]
         self._p[:, a] = self._p[:, b]
         self._p[a, a] = self._p[b, b] + np.diag([self.settings.max_separation_m ** 2] * 3
                                                 + [self.settings.restart_heading_sigma_rad ** 2])
+        self._step_time[FOOT_SIDES[i]] = math.nan
         self.restarts.append((FOOT_SIDES[i], len(self._sides) + 1))
 
     def _constrain(self) -> None:
@@ -362,6 +400,13 @@ class TwoFeetTracker(AidedFilter):
     # -- the aids' view of the joint state -------------------------------------------------
 
     _heading_indices = (3, 7)
+
+    def _error_slice(self, i: int) -> slice:
+        """Where foot *i*'s module's errors [s, c, k, [r]] are in the joint state (empty: not held)."""
+        return slice(8 + self._errors * i, 8 + self._errors * (i + 1))
+
+    def _heading_carried(self) -> list[int]:
+        return list(range(8, 8 + 2 * self._errors))
 
     @property
     def aid_settings(self) -> FusionSettings:
@@ -408,6 +453,22 @@ class TwoFeetTracker(AidedFilter):
     def covariance(self) -> np.ndarray:
         """Its 8×8 covariance (a copy)."""
         return self._p[:8, :8].copy()
+
+    def module_errors(self, side: str) -> tuple[float, ...] | None:
+        """The estimated errors of *side*'s module: its step-length scale s, climb c [m/m] and turn
+        scale k and, with a heading drift prior, drift rate r [rad/s] (None: not held)."""
+        if self.aids.module_errors is None:
+            return None
+        with self._lock:
+            return tuple(float(v) for v in self._s[self._error_slice(FOOT_SIDES.index(side))])
+
+    def module_error_sigmas(self, side: str) -> np.ndarray | None:
+        """The 1σ of :meth:`module_errors` (None: not held)."""
+        if self.aids.module_errors is None:
+            return None
+        e = self._error_slice(FOOT_SIDES.index(side))
+        with self._lock:
+            return np.sqrt(np.clip(np.diagonal(self._p)[e], 0.0, None))
 
     @property
     def sides(self) -> list[str]:
@@ -477,9 +538,9 @@ class TwoFeetTracker(AidedFilter):
 
 
 def _body_rows(width: int = 9) -> np.ndarray:
-    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [b,]
-    [d,] D) — the midpoint; the right foot while the left is stale; the left foot while the right is
-    stale."""
+    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [the
+    modules' errors,] [b,] [d,] D) — the midpoint; the right foot while the left is stale; the left
+    foot while the right is stale."""
     mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, width - 8))])
     left, right = np.zeros((4, width)), np.zeros((4, width))
     left[:, 0:4] = right[:, 4:8] = np.eye(4)

@@ -90,7 +90,7 @@ from .events import StepOutcome
 from .gps_bias import GpsBias
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
-from .module_errors import ERROR_STATES, ModuleErrors, error_jacobian, step_duration
+from .module_errors import ModuleErrors, through_step
 from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["AidIndices", "AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
@@ -178,7 +178,7 @@ class FusionStats:
 @dataclass(frozen=True)
 class AidIndices:
     """Where the aid states sit in a filter's state, counted from its end: they come last, after
-    the poses (and a single foot's module errors), as ``[b_n, b_e,] [d,] D``."""
+    the poses (and the modules' errors, if held), as ``[b_n, b_e,] [d,] D``."""
 
     #: the declination D: always held, always last
     declination: int = -1
@@ -213,7 +213,9 @@ class AidedFilter:
 
     * :meth:`_aid_state` / :meth:`_aid_set_state`: the state vector (b and d, if held, then D
       last) and its covariance;
-    * :attr:`_heading_indices`: where the headings χ are in it (one per foot);
+    * :attr:`_heading_indices`: where the headings χ are in it (one per foot), and
+      :meth:`_heading_carried` the states whose covariance with the headings an alignment keeps
+      relative to the aligned one (below);
     * :meth:`_gps_rows`: the (2, n) rows of the point a fix measures (north, east), and
       :meth:`_origin_rows` those of a shift of the whole frame (every pose's x, y);
     * :meth:`_rotate_frame`: turn every pose (and the history kept of them) about the start;
@@ -229,6 +231,9 @@ class AidedFilter:
     χ_k; every pose turns with it about the start. Another heading χ_j was known relative to χ_k
     only: it becomes χ_k + (χ_j − χ_k), with the variance of the reading plus that of the
     difference. With one heading this is the single-foot rule: χ takes the reading's variance.
+    The headings' covariances with the other states are dropped, but for D and d (which the
+    reading measures against) and those of :meth:`_heading_carried` (two feet's module errors:
+    χ_j's covariance with them is that of χ_j − χ_k, which the reading leaves).
     """
 
     _heading_indices: tuple[int, ...] = (3,)
@@ -272,6 +277,11 @@ class AidedFilter:
 
     def _travelled(self) -> np.ndarray:
         raise NotImplementedError
+
+    def _heading_carried(self) -> list[int]:
+        """The states whose covariance with each heading χ_j an alignment keeps as that of
+        χ_j − χ_k, χ_k the aligned heading (none: one heading, or none held)."""
+        return []
 
     # -- state ------------------------------------------------------------------------
 
@@ -525,9 +535,13 @@ class AidedFilter:
         hd = b @ p[hs, dec] + ones * cov_with_d
         if cov_with_deviation is not None:
             hdev = b @ p[hs, dev] + ones * cov_with_deviation
+        carried = self._heading_carried()
+        hc = b @ p[np.ix_(hs, carried)]
         p[hs, :] = 0.0
         p[:, hs] = 0.0
         p[np.ix_(hs, hs)] = hh
+        p[np.ix_(hs, carried)] = hc
+        p[np.ix_(carried, hs)] = hc.T
         p[hs, dec] = hd
         p[dec, hs] = hd
         if cov_with_deviation is not None:
@@ -669,13 +683,13 @@ class FusionTracker(AidedFilter, StepTracker):
             return outcome
         dxa = np.asarray(dx, dtype=np.float64)
         f = step_jacobian(float(prev[3]), dxa)
-        if self.settings.module_errors is None:
+        errors = self.settings.module_errors
+        if errors is None:
             # cov(pose, [b,] [d,] D) through the step: the pose's Jacobian; they do not move it
             self._pa = f @ self._pa
         else:
             # the drift's Δt: the time since the step before (0 standing still, or without a time)
-            dt = step_duration(dxa, time_s, prev_time) if self._errors > ERROR_STATES else None
-            self._module_errors_through(f, error_jacobian(float(prev[3]), dxa, dt))
+            self._module_errors_through(f, errors.jacobian(float(prev[3]), dxa, time_s, prev_time))
         if self.settings.compass_deviation is not None:
             self._walk_deviation(math.hypot(dxa[0], dxa[1]))  # where this step's reading is taken
         if math.isfinite(time_s):
@@ -693,18 +707,11 @@ class FusionTracker(AidedFilter, StepTracker):
         """The step just summed, with the module's errors held: its pose moves by the learned
         errors (nothing while they are 0), and the covariance goes through the step's Jacobians
         (F for the pose, J for [s, c, k] or [s, c, k, r]; b, d and D do not move it; the steps' own
-        dP is already in)."""
-        m, n = len(self._a), self._errors
-        fa = np.zeros((4, m))
-        fa[:, :n] = j
-        if np.any(self._a[:n] != 0.0):
-            pose = self.track._poses[-1].copy()
-            pose += j @ self._a[:n]
-            self.track._poses[-1] = pose
-        cross = f @ self._pa @ fa.T
-        p = self.track._covs[-1] + cross + cross.T + fa @ self._aa @ fa.T
-        self.track._covs[-1] = 0.5 * (p + p.T)
-        self._pa = f @ self._pa + fa @ self._aa
+        dP is already in; :func:`hostlib.module_errors.through_step`, the rest [s, c, k, [r,]] then
+        the aid states)."""
+        pose, cov, self._pa = through_step(self.track._poses[-1], self.track._covs[-1], self._pa, f, j,
+                                           self._a, self._aa, slice(0, self._errors))
+        self.track._poses[-1], self.track._covs[-1] = pose, cov
 
     # -- the aids' view of the state ---------------------------------------------------
 

@@ -12,7 +12,8 @@ over-confident along the track, in height and in heading (docs/accuracy.md, "Is 
 covariance honest?").
 
 :class:`ModuleErrors` models them as three or four more states of the host's filter
-(:class:`hostlib.fusion.FusionTracker`), constant over a walk, zero-mean, with priors:
+(:class:`hostlib.fusion.FusionTracker`; with a module on each foot, :class:`hostlib.feet.TwoFeetTracker`
+holds each module's own), constant over a walk, zero-mean, with priors:
 
 * the **step-length scale** s: each step's horizontal displacement, turned into the navigation
   frame, is ``(1 + s) R(χ) dp_h``;
@@ -49,7 +50,7 @@ import numpy as np
 from .tracking import is_motion_step
 
 __all__ = ["DRIFT_STATE", "EMULATED_MODULE", "ERROR_STATES", "ModuleErrors", "error_jacobian",
-           "step_duration"]
+           "step_duration", "through_step"]
 
 #: The states every :class:`ModuleErrors` adds: s, c, k (:attr:`ModuleErrors.states`: one more, r,
 #: with a heading drift prior above 0).
@@ -97,6 +98,13 @@ class ModuleErrors:
             sigmas.append(self.heading_drift_sigma)
         return np.diag([sigma ** 2 for sigma in sigmas])
 
+    def jacobian(self, chi: float, dx: np.ndarray, time_s: float, previous_time_s: float) -> np.ndarray:
+        """∂pose/∂errors (4 × :attr:`states`) of one step *dx* taken at heading *chi*
+        (:func:`error_jacobian`), with the drift held over the step's duration from the module
+        times *time_s* and *previous_time_s* of its end and of the step before (:func:`step_duration`)."""
+        dt = step_duration(dx, time_s, previous_time_s) if self.holds_drift else None
+        return error_jacobian(chi, dx, dt)
+
 
 def step_duration(dx: np.ndarray, time_s: float, previous_time_s: float) -> float:
     """The Δt [s] over which a step *dx* drifted in heading: the module time *time_s* of its end
@@ -123,6 +131,33 @@ def error_jacobian(chi: float, dx: np.ndarray, dt: float | None = None) -> np.nd
     if dt is not None:
         j[3, DRIFT_STATE] = dt
     return j
+
+
+def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.ndarray, j: np.ndarray,
+                 rest: np.ndarray, rest_cov: np.ndarray, columns: slice
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One pose of a filter's state through a step with its module's errors held, beside the rest
+    of the state, which the step does not change: the pose *pose* and its 4×4 covariance *cov*
+    after the summation map (:func:`hostlib.tracking.propagate`: the step's own dP is in), *cross*
+    (4, m) its covariance with the rest before the step, *f* the step's Jacobian F, *j* its
+    :func:`error_jacobian` J, *rest* (m,) and *rest_cov* (m×m) the rest's estimate and covariance,
+    and *columns* where this module's errors [s, c, k, [r]] sit in the rest. Returns the pose, its
+    covariance and its covariance with the rest after the step.
+
+    With A the (4, m) J in those columns, the pose moves by J e (e the errors' estimate: nothing
+    while it is 0), its covariance gains F C Aᵀ + A Cᵀ Fᵀ + A R Aᵀ (C: *cross*, R: *rest_cov*) and
+    cross ← F C + A R (without the errors it would be F C: the rest does not move the pose). One
+    foot's :class:`hostlib.fusion.FusionTracker` (the rest: its errors, then the aid states) and
+    each foot of :class:`hostlib.feet.TwoFeetTracker` (the rest: the other foot, both modules'
+    errors and the aid states) step through it."""
+    fa = np.zeros((4, len(rest)))
+    fa[:, columns] = j
+    errors = rest[columns]
+    if np.any(errors != 0.0):
+        pose = pose + j @ errors
+    c = f @ cross @ fa.T
+    p = cov + c + c.T + fa @ rest_cov @ fa.T
+    return pose, 0.5 * (p + p.T), f @ cross + fa @ rest_cov
 
 
 #: The emulated MIMU22BT's priors: the method-of-moments estimate on 20 simulated modules each of
