@@ -1042,7 +1042,7 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
                   if settings.constraint else "constraint off")
     lines.append(f"fusion: {len(tracker)} steps (left {tracker.sides.count('left')}, right "
                  f"{tracker.sides.count('right')}) | {constraint} | steps with a stale foot "
-                 f"{tracker.stale_steps} | restarts: {restarts}")
+                 f"{tracker.stale_steps} | steps longer than 2γ {tracker.long_steps} | restarts: {restarts}")
     for side, calibration in tracker.drift.items():
         lines.append(f"drift correction, {side} foot: {calibration}")
     if tracker.drift_uncorrected:

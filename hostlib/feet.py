@@ -36,6 +36,15 @@ the constraint compares the feet's last rests: with the step-through gait people
 stride apart (about 0.75 m at 5.4 km/h). γ is therefore the longest *walking* step, 1 m
 (:attr:`FeetSettings.max_separation_m`); a runner's steps are longer (set 1.5 m).
 
+**A step longer than 2γ** is fused without the constraint (counted in
+:attr:`TwoFeetTracker.long_steps`). While one foot swings the other stands: from a rest within γ
+of it to a rest within γ of it, a foot moves at most 2γ. A longer step says the other foot moved
+in the meantime without a step of its own reported, so its last rest is no longer where it is.
+That is what a running module sends: the firmware spaces its resets at least 0.75 s apart, longer
+than a running stride (0.70 s; docs/accuracy.md), so each packet spans two strides (5.3 m on the
+`run` scenario), the feet's reported rests lie alternately 1.3 and 3.9 m apart, and the
+constraint would pull the body 3.3 m back over 100 m and turn it by 2.5°.
+
 **One foot's link lost.** While one foot's stream is silent the other keeps stepping; the silent
 foot's estimate is stale. The constraint is applied only when the other foot has stepped since
 this foot's previous step (walking, the feet alternate; standing, each module resets every second,
@@ -252,9 +261,11 @@ class TwoFeetTracker(AidedFilter):
         self._init_aids()
         self._record()
         #: how often the constraint was violated and projected; steps fused without it because the
-        #: other foot had not stepped since this foot's previous step
+        #: other foot had not stepped since this foot's previous step, or because the step was
+        #: longer than twice the bound (the other foot moved meanwhile: module docstring)
         self.projections = 0
         self.stale_steps = 0
+        self.long_steps = 0
         #: feet restarted at the other foot after a gap in their stream
         self.restarts: list[tuple[str, int]] = []  # (side, index of the joint step)
         #: steps the drift correction could not move: their packet had no swing time
@@ -337,6 +348,8 @@ class TwoFeetTracker(AidedFilter):
             self._gps_until(self._time)
         if self._since[FOOT_SIDES[1 - i]] > 1:
             self.stale_steps += 1  # the other foot has not stepped since this one's last step
+        elif float(np.linalg.norm(step.dx[:3])) > 2.0 * self.settings.max_separation_m:
+            self.long_steps += 1  # the other foot moved meanwhile: its last rest is not where it is
         elif self.settings.constraint:
             self._constrain()
         self._record()
@@ -534,6 +547,7 @@ class TwoFeetTracker(AidedFilter):
     def __repr__(self) -> str:
         return (f"TwoFeetTracker({len(self)} steps: left {len(self.left)}, right {len(self.right)}; "
                 f"{self.projections} projections, {self.stale_steps} steps with a stale foot, "
+                f"{self.long_steps} steps longer than twice the bound, "
                 f"{len(self.restarts)} restarts)")
 
 

@@ -50,3 +50,19 @@ def test_body_truth_is_the_feet_midpoint(tmp_path):
 def test_feet_need_a_scenario_and_one_output(tmp_path, capsys):
     assert cli.main(["replay", str(tmp_path / "x.csv"), "--feet", "2", "--wire", str(tmp_path / "o")]) == 2
     assert "--feet 2 goes with --scenario and --wire" in capsys.readouterr().err
+
+
+def test_a_running_walker_s_feet_fuse_without_being_pulled_back(tmp_path):
+    """Running, each module resets every other stride (its resets are at least 0.75 s apart): the
+    feet's steps span two strides, the constraint leaves them out, and the fused body ends where
+    the two feet's average does instead of a metre short."""
+    from hostlib.replay import replay_feet
+
+    out = tmp_path / "run.bin"
+    assert cli.main(["replay", "--scenario", "stand:3+run:30+stand:2", "--feet", "2", "--host", "fusion",
+                     "--seed", "3", "--wire", str(out), "--quiet"]) == 0
+    tracker, _ = replay_feet(*(out.with_name(f"run.bin.{side}").read_bytes() for side in ("left", "right")))
+    assert tracker.long_steps >= 10 and tracker.projections <= 1
+    body, average = tracker.body.final_pose, tracker.average.final_pose
+    assert np.hypot(*(body[:2] - average[:2])) < 0.2
+    assert body[0] == pytest.approx(30.0, abs=0.3)

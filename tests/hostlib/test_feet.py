@@ -67,9 +67,13 @@ def test_without_the_constraint_the_feet_are_the_single_tracks_bit_for_bit(rows)
 @given(st.lists(st.tuples(st.floats(-2, 2), st.floats(-2, 2), st.floats(-0.5, 0.5), st.floats(-0.3, 0.3)),
                 min_size=1, max_size=30), st.floats(0.3, 2.0))
 def test_with_the_constraint_feet_end_every_step_within_the_bound(moves, gamma):
+    """... every step a foot can take while the other stands (at most 2γ); a longer one is fused
+    without the constraint and counted."""
     tracker = TwoFeetTracker(FeetSettings(max_separation_m=gamma))
     _alternate(tracker, [(FOOT_SIDES[k % 2], m) for k, m in enumerate(moves)])
-    assert tracker.separation().max() <= gamma + 1e-6
+    long = np.array([np.linalg.norm(m[:3]) > 2 * gamma for m in moves])
+    assert tracker.separation()[1:][~long].max(initial=0.0) <= gamma + 1e-6
+    assert tracker.long_steps == long.sum()
     p = tracker.covariance
     assert np.allclose(p, p.T) and np.linalg.eigvalsh(p).min() > -1e-9
 
@@ -86,6 +90,21 @@ def test_the_constraint_bounds_the_heading_drift_between_the_feet():
     assert held_split < 0.5 * free_split  # the estimate projection turns them back part of the way
     assert free.separation().max() > 50 and held.separation().max() <= 1.0 + 1e-6
     assert held.projections > 0
+
+
+def test_steps_of_two_strides_leave_the_constraint_out_and_the_body_is_the_average():
+    """A running module resets every other stride: each foot's step spans two strides and the
+    feet's reported rests lie alternately half and one and a half strides apart. Those steps are
+    longer than twice the bound, so the constraint does not pull the feet together."""
+    stride = 2.6
+    steps = [("right", [0.5 * stride, 0.0, 0.0, 0.0]), ("left", [2 * stride, 0.0, 0.0, 0.0])]
+    for _ in range(10):
+        steps += [("right", [2 * stride, 0.0, 0.0, 0.0]), ("left", [2 * stride, 0.0, 0.0, 0.0])]
+    tracker = TwoFeetTracker(FeetSettings(max_separation_m=1.5))
+    _alternate(tracker, steps)
+    assert tracker.long_steps == 21 and tracker.projections == 0
+    assert np.array_equal(tracker.body.final_pose, tracker.average.final_pose)
+    assert tracker.separation().max() == pytest.approx(1.5 * stride, abs=0.13)
 
 
 def test_a_step_within_the_bound_changes_nothing():
