@@ -5,11 +5,11 @@ steps adds those covariances: the track's 1σ grows with the square root of the 
 errors are partly *systematic*, the same on every step of a walk: its steps are all a little too
 long or too short (accelerometer scale, the detector's timing), and it sinks or climbs a little
 per metre (the mechanization's skew, g-sensitivity), and it turns a little too much or too little
-(the gyros' scale), and its heading drifts at a rate of its own (what its INS lets through of
-the vertical gyro's bias its start-up left). Such an error grows with the distance, the angle
-turned or the time walked itself, so no per-step covariance describes it: the summed covariance is
-over-confident along the track, in height and in heading (docs/accuracy.md, "Is the summed
-covariance honest?").
+(the gyros' scale), and its heading drifts at a rate of its own (what its INS lets through of the
+vertical gyro's bias, and of the gyros' sensitivity to the swing's acceleration). Such an error
+grows with the distance, the angle turned or the time walked itself, so no per-step covariance
+describes it: the summed covariance is over-confident along the track, in height and in heading
+(docs/accuracy.md, "Is the summed covariance honest?").
 
 :class:`ModuleErrors` models them as three or four more states of the host's filter
 (:class:`hostlib.fusion.FusionTracker`; with a module on each foot, :class:`hostlib.feet.TwoFeetTracker`
@@ -22,11 +22,15 @@ holds each module's own), constant over a walk, zero-mean, with priors:
 * the **heading drift rate** r [rad/s], held only with a prior above 0
   (:attr:`ModuleErrors.heading_drift_sigma`): each step's heading change is
   ``(1 + k) dψ + r Δt``, Δt the step's duration on the module's clock (the time since the step
-  before). The module's INS integrates its gyros the whole step, stance included, and a ZUPT
-  observes velocity, not heading: what is left of the vertical gyro's bias turns the heading
-  through swing and stance alike. Only while the foot is really still (ZARU) does the module
-  remove the vertical rate, so a reset while the wearer stands still (a step that did not move
-  the foot) drifts by nothing: its Δt is 0 (:func:`step_duration`).
+  before). The module's INS integrates its gyros the whole step, and a ZUPT observes velocity,
+  not heading: what is left of the vertical rate's bias turns the heading wherever the foot is
+  not really still. While it is (ZARU) the module drops the vertical rate and re-learns the
+  bias, so a reset while the wearer stands still (a step that did not move the foot) drifts by
+  nothing: its Δt is 0 (:func:`step_duration`). A real foot's walking stances are never that
+  still (on the shared walks ZARU holds in none), so there the bias turns the heading through
+  swing and stance alike; the emulated module's simulated stances are, and ZARU re-learns the
+  bias in each, so its drift is mostly the gyros' g-sensitivity in the swing (docs/accuracy.md):
+  Δt, the whole step, stands for the swing, a steady share of it.
 
 Without an aid the estimate does not change (the states stay 0) but the covariance grows by
 σ_s² d dᵀ horizontally (d: the displacement from the start), σ_c² L² in height (L: the path

@@ -10,11 +10,12 @@ the oracle refer to the same recorded sample; :func:`best_lag` checks that delay
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav import config as nav_cfg
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import profile_for
@@ -22,7 +23,8 @@ from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
-__all__ = ["FirmwareTrace", "trace_module", "align", "best_lag", "quaternion_yaw", "DESIGN_LAG"]
+__all__ = ["FirmwareTrace", "stepwise_loops", "trace_module", "align", "best_lag", "quaternion_yaw",
+           "DESIGN_LAG"]
 
 
 @dataclass
@@ -44,12 +46,11 @@ def quaternion_yaw(q: np.ndarray) -> float:
     return float(np.arctan2(2 * (x * y + z * w), 1 - 2 * (y * y + z * z)))
 
 
-def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
-                 firmware=None) -> FirmwareTrace:
-    """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
-    navigates with the sensor profile *profile* (default: the source's, as a replay does), boots
-    with the ZUPT threshold *th_zupt* (default: its power-on TH_ZUPT) and runs *firmware* (default:
-    the OpenShoe firmware; an experiment may swap a processing function)."""
+def stepwise_loops(source, profile: str | None = None, th_zupt: int | None = None,
+                   firmware=None) -> Iterator[tuple[int, Module]]:
+    """Run a module on *source* as a lossless step-wise host (0x34, every packet acknowledged) and
+    yield (loop number, module) after each loop; *profile*, *th_zupt* and *firmware* as in
+    :func:`trace_module`."""
     states = {} if th_zupt is None else {StateId.TH_ZUPT: th_zupt}
     config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=states)
     cfg = profile_for(source, profile).configure(config)
@@ -57,7 +58,20 @@ def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
     port = module.bt.port
     port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
     decoder = StreamDecoder()
-    mem = module.memory
+    for k in range(len(source)):
+        module.step()
+        for frame in decoder.feed(port.host_read()):
+            if isinstance(frame, StatePacket):
+                port.host_write(build_packet_ack(frame.number))
+        yield k, module
+
+
+def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
+                 firmware=None) -> FirmwareTrace:
+    """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
+    navigates with the sensor profile *profile* (default: the source's, as a replay does), boots
+    with the ZUPT threshold *th_zupt* (default: its power-on TH_ZUPT) and runs *firmware* (default:
+    the OpenShoe firmware; an experiment may swap a processing function)."""
     n = len(source)
     zupt, reset = np.zeros(n, bool), np.zeros(n, bool)
     t1 = np.zeros(n, np.int64)
@@ -65,11 +79,8 @@ def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
     vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
     heading = np.zeros(n)
     base_p, base_chi = np.zeros(3), 0.0
-    for k in range(n):
-        module.step()
-        for frame in decoder.feed(port.host_read()):
-            if isinstance(frame, StatePacket):
-                port.host_write(build_packet_ack(frame.number))
+    for k, module in stepwise_loops(source, profile, th_zupt, firmware):
+        mem = module.memory
         zupt[k] = mem.flag(StateId.ZUPT)
         t1[k] = int(mem[StateId.T1S2F])
         vel[k] = mem[StateId.VELOCITY]
