@@ -23,6 +23,8 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
   module's errors held as states at the emulated module's priors
   (:data:`hostlib.module_errors.EMULATED_MODULE`: step-length scale, climb, turn scale and heading
   drift rate), which GPS trains and the outage then carries on;
+* ``compass+gps every error state``: ``compass+gps`` with every error the host can hold as a
+  state at once: the local deviation, the receiver's bias and the module's errors (each as above);
 * ``compass true declination``: the compass without GPS, given the simulated declination (what
   the compass alone holds when the declination is not to be learned);
 * two oracles, as ``compass+gps`` with the truth put into each compass reading
@@ -62,7 +64,7 @@ SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain",
          "compass+gps deviation state", "compass deviation state", "gps bias state", "compass+gps bias state",
          "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass",
-         "gps module errors", "compass+gps module errors")
+         "gps module errors", "compass+gps module errors", "compass+gps every error state")
 #: the oracle hosts: what :class:`OracleCompassTracker` takes out of each reading
 ORACLES = {"compass+gps deviation removed": "deviation", "compass+gps perfect compass": "all"}
 #: 1σ of one compass reading outdoors [deg]: the emulator's open-ground deviation (0.8 µT per axis
@@ -194,6 +196,8 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         **{host: FusionSettings(gps=True, **compass) for host in ORACLES},
         "gps module errors": FusionSettings(gps=True, module_errors=EMULATED_MODULE),
         "compass+gps module errors": FusionSettings(gps=True, module_errors=EMULATED_MODULE, **compass),
+        "compass+gps every error state": FusionSettings(gps=True, gps_bias=GpsBias(),
+                                                        module_errors=EMULATED_MODULE, **deviation_held),
     }
     rows = []
     for host in HOSTS:
