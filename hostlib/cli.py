@@ -27,10 +27,13 @@ In-situ magnetometer calibration (hostlib.wiggle, NavShoe's): once tracking star
 shoe in one place for about 30 s — toe down and up, the sole to either side, all round — then walk
 off: the first step longer than 0.5 m ends it. It is saved for the module (hostlib.magcal; the
 directory --mag-cal-dir, else $OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/openshoe/magcal), and
---compass without --mag-cal takes the saved one of the module it talks to::
+--compass without --mag-cal takes the saved one of the module it talks to. ``log`` records the
+wiggle's stream in its capture (and saves the calibration too), for ``replay`` to fit it again::
 
     openshoe-host track /dev/rfcomm0 --fusion --compass --calibrate-mag --csv walk.csv
     openshoe-host track /dev/rfcomm0 --fusion --compass --csv later.csv
+    openshoe-host log /dev/rfcomm0 --start --fusion --calibrate-mag --raw walk.bin
+    openshoe-host replay walk.bin --compass --calibrate-mag --csv walk.csv
 
 Closed-loop drift correction (per module; hostlib.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
@@ -49,6 +52,7 @@ from __future__ import annotations
 import argparse
 import math
 import sys
+import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import ExitStack
@@ -84,7 +88,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 def _setup_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--fusion", action="store_true",
                    help="after 0x34 also ask for each step's swing time and the module's serial number "
-                        "(protocol.extensions.FUSION_SETUP; needed by --drift and by drift calibrate)")
+                        "(protocol.extensions.FUSION_SETUP; needed by --drift, --calibrate-mag and by drift "
+                        "calibrate)")
     p.add_argument("--height-compensation", action="store_true",
                    help="turn the module's height compensation (function 0x25) on at the first step "
                         "packet (an emulator extension)")
@@ -140,14 +145,31 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "of the shoe in one place, ended by the first step longer than 0.5 m; the compass "
                         "waits for it, and the calibration is saved for the module (--mag-cal-dir)"
                         + ("; the module streams its magnetometers meanwhile" if live else
-                           " (a capture of the stream: openshoe-emu replay --host fusion --calibrate-mag)"))
+                           " (a capture of the stream: log --calibrate-mag, or openshoe-emu replay --host "
+                           "fusion --calibrate-mag)"))
+    _mag_cal_dir_option(g)
+    g.add_argument("--declination", type=float, default=None, metavar="DEG",
+                   help="magnetic declination, east positive (default: the World Magnetic Model at the "
+                        "first fix or at --origin)")
+
+
+def _mag_cal_dir_option(g: Any) -> None:
+    """``--mag-cal-dir`` in the argument group *g*."""
     g.add_argument("--mag-cal-dir", metavar="DIR", default=None,
                    help="where each module's magnetometer calibration is kept, as <serial>.json (default: "
                         "$OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/openshoe/magcal, else "
                         "~/.config/openshoe/magcal)")
-    g.add_argument("--declination", type=float, default=None, metavar="DEG",
-                   help="magnetic declination, east positive (default: the World Magnetic Model at the "
-                        "first fix or at --origin)")
+
+
+def _log_calibration_options(p: argparse.ArgumentParser) -> None:
+    """``log --calibrate-mag``: record the wiggle's stream, and fit and save it as ``track`` does."""
+    g = p.add_argument_group("in-situ magnetometer calibration (hostlib.wiggle; with --fusion)")
+    g.add_argument("--calibrate-mag", action="store_true",
+                   help="after the fusion set-up the module streams its magnetometers and attitude while "
+                        "the shoe is wiggled in one place, until the first step longer than 0.5 m: the "
+                        "capture holds the stream (replay --compass --calibrate-mag fits it again), and the "
+                        "calibration is fitted and saved for the module (--mag-cal-dir) as track does")
+    _mag_cal_dir_option(g)
 
 
 def _positive_metres(text: str) -> float:
@@ -245,6 +267,16 @@ def _calibration_refusal(args: argparse.Namespace, two: bool) -> str | None:
     if args.mag_cal:
         return ("--calibrate-mag fits a new calibration: give it or --mag-cal CAL.json (an earlier one), "
                 "not both")
+    return None
+
+
+def _log_refusal(args: argparse.Namespace) -> str | None:
+    """Why the options of ``log`` do not go together, or None (as ``track``: the calibration needs the
+    fusion set-up; without --start the module is taken to track already, as with ``track --attach``)."""
+    if args.calibrate_mag and not args.fusion:
+        return ("--calibrate-mag needs --fusion: the calibration is saved for the module under the serial "
+                "number the fusion set-up asks it for, and a replay of the capture with --compass takes "
+                "the magnetometers and the attitude at the end of each stance from that set-up's steps")
     return None
 
 
@@ -430,6 +462,7 @@ def build_parser() -> argparse.ArgumentParser:
     lg.add_argument("--duration", type=float, default=None, help="seconds to capture (default: until Ctrl-C)")
     lg.add_argument("--start", action="store_true", help="send 0x34 (step-wise dead reckoning) first")
     _setup_options(lg)
+    _log_calibration_options(lg)
 
     i = sub.add_parser("info", help="ping the module and read its MCU serial number")
     _common(i)
@@ -588,18 +621,24 @@ class _HostSetup:
 
 
 class _InSitu:
-    """``track --calibrate-mag``: the in-situ magnetometer calibration of one module
-    (hostlib.wiggle). The device's reader thread hands it the session's packets and steps, in their
-    order, and when the first long step ends it, its result goes to the tracker at once; the main
-    loop then stops the stream, saves the calibration for the module and says what it did."""
+    """``track --calibrate-mag`` and ``log --calibrate-mag``: the in-situ magnetometer calibration
+    of one module (hostlib.wiggle). The device's reader thread hands it the session's packets and
+    steps, in their order; when the first long step ends it, the fit goes at once to the tracker of
+    *aids* (``track``: its compass waits for it; ``log`` has none, its capture holds the stream); the
+    main loop then stops the stream, saves the calibration for the module and says what it did
+    (*cmd*: whose messages they are)."""
 
-    def __init__(self, dev: Device, aids: Any, directory: str | None):
+    def __init__(self, dev: Device, directory: str | None, cmd: str, aids: Any = None):
         from .wiggle import WiggleCalibration
 
-        self.dev, self.aids, self.directory = dev, aids, directory
+        self.dev, self.directory, self.cmd, self.aids = dev, directory, cmd, aids
         self.wiggle = WiggleCalibration()
         self.reported = False
-        aids.tracker.hold_compass()
+        #: held while the reader thread hands a step over, so that the main loop sees the wiggle's
+        #: end only once its fit is done
+        self._lock = threading.Lock()
+        if aids is not None:
+            aids.tracker.hold_compass()
         dev.on_packet(lambda ev: self.wiggle.add_packet(ev.states))
         dev.on_step(self._step)
 
@@ -613,28 +652,37 @@ class _InSitu:
 
     def _step(self, ev: Any) -> None:
         serial = self.dev.session.mcu_serial
-        if self.wiggle.add_step(ev.step.dx, serial_text(serial) if serial else ""):
-            with self.dev.session_lock:
-                self.wiggle.release(self.aids.tracker)
+        with self._lock:
+            ended = self.wiggle.add_step(ev.step.dx, serial_text(serial) if serial else "")
+            if ended and self.aids is not None:
+                with self.dev.session_lock:
+                    self.wiggle.release(self.aids.tracker)
+
+    def _ended(self) -> bool:
+        """Whether the wiggle ended (fitted or refused; a fit under way is waited for)."""
+        with self._lock:
+            return self.wiggle.done
 
     def poll(self) -> None:
         """Once the calibration ended: stop the stream, save, say so (once)."""
-        if self.wiggle.done and not self.reported:
+        if not self.reported and self._ended():
             self._stop_stream()
             self._report()
 
     def close(self, leave_running: bool) -> None:
-        """The walk ended (its outputs off unless *leave_running*): a calibration that ended in the
-        last moments is saved and reported; one that did not end says so. The stream is stopped if
-        the outputs stay on."""
+        """The walk or capture ended (the module's outputs off unless *leave_running*): a calibration
+        that ended in the last moments is saved and reported; one that did not end says so. The
+        stream is stopped if the outputs stay on."""
         if self.reported:
             return
         if leave_running:
             self._stop_stream()
-        if self.wiggle.done:
+        if self._ended():
             self._report()
-        else:
+        elif self.aids is not None:
             self.aids.calibration_source = "the wiggle did not end"
+        else:
+            print(f"openshoe-host {self.cmd}: {self.wiggle.summary()}; nothing saved", file=sys.stderr)
 
     def _stop_stream(self) -> None:
         for meaning, fields in self.wiggle.STOP:
@@ -642,8 +690,12 @@ class _InSitu:
 
     def _report(self) -> None:
         self.reported = True
-        self.aids.calibration_source = _keep_in_situ(self.wiggle, self.directory, "track")
-        print(f"openshoe-host track: {self.wiggle.summary()}", file=sys.stderr)
+        source = _keep_in_situ(self.wiggle, self.directory, self.cmd)
+        print(f"openshoe-host {self.cmd}: {self.wiggle.summary()}", file=sys.stderr)
+        if self.aids is not None:
+            self.aids.calibration_source = source
+        elif self.wiggle.calibration is not None:
+            print(f"openshoe-host {self.cmd}: magnetometer calibration: {source}", file=sys.stderr)
 
 
 def _keep_in_situ(wiggle: Any, directory: str | None, cmd: str) -> str:
@@ -767,7 +819,7 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
             if live is not None:
                 _feed_live_gps(live, aids.tracker, modules)
             if args.calibrate_mag:
-                modules[0].setup.in_situ = _InSitu(modules[0].dev, aids, args.mag_cal_dir)
+                modules[0].setup.in_situ = _InSitu(modules[0].dev, args.mag_cal_dir, "track", aids)
             elif saved:
                 _use_saved_calibration(modules, aids, args)
 
@@ -1067,6 +1119,8 @@ def _finish_feet(args: argparse.Namespace, tracker: TwoFeetTracker,
 def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
     with open(args.raw, "wb") as raw, _open(args, args.url, raw_log=raw) as dev:
         setup = _HostSetup(dev, args.fusion, args.height_compensation)
+        if args.calibrate_mag:
+            setup.in_situ = _InSitu(dev, args.mag_cal_dir, "log")
         if args.start:
             dev.start_stepwise_dead_reckoning()
         setup.after_start()
@@ -1082,6 +1136,8 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
         except KeyboardInterrupt:
             pass
         live.close()
+        if setup.in_situ is not None:  # log leaves the module's outputs on: the stream is stopped
+            setup.in_situ.close(leave_running=True)
     return 0
 
 
@@ -1201,7 +1257,8 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
     out = sys.stdout if out is None else out
-    refusal = _usage_refusal(args) if args.cmd in ("track", "replay") else None
+    check = {"track": _usage_refusal, "replay": _usage_refusal, "log": _log_refusal}.get(args.cmd)
+    refusal = None if check is None else check(args)
     if refusal is not None:
         print(f"openshoe-host {args.cmd}: {refusal}", file=sys.stderr)
         return 2

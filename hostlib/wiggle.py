@@ -7,8 +7,9 @@ calibration ends by itself at the first step longer than 0.5 m, and navigation t
 local average (shared/spec/aids.md §3).
 
 :class:`WiggleCalibration` is that procedure for one module, driven by whatever moves the bytes
-(``openshoe-host track --calibrate-mag``, ``openshoe-host replay --calibrate-mag``, the emulator's
-replayed host ``openshoe-emu replay --host fusion --calibrate-mag``):
+(``openshoe-host track --calibrate-mag``, ``openshoe-host log --calibrate-mag`` recording it,
+``openshoe-host replay --calibrate-mag``, the emulator's replayed host ``openshoe-emu replay --host
+fusion --calibrate-mag``):
 
 * :data:`WiggleCalibration.START` — the commands that make the module stream its magnetometers and
   attitude (:data:`protocol.extensions.MAG_STREAM_START`), sent after the fusion set-up;

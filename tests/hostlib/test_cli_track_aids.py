@@ -2,7 +2,8 @@
 and --gps from a receiver read live (its fixes on the module's clock; with two feet, the body's, on
 each module's clock) or from a file; the CSV gets lat/lon/alt with GPS; each foot's magnetometer
 calibration (a file, or the module's saved one) checked against the module on that foot; what does
-not go together is refused with status 2 before any port opens.
+not go together is refused with status 2 before any port opens. ``log --calibrate-mag`` records the
+in-situ calibration's wiggle as ``track --calibrate-mag`` runs it, for ``replay`` to fit it again.
 
 Scripted module and receiver behind pyserial URLs (tests/hostlib/protocol_fakeshoe.py,
 protocol_fakegps.py); the end-to-end walk against ``openshoe-emu serve`` is in
@@ -108,21 +109,29 @@ def test_track_without_the_aids_writes_the_plain_csv(tmp_path):
     assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS
 
 
-def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tmp_path, capsys):
+def assert_the_stream_ran_from_the_fusion_set_up_to_a_stop() -> None:
+    """The scripted module (the last port opened) was asked for the magnetometer stream right after
+    the fusion set-up's MCU_ID, and later to stop it."""
     from protocol.extensions import MAG_STREAM_START, MAG_STREAM_STOP
     from protocol.frames import build_command
 
-    from .protocol_fakeshoe import MCU_ID, PORTS
+    from .protocol_fakeshoe import PORTS
+
+    sent = PORTS[-1].commands
+    start, stop = (build_command(m, **f) for (m, f) in (*MAG_STREAM_START, *MAG_STREAM_STOP))
+    assert sent.index(start) == sent.index(bytes.fromhex("04 00 04")) + 1, "after the fusion set-up"
+    assert stop in sent and sent.index(stop) > sent.index(start)
+
+
+def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tmp_path, capsys):
+    from .protocol_fakeshoe import MCU_ID
 
     out = io.StringIO()
     argv = ["track", "fakeshoe://5/fusion/wiggle", "--fusion", "--compass", "--calibrate-mag",
             "--mag-cal-dir", str(tmp_path), "--duration", "1.5"]
     assert main(argv, out) == 0
     text, err = out.getvalue(), capsys.readouterr().err
-    sent = PORTS[-1].commands
-    start, stop = (build_command(m, **f) for (m, f) in (*MAG_STREAM_START, *MAG_STREAM_STOP))
-    assert sent.index(start) == sent.index(bytes.fromhex("04 00 04")) + 1, "after the fusion set-up"
-    assert stop in sent and sent.index(stop) > sent.index(start)
+    assert_the_stream_ran_from_the_fusion_set_up_to_a_stop()
     saved = tmp_path / f"{MCU_ID.hex('-').upper()}.json"
     assert f"(calibrated: in situ, saved {saved})" in text and saved.is_file()
     assert "wiggle the shoe in one place" in err and "magnetometers calibrated from" in err
@@ -144,6 +153,43 @@ def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tm
 def test_track_refuses_a_calibration_it_cannot_run_before_opening_a_port(argv, message, capsys):
     assert main(["track", "/dev/left-does-not-exist", *argv], io.StringIO()) == 2
     assert message in capsys.readouterr().err
+
+
+def test_log_records_the_wiggle_saves_its_calibration_and_a_replay_fits_it_again(tmp_path, capsys):
+    from .protocol_fakeshoe import MCU_ID
+
+    raw, name = tmp_path / "cal.bin", f"{MCU_ID.hex('-').upper()}.json"
+    argv = ["log", "fakeshoe://5/fusion/wiggle", "--raw", str(raw), "--start", "--fusion", "--calibrate-mag",
+            "--mag-cal-dir", str(tmp_path / "live"), "--duration", "1.5"]
+    assert main(argv, io.StringIO()) == 0
+    err = capsys.readouterr().err
+    assert_the_stream_ran_from_the_fusion_set_up_to_a_stop()
+    assert "wiggle the shoe in one place" in err and "openshoe-host log: magnetometers calibrated from" in err
+    assert f"in situ, saved {tmp_path / 'live' / name}" in err
+    out = io.StringIO()
+    argv = ["replay", str(raw), "--compass", "--calibrate-mag", "--mag-cal-dir", str(tmp_path / "replayed")]
+    assert main(argv, out) == 0
+    assert f"(calibrated: in situ, saved {tmp_path / 'replayed' / name})" in out.getvalue()
+    assert (tmp_path / "replayed" / name).read_text() == (tmp_path / "live" / name).read_text(), \
+        "the capture holds the readings the live fit took"
+
+
+def test_log_says_when_the_capture_ends_before_the_wiggle_and_stops_the_stream(tmp_path, capsys):
+    """Without 0x34 the scripted module streams the wiggle but never steps: nothing ends it."""
+    argv = ["log", "fakeshoe://5/fusion/wiggle", "--raw", str(tmp_path / "cal.bin"), "--fusion",
+            "--calibrate-mag", "--mag-cal-dir", str(tmp_path / "magcal"), "--duration", "0.5"]
+    assert main(argv, io.StringIO()) == 0
+    assert_the_stream_ran_from_the_fusion_set_up_to_a_stop()
+    assert ("no step longer than 0.5 m came to end the wiggle; nothing saved"
+            in capsys.readouterr().err)
+    assert not (tmp_path / "magcal").exists()
+
+
+def test_log_refuses_to_calibrate_without_the_fusion_set_up_before_opening_a_port(capsys):
+    argv = ["log", "/dev/openshoe-does-not-exist", "--raw", "cal.bin", "--start", "--calibrate-mag"]
+    assert main(argv, io.StringIO()) == 2
+    assert "openshoe-host log: --calibrate-mag needs --fusion: the calibration is saved for the module" \
+        in capsys.readouterr().err
 
 
 # -- a module on each foot ------------------------------------------------------------------
