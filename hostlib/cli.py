@@ -187,7 +187,8 @@ def _feet_options(p: argparse.ArgumentParser, what: str) -> None:
                              "hostlib.feet)")
     g.add_argument("--max-separation", type=_positive_metres, default=None, metavar="M",
                    help="γ: the feet's last rests are never farther apart than M metres (default "
-                        f"{FeetSettings.max_separation_m:g}, the longest walking step; a runner's: 1.5)")
+                        f"{FeetSettings.max_separation_m:g}, the longest walking step; a runner's: 1.5); a "
+                        "step longer than 2γ is fused without it (the other foot moved meanwhile)")
     g.add_argument("--no-constraint", action="store_true",
                    help="no inter-foot constraint: the body is the average of the two single-module tracks")
 
