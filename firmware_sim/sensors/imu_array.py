@@ -44,7 +44,7 @@ from firmware_sim.mcu.imu_bus import RawSample
 
 from .config import DEFAULT_CONFIG, G0, SensorConfig
 from .feet import SIDES, foot_module, foot_seed
-from .gait import WALKING, GaitParams, Trajectory
+from .gait import WALKING, GaitParams, Trajectory, stance_sway_on
 from .impacts import ringing
 from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, gauss_markov, white_sigma
@@ -78,16 +78,23 @@ class SimulatedSource:
 
     *building_seed* (None: the walk's own *seed*) draws the building's magnetic field instead,
     so that two walks share one building: both feet of a walker do.
+
+    *stance_sway*: the foot turns a little in every walking stance (:class:`~.gait.StanceSway`,
+    drawn from the walk's *seed* on its own stream; a trajectory that already sways keeps its own);
+    None: :data:`~.gait.STANCE_SWAY_DEFAULT`.
     """
 
     def __init__(self, motion: Trajectory | str = "default", config: SensorConfig | None = None,
                  seed: int = 0, rate_hz: float = 1000.0, geometry: BoardGeometry = MIMU22BT,
-                 params: GaitParams = WALKING, module: int | None = None, building_seed: int | None = None):
+                 params: GaitParams = WALKING, module: int | None = None, building_seed: int | None = None,
+                 stance_sway: bool | None = None):
         self.config = config or DEFAULT_CONFIG
         if isinstance(motion, str) and environment(motion).outdoors:
             self.config = replace(self.config, mag=self.config.mag.outdoors())
         self.name = motion if isinstance(motion, str) else "<trajectory>"
         self.trajectory = trajectory(motion, params) if isinstance(motion, str) else motion
+        if stance_sway_on(stance_sway) and self.trajectory.stance_sway is None:
+            self.trajectory = self.trajectory.with_stance_sway(seed)
         self.seed = seed
         self.module = seed if module is None else int(module)
         self.rate_hz = float(rate_hz)
@@ -238,24 +245,27 @@ class SimulatedSource:
 
 def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
                 config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
-                module: int | None = None) -> SimulatedSource:
+                module: int | None = None, stance_sway: bool | None = None) -> SimulatedSource:
     """A simulated 4-IMU source for a named scenario (``list_scenarios()``) or a recipe.
 
-    *seed* draws the walk (noise, drift, ringing); *module* is the module's
+    *seed* draws the walk (noise, drift, ringing, the stance sway); *module* is the module's
     identity, which draws its own systematic errors (None: the seed's own, so
-    each seed is a new module).
+    each seed is a new module). *stance_sway*: the foot turns a little in every walking stance
+    (:class:`~.gait.StanceSway`; None: :data:`~.gait.STANCE_SWAY_DEFAULT`).
     """
     return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry,
-                           module=module)
+                           module=module, stance_sway=stance_sway)
 
 
 def make_foot_source(scenario: str, side: str, seed: int = 0, rate_hz: float = 1000.0,
                      config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
-                     module: int | None = None, walker_seed: int | None = None) -> SimulatedSource:
+                     module: int | None = None, walker_seed: int | None = None,
+                     stance_sway: bool | None = None) -> SimulatedSource:
     """The module on the *side* foot of a walker walking *scenario* (:func:`.scenarios.feet`).
 
     *seed* draws this foot's walk and *module* is this module's identity (None: the seed's own),
-    as in :func:`make_source`; :func:`make_feet_sources` gives both feet of a walker their own.
+    and *stance_sway* sways its walking stances, as in :func:`make_source`;
+    :func:`make_feet_sources` gives both feet of a walker their own.
     *walker_seed* draws the building's magnetic field, which both feet of that walker walk
     through (None: the foot's own). The scenario's environment (outdoors or not) applies.
     """
@@ -263,23 +273,26 @@ def make_foot_source(scenario: str, side: str, seed: int = 0, rate_hz: float = 1
     if environment(scenario).outdoors:
         config = replace(config, mag=config.mag.outdoors())
     source = SimulatedSource(feet(scenario).foot(side), config=config, seed=seed, rate_hz=rate_hz,
-                             geometry=geometry, module=module, building_seed=walker_seed)
+                             geometry=geometry, module=module, building_seed=walker_seed,
+                             stance_sway=stance_sway)
     source.name = f"{scenario} ({side} foot)"
     return source
 
 
 def make_feet_sources(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,
                       config: SensorConfig | None = None, geometry: BoardGeometry = MIMU22BT,
-                      walker: int | None = None) -> dict[str, SimulatedSource]:
+                      walker: int | None = None, stance_sway: bool | None = None
+                      ) -> dict[str, SimulatedSource]:
     """A module on each foot of one walker walking *scenario* (:func:`make_foot_source`): side →
     source, :data:`~.feet.SIDES` order.
 
-    Each foot's module draws its own walk from :func:`~.feet.foot_seed` (*seed*, side) and, with
-    *walker*, is module :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own); both
-    walk through the one building *seed* draws.
+    Each foot's module draws its own walk (and stance sway, *stance_sway* as in :func:`make_source`)
+    from :func:`~.feet.foot_seed` (*seed*, side) and, with *walker*, is module
+    :func:`~.feet.foot_module` (*walker*, side) (None: each seed's own); both walk through the one
+    building *seed* draws.
     """
     return {side: make_foot_source(scenario, side, seed=foot_seed(seed, side), rate_hz=rate_hz,
                                    config=config, geometry=geometry,
                                    module=None if walker is None else foot_module(walker, side),
-                                   walker_seed=seed)
+                                   walker_seed=seed, stance_sway=stance_sway)
             for side in SIDES}

@@ -26,7 +26,7 @@ import numpy as np
 
 from .reference_ins import run_reference, stance_phases
 
-__all__ = ["MIN_SWING_S", "STRAIGHT_DEG", "SwingRotation", "swing_rotations", "summary"]
+__all__ = ["MIN_SWING_S", "STRAIGHT_DEG", "SwingRotation", "foot_frame", "swing_rotations", "summary"]
 
 #: Shortest gap between two oracle stances counted as a swing [s] (as :mod:`.threshold`).
 MIN_SWING_S = 0.2
@@ -63,16 +63,18 @@ def _euler(r: np.ndarray) -> tuple[float, float, float]:
     return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
 
 
-def swing_rotations(path: str | Path) -> list[SwingRotation]:
-    """Every swing of the recording *path* (module docstring)."""
-    from firmware_sim.sensors.replay import load_recording
+def _swing_pairs(phases: list[tuple[int, int]], rate: float) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """The (stance before, stance after) of every swing: the gaps of at least MIN_SWING_S."""
+    return [(a, b) for a, b in zip(phases[:-1], phases[1:], strict=True)
+            if b[0] - a[1] - 1 >= MIN_SWING_S * rate]
 
-    rec = load_recording(path)
-    acc, gyro, rate = rec.board_acc_g(), rec.board_gyro(), rec.rate_hz
-    phases = stance_phases(run_reference(rec.acc_g, rec.gyro, rate).stance[:len(gyro)])
-    pairs = [(a, b) for a, b in zip(phases[:-1], phases[1:], strict=True)
-             if b[0] - a[1] - 1 >= MIN_SWING_S * rate]
-    # the foot's frame: its pitch axis is the swings' principal rate axis, down the standing gravity
+
+def foot_frame(acc: np.ndarray, gyro: np.ndarray, phases: list[tuple[int, int]], rate: float) -> np.ndarray:
+    """The rotation (3, 3) from a recording's board frame to the foot's (x forward, y right, z down):
+    its pitch axis is the swings' principal rate axis, down the first stance's gravity, and toe-off
+    pitches the toe down first (a negative pitch rate); *phases* the stances (:func:`stance_phases`)
+    of the recording at *rate* [Hz]."""
+    pairs = _swing_pairs(phases, rate)
     swinging = np.concatenate([gyro[a[1] + 1:b[0]] for a, b in pairs])
     axis = np.linalg.eigh(swinging.T @ swinging)[1][:, -1]
     down = -acc[phases[0][0]:phases[0][1] + 1].mean(axis=0)
@@ -81,7 +83,18 @@ def swing_rotations(path: str | Path) -> list[SwingRotation]:
     right /= np.linalg.norm(right)
     if np.median([gyro[a[1] + 1:a[1] + 20] @ right for a, _ in pairs]) > 0:
         right = -right  # toe-off pitches the toe down first: a negative pitch rate
-    to_foot = np.array([np.cross(right, down), right, down])
+    return np.array([np.cross(right, down), right, down])
+
+
+def swing_rotations(path: str | Path) -> list[SwingRotation]:
+    """Every swing of the recording *path* (module docstring)."""
+    from firmware_sim.sensors.replay import load_recording
+
+    rec = load_recording(path)
+    acc, gyro, rate = rec.board_acc_g(), rec.board_gyro(), rec.rate_hz
+    phases = stance_phases(run_reference(rec.acc_g, rec.gyro, rate).stance[:len(gyro)])
+    pairs = _swing_pairs(phases, rate)
+    to_foot = foot_frame(acc, gyro, phases, rate)
     gyro, acc = gyro @ to_foot.T, acc @ to_foot.T
     out = []
     for (s0, e0), (s1, _) in pairs:

@@ -13,6 +13,7 @@ from firmware_sim.sensors.gait import (
     SHUFFLE,
     STAIRS_DOWN,
     STAIRS_UP,
+    STANCE_SWAY,
     WALKING,
     WIGGLE,
     GaitBuilder,
@@ -218,3 +219,47 @@ def test_ground_truth_exports_per_sample_and_per_stance_csv(tmp_path):
     st = np.loadtxt(gt.stances_to_csv(tmp_path / "stances.csv"), delimiter=",", skiprows=1)
     assert st.shape == (len(gt.stance_start), 8)
     assert np.allclose(st[-1, 2:5], gt.pos[-1], atol=1e-8)
+
+
+# ---------------------------------------------------------------------------------------------
+# the walking stances' residual motion (StanceSway, off by default)
+
+
+def test_a_swaying_stance_turns_the_foot_and_shakes_the_module_in_place_and_nothing_else():
+    """In a walking stance the foot turns by a few °/s and the sole vibrates (tests/oracle/stance_motion.py
+    has the real feet's figures), the module staying within a tenth of a millimetre of its pose and
+    within the ZUPT's σ_v (10 mm/s) of rest; the swings and the stands (≥ 1 s) are exactly as without."""
+    plain = trajectory("walk:30+turn:90")
+    still, swayed = plain.sample(1000.0), plain.with_stance_sway(seed=7).sample(1000.0)
+    assert plain.stance_sway is None and plain.with_stance_sway(seed=7).stance_sway == STANCE_SWAY
+    walking = np.zeros(len(still), bool)
+    for t0, t1 in zip(still.stance_start, still.stance_end, strict=True):
+        if t1 - t0 < STANCE_SWAY.longest_stance_s:
+            walking[int(np.ceil(t0 * 1000)):int(np.ceil(t1 * 1000))] = True
+    assert walking.sum() > 10000 and np.array_equal(swayed.stance, still.stance)
+    for name in ("pos", "vel", "acc", "euler", "omega_b", "alpha_b", "f_b"):
+        assert np.array_equal(getattr(swayed, name)[~walking], getattr(still, name)[~walking]), name
+    rate = np.degrees(np.sqrt(np.mean(swayed.omega_b[walking] ** 2, axis=0)))
+    assert rate == pytest.approx(STANCE_SWAY.rate_rms_dps, rel=0.15)
+    assert np.abs(swayed.pos - still.pos).max() < 1e-4
+    assert np.abs(swayed.vel[walking]).max() < 0.01  # the ZUPT's σ_v; rms about 1 mm/s
+    assert np.abs(np.degrees(swayed.euler - still.euler)).max() < 1.0
+    assert np.array_equal(trajectory("walk:30+turn:90").with_stance_sway(seed=7).sample(1000.0).omega_b,
+                          swayed.omega_b)  # the walk's seed draws it
+    assert not np.array_equal(plain.with_stance_sway(seed=8).sample(1000.0).omega_b, swayed.omega_b)
+
+
+def test_a_swaying_stance_keeps_the_analytic_derivatives_and_the_strapdown_retraces_it():
+    gt = trajectory("stand:1+walk:6+stand:1").with_stance_sway(seed=0).sample(4000.0)
+    dt = 1.0 / 4000.0
+    inner = slice(2, -2)
+    for value, derivative in ((gt.pos, gt.vel), (gt.vel, gt.acc), (gt.omega_b, gt.alpha_b)):
+        fd = np.gradient(value, dt, axis=0)
+        assert np.abs(fd - derivative)[inner].max() < 1e-2 * np.abs(derivative).max()
+    dR = np.gradient(gt.R, dt, axis=0)
+    W = np.einsum("nji,njk->nik", gt.R, dR)
+    omega = np.stack([W[:, 2, 1], W[:, 0, 2], W[:, 1, 0]], axis=1)
+    assert np.abs(omega - gt.omega_b)[inner].max() < 1e-3 * np.abs(gt.omega_b).max()
+    walk = trajectory("walk").with_stance_sway(seed=0).sample(1000.0)
+    p, _, _ = strapdown_rk4(walk.f_b, walk.omega_b, 1e-3, walk.pos[0], walk.vel[0], walk.quat[0], gravity=G)
+    assert np.linalg.norm(p[-1] - walk.pos[-1]) < 0.01
