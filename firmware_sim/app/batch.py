@@ -18,7 +18,10 @@ sensed) and the loop keeps running until the packet queue has drained, so the
 last step is on the wire too. ``--scenario NAME`` replays a simulated walk
 (:func:`firmware_sim.sensors.imu_array.make_source`, 1 kHz by default) instead and
 writes its ground truth beside OUT (``OUT.truth.csv``); ``--module N`` makes it module N's walk
-(module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module).
+(module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module);
+``--stance-sway`` makes its walking stances sway and vibrate as a real foot's do
+(:class:`firmware_sim.sensors.gait.StanceSway`; off by default for now, and said in the run's
+announcement when on).
 
 The replayed host may also use the emulator's extensions, as a host app would:
 ``--host fusion`` sends :data:`protocol.extensions.FUSION_SETUP` after the ack of 0x34 (the
@@ -71,8 +74,9 @@ from protocol.stream import StreamDecoder
 
 from .progress import progress_bar, say
 
-__all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "ReplayResult", "run_replay", "add_arguments",
-           "add_receiver_arguments", "check_arguments", "main", "module_number"]
+__all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
+           "add_arguments", "add_receiver_arguments", "add_stance_sway_argument", "check_arguments", "main",
+           "module_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -291,6 +295,28 @@ def module_number(text: str) -> int:
     return number
 
 
+#: The help of ``--stance-sway`` (replay, serve, the demo).
+STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (gait.StanceSway, measured on the "
+                    "shared walks): the module's ZARU then never holds while walking and its heading drifts, "
+                    "as on a real module; off by default for now (--no-stance-sway: off whatever the "
+                    "default)")
+
+
+def add_stance_sway_argument(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
+    """``--stance-sway`` / ``--no-stance-sway`` (replay, serve, the demo): ``args.stance_sway`` is True,
+    False or None (not given: :data:`firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`), as the sources'
+    *stance_sway* takes it."""
+    p.add_argument("--stance-sway", action=argparse.BooleanOptionalAction, default=None,
+                   help=STANCE_SWAY_HELP)
+
+
+def _stance_sway_note(source: object) -> str:
+    """``", stance sway"`` when simulated *source* walks with the stance sway (for a run's
+    announcement, so that its result can be reproduced), else ""."""
+    trajectory = getattr(source, "trajectory", None)
+    return ", stance sway" if getattr(trajectory, "stance_sway", None) is not None else ""
+
+
 def add_receiver_arguments(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     """``--origin`` and ``--gps-outage``: where a simulated GPS receiver's walk is on the globe, and
     when it has no fix (replay's ``--gps``, serve's ``--gps-pty``)."""
@@ -314,6 +340,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                           "writing DIR/<name>.bin each, and print a summary table")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
     p.add_argument("--module", type=module_number, metavar="N", default=None, help=MODULE_HELP)
+    add_stance_sway_argument(p)
     p.add_argument("--seeds", metavar="A:B",
                    help="with --scenario and --wire-dir: seeds A … B-1 (also N or N,M,…)")
     p.add_argument("--rate", type=float, default=1000.0,
@@ -363,6 +390,8 @@ def check_arguments(args: argparse.Namespace) -> str | None:
         return "--profile goes with --wire (one replay); many runs take each recording's own sensor profile"
     if args.module is not None and args.scenario is None:
         return "--module goes with --scenario: a recording carries its own module's sensors"
+    if getattr(args, "stance_sway", None) is not None and args.scenario is None:
+        return "--stance-sway goes with --scenario: a recording carries its own foot's motion"
     gps = getattr(args, "gps", None) is not None
     if gps and (args.scenario is None or args.wire is None):
         return "--gps goes with --scenario and --wire: the receiver follows a simulated walk's truth"
@@ -414,10 +443,12 @@ def main(args: argparse.Namespace) -> int:
 
             if getattr(args, "gps", None) is not None:
                 gps = _gps_errors(args)  # a bad origin or outage is refused before the run
-            source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate, module=args.module)
+            source = make_source(args.scenario, seed=args.seed, rate_hz=args.rate, module=args.module,
+                                 stance_sway=getattr(args, "stance_sway", None))
             truth = source.truth
             module = "" if args.module is None else f"module {args.module}, "
-            name = f"scenario {args.scenario!r} ({module}seed {args.seed}, {args.rate:g} Hz)"
+            name = (f"scenario {args.scenario!r} ({module}seed {args.seed}, {args.rate:g} Hz"
+                    f"{_stance_sway_note(source)})")
         else:
             source = ReplaySource.from_file(args.files[0])
             name = str(args.files[0])
@@ -440,7 +471,8 @@ def _main_feet(args: argparse.Namespace) -> int:
 
     try:
         gps = _gps_errors(args) if getattr(args, "gps", None) is not None else None
-        sources = make_feet_sources(args.scenario, seed=args.seed, rate_hz=args.rate, walker=args.module)
+        sources = make_feet_sources(args.scenario, seed=args.seed, rate_hz=args.rate, walker=args.module,
+                                    stance_sway=getattr(args, "stance_sway", None))
     except (KeyError, ValueError) as e:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2
@@ -448,7 +480,7 @@ def _main_feet(args: argparse.Namespace) -> int:
         source = sources[side]
         wire = args.wire.with_name(f"{args.wire.name}.{side}")
         name = (f"scenario {args.scenario!r}, {side} foot (module {source.module}, seed {source.seed}, "
-                f"{args.rate:g} Hz)")
+                f"{args.rate:g} Hz{_stance_sway_note(source)})")
         _replay_to(args, source, name, source.module, wire)  # each foot's own serial number
         source.truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
     body = body_truth(sources["left"].truth, sources["right"].truth)

@@ -39,7 +39,7 @@ from firmware_sim.transports.pacer import Pacer
 from hostlib.tracking import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
-from .batch import MODULE_HELP, module_number
+from .batch import MODULE_HELP, add_stance_sway_argument, module_number
 from .progress import progress_bar
 
 #: Virtual seconds the module keeps running after the route ends (the last step's reset).
@@ -106,6 +106,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--scenario", default="default", help="route or recipe (default: the built-in route)")
     p.add_argument("--seed", type=int, default=0, help="sensor and link seed (default 0)")
     p.add_argument("--module", type=module_number, metavar="N", default=None, help=MODULE_HELP)
+    add_stance_sway_argument(p)
     p.add_argument("--link", choices=["bt", "usb", "ideal"], default="bt", help="link model (default bt)")
     p.add_argument("--speed", type=float, default=0.0,
                    help="module time per wall time; 0 = as fast as the CPU allows (default)")
@@ -144,12 +145,14 @@ class _Route:
 
 def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
     from firmware_sim.sensors import make_source
+    from firmware_sim.sensors.gait import stance_sway_on
 
     t0 = time.monotonic()
     module = "" if args.module is None else f"module {args.module}, "
+    sway = ", stance sway" if stance_sway_on(args.stance_sway) else ""
     say(f"[1/4] simulating the sensors of a foot walking the {args.scenario!r} route "
-        f"({module}seed {args.seed}) …")
-    source = make_source(args.scenario, seed=args.seed, module=args.module)
+        f"({module}seed {args.seed}{sway}) …")
+    source = make_source(args.scenario, seed=args.seed, module=args.module, stance_sway=args.stance_sway)
     route = _Route(source, source.truth, len(source) / source.rate_hz)
     say(f"      {route.seconds:.0f} s of walking, {route.truth.distance_m():.1f} m, "
         f"{true_motion_steps(route.truth)} steps; built in {time.monotonic() - t0:.1f} s")
@@ -173,7 +176,8 @@ class _EmulatedModule:
         self._tmp = tempfile.TemporaryDirectory(prefix="openshoe-demo-")
         self.pty_path = Path(self._tmp.name) / "openshoe0"
         settings = EmulatorSettings(scenario=args.scenario, seed=args.seed, module=args.module,
-                                    link=args.link, interface="bt", speed=args.speed, pty=str(self.pty_path))
+                                    stance_sway=args.stance_sway, link=args.link, interface="bt",
+                                    speed=args.speed, pty=str(self.pty_path))
         try:
             built = build(settings, sensors=self.played)
         except BaseException:

@@ -9,7 +9,7 @@ byte for byte what a replay of it alone writes, and a table of the runs goes to 
 distance, closure (for closed loops) and time (:mod:`firmware_sim.app.runs`). The compiled
 tracking path is prepared once, before the first run; a reader thread reads the next file
 while the current one runs. ``--host fusion``, ``--height-compensation`` and ``--calibrate-mag``
-apply to every run.
+apply to every run, and ``--stance-sway`` to every run of a scenario.
 """
 
 from __future__ import annotations
@@ -48,7 +48,7 @@ def main(args: argparse.Namespace) -> int:
     else:
         runs = file_runs(args.files)
     runs = [dataclasses.replace(spec, host=args.host, height_compensation=args.height_compensation,
-                                calibrate_mag=args.calibrate_mag)
+                                calibrate_mag=args.calibrate_mag, stance_sway=args.stance_sway)
             for spec in runs]
     return replay_many(runs, args.wire_dir, table=args.table, quiet=args.quiet)
 

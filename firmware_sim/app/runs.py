@@ -66,6 +66,10 @@ class RunSpec:
     height_compensation: bool = False
     #: the replayed fusion host also runs the in-situ magnetometer calibration (the wiggle's stream)
     calibrate_mag: bool = False
+    #: a scenario's walking stances sway and vibrate (:class:`firmware_sim.sensors.gait.StanceSway`);
+    #: None: :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`. It changes the wire bytes and the
+    #: truth, not the row's columns
+    stance_sway: bool | None = None
 
     @property
     def walking_module(self) -> int | None:
@@ -152,7 +156,7 @@ def load(spec: RunSpec) -> Loaded:
 
         source = make_source(spec.source, seed=spec.seed, rate_hz=applied.rate_hz or spec.rate_hz,
                              config=applied.sensors,
-                             module=spec.module)
+                             module=spec.module, stance_sway=spec.stance_sway)
         truth = source.truth
     return Loaded(source, truth, applied, time.perf_counter() - t0)
 

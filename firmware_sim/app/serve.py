@@ -59,7 +59,7 @@ from typing import Any, TextIO
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 
-from .batch import MODULE_HELP, add_receiver_arguments, module_number
+from .batch import MODULE_HELP, add_receiver_arguments, add_stance_sway_argument, module_number
 from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
@@ -122,6 +122,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     m.add_argument("--seed", type=int, default=0, help="seed of the sensors and the link (default 0)")
     m.add_argument("--module", type=module_number, metavar="N", default=None,
                    help=MODULE_HELP + "; with --modules K, module i is N + i")
+    add_stance_sway_argument(m)
     m.add_argument("--command-set", choices=["2014", "2015"], default="2015",
                    help="command numbering (default 2015; 2014 for old vendor apps)")
     m.add_argument("--speed", type=float, default=1.0,
@@ -209,7 +210,7 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
         raise SettingsError("{} and {} go with {} PATH", "origin", "gps_outage", "gps_pty")
     emulator = EmulatorSettings(
         scenario=args.scenario or "default", replay=args.replay or "", seed=args.seed, module=args.module,
-        command_set=args.command_set,
+        stance_sway=args.stance_sway, command_set=args.command_set,
         speed=args.speed, interface=args.interface, link=args.link or args.interface,
         loss=args.loss, corrupt=args.corrupt, stall_rate=args.stall_rate,
         disconnect_rate=args.disconnect_rate, pty=args.pty or "", tcp=args.tcp, rfc2217=args.rfc2217,

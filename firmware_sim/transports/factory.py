@@ -13,6 +13,10 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
                  seed (firmware_sim.sensors.make_source), and its MCU serial number
                  (:func:`module_serial`); None: the seed's own errors, the default serial
                  (module i: module + i)
+    stance_sway  1/0 (true/false, yes/no, on/off): the walking stances sway and vibrate as a real
+                 foot's do (firmware_sim.sensors.gait.StanceSway: ZARU then never holds while
+                 walking, as on a real module); not with a replay; None (not given):
+                 gait.STANCE_SWAY_DEFAULT, off for now
     link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
@@ -64,7 +68,10 @@ from .tcp import TcpEndpoint
 Address = tuple[str, int]
 
 #: The settings an ``openshoe://`` URL may give, in the order its error messages list them.
-URL_OPTIONS = ("scenario", "seed", "module", "link", "interface", "command_set", "speed", "loss", "corrupt")
+URL_OPTIONS = ("scenario", "seed", "module", "stance_sway", "link", "interface", "command_set", "speed",
+               "loss", "corrupt")
+#: How an ``openshoe://`` URL spells a switch's two values.
+_SWITCH_ON, _SWITCH_OFF = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 _NO_VALUE = object()
 
@@ -120,6 +127,9 @@ class EmulatorSettings:
     scenario: str = "default"
     seed: int = 0
     module: int | None = None  #: the simulated module's identity; None: the seed's own
+    #: the scenario's walking stances sway (:class:`~firmware_sim.sensors.gait.StanceSway`); None:
+    #: :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`
+    stance_sway: bool | None = None
     link: str = "ideal"
     interface: str = ""
     command_set: str = "2015"
@@ -160,6 +170,11 @@ class EmulatorSettings:
             if self.replay:
                 raise SettingsError("{} goes with a scenario, not {} FILE: a recording carries its own "
                                     "sensors", "module", "replay")
+        if self.stance_sway not in (None, True, False):
+            raise SettingsError("{} must be a switch (true or false)", "stance_sway", got=self.stance_sway)
+        if self.stance_sway and self.replay:
+            raise SettingsError("{} goes with a scenario, not {} FILE: a recording carries its own foot's "
+                                "motion", "stance_sway", "replay")
 
     def _check_feet(self) -> None:
         if self.feet not in (1, 2):
@@ -242,6 +257,9 @@ class EmulatorSettings:
             if key not in URL_OPTIONS:
                 raise ValueError(f"unknown option {key!r} in {url!r}; known: {', '.join(URL_OPTIONS)}")
             raw = values[-1]
+            if types[key] in ("bool | None", "bool", bool):
+                kw[key] = _switch(key, raw, url)
+                continue
             try:
                 if types[key] in ("int", int, "int | None"):
                     kw[key] = int(raw)
@@ -252,6 +270,15 @@ class EmulatorSettings:
             except ValueError:
                 raise ValueError(f"option {key}={raw!r} in {url!r} is not a number") from None
         return cls(**kw)  # type: ignore[arg-type]
+
+
+def _switch(key: str, raw: str, url: str) -> bool:
+    """A URL's switch *raw* (1/0, true/false, yes/no, on/off) as a bool; ValueError naming it."""
+    text = raw.strip().lower()
+    if text not in _SWITCH_ON + _SWITCH_OFF:
+        raise ValueError(f"option {key}={raw!r} in {url!r} is not a switch: give 1 or 0 (true/false, yes/no, "
+                         f"on/off)")
+    return text in _SWITCH_ON
 
 
 def module_seed(settings: EmulatorSettings, index: int) -> int:
@@ -275,11 +302,13 @@ def module_identity(settings: EmulatorSettings, index: int) -> int | None:
 
 
 def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = None,
-                 side: str | None = None, walker_seed: int | None = None) -> SensorSource:
+                 side: str | None = None, walker_seed: int | None = None,
+                 stance_sway: bool | None = None) -> SensorSource:
     """The sensor source of a scenario as a served module plays it: module *module* (None: the
     seed's own) walking the scenario with seed *seed*; with *side*, worn on that foot of the
     walker whose walk *walker_seed* draws the building
-    (:func:`~firmware_sim.sensors.imu_array.make_foot_source`).
+    (:func:`~firmware_sim.sensors.imu_array.make_foot_source`); *stance_sway*: its walking
+    stances sway (None: the default, as :func:`~firmware_sim.sensors.imu_array.make_source`).
 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
@@ -287,10 +316,10 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
     """
     try:
         if side is None:
-            source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module)
+            source = make_source(scenario, seed=seed, rate_hz=rate_hz, module=module, stance_sway=stance_sway)
         else:
             source = make_foot_source(scenario, side, seed=seed, rate_hz=rate_hz, module=module,
-                                      walker_seed=walker_seed)
+                                      walker_seed=walker_seed, stance_sway=stance_sway)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
     return served_source(source)
@@ -427,7 +456,8 @@ def _sensors(settings: EmulatorSettings, index: int) -> SensorSource:
         return served_source(ReplaySource.from_file(settings.replay))
     side = settings.side(index)
     return make_sensors(settings.scenario, module_seed(settings, index), DEFAULT_RATE_HZ,
-                        module_identity(settings, index), side, None if side is None else settings.seed)
+                        module_identity(settings, index), side, None if side is None else settings.seed,
+                        settings.stance_sway)
 
 
 def build(settings: EmulatorSettings, index: int = 0, *, sensors: SensorSource | None = None) -> BuiltModule:

@@ -139,6 +139,26 @@ def test_a_url_names_the_simulated_module():
         EmulatorSettings.from_url("openshoe://?module=x")
 
 
+def test_a_url_switches_the_stance_sway():
+    for raw, value in (("1", True), ("true", True), ("on", True), ("0", False), ("no", False)):
+        assert EmulatorSettings.from_url(f"openshoe://?scenario=walk&stance_sway={raw}").stance_sway is value
+    assert EmulatorSettings.from_url("openshoe://?seed=1").stance_sway is None, "default: gait's default"
+    with pytest.raises(ValueError, match="stance_sway='maybe' .* is not a switch: give 1 or 0"):
+        EmulatorSettings.from_url("openshoe://?stance_sway=maybe")
+    with pytest.raises(SettingsError, match="stance_sway goes with a scenario, not replay") as caught:
+        EmulatorSettings(replay="walk.txt", stance_sway=True)
+    assert caught.value.options == ("stance_sway", "replay")
+    with pytest.raises(SettingsError, match="stance_sway must be a switch"):
+        EmulatorSettings(stance_sway=2)  # type: ignore[arg-type]
+
+
+def test_a_built_module_walks_with_the_stance_sway_only_when_asked():
+    assert _simulated(build(quick(stance_sway=True))).trajectory.stance_sway is not None
+    assert _simulated(build(quick())).trajectory.stance_sway is None
+    left, right = (_simulated(build(quick(seed=3, feet=2, stance_sway=True), i)) for i in range(2))
+    assert left.trajectory.stance_sway is not None and right.trajectory.stance_sway is not None
+
+
 def test_a_module_identity_goes_with_a_scenario_not_a_recording():
     with pytest.raises(SettingsError, match="module goes with a scenario, not replay") as caught:
         EmulatorSettings(replay="walk.txt", module=2)

@@ -82,6 +82,8 @@ def test_bad_urls_are_refused_clearly():
         serial.serial_for_url("openshoe://?seed=x")
     with pytest.raises(serial.SerialException, match="unknown link profile"):
         serial.serial_for_url("openshoe://?link=wifi")
+    with pytest.raises(serial.SerialException, match="stance_sway='2' .* is not a switch: give 1 or 0"):
+        serial.serial_for_url("openshoe://?stance_sway=2")
     with pytest.raises(ValueError, match="speed"):
         EmulatorSettings.from_url("openshoe://?speed=-1")
 
