@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -35,6 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
     n = _seeded(sub, "navshoe-outage", "NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the "
                                        "first 400 m; compass + GPS, GPS only, compass only, plain",
                 "1:21", "walks", "twenty")
+    n.add_argument("--stance-sway", action="store_true", default=None,
+                   help="the walking stances sway and vibrate as a real foot's do (firmware_sim.sensors.gait."
+                        "StanceSway): the module's ZARU then never holds while walking and its gyro bias "
+                        "turns its heading, as on a real module (default: the simulation's default, off)")
     hs = _seeded(sub, "navshoe-house", "NavShoe's house walk: 118 m through a two-storey house, indoors; the "
                                        "compass per step, at every reset, continuously, none",
                  "1:21", "walks", "twenty")
@@ -192,7 +197,8 @@ def _speeds(args: argparse.Namespace, out) -> int:
 def _navshoe_outage(args: argparse.Namespace, out) -> int:
     from . import navshoe
 
-    return _seeded_table(args, out, navshoe.outage_rows, navshoe.summary_lines, "navshoe-outage.csv")
+    rows_of = functools.partial(navshoe.outage_rows, stance_sway=args.stance_sway)
+    return _seeded_table(args, out, rows_of, navshoe.summary_lines, "navshoe-outage.csv")
 
 
 def _navshoe_house(args: argparse.Namespace, out) -> int:

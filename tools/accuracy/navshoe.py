@@ -44,6 +44,7 @@ before comparing.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -160,16 +161,19 @@ class OracleCompassTracker(FusionTracker):
         return math.atan2(r[1, 0], r[0, 0]) - math.radians(self._source.config.mag.declination_deg)
 
 
-def outage_run(seed: int) -> list[dict[str, Any]]:
+def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any]]:
     """The hosts' rows of one seed (module docstring); a GPS host's also give its horizontal error
-    where the receiver fell silent (``last_fix_error_m``: the error the outage starts with)."""
+    where the receiver fell silent (``last_fix_error_m``: the error the outage starts with).
+    *stance_sway*: the walking stances sway as a real foot's (:class:`firmware_sim.sensors.gait.StanceSway`;
+    None: the simulation's default)."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.compass import wrap_angle
     from hostlib.replay import replay_session
 
     from .runs import fusion_capture
 
-    source = make_source(SCENARIO, seed=seed)
+    source = make_source(SCENARIO, seed=seed, stance_sway=stance_sway)
+    sway = source.trajectory.stance_sway is not None
     truth = source.truth
     data = fusion_capture(source)
     gps = walk_fixes(SCENARIO, truth.t, truth.pos, truth.vel, seed)
@@ -226,7 +230,7 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
         cov = tracker.state_covariance
         heading_error = wrap_angle(float(pose[3]) - true_heading)
         rows.append({
-            "seed": seed, "host": host, "distance_m": round(tracker.track.distance, 1),
+            "seed": seed, "host": host, "stance_sway": sway, "distance_m": round(tracker.track.distance, 1),
             "without_gps_m": round(gps.without_gps_m, 1), "end_error_m": error,
             "end_error_pct_without_gps": 100.0 * error / gps.without_gps_m,
             "heading_error_deg": math.degrees(heading_error),
@@ -248,16 +252,19 @@ def outage_run(seed: int) -> list[dict[str, Any]]:
     return rows
 
 
-def outage_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
-    """Every seed's rows, seeds in order (on *workers* Dask processes)."""
+def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
+                ) -> list[dict[str, Any]]:
+    """Every seed's rows, seeds in order (on *workers* Dask processes; *stance_sway* as in
+    :func:`outage_run`)."""
     from .runs import seeded_rows
 
-    return seeded_rows(outage_run, seeds, workers)
+    return seeded_rows(functools.partial(outage_run, stance_sway=stance_sway), seeds, workers)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
-    return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds: error at the end of the outage "
+    sway = ", walking stances swaying" if any(r.get("stance_sway") for r in rows) else ""
+    return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds{sway}: error at the end of the outage "
             f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
             ] + error_table(rows, "host", HOSTS) + _silent_lines(rows) + _consistency_lines(rows)
 
