@@ -36,10 +36,7 @@ def build_parser() -> argparse.ArgumentParser:
     n = _seeded(sub, "navshoe-outage", "NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the "
                                        "first 400 m; compass + GPS, GPS only, compass only, plain",
                 "1:21", "walks", "twenty")
-    n.add_argument("--stance-sway", action="store_true", default=None,
-                   help="the walking stances sway and vibrate as a real foot's do (firmware_sim.sensors.gait."
-                        "StanceSway): the module's ZARU then never holds while walking and its gyro bias "
-                        "turns its heading, as on a real module (default: the simulation's default, off)")
+    _stance_sway_option(n)
     hs = _seeded(sub, "navshoe-house", "NavShoe's house walk: 118 m through a two-storey house, indoors; the "
                                        "compass per step, at every reset, continuously, none",
                  "1:21", "walks", "twenty")
@@ -62,6 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     c = _seeded(sub, "consistency", "is the summed covariance honest? the end pose's normalised squared "
                                     "error on walk, rectangle and default, and a constant inflation "
                                     "estimated on the other routes", "0:20", "modules", "twenty")
+    _stance_sway_option(c)
     ef = sub.add_parser("error-free", help="every named scenario walked by an error-free module at 1 kHz: "
                                            "the end error in %% of the 3-D path and the height error")
     ef.add_argument("scenarios", nargs="*", metavar="SCENARIO",
@@ -78,6 +76,14 @@ def build_parser() -> argparse.ArgumentParser:
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
                        help="write the table (CSV) and the height picture here (default accuracy-out)")
     return p
+
+
+def _stance_sway_option(q: argparse.ArgumentParser) -> None:
+    """``--stance-sway`` of an experiment on simulated walks."""
+    q.add_argument("--stance-sway", action="store_true", default=None,
+                   help="the walking stances sway and vibrate as a real foot's do (firmware_sim.sensors.gait."
+                        "StanceSway): the module's ZARU then never holds while walking and its gyro bias "
+                        "turns its heading, as on a real module (default: the simulation's default, off)")
 
 
 def _seeded(sub: Any, name: str, help: str, default: str, what: str, count: str) -> argparse.ArgumentParser:
@@ -257,8 +263,8 @@ def _two_feet_drift(args: argparse.Namespace, out) -> int:
 def _consistency(args: argparse.Namespace, out) -> int:
     from . import consistency
 
-    return _seeded_table(args, out, consistency.consistency_rows, consistency.summary_lines,
-                         "consistency.csv")
+    rows_of = functools.partial(consistency.consistency_rows, stance_sway=args.stance_sway)
+    return _seeded_table(args, out, rows_of, consistency.summary_lines, "consistency.csv")
 
 
 def _two_feet_heading(args: argparse.Namespace, out) -> int:

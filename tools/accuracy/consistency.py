@@ -82,8 +82,9 @@ def nees_interval(seeds: int, dof: int, z: float = _Z95) -> tuple[float, float]:
     return tuple((1.0 - c + s * z * math.sqrt(c)) ** 3 for s in (-1.0, 1.0))  # type: ignore[return-value]
 
 
-def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
-    """One walk: *job* = (scenario, seed). Its end errors, their 1σ and NEES."""
+def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict[str, Any]:
+    """One walk: *job* = (scenario, seed[, stance sway]; the sway as ``make_source``'s, None: the
+    simulation's default). Its end errors, their 1σ and NEES."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.fusion import FusionSettings, FusionTracker
     from hostlib.module_errors import ModuleErrors
@@ -91,8 +92,8 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
 
     from .runs import fusion_capture
 
-    scenario, seed = job
-    source = make_source(scenario, seed=seed)
+    scenario, seed, *sway = job
+    source = make_source(scenario, seed=seed, stance_sway=sway[0] if sway else None)
     # the fusion set-up's bytes: the same steps as the plain one's, each with its module time
     data = fusion_capture(source)
     track, _ = replay_bytes(data)
@@ -106,7 +107,8 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
     p = track.final_covariance
     sigma = np.sqrt(np.diagonal(p))
     d = track.final_pose[:2] - track.poses[0][:2]
-    return {"scenario": scenario, "seed": seed, "steps": track.motion_steps, "distance_m": track.distance,
+    return {"scenario": scenario, "seed": seed, "stance_sway": source.trajectory.stance_sway is not None,
+            "steps": track.motion_steps, "distance_m": track.distance,
             "d_north_m": float(d[0]), "d_east_m": float(d[1]),
             "p_nn": float(p[0, 0]), "p_ne": float(p[0, 1]), "p_ee": float(p[1, 1]), "p_zz": float(p[2, 2]),
             "p_chichi": float(p[3, 3]),
@@ -120,10 +122,10 @@ def consistency_run(job: tuple[str, int]) -> dict[str, Any]:
             "nees_z": float(e[2] ** 2 / p[2, 2]), "nees_chi": e_chi ** 2 / float(p[3, 3])}
 
 
-def consistency_rows(seeds: Sequence[int], workers: int = 2,
-                     scenarios: Sequence[str] = SCENARIOS) -> list[dict[str, Any]]:
-    """Every scenario × seed, in that order."""
-    return map_runs(consistency_run, [(s, seed) for s in scenarios for seed in seeds], workers)
+def consistency_rows(seeds: Sequence[int], workers: int = 2, scenarios: Sequence[str] = SCENARIOS,
+                     stance_sway: bool | None = None) -> list[dict[str, Any]]:
+    """Every scenario × seed, in that order (*stance_sway* as in :func:`consistency_run`)."""
+    return map_runs(consistency_run, [(s, seed, stance_sway) for s in scenarios for seed in seeds], workers)
 
 
 def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
