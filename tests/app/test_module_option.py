@@ -3,7 +3,6 @@
 
 from __future__ import annotations
 
-import argparse
 from dataclasses import fields
 
 import numpy as np
@@ -12,6 +11,8 @@ import pytest
 from firmware_sim.app import cli, demo
 from firmware_sim.app.batch import run_replay
 from firmware_sim.sensors.imu_array import make_source
+
+from .serve_args import serve_args
 
 RECIPE = "stand:1+walk:2"
 STEM = "stand_1_walk_2"
@@ -85,32 +86,24 @@ def test_a_negative_module_is_refused_by_the_command_line(capsys):
 # --------------------------------------------------------------------------- serve and the demo
 
 
-def _serve_args(*argv: str) -> argparse.Namespace:
-    from firmware_sim.app.serve import add_arguments
-
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    return parser.parse_args(argv)
-
-
 def test_serve_passes_the_module_identity_to_its_modules():
     from firmware_sim.app.serve import settings_from_args
 
-    assert settings_from_args(_serve_args("--tcp", "0", "--seed", "4", "--module", "9")).emulator.module == 9
-    assert settings_from_args(_serve_args("--tcp", "0")).emulator.module is None
+    assert settings_from_args(serve_args("--tcp", "0", "--seed", "4", "--module", "9")).emulator.module == 9
+    assert settings_from_args(serve_args("--tcp", "0")).emulator.module is None
 
 
 def test_serve_refuses_a_module_identity_for_a_recording(capsys):
     from firmware_sim.app.serve import main
 
-    assert main(_serve_args("--tcp", "0", "--replay", "walk.txt", "--module", "1")) == 2
+    assert main(serve_args("--tcp", "0", "--replay", "walk.txt", "--module", "1")) == 2
     assert capsys.readouterr().err == ("openshoe-emu serve: --module goes with a scenario, not --replay "
                                        "FILE: a recording carries its own sensors\n")
 
 
 def test_serve_refuses_a_negative_module(capsys):
     with pytest.raises(SystemExit) as caught:
-        _serve_args("--tcp", "0", "--module", "-2")
+        serve_args("--tcp", "0", "--module", "-2")
     assert caught.value.code == 2 and "--module" in capsys.readouterr().err
 
 

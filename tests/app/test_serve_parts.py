@@ -18,6 +18,8 @@ from firmware_sim.mcu.port import IdealPort
 from firmware_sim.sensors.playback import HoldLastSource, StartOnFirstRead, served_source
 from firmware_sim.transports.hub import HostHub
 
+from .serve_args import serve_args
+
 
 def test_one_link_fans_out_to_every_connected_host():
     port = IdealPort()
@@ -169,26 +171,18 @@ def test_tcp_address_round_trips(host, port):
     assert tcp_address(str(port)) == ("127.0.0.1", port)
 
 
-def _serve_args(*argv: str) -> argparse.Namespace:
-    from firmware_sim.app.serve import add_arguments
-
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    return parser.parse_args(argv)
-
-
 def test_the_command_line_becomes_settings():
     from firmware_sim.app.serve import MANY_MODULES_FRAME_MS, frame_ticks, settings_from_args
 
-    s = settings_from_args(_serve_args("--pty", "/tmp/p", "--tcp", "5000", "--modules", "3", "--seed", "7",
+    s = settings_from_args(serve_args("--pty", "/tmp/p", "--tcp", "5000", "--modules", "3", "--seed", "7",
                                        "--frame-ms", "2", "--trace", "/tmp/t"))
     e = s.emulator
     assert (e.pty, e.tcp, e.modules, e.seed, e.speed) == ("/tmp/p", ("127.0.0.1", 5000), 3, 7, 1.0)
     assert (e.interface, e.link, e.served_interface) == ("bt", "bt", "bt"), "the link follows the interface"
     assert (s.frame_ms, s.trace, s.control, s.status_interval) == (2.0, "/tmp/t", None, 1.0)
-    usb = settings_from_args(_serve_args("--tcp", "0", "--interface", "usb", "--link", "ideal")).emulator
+    usb = settings_from_args(serve_args("--tcp", "0", "--interface", "usb", "--link", "ideal")).emulator
     assert (usb.link, usb.served_interface, usb.pty) == ("ideal", "usb", "")
-    feet = settings_from_args(_serve_args("--pty", "/tmp/shoe", "--feet", "2", "--module", "4"))
+    feet = settings_from_args(serve_args("--pty", "/tmp/shoe", "--feet", "2", "--module", "4"))
     assert (feet.emulator.feet, feet.emulator.module_count, feet.emulator.module) == (2, 2, 4)
     assert frame_ticks(feet, 1000.0) == round(MANY_MODULES_FRAME_MS), "frames as for several modules (1 kHz)"
 
@@ -211,7 +205,7 @@ def test_the_command_line_becomes_settings():
 def test_refused_options_exit_with_status_2_and_name_the_option(argv, message, capsys):
     from firmware_sim.app.serve import main
 
-    assert main(_serve_args(*argv)) == 2
+    assert main(serve_args(*argv)) == 2
     captured = capsys.readouterr()
     assert captured.err == message + "\n" and captured.out == ""
 

@@ -8,7 +8,6 @@ Virtual time: the tests move the module's clock by hand.
 
 from __future__ import annotations
 
-import argparse
 import datetime as dt
 import errno
 import os
@@ -26,6 +25,8 @@ from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START, GpsErrors, R
 from firmware_sim.sensors.playback import StartOnFirstRead
 from firmware_sim.transports.factory import EmulatorSettings, build
 from hostlib.gps import NmeaReader, local_positions
+
+from .serve_args import serve_args
 
 #: A receiver without errors: its fixes are where the walker is.
 EXACT = GpsErrors(horizontal_rms_m=0.0, vertical_rms_m=0.0, white_m=0.0)
@@ -159,22 +160,14 @@ def test_a_reader_that_is_not_there_or_does_not_read_loses_whole_sentences_count
     assert not (tmp_path / "gps").exists()
 
 
-def _serve_args(*argv: str) -> argparse.Namespace:
-    from firmware_sim.app.serve import add_arguments
-
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    return parser.parse_args(argv)
-
-
 def test_the_gps_options_become_settings_and_ready_and_status_name_the_receiver(tmp_path):
     from firmware_sim.app.serve import build_served_module, ready_line, settings_from_args, status_text
 
-    s = settings_from_args(_serve_args("--pty", "/tmp/shoe", "--scenario", "walk", "--gps-pty", "/tmp/gps",
+    s = settings_from_args(serve_args("--pty", "/tmp/shoe", "--scenario", "walk", "--gps-pty", "/tmp/gps",
                                        "--origin", "58.39,15.57,90", "--gps-outage", "30:end"))
     assert s.gps is not None and s.gps.pty == "/tmp/gps" and s.gps.origin == (58.39, 15.57, 90.0)
     assert s.gps.errors.outages == ((30.0, float("inf")),)
-    plain = settings_from_args(_serve_args("--pty", "/tmp/shoe"))
+    plain = settings_from_args(serve_args("--pty", "/tmp/shoe"))
     assert plain.gps is None and plain.emulator.scenario == "default"
     clock, _walk, receiver = _walk_north()
     endpoint = GpsPtyEndpoint(receiver, tmp_path / "gps")
@@ -205,6 +198,6 @@ def test_the_gps_options_become_settings_and_ready_and_status_name_the_receiver(
 def test_gps_options_that_do_not_fit_exit_with_status_2_and_say_why(argv, message, capsys):
     from firmware_sim.app.serve import main
 
-    assert main(_serve_args(*argv)) == 2
+    assert main(serve_args(*argv)) == 2
     captured = capsys.readouterr()
     assert captured.err.startswith("openshoe-emu serve: " + message) and captured.out == ""

@@ -4,8 +4,6 @@ every capture keeps its bytes."""
 
 from __future__ import annotations
 
-import argparse
-
 import pytest
 
 from firmware_sim.app import cli, demo
@@ -14,6 +12,8 @@ from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.sensors.imu_array import make_feet_sources, make_source
 from firmware_sim.transports.factory import module_serial
 from hostlib.replay import replay_bytes
+
+from .serve_args import serve_args
 
 RECIPE = "stand:2+walk:6+stand:2"
 STEM = "stand_2_walk_6_stand_2"
@@ -88,26 +88,18 @@ def test_a_recording_refuses_the_stance_sway(out, tmp_path, capsys):
 # --------------------------------------------------------------------------- serve and the demo
 
 
-def _serve_args(*argv: str) -> argparse.Namespace:
-    from firmware_sim.app.serve import add_arguments
-
-    parser = argparse.ArgumentParser()
-    add_arguments(parser)
-    return parser.parse_args(argv)
-
-
 def test_serve_passes_the_stance_sway_to_its_modules():
     from firmware_sim.app.serve import settings_from_args
 
-    assert settings_from_args(_serve_args("--tcp", "0", "--stance-sway")).emulator.stance_sway is True
-    assert settings_from_args(_serve_args("--tcp", "0", "--no-stance-sway")).emulator.stance_sway is False
-    assert settings_from_args(_serve_args("--tcp", "0")).emulator.stance_sway is None
+    assert settings_from_args(serve_args("--tcp", "0", "--stance-sway")).emulator.stance_sway is True
+    assert settings_from_args(serve_args("--tcp", "0", "--no-stance-sway")).emulator.stance_sway is False
+    assert settings_from_args(serve_args("--tcp", "0")).emulator.stance_sway is None
 
 
 def test_serve_refuses_the_stance_sway_for_a_recording(capsys):
     from firmware_sim.app.serve import main
 
-    assert main(_serve_args("--tcp", "0", "--replay", "walk.txt", "--stance-sway")) == 2
+    assert main(serve_args("--tcp", "0", "--replay", "walk.txt", "--stance-sway")) == 2
     assert capsys.readouterr().err == ("openshoe-emu serve: --stance-sway goes with a scenario, not --replay "
                                        "FILE: a recording carries its own foot's motion\n")
 
