@@ -36,6 +36,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .gauss_markov import require_positive, transition
+
 __all__ = ["INDOORS", "OUTDOORS", "WHITE_SIGMA_RAD", "CompassDeviation"]
 
 
@@ -50,10 +52,7 @@ class CompassDeviation:
     length_m: float
 
     def __post_init__(self) -> None:
-        for name in ("sigma_rad", "length_m"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value}")
+        require_positive(self, ("sigma_rad", "length_m"))
 
     @property
     def variance(self) -> float:
@@ -62,9 +61,7 @@ class CompassDeviation:
 
     def transition(self, distance_m: float) -> tuple[float, float]:
         """(φ, q) over a walk of *distance_m* [m]: d ← φ d, var d ← φ² var d + q."""
-        distance = abs(float(distance_m))
-        phi = math.exp(-distance / self.length_m)
-        return phi, -math.expm1(-2.0 * distance / self.length_m) * self.variance
+        return transition(distance_m, self.length_m, self.variance)
 
     def describe(self) -> str:
         return f"σ {math.degrees(self.sigma_rad):g}° over {self.length_m:g} m"

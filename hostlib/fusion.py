@@ -87,6 +87,7 @@ import numpy as np
 from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
 from .deviation import CompassDeviation
 from .events import StepOutcome
+from .gauss_markov import decay
 from .gps_bias import GpsBias
 from .magcal import MagCalibration
 from .module_clock import ModuleClock
@@ -363,12 +364,8 @@ class AidedFilter:
         """The local deviation d (held: just before D) after a walk of *distance_m* [m]: d ← φ d,
         its variance φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs."""
         phi, q = self.aid_settings.compass_deviation.transition(distance_m)
-        i = self._aid_indices.deviation
         x, p = self._aid_state()
-        x[i] *= phi
-        p[i, :] *= phi
-        p[:, i] *= phi
-        p[i, i] += q
+        decay(x, p, (self._aid_indices.deviation,), phi, q)
         self._aid_set_state(x, p)
 
     def _drift_gps_bias(self, now: float) -> None:
@@ -384,11 +381,7 @@ class AidedFilter:
         self._bias_time = now
         phi, q = self.aid_settings.gps_bias.transition(dt)
         x, p = self._aid_state()
-        for i in self._aid_indices.gps_bias:
-            x[i] *= phi
-            p[i, :] *= phi
-            p[:, i] *= phi
-            p[i, i] += q
+        decay(x, p, self._aid_indices.gps_bias, phi, q)
         self._aid_set_state(x, p)
 
     def _compass_step(self, psi: float | None, heading_index: int, moved: bool) -> None:

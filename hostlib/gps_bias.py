@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from .gauss_markov import require_positive, transition
+
 __all__ = ["RECEIVER_HORIZONTAL_RMS_M", "GpsBias"]
 
 #: The horizontal RMS [m] (both axes together) of the receiver the defaults describe.
@@ -47,10 +49,7 @@ class GpsBias:
     white_sigma_m: float = 0.3
 
     def __post_init__(self) -> None:
-        for name in ("sigma_m", "tau_s", "white_sigma_m"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0.0):
-                raise ValueError(f"{name} must be a finite number > 0, got {value}")
+        require_positive(self, ("sigma_m", "tau_s", "white_sigma_m"))
 
     @property
     def variance(self) -> float:
@@ -59,8 +58,7 @@ class GpsBias:
 
     def transition(self, seconds: float) -> tuple[float, float]:
         """(φ, q) over *seconds*: b ← φ b, var b ← φ² var b + q (per axis)."""
-        dt = abs(float(seconds))
-        return math.exp(-dt / self.tau_s), -math.expm1(-2.0 * dt / self.tau_s) * self.variance
+        return transition(seconds, self.tau_s, self.variance)
 
     def describe(self) -> str:
         return (f"σ {self.sigma_m:.2g} m per axis over τ {self.tau_s:g} s, "
