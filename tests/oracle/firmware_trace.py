@@ -23,8 +23,8 @@ from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
-__all__ = ["FirmwareTrace", "stepwise_loops", "trace_module", "align", "best_lag", "quaternion_yaw",
-           "DESIGN_LAG"]
+__all__ = ["FirmwareTrace", "HostPose", "stepwise_loops", "trace_module", "align", "best_lag",
+           "quaternion_yaw", "DESIGN_LAG"]
 
 
 @dataclass
@@ -66,6 +66,29 @@ def stepwise_loops(source, profile: str | None = None, th_zupt: int | None = Non
         yield k, module
 
 
+class HostPose:
+    """The pose a step-wise host holds after each loop of a module: the steps summed so far (each
+    reset's DX) composed with the INS's pose since the last reset."""
+
+    def __init__(self) -> None:
+        self.base_p, self.base_chi = np.zeros(3), 0.0
+
+    def after_loop(self, mem) -> tuple[np.ndarray, float, float | None]:
+        """(position [m], heading [rad], the yaw this loop's reset took away [rad] or None: no reset)
+        after the loop that left the module's memory *mem*."""
+        reset_yaw = None
+        if mem.flag(StateId.FILTER_RESET_FLAG):
+            dx = np.asarray(mem[StateId.DX], dtype=np.float64)
+            c, s = np.cos(self.base_chi), np.sin(self.base_chi)
+            self.base_p = self.base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
+            reset_yaw = float(dx[3])
+            self.base_chi += reset_yaw
+        p = np.asarray(mem[StateId.POSITION], dtype=np.float64)
+        c, s = np.cos(self.base_chi), np.sin(self.base_chi)
+        position = self.base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
+        return position, self.base_chi + quaternion_yaw(mem[StateId.QUATERNION]), reset_yaw
+
+
 def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
                  firmware=None) -> FirmwareTrace:
     """Run a module on *source* loop by loop as a lossless step-wise host, and trace it; the module
@@ -78,23 +101,15 @@ def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
     reset_yaw = np.zeros(n)
     vel, pos = np.zeros((n, 3)), np.zeros((n, 3))
     heading = np.zeros(n)
-    base_p, base_chi = np.zeros(3), 0.0
+    host = HostPose()
     for k, module in stepwise_loops(source, profile, th_zupt, firmware):
         mem = module.memory
         zupt[k] = mem.flag(StateId.ZUPT)
         t1[k] = int(mem[StateId.T1S2F])
         vel[k] = mem[StateId.VELOCITY]
-        if mem.flag(StateId.FILTER_RESET_FLAG):
-            reset[k] = True
-            dx = np.asarray(mem[StateId.DX], dtype=np.float64)
-            c, s = np.cos(base_chi), np.sin(base_chi)
-            base_p = base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
-            base_chi += float(dx[3])
-            reset_yaw[k] = float(dx[3])
-        p = np.asarray(mem[StateId.POSITION], dtype=np.float64)
-        c, s = np.cos(base_chi), np.sin(base_chi)
-        pos[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
-        heading[k] = base_chi + quaternion_yaw(mem[StateId.QUATERNION])
+        pos[k], heading[k], yaw = host.after_loop(mem)
+        if yaw is not None:
+            reset[k], reset_yaw[k] = True, yaw
     return FirmwareTrace(zupt, t1, vel, pos, heading, reset, reset_yaw)
 
 

@@ -49,7 +49,7 @@ from firmware_sim.nav import frontend
 from firmware_sim.nav.firmware import OPENSHOE
 from protocol.ids import ProcId, StateId
 
-from .firmware_trace import quaternion_yaw, stepwise_loops
+from .firmware_trace import HostPose, stepwise_loops
 
 __all__ = ["BiasRun", "biased_source", "register_bias", "trace_bias", "response", "CASES", "GYRO_LAG"]
 
@@ -122,15 +122,13 @@ def trace_bias(source, *, zaru_off_from: float | None = None) -> BiasRun:
     n = len(source)
     zupt, zaru = np.zeros(n, bool), np.zeros(n, bool)
     bias_z, heading = np.zeros(n), np.zeros(n)
-    chi = 0.0
+    host = HostPose()
     for k, module in stepwise_loops(source, firmware=firmware):
         mem, work = module.memory, frontend.frontend_work(module)
         zupt[k] = mem.flag(StateId.ZUPT)
         zaru[k] = mem.flag(StateId.ZARU)
         bias_z[k] = float(work.gyro_bias[2])
-        if mem.flag(StateId.FILTER_RESET_FLAG):
-            chi += float(mem[StateId.DX][3])
-        heading[k] = chi + quaternion_yaw(mem[StateId.QUATERNION])
+        _, heading[k], _ = host.after_loop(mem)
     return BiasRun(zupt, zaru, bias_z, heading)
 
 

@@ -42,7 +42,7 @@ import numpy as np
 from firmware_sim.nav import config as nav_cfg
 from protocol.ids import StateId
 
-from .firmware_trace import DESIGN_LAG, quaternion_yaw, stepwise_loops
+from .firmware_trace import DESIGN_LAG, HostPose, stepwise_loops
 from .gyro_bias_response import GYRO_LAG, _zaru_off_firmware
 from .reference_ins import run_reference, stance_phases
 from .swing_rotation import foot_frame
@@ -265,21 +265,13 @@ def trace_detector(source, *, zaru_off_from: float | None = None) -> DetectorRun
     t2 = np.zeros(n, np.int64)
     zupt, zaru = np.zeros(n, bool), np.zeros(n, bool)
     heading, position = np.zeros(n), np.zeros((n, 3))
-    base_p, base_chi = np.zeros(3), 0.0
+    host = HostPose()
     for k, module in stepwise_loops(source, firmware=firmware):
         mem = module.memory
         t2[k] = int(mem[StateId.T2S2F])
         zupt[k] = mem.flag(StateId.ZUPT)
         zaru[k] = mem.flag(StateId.ZARU)
-        if mem.flag(StateId.FILTER_RESET_FLAG):
-            dx = np.asarray(mem[StateId.DX], dtype=np.float64)
-            c, s = math.cos(base_chi), math.sin(base_chi)
-            base_p = base_p + np.array([c * dx[0] - s * dx[1], s * dx[0] + c * dx[1], dx[2]])
-            base_chi += float(dx[3])
-        p = np.asarray(mem[StateId.POSITION], dtype=np.float64)
-        c, s = math.cos(base_chi), math.sin(base_chi)
-        position[k] = base_p + np.array([c * p[0] - s * p[1], s * p[0] + c * p[1], p[2]])
-        heading[k] = base_chi + quaternion_yaw(mem[StateId.QUATERNION])
+        position[k], heading[k], _ = host.after_loop(mem)
     return DetectorRun(t2, zupt, zaru, heading, position)
 
 
