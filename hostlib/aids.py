@@ -71,7 +71,9 @@ class AidSetup:
             parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "
                          f"climb σ {e.climb_sigma:g} m/m, turn scale σ {e.turn_scale_sigma:g}"
                          + (f", heading drift σ {math.degrees(e.heading_drift_sigma) * 3600.0:.3g} °/h"
-                            if e.holds_drift else ""))
+                            if e.holds_drift else "")
+                         + (f", warm-up σ {math.degrees(e.heading_warmup_sigma):.3g} °/s "
+                            f"(τ {e.warmup_tau_s:g} s)" if e.holds_warmup else ""))
         return "; ".join(parts)
 
     def _calibrated(self) -> str:

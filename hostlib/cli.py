@@ -132,13 +132,17 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "the left foot's then the right foot's (- for none). Without it, --compass takes the "
                         "module's saved calibration, if there is one (--mag-cal-dir)")
     g.add_argument("--module-errors", type=_module_errors, default=None,
-                   metavar="SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]]",
-                   help="hold the module's step-length scale, climb per metre, turn scale and heading drift "
-                        "rate as states of the filter (hostlib.module_errors), with these 1σ priors (e.g. "
-                        "0.001,0.0017,0.01,20: 0.1 %% per metre, 1.7 mm/m, 1 %% of the angle turned, 20 °/h; "
-                        "a drift of 0 or none: not held), or 'emulated' for the emulated module's: the "
-                        "covariance then grows with the distance, the angle turned and the time walked, as "
-                        "a module's systematic errors do; with two modules each foot's module holds its own")
+                   metavar="SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]]",
+                   help="hold the module's step-length scale, climb per metre, turn scale, heading drift "
+                        "rate and the gyros' warm-up as states of the filter (hostlib.module_errors), with "
+                        "these 1σ priors (e.g. 0.001,0.0017,0.01,20,0.05,120: 0.1 %% per metre, 1.7 mm/m, "
+                        "1 %% of the angle turned, 20 °/h, and a vertical rate bias settling 0.05 °/s away "
+                        "with a warm-up time constant of 120 s, counted from the first step; a drift or "
+                        "warm-up of 0 or none: not held), or 'emulated' for the emulated module's, or "
+                        "'emulated-sway' for the emulated module on a real foot's swaying stance "
+                        "(openshoe-emu --stance-sway; its warm-up from the sensors' physics): the covariance "
+                        "then grows with the distance, the angle turned and the time walked, as a module's "
+                        "systematic errors do; with two modules each foot's module holds its own")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -286,22 +290,28 @@ def _uses_aids(args: argparse.Namespace) -> bool:
 
 
 def _module_errors(text: str):
-    """The argparse type of ``--module-errors``: 'emulated' or SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]]
-    (numbers ≥ 0; the heading drift rate's 1σ in °/h, held as [rad/s])."""
-    from .module_errors import EMULATED_MODULE, ModuleErrors
+    """The argparse type of ``--module-errors``: 'emulated', 'emulated-sway' or
+    SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (numbers ≥ 0, τ > 0; the heading
+    drift rate's 1σ in °/h and the warm-up's in °/s, held as [rad/s])."""
+    from .module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING, ModuleErrors
 
-    if text.strip().lower() == "emulated":
-        return EMULATED_MODULE
+    presets = {"emulated": EMULATED_MODULE, "emulated-sway": EMULATED_MODULE_SWAYING}
+    if text.strip().lower() in presets:
+        return presets[text.strip().lower()]
     try:
         sigmas = [float(v) for v in text.split(",")]
-        if len(sigmas) not in (2, 3, 4):
+        if not 2 <= len(sigmas) <= 6:
             raise ValueError(f"{len(sigmas)} numbers")
-        if len(sigmas) == 4:
+        if len(sigmas) >= 4:
             sigmas[3] = math.radians(sigmas[3]) / 3600.0  # °/h → rad/s
+        if len(sigmas) >= 5:
+            sigmas[4] = math.radians(sigmas[4])  # °/s → rad/s
         return ModuleErrors(*sigmas)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H]] (1σ, numbers ≥ 0, "
-                                         f"e.g. 0.001,0.0017,0.01,20) or 'emulated', got {text!r}") from None
+        raise argparse.ArgumentTypeError(
+            f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (1σ, numbers ≥ 0, "
+            f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'emulated' or 'emulated-sway', "
+            f"got {text!r}") from None
 
 
 def _compass_deviation(text: str):

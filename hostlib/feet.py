@@ -231,7 +231,7 @@ class TwoFeetTracker(AidedFilter):
         # the aid states (AidIndices): [b_n, b_e,] [d,] D
         idx = AidIndices.of(self.aids)
         errors = self.aids.module_errors
-        self._errors = 0 if errors is None else errors.states  # per module: 0, 3 or 4
+        self._errors = 0 if errors is None else errors.states  # per module: 0, or 3 to 5
         self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
                                   np.zeros(2 * self._errors + idx.count)])
         self._s[idx.declination] = self.aids.declination_rad
@@ -251,7 +251,9 @@ class TwoFeetTracker(AidedFilter):
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
-        self._step_time = dict.fromkeys(FOOT_SIDES, math.nan)  # module time of each foot's last step [s]
+        # each foot's steps' times as its module's heading drift sees them (with the errors held)
+        errors = self.aids.module_errors
+        self._drift_clocks = {side: errors.clock() for side in FOOT_SIDES} if errors is not None else {}
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
         self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
         self._covs: list[np.ndarray] = []  # its covariance
@@ -323,7 +325,7 @@ class TwoFeetTracker(AidedFilter):
             self._p[block, rest] = f @ self._p[block, rest]
         else:
             # and through its module's errors (in the rest, 4 places earlier than in the state)
-            j = errors.jacobian(chi, step.dx, step.time_s, self._step_time[step.side])
+            j = errors.jacobian(chi, step.dx, self._drift_clocks[step.side].span(step.dx, step.time_s))
             e = self._error_slice(i)
             pose, cov, self._p[block, rest] = through_step(
                 pose, cov, self._p[block, rest], f, j, self._s[rest], self._p[np.ix_(rest, rest)],
@@ -334,7 +336,6 @@ class TwoFeetTracker(AidedFilter):
         self._correct_drift(step, block)
         self._since[step.side] = 0
         self._since[FOOT_SIDES[1 - i]] += 1
-        self._step_time[step.side] = step.time_s
         self._sides.append(step.side)
         self._fused[step.side] += 1
         if math.isfinite(step.time_s):
@@ -378,7 +379,8 @@ class TwoFeetTracker(AidedFilter):
         self._p[:, a] = self._p[:, b]
         self._p[a, a] = self._p[b, b] + np.diag([self.settings.max_separation_m ** 2] * 3
                                                 + [self.settings.restart_heading_sigma_rad ** 2])
-        self._step_time[FOOT_SIDES[i]] = math.nan
+        if self._drift_clocks:
+            self._drift_clocks[FOOT_SIDES[i]].lose_previous()
         self.restarts.append((FOOT_SIDES[i], len(self._sides) + 1))
 
     def _constrain(self) -> None:

@@ -571,15 +571,15 @@ class FusionTracker(AidedFilter, StepTracker):
         StepTracker.__init__(self, **tracker_args)
         self.settings = settings or FusionSettings()
         s = self.settings
-        # the states beside the pose: the module's errors [s, c, k] (and r, with its prior) if held,
+        # the states beside the pose: the module's errors [s, c, k] (r and w, with their priors) if held,
         # then the aid states (AidIndices): the receiver's bias [b_n, b_e] if held, the deviation d
         # if held, then D
         errors = s.module_errors
         idx = AidIndices.of(s)
-        self._errors = errors.states if errors is not None else 0  # how many: 0, 3 or 4
+        self._errors = errors.states if errors is not None else 0  # how many: 0, or 3 to 5
         self._a = np.zeros(self._errors + idx.count)
         self._a[idx.declination] = float(s.declination_rad)
-        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k, [r,]] [b_n, b_e,] [d,] D)
+        self._pa = np.zeros((4, len(self._a)))  # cov(pose, [s, c, k, [r,] [w,]] [b_n, b_e,] [d,] D)
         self._aa = np.zeros((len(self._a), len(self._a)))
         if errors is not None:
             self._aa[:self._errors, :self._errors] = errors.prior
@@ -593,6 +593,8 @@ class FusionTracker(AidedFilter, StepTracker):
         self._init_aids()
         self._compass_held = False
         self._clock = ModuleClock()
+        # the steps' times as the module's heading drift sees them (with its errors held)
+        self._drift_clock = errors.clock() if errors is not None else None
         self._time = 0.0  # module time of the last step [s]
         #: per summed step: module time [s] (NaN: the packet had no T_INT_K)
         self.step_times: list[float] = []
@@ -625,8 +627,8 @@ class FusionTracker(AidedFilter, StepTracker):
 
     @property
     def module_errors(self) -> tuple[float, ...] | None:
-        """The estimated step-length scale s, climb c [m/m] and turn scale k, and with a heading
-        drift prior the drift rate r [rad/s] (None: not held)."""
+        """The estimated step-length scale s, climb c [m/m] and turn scale k, with a heading drift
+        prior the drift rate r [rad/s], with a warm-up prior the warm-up w [rad/s] (None: not held)."""
         if self.settings.module_errors is None:
             return None
         return tuple(float(v) for v in self._a[:self._errors])
@@ -670,7 +672,6 @@ class FusionTracker(AidedFilter, StepTracker):
         """Sum a step given as arrays (:meth:`StepTracker.add_step`), with its stance *reading*
         and module time *time_s* [s], and apply the aids."""
         prev = self.track._poses[-1]
-        prev_time = self.step_times[-1] if self.step_times else math.nan
         outcome = StepTracker.add_step(self, dx, dp, counter, swing_time)
         if outcome is StepOutcome.DUPLICATE:
             return outcome
@@ -681,8 +682,9 @@ class FusionTracker(AidedFilter, StepTracker):
             # cov(pose, [b,] [d,] D) through the step: the pose's Jacobian; they do not move it
             self._pa = f @ self._pa
         else:
-            # the drift's Δt: the time since the step before (0 standing still, or without a time)
-            self._module_errors_through(f, errors.jacobian(float(prev[3]), dxa, time_s, prev_time))
+            # the drift's Δt and the warm-up's W since the step before (0 standing still, or no time)
+            span = self._drift_clock.span(dxa, time_s)
+            self._module_errors_through(f, errors.jacobian(float(prev[3]), dxa, span))
         if self.settings.compass_deviation is not None:
             self._walk_deviation(math.hypot(dxa[0], dxa[1]))  # where this step's reading is taken
         if math.isfinite(time_s):

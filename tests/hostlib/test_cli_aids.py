@@ -162,5 +162,22 @@ def test_replay_with_a_heading_drift_prior_widens_the_heading_with_the_time_walk
     np.testing.assert_allclose(held.poses, plain.poses, atol=1e-12)
     assert held.final_covariance[3, 3] > plain.final_covariance[3, 3]
     with pytest.raises(SystemExit) as exit_:
-        main(["replay", capture, "--module-errors", "0,0,0,20,1"], io.StringIO())
+        main(["replay", capture, "--module-errors", "0,0,0,20,1,120,7"], io.StringIO())
     assert exit_.value.code == 2 and "DRIFT_DEG_PER_H" in capsys.readouterr().err
+
+
+def test_replay_with_a_warmup_prior_widens_the_heading_further_and_names_it(tmp_path):
+    """--module-errors' fifth number is the gyros' warm-up 1σ in °/s (sixth: its time constant):
+    held beside the drift rate, the heading's covariance ends wider still; the track is the plain
+    sum, and the summary names the warm-up."""
+    capture = _capture(tmp_path)
+    drift_csv, warmup_csv = tmp_path / "drift.csv", tmp_path / "warmup.csv"
+    assert main(["replay", capture, "--module-errors", "0,0,0,20", "--csv", str(drift_csv)],
+                io.StringIO()) == 0
+    out = io.StringIO()
+    assert main(["replay", capture, "--module-errors", "0,0,0,20,0.05,90", "--csv", str(warmup_csv)],
+                out) == 0
+    assert "heading drift σ 20 °/h, warm-up σ 0.05 °/s (τ 90 s)" in out.getvalue()
+    drift, warmup = read_csv(drift_csv), read_csv(warmup_csv)
+    np.testing.assert_allclose(warmup.poses, drift.poses, atol=1e-12)
+    assert warmup.final_covariance[3, 3] > drift.final_covariance[3, 3]

@@ -1,5 +1,5 @@
 """Two feet with the module's errors held: each foot's module has its own step-length scale, climb,
-turn scale and heading drift in the joint filter; without an aid they leave both feet's tracks and
+turn scale, heading drift and warm-up in the joint filter; without an aid they leave both feet's tracks and
 widen each foot's covariance as one module's filter does, GPS of the body and the constraint
 teach the module whose steps are short, and the joint covariance stays symmetric and positive."""
 
@@ -64,8 +64,9 @@ def _feed(feet: TwoFeetTracker, steps) -> None:
 # -- without aids ---------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("errors", [ERRORS, replace(ERRORS, heading_drift_sigma=0.0)],
-                         ids=["drift", "no drift"])
+@pytest.mark.parametrize("errors", [ERRORS, replace(ERRORS, heading_drift_sigma=0.0),
+                                    replace(ERRORS, heading_warmup_sigma=math.radians(0.05))],
+                         ids=["drift", "no drift", "drift and warm-up"])
 def test_without_aids_the_errors_leave_both_feet_and_widen_each_as_its_single_module_filter(errors):
     """No aid, a walk whose feet never part by more than γ: both fused feet are where the plain
     joint filter puts them, bit for bit, and each foot's pose covariance after every step is
