@@ -131,6 +131,37 @@ def test_the_heading_drift_and_the_turn_scale_are_told_apart_by_the_angle_and_th
     assert module_error_priors(rows[1::2]).turn_scale_sigma == 0.0  # straight only: drift, no turns
 
 
+def test_with_the_warmup_held_at_its_prior_the_drift_and_turn_scale_are_estimated_beside_it():
+    """Straight walks and loops, turns off by 1σ 0.2 %, drifting at 1σ 30 °/h, and turned by a
+    warm-up w of 1σ 0.02 °/s (its Jacobian, the ramp's integral, is not the drift's time): given
+    the warm-up's prior, the fit gives σ_r and σ_k back and the heading NEES is 1; without it the
+    drift rate takes the warm-up's share and reads high."""
+    from hostlib.module_errors import ModuleErrors
+
+    rng = np.random.default_rng(13)
+    sigma_r, sigma_w, tau = math.radians(30.0) / 3600.0, math.radians(0.02), 120.0
+    rows = []
+    for k in range(4000):
+        straight = bool(k % 2)
+        turned, duration = (0.02, 70.0) if straight else (4 * math.pi, 60.0 + 120.0 * (k % 4 == 0))
+        ramp = duration - tau * (1.0 - math.exp(-duration / tau))
+        e_chi = (rng.normal(0.0, 0.004) + rng.normal(0.0, 0.002) * turned
+                 + rng.normal(0.0, sigma_r) * duration + rng.normal(0.0, sigma_w) * ramp)
+        rows.append({"seed": k, "distance_m": 90.0, "d_north_m": 0.0, "d_east_m": 0.0,
+                     "e_north_m": 0.0, "e_east_m": 0.0, "e_down_m": 0.0, "e_heading_deg": math.degrees(e_chi),
+                     "p_nn": 1.0, "p_ne": 0.0, "p_ee": 1.0, "p_zz": 1.0, "p_chichi": 0.004 ** 2,
+                     **{f"j_{r}{c}": 0.0 for r in "nezh" for c in "sckrw"}, "j_hk": turned, "j_hr": duration,
+                     "j_hw": ramp})
+    warmup = ModuleErrors(0.0, 0.0, heading_warmup_sigma=sigma_w, warmup_tau_s=tau)
+    errors = module_error_priors(rows, warmup)
+    assert errors.heading_drift_sigma == pytest.approx(sigma_r, rel=0.15)
+    assert errors.turn_scale_sigma == pytest.approx(0.002, rel=0.1)
+    assert errors.heading_warmup_sigma == sigma_w and errors.warmup_tau_s == tau
+    nees = np.array([nees_with_module_errors(r, errors) for r in rows])
+    assert nees[:, 2].mean() == pytest.approx(1.0, abs=0.1)
+    assert module_error_priors(rows).heading_drift_sigma > 1.4 * sigma_r
+
+
 def test_a_simulated_walk_carries_the_time_it_drifted():
     """The Jacobian's drift column is the time the foot moved: the straight walk's 100 m in about 67 s."""
     row = consistency_run(("walk", 0))

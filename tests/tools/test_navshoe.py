@@ -9,6 +9,7 @@ import io
 import math
 
 import numpy as np
+import pytest
 
 from tools.accuracy import main, navshoe
 
@@ -49,3 +50,16 @@ def test_the_perfect_compass_oracle_reads_the_true_heading_from_magnetic_north()
     psi = oracle.compass_heading(StanceReading(np.array([15.0, 5.0, 49.0]), np.eye(3), 3))  # any reading
     assert abs(wrap_angle(psi - expected)) < 1e-9
     assert oracle.compass_heading(None) is None
+
+
+def test_on_a_swaying_walk_compass_and_gps_teach_the_warmup_the_simulated_dies_hold():
+    """With a real foot's stance sway ZARU no longer re-learns the gyros' bias every stride, and the
+    dies' warm-up turns the heading: a host holding the warm-up learns the simulated one (its sign
+    and its size, within a quarter) from the compass and GPS, and ends the outage nearer than the
+    same host without it."""
+    rows = {r["host"]: r for r in navshoe.outage_run(1, stance_sway=True)}
+    best = rows["compass+gps every error state and warm-up"]
+    assert best["stance_sway"] and abs(best["true_warmup_deg_s"]) > 0.01
+    assert best["warmup_deg_s"] == pytest.approx(best["true_warmup_deg_s"], rel=0.25)
+    assert math.isnan(rows["compass+gps"]["warmup_deg_s"])
+    assert best["end_error_m"] < 0.5 * rows["compass+gps every error state"]["end_error_m"]

@@ -69,8 +69,9 @@ TURN_MIN_RAD = math.pi / 2
 #: The dimensions of the NEES: horizontal position, height, heading.
 DOF = {"h": 2, "z": 1, "chi": 1}
 #: The module's errors, the columns of a run's Jacobian (``j_<row><column>``): step-length scale,
-#: climb, turn scale, heading drift rate (a row without the last is a run that drifted by nothing).
-_ERRORS = "sckr"
+#: climb, turn scale, heading drift rate, the gyros' warm-up (a row without the last ones is a run
+#: that drifted by nothing).
+_ERRORS = "sckrw"
 
 
 def nees_interval(seeds: int, dof: int, z: float = _Z95) -> tuple[float, float]:
@@ -87,7 +88,7 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     simulation's default). Its end errors, their 1σ and NEES."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.fusion import FusionSettings, FusionTracker
-    from hostlib.module_errors import ModuleErrors
+    from hostlib.module_errors import EMULATED_MODULE_SWAYING, ModuleErrors
     from hostlib.replay import replay_bytes, replay_session
 
     from .runs import fusion_capture
@@ -98,8 +99,10 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     data = fusion_capture(source)
     track, _ = replay_bytes(data)
     # the end pose's Jacobian with respect to the module's errors: their cross-covariance with the
-    # pose when held with unit priors (the estimate does not move without an aid)
-    unit = FusionTracker(FusionSettings(module_errors=ModuleErrors(1.0, 1.0, 1.0, 1.0)))
+    # pose when held with unit priors (the estimate does not move without an aid; the warm-up's
+    # with the emulated module's time constant)
+    unit = FusionTracker(FusionSettings(module_errors=ModuleErrors(1.0, 1.0, 1.0, 1.0, 1.0,
+                                                                   EMULATED_MODULE_SWAYING.warmup_tau_s)))
     jacobian = replay_session(data, tracker=unit).tracker.state_covariance[:4, 4:4 + len(_ERRORS)]
     truth = source.truth
     e = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
@@ -133,28 +136,43 @@ def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:
     return math.sqrt(float(np.mean([r[f"nees_{what}"] for r in rows])) / DOF[what])
 
 
-def module_error_priors(rows: Sequence[dict[str, Any]]) -> ModuleErrors:
+def module_error_priors(rows: Sequence[dict[str, Any]], warmup: ModuleErrors | None = None) -> ModuleErrors:
     """The step-length scale's, climb's, turn scale's and heading drift rate's 1σ estimated from
-    *rows*' end errors (module docstring)."""
+    *rows*' end errors (module docstring). With *warmup* (a module whose warm-up prior is known,
+    from its sensors' physics), the warm-up is held at that prior: what it adds to each run's
+    covariance is taken as known beside the steps' own, and the four are estimated on top."""
     from hostlib.module_errors import ModuleErrors
 
     num = np.zeros(2)
     den = np.zeros(2)
     heading, regressors = [], []  # e_χ² − P_χχ against [Θ², T²]
+    sigma_w = warmup.heading_warmup_sigma if warmup is not None else 0.0
     for r in rows:
-        d, e, p = _displacement(r), np.array([r["e_north_m"], r["e_east_m"]]), _horizontal_p(r)
+        d, e = _displacement(r), np.array([r["e_north_m"], r["e_east_m"]])
+        p = _known_covariance(r, sigma_w)
         if float(np.hypot(*d)) >= SCALE_MIN_DISPLACEMENT_M:
-            num[0] += float(e @ d) ** 2 - float(d @ p @ d)
+            num[0] += float(e @ d) ** 2 - float(d @ p[:2, :2] @ d)
             den[0] += float(d @ d) ** 2
         length = r["distance_m"]
-        num[1] += (r["e_down_m"] ** 2 - r["p_zz"]) * length ** 2
+        num[1] += (r["e_down_m"] ** 2 - p[2, 2]) * length ** 2
         den[1] += length ** 4
         turned = r["j_hk"] if abs(r["j_hk"]) >= TURN_MIN_RAD else 0.0
-        heading.append(math.radians(r["e_heading_deg"]) ** 2 - r["p_chichi"])
+        heading.append(math.radians(r["e_heading_deg"]) ** 2 - p[3, 3])
         regressors.append((turned ** 2, r.get("j_hr", 0.0) ** 2))
     sigmas = [math.sqrt(max(n / m, 0.0)) if m > 0 else 0.0 for n, m in zip(num, den, strict=True)]
     turn, drift = _non_negative_fit(np.array(regressors).reshape(-1, 2), np.array(heading))
-    return ModuleErrors(*sigmas, math.sqrt(turn), math.sqrt(drift))
+    return ModuleErrors(*sigmas, math.sqrt(turn), math.sqrt(drift),
+                        *((sigma_w, warmup.warmup_tau_s) if warmup is not None else ()))
+
+
+def _known_covariance(r: dict[str, Any], warmup_sigma: float) -> np.ndarray:
+    """Run *r*'s end covariance of [n, e, z, χ] (4×4; only the horizontal block, P_zz and P_χχ are
+    kept in a row) with the warm-up held at the prior *warmup_sigma* beside the steps' own."""
+    p = np.zeros((4, 4))
+    p[:2, :2] = _horizontal_p(r)
+    p[2, 2], p[3, 3] = r["p_zz"], r["p_chichi"]
+    j_w = _jacobian(r)[:, _ERRORS.index("w")]
+    return p + warmup_sigma ** 2 * np.outer(j_w, j_w)
 
 
 def _non_negative_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
@@ -173,9 +191,11 @@ def _non_negative_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     return min(fits, key=lambda ab: float(np.sum((y - x @ np.array(ab)) ** 2)))
 
 
-def _priors_without(rows: Sequence[dict[str, Any]], seed: int) -> ModuleErrors:
-    """The priors estimated on every module of *rows* but *seed*'s (leave one module out)."""
-    return module_error_priors([r for r in rows if r["seed"] != seed])
+def _priors_without(rows: Sequence[dict[str, Any]], seed: int, warmup: ModuleErrors | None = None
+                    ) -> ModuleErrors:
+    """The priors estimated on every module of *rows* but *seed*'s (leave one module out; *warmup*
+    as in :func:`module_error_priors`)."""
+    return module_error_priors([r for r in rows if r["seed"] != seed], warmup)
 
 
 def _displacement(r: dict[str, Any]) -> np.ndarray:
@@ -187,14 +207,15 @@ def _horizontal_p(r: dict[str, Any]) -> np.ndarray:
 
 
 def _jacobian(r: dict[str, Any]) -> np.ndarray:
-    """∂(end pose)/∂[s, c, k, r] (4×4) of run *r* (a run without the drift's column: 0)."""
+    """∂(end pose)/∂[s, c, k, r, w] (4×5) of run *r* (a run without the drift's or the warm-up's
+    column: 0)."""
     return np.array([[r.get(f"j_{row}{col}", 0.0) for col in _ERRORS] for row in "nezh"])
 
 
 def _prior(errors: ModuleErrors) -> np.ndarray:
-    """The 4×4 prior covariance of [s, c, k, r] (r's 0 when not held)."""
+    """The 5×5 prior covariance of [s, c, k, r, w] (r's and w's 0 when not held)."""
     return np.diag(np.square([errors.step_scale_sigma, errors.climb_sigma, errors.turn_scale_sigma,
-                              errors.heading_drift_sigma]))
+                              errors.heading_drift_sigma, errors.heading_warmup_sigma]))
 
 
 def nees_with_module_errors(r: dict[str, Any], errors: ModuleErrors) -> tuple[float, float, float]:
@@ -243,15 +264,29 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     flat = [r for r in rows if r["scenario"] in PRIOR_SCENARIOS]
     if not flat:
         return lines
-    lines.append("with the module's step-length scale, climb, turn scale and heading drift held as states, "
-                 "their priors "
-                 f"estimated on the other modules' {' and '.join(PRIOR_SCENARIOS)} (σ ratio h / z / χ):")
-    for s in scenarios:
-        nees = np.array([nees_with_module_errors(r, _priors_without(flat, r["seed"]))
-                         for r in by[s]])
+    lines += _held_lines(by, flat, None, "the module's step-length scale, climb, turn scale and heading "
+                         "drift held as states")
+    if any(r.get("stance_sway") for r in rows):
+        from hostlib.module_errors import EMULATED_MODULE_SWAYING as swaying
+
+        sigma_w = math.degrees(swaying.heading_warmup_sigma)
+        lines += _held_lines(by, flat, swaying,
+                             f"the gyros' warm-up held too, at its sensors' prior (σ_w {sigma_w:.3g} °/s, "
+                             f"τ {swaying.warmup_tau_s:g} s; not estimated), and the four beside it")
+    return lines
+
+
+def _held_lines(by: dict[str, list[dict[str, Any]]], flat: Sequence[dict[str, Any]],
+                warmup: ModuleErrors | None, what: str) -> list[str]:
+    """Each route's σ ratios with *what*, the priors estimated on the other modules' *flat* runs
+    (with the warm-up prior *warmup*: :func:`module_error_priors`), and the priors from them all."""
+    lines = [f"with {what}, their priors estimated on the other modules' {' and '.join(PRIOR_SCENARIOS)} "
+             "(σ ratio h / z / χ):"]
+    for s, group in by.items():
+        nees = np.array([nees_with_module_errors(r, _priors_without(flat, r["seed"], warmup)) for r in group])
         ratio_h, ratio_z, ratio_chi = (math.sqrt(nees[:, i].mean() / dof) for i, dof in enumerate((2, 1, 1)))
         lines.append(f"  {s:10s} σ ratio {ratio_h:5.2f} / {ratio_z:5.2f} / {ratio_chi:5.2f}")
-    errors = module_error_priors(flat)
+    errors = module_error_priors(flat, warmup)
     lines.append(f"priors from every module's {' and '.join(PRIOR_SCENARIOS)}: "
                  f"σ_s {errors.step_scale_sigma:.5f}, σ_c {errors.climb_sigma:.5f} m/m, "
                  f"σ_k {errors.turn_scale_sigma:.5f}, σ_r {errors.heading_drift_sigma:.3g} rad/s "

@@ -25,6 +25,13 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
   drift rate), which GPS trains and the outage then carries on;
 * ``compass+gps every error state``: ``compass+gps`` with every error the host can hold as a
   state at once: the local deviation, the receiver's bias and the module's errors (each as above);
+* ``gps module errors and warm-up``, ``compass+gps module errors and warm-up``, ``compass module
+  errors and warm-up`` and ``compass+gps every error state and warm-up``: the same with the
+  module's errors at the priors of the emulated module on a real foot's swaying stance
+  (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`), the gyros' warm-up among them: the
+  hosts for ``--stance-sway``, where the module's ZARU no longer re-learns the bias in every
+  stance and the warm-up turns the heading (on still stances the warm-up does not, and their
+  prior is wrong);
 * ``compass true declination``: the compass without GPS, given the simulated declination (what
   the compass alone holds when the declination is not to be learned);
 * two oracles, as ``compass+gps`` with the truth put into each compass reading
@@ -55,17 +62,19 @@ import numpy as np
 from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion import FusionSettings, FusionTracker
 from hostlib.gps_bias import GpsBias
-from hostlib.module_errors import EMULATED_MODULE
+from hostlib.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
 
 __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", "error_table", "outage_rows",
-           "outage_run", "outdoor_compass",
+           "outage_run", "outdoor_compass", "simulated_warmup",
            "shoe_iron", "summary_lines", "walk_fixes", "wmm_declination_rad"]
 
 SCENARIO = "navshoe-outage"
 HOSTS = ("compass+gps", "gps", "compass", "compass+gps uncalibrated", "plain",
          "compass+gps deviation state", "compass deviation state", "gps bias state", "compass+gps bias state",
          "compass true declination", "compass+gps deviation removed", "compass+gps perfect compass",
-         "gps module errors", "compass+gps module errors", "compass+gps every error state")
+         "gps module errors", "compass+gps module errors", "compass+gps every error state",
+         "gps module errors and warm-up", "compass+gps module errors and warm-up",
+         "compass module errors and warm-up", "compass+gps every error state and warm-up")
 #: the oracle hosts: what :class:`OracleCompassTracker` takes out of each reading
 ORACLES = {"compass+gps deviation removed": "deviation", "compass+gps perfect compass": "all"}
 #: 1σ of one compass reading outdoors [deg]: the emulator's open-ground deviation (0.8 µT per axis
@@ -202,6 +211,13 @@ def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any
         "compass+gps module errors": FusionSettings(gps=True, module_errors=EMULATED_MODULE, **compass),
         "compass+gps every error state": FusionSettings(gps=True, gps_bias=GpsBias(),
                                                         module_errors=EMULATED_MODULE, **deviation_held),
+        "gps module errors and warm-up": FusionSettings(gps=True, module_errors=EMULATED_MODULE_SWAYING),
+        "compass+gps module errors and warm-up": FusionSettings(gps=True, **compass,
+                                                                module_errors=EMULATED_MODULE_SWAYING),
+        "compass module errors and warm-up": FusionSettings(**compass, module_errors=EMULATED_MODULE_SWAYING),
+        "compass+gps every error state and warm-up": FusionSettings(gps=True, gps_bias=GpsBias(),
+                                                                    module_errors=EMULATED_MODULE_SWAYING,
+                                                                    **deviation_held),
     }
     rows = []
     for host in HOSTS:
@@ -229,6 +245,8 @@ def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any
         silent_heading_error = wrap_angle(float(silent_pose[3]) - math.atan2(r_silent[1, 0], r_silent[0, 0]))
         cov = tracker.state_covariance
         heading_error = wrap_angle(float(pose[3]) - true_heading)
+        errors = cfg.module_errors
+        first_step_s = next((t for t in tracker.step_times if math.isfinite(t)), math.nan)
         rows.append({
             "seed": seed, "host": host, "stance_sway": sway, "distance_m": round(tracker.track.distance, 1),
             "without_gps_m": round(gps.without_gps_m, 1), "end_error_m": error,
@@ -248,8 +266,26 @@ def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any
                                        if cfg.gps else math.nan),
             "silent_nees_heading": (silent_heading_error ** 2 / float(silent_cov[3, 3])
                                     if cfg.gps and silent_cov[3, 3] > 0 else math.nan),
+            # the gyros' warm-up the host learned, and the simulated dies' (hosts that hold it)
+            "warmup_deg_s": (math.degrees(tracker.module_errors[-1])
+                             if errors is not None and errors.holds_warmup else math.nan),
+            "true_warmup_deg_s": math.degrees(simulated_warmup(source, first_step_s)),
         })
     return rows
+
+
+def simulated_warmup(source, first_step_s: float) -> float:
+    """The warm-up w [rad/s] of :mod:`hostlib.module_errors` that the simulated dies hold for a host
+    whose first step is at module time *first_step_s* [s]: each chip's gyro offset temperature
+    coefficient turned into the board's axes (the mounting's transpose), the vertical (z, down when
+    the foot is flat) averaged over the four chips as the firmware averages them, times the warm-up
+    still to come at the first step; with the sign that corrects the heading (the host's w undoes
+    the drift the bias turns in)."""
+    tc = source.config.temperature
+    mounting = source.geometry.mounting.astype(float)
+    vertical = float(np.mean([(m.T @ chip.gyro_offset_tempco)[2] for m, chip in zip(mounting, source.chips,
+                                                                                        strict=True)]))
+    return -vertical * tc.warmup_c * math.exp(-first_step_s / tc.warmup_tau_s)
 
 
 def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
@@ -266,7 +302,8 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     sway = ", walking stances swaying" if any(r.get("stance_sway") for r in rows) else ""
     return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds{sway}: error at the end of the outage "
             f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
-            ] + error_table(rows, "host", HOSTS) + _silent_lines(rows) + _consistency_lines(rows)
+            ] + (error_table(rows, "host", HOSTS) + _silent_lines(rows) + _warmup_lines(rows)
+                 + _consistency_lines(rows))
 
 
 def _consistency_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -297,6 +334,22 @@ def _silent_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
              if r["host"] == host and math.isfinite(r["last_fix_error_m"])]
         if e:
             out.append(f"  {host:<30} {np.mean(e):5.2f} ± {np.std(e):4.2f}")
+    return out
+
+
+def _warmup_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
+    """Per host that holds the gyros' warm-up: the learned w against the simulated dies'
+    (:func:`simulated_warmup`), mean ± sd of the difference, and the simulated's RMS."""
+    held = [h for h in HOSTS if any(r["host"] == h and math.isfinite(r.get("warmup_deg_s", math.nan))
+                                    for r in rows)]
+    if not held:
+        return []
+    out = ["the gyros' warm-up w, learned − simulated [°/s]:"]
+    for host in held:
+        pairs = np.array([(r["warmup_deg_s"], r["true_warmup_deg_s"]) for r in rows if r["host"] == host])
+        miss = pairs[:, 0] - pairs[:, 1]
+        out.append(f"  {host:<42} {np.mean(miss):+.4f} ± {np.std(miss):.4f}   "
+                   f"(simulated {np.sqrt(np.mean(pairs[:, 1] ** 2)):.4f} RMS)")
     return out
 
 
