@@ -3,6 +3,7 @@
     openshoe-host info  /dev/rfcomm0
     openshoe-host track /dev/rfcomm0 --duration 60 --csv walk.csv --png walk.png
     openshoe-host log   socket://localhost:5000 --raw capture.bin --duration 10
+    openshoe-host track /dev/rfcomm0 --steps 100 --csv walk.csv      # stop after 100 step packets
     openshoe-host replay capture.bin --csv walk.csv
 
 Two feet (a module on each; hostlib.feet): both streams acked and gap-checked on their own, fused
@@ -54,7 +55,7 @@ import math
 import sys
 import threading
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
@@ -184,6 +185,23 @@ def _positive_metres(text: str) -> float:
     if not value > 0 or not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"a distance > 0 m, not {text!r}")
     return value
+
+
+def _step_count(text: str) -> int:
+    """The argparse type of ``--steps``: a whole number ≥ 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"a whole number of step packets ≥ 1, not {text!r}")
+    return value
+
+
+def _enough_steps(steps: int | None, setups: Iterable[_HostSetup]) -> bool:
+    """Whether every device of *setups* has had ``--steps`` step packets and has nothing of its
+    set-up left to send (never without ``--steps``)."""
+    return steps is not None and all(s.dev.session.stats.steps >= steps and s.sent for s in setups)
 
 
 def _feet_options(p: argparse.ArgumentParser, what: str) -> None:
@@ -449,6 +467,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="a module on the other foot: url is then the left foot's, URL2 the right foot's, "
                         "and the two are fused (hostlib.feet)")
     t.add_argument("--duration", type=float, default=None, help="seconds to track (default: until Ctrl-C)")
+    t.add_argument("--steps", type=_step_count, default=None, metavar="N",
+                   help="stop once N step packets came (from each module, with two); with --duration, "
+                        "whichever comes first")
     t.add_argument("--csv", help="write the track (poses + covariances) to this CSV file (two feet: the "
                                  "body's, and each foot's in more columns)")
     t.add_argument("--geojson", help="write the track as GeoJSON")
@@ -471,6 +492,8 @@ def build_parser() -> argparse.ArgumentParser:
     _common(lg)
     lg.add_argument("--raw", required=True, help="file to write every received byte to")
     lg.add_argument("--duration", type=float, default=None, help="seconds to capture (default: until Ctrl-C)")
+    lg.add_argument("--steps", type=_step_count, default=None, metavar="N",
+                    help="stop once N step packets came; with --duration, whichever comes first")
     lg.add_argument("--start", action="store_true", help="send 0x34 (step-wise dead reckoning) first")
     _setup_options(lg)
     _log_calibration_options(lg)
@@ -620,6 +643,11 @@ class _HostSetup:
             self.dev.fusion_setup()
         if self.in_situ is not None:
             self.in_situ.start()
+
+    @property
+    def sent(self) -> bool:
+        """Whether every command of the set-up went out (height compensation waits for a step)."""
+        return not self.height_compensation_pending
 
     def poll(self) -> None:
         """Between reads: turn height compensation on once the first step packet came; stop the
@@ -775,10 +803,11 @@ def _start_tracking(args: argparse.Namespace, stack: ExitStack,
 
 def _follow(args: argparse.Namespace, modules: list[_Tracked], live: _LiveLine,
             status: Callable[[], tuple[str, object]], first: Callable[[], None] | None = None) -> None:
-    """Read the modules' steps until ``--duration`` is over or Ctrl-C, keeping *live* up to date with
-    *status()* (its text and the key that changes with a new step). *first* runs before, under the
-    same rules. A module whose walk fails is reported and left while another goes on; the failure
-    of the last one is raised. At the end the outputs go off unless ``--leave-running``."""
+    """Read the modules' steps until ``--duration`` is over, ``--steps`` came or Ctrl-C, keeping *live*
+    up to date with *status()* (its text and the key that changes with a new step). *first* runs
+    before, under the same rules. A module whose walk fails is reported and left while another goes
+    on; the failure of the last one is raised. At the end the outputs go off unless
+    ``--leave-running``."""
     deadline = _deadline(args.duration)
     try:
         if first is not None:
@@ -797,6 +826,8 @@ def _follow(args: argparse.Namespace, modules: list[_Tracked], live: _LiveLine,
                     print(f"openshoe-host track: {m.label}: {exc}; tracking goes on without it",
                           file=sys.stderr)
             live.show(*status())
+            if _enough_steps(args.steps, (m.setup for m in modules if m.failure is None)):
+                break
     except KeyboardInterrupt:
         pass
     finally:
@@ -1144,6 +1175,8 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
                 st = dev.stats
                 live.show(f"bytes {st['bytes_received']:9d} | packets {st['packets']:7d} | "
                           f"step packets {st['steps']:5d} | garbage {st['garbage_bytes']}")
+                if _enough_steps(args.steps, [setup]):
+                    break
         except KeyboardInterrupt:
             pass
         live.close()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import io
 import math
+import threading
 
 import pytest
 import serial
@@ -22,7 +23,7 @@ def fakeshoe_scheme():
 def test_track_sums_steps_and_writes_files(tmp_path):
     out = io.StringIO()
     csv_path, png_path = tmp_path / "w.csv", tmp_path / "w.png"
-    rc = main(["track", "fakeshoe://5", "--duration", "1.0", "--csv", str(csv_path),
+    rc = main(["track", "fakeshoe://5", "--steps", "5", "--duration", "30", "--csv", str(csv_path),
                "--geojson", str(tmp_path / "w.geojson")], out)
     assert rc == 0
     text = out.getvalue()
@@ -33,6 +34,25 @@ def test_track_sums_steps_and_writes_files(tmp_path):
     assert not png_path.exists()
 
 
+def test_track_and_log_stop_once_the_steps_asked_for_came(tmp_path, capsys):
+    """--steps N ends a walk after the N-th step packet instead of at --duration: each command
+    returns (waited for as an event, the guard far below the 600 s asked for) with at least N
+    steps (a scripted module this fast sends the rest while the outputs go off); a count below 1
+    is refused."""
+    csv_path, raw = tmp_path / "w.csv", tmp_path / "cap.bin"
+    for argv in (["track", "fakeshoe://50", "--steps", "3", "--duration", "600", "--csv", str(csv_path)],
+                 ["log", "fakeshoe://50", "--raw", str(raw), "--start", "--steps", "3", "--duration", "600"]):
+        done = threading.Thread(target=main, args=(argv, io.StringIO()), daemon=True)
+        done.start()
+        done.join(timeout=60.0)
+        assert not done.is_alive(), f"{argv[0]} --steps 3 did not stop"
+    assert len(read_csv(csv_path)) >= 3
+    assert raw.read_bytes().count(bytes.fromhex("AA 00")) >= 3
+    with pytest.raises(SystemExit) as exit_:
+        main(["track", "fakeshoe://5", "--steps", "0"], io.StringIO())
+    assert exit_.value.code == 2 and "step packets" in capsys.readouterr().err
+
+
 def test_info_pings_and_reads_the_mcu_id():
     out = io.StringIO()
     assert main(["info", "fakeshoe://0"], out) == 0
@@ -41,7 +61,7 @@ def test_info_pings_and_reads_the_mcu_id():
 
 def test_log_captures_raw_bytes(tmp_path):
     raw = tmp_path / "cap.bin"
-    argv = ["log", "fakeshoe://3", "--raw", str(raw), "--start", "--duration", "0.5"]
+    argv = ["log", "fakeshoe://3", "--raw", str(raw), "--start", "--steps", "3", "--duration", "30"]
     assert main(argv, io.StringIO()) == 0
     data = raw.read_bytes()
     assert data.startswith(bytes.fromhex("A0 34 00 D4"))
@@ -69,8 +89,8 @@ def test_attach_does_not_restart_the_module(tmp_path):
 
 def test_initial_heading_rotates_the_track(tmp_path):
     csv_path = tmp_path / "w.csv"
-    assert main(["track", "fakeshoe://2", "--duration", "0.5", "--heading", "90", "--csv", str(csv_path)],
-                io.StringIO()) == 0
+    assert main(["track", "fakeshoe://2", "--steps", "2", "--duration", "30", "--heading", "90",
+                 "--csv", str(csv_path)], io.StringIO()) == 0
     x, y, _, _ = read_csv(csv_path).final_pose
     assert x == pytest.approx(0.0, abs=1e-9) and y == pytest.approx(2.0)
 
@@ -82,7 +102,7 @@ def test_missing_device_path_fails_clearly(capsys):
 
 def test_a_capture_replays_into_the_same_track(tmp_path):
     raw, live_csv = tmp_path / "cap.bin", tmp_path / "live.csv"
-    argv = ["log", "fakeshoe://4", "--raw", str(raw), "--start", "--duration", "0.5"]
+    argv = ["log", "fakeshoe://4", "--raw", str(raw), "--start", "--steps", "4", "--duration", "30"]
     assert main(argv, io.StringIO()) == 0
     out = io.StringIO()
     assert main(["replay", str(raw), "--csv", str(live_csv)], out) == 0
@@ -94,7 +114,7 @@ def test_a_capture_replays_into_the_same_track(tmp_path):
 
 def test_track_to_a_file_writes_a_line_per_new_step_and_no_carriage_return():
     out = io.StringIO()  # not a terminal, like a log file
-    assert main(["track", "fakeshoe://4", "--duration", "1.0"], out) == 0
+    assert main(["track", "fakeshoe://4", "--steps", "4", "--duration", "30"], out) == 0
     text = out.getvalue()
     assert "\r" not in text
     counts = [int(ln.split()[1]) for ln in text.splitlines() if ln.startswith("packets")]
@@ -113,7 +133,7 @@ def test_heading_is_shown_in_0_to_360_and_never_as_360():
 def test_track_with_the_module_errors_holds_them_live(tmp_path):
     """A live track with --module-errors sums the same steps; its covariance grows along the track."""
     out, csv_path = io.StringIO(), tmp_path / "w.csv"
-    assert main(["track", "fakeshoe://5", "--duration", "1.0", "--module-errors", "0.01,0",
+    assert main(["track", "fakeshoe://5", "--steps", "5", "--duration", "30", "--module-errors", "0.01,0",
                  "--csv", str(csv_path)], out) == 0
     assert "module errors held" in out.getvalue()
     track = read_csv(csv_path)

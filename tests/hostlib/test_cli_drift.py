@@ -135,7 +135,8 @@ def _cal_file(tmp_path, dv=(-0.2, 0.0, 0.0), serial_number=protocol_fakeshoe.MCU
 def test_track_with_fusion_and_drift_corrects_each_step_by_its_swing_time(tmp_path):
     out_csv = tmp_path / "live.csv"
     out = io.StringIO()
-    argv = ["track", "fakeshoe://5/fusion", "--fusion", "--drift", _cal_file(tmp_path), "--duration", "1.5",
+    argv = ["track", "fakeshoe://5/fusion", "--fusion", "--drift", _cal_file(tmp_path), "--steps", "5",
+            "--duration", "30",
             "--csv", str(out_csv)]
     assert main(argv, out) == 0
     track = read_csv(out_csv)
@@ -160,7 +161,8 @@ def _frames(*commands) -> list[bytes]:
 
 
 def test_track_sends_the_fusion_set_up_after_0x34_and_height_compensation_at_the_first_step(tmp_path):
-    argv = ["track", "fakeshoe://3/fusion", "--fusion", "--height-compensation", "--duration", "1.0"]
+    argv = ["track", "fakeshoe://3/fusion", "--fusion", "--height-compensation", "--steps", "3",
+            "--duration", "30"]
     assert main(argv, io.StringIO()) == 0
     port = protocol_fakeshoe.PORTS[-1]
     start = (Command.STEPWISE_DEAD_RECKONING, {})
@@ -170,14 +172,15 @@ def test_track_sends_the_fusion_set_up_after_0x34_and_height_compensation_at_the
 
 
 def test_track_without_the_options_sends_what_it_always_sent():
-    assert main(["track", "fakeshoe://2", "--duration", "0.5"], io.StringIO()) == 0
+    assert main(["track", "fakeshoe://2", "--steps", "2", "--duration", "30"], io.StringIO()) == 0
     assert protocol_fakeshoe.PORTS[-1].commands == _frames((Command.STEPWISE_DEAD_RECKONING, {}),
                                                            (Command.OUTPUT_ALL_OFF, {}))
 
 
 def test_a_logged_fusion_capture_calibrates(tmp_path):
     raw = tmp_path / "loop.bin"
-    argv = ["log", "fakeshoe://4/fusion", "--start", "--fusion", "--raw", str(raw), "--duration", "1.0"]
+    argv = ["log", "fakeshoe://4/fusion", "--start", "--fusion", "--raw", str(raw), "--steps", "4",
+            "--duration", "30"]
     assert main(argv, io.StringIO()) == 0
     session = replay_capture_session(raw)
     assert session.mcu_serial == protocol_fakeshoe.MCU_ID

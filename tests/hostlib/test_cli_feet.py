@@ -321,7 +321,8 @@ def test_track_with_two_devices_corrects_each_foots_drift(fakeshoe_scheme, tmp_p
     cal = tmp_path / "drift.json"
     DriftCalibration((0.0, 0.2, 0.0), 100.0, 100, 1, protocol_fakeshoe.MCU_ID).save(cal)
     csv_path = tmp_path / "live.csv"
-    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--duration", "1.0",
+    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--steps", "4",
+            "--duration", "30",
             "--drift", str(cal), str(cal), "--no-constraint", "--csv", str(csv_path)]
     assert main(argv, io.StringIO()) == 0
     feet = read_feet_csv(csv_path).feet
@@ -334,7 +335,8 @@ def test_track_with_two_devices_corrects_each_foots_drift(fakeshoe_scheme, tmp_p
 def test_track_refuses_another_modules_drift_calibration_for_a_foot(fakeshoe_scheme, tmp_path, capsys):
     cal = tmp_path / "drift.json"
     DriftCalibration((0.0, 0.2, 0.0), 100.0, 100, 1, b"ANOTHER-MODULE-").save(cal)
-    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--duration", "1.0",
+    argv = ["track", "fakeshoe://4/fusion", "fakeshoe://4/fusion", "--fusion", "--steps", "4",
+            "--duration", "30",
             "--drift", "-", str(cal)]
     assert main(argv, io.StringIO()) == 1
     assert "the right foot (fakeshoe://4/fusion): drift calibration" in capsys.readouterr().err
@@ -348,7 +350,8 @@ def test_track_with_two_devices_needs_the_fusion_set_up_for_drift(fakeshoe_schem
 
 def test_track_with_two_devices_starts_the_feet_facing_the_initial_heading(fakeshoe_scheme, tmp_path):
     csv_path = tmp_path / "live.csv"
-    argv = ["track", "fakeshoe://1", "fakeshoe://1", "--duration", "0.5", "--heading", "90", "--csv",
+    argv = ["track", "fakeshoe://1", "fakeshoe://1", "--steps", "1", "--duration", "30", "--heading", "90",
+            "--csv",
             str(csv_path)]
     assert main(argv, io.StringIO()) == 0
     feet = read_feet_csv(csv_path)

@@ -104,7 +104,8 @@ def test_a_gps_receiver_that_is_not_there_fails_clearly(capsys):
 
 def test_track_without_the_aids_writes_the_plain_csv(tmp_path):
     csv = tmp_path / "t.csv"
-    assert main(["track", "fakeshoe://2/fusion", "--fusion", "--duration", "0.5", "--csv", str(csv)],
+    assert main(["track", "fakeshoe://2/fusion", "--fusion", "--steps", "2", "--duration", "30",
+                 "--csv", str(csv)],
                 io.StringIO()) == 0
     assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS
 
