@@ -68,7 +68,7 @@ __all__ = ["DRIFT_STATE", "EMULATED_MODULE", "EMULATED_MODULE_SWAYING", "ERROR_S
            "DriftSpan", "ModuleErrors", "error_jacobian", "step_duration", "through_step"]
 
 #: The states every :class:`ModuleErrors` adds: s, c, k (:attr:`ModuleErrors.states`: one more, r,
-#: with a heading drift prior above 0).
+#: with a heading drift prior above 0, and one more, w, last, with a warm-up prior above 0).
 ERROR_STATES = 3
 #: Where the heading drift rate r sits among the module's errors, when held: after s, c, k.
 DRIFT_STATE = 3
