@@ -17,7 +17,9 @@ When the source runs out the process sequence is emptied (the foot stops being
 sensed) and the loop keeps running until the packet queue has drained, so the
 last step is on the wire too. ``--scenario NAME`` replays a simulated walk
 (:func:`firmware_sim.sensors.imu_array.make_source`, 1 kHz by default) instead and
-writes its ground truth beside OUT (``OUT.truth.csv``); ``--module N`` makes it module N's walk
+writes its ground truth beside OUT (``OUT.truth.csv``) and the shoe's iron as simulated, as the
+host's magnetometer calibration of the module (``OUT.iron.json``, :mod:`.truth_files`);
+``--module N`` makes it module N's walk
 (module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module);
 ``--stance-sway`` makes its walking stances sway and vibrate as a real foot's do
 (:class:`firmware_sim.sensors.gait.StanceSway`; off by default for now, and said in the run's
@@ -73,6 +75,7 @@ from protocol.ids import Command
 from protocol.stream import StreamDecoder
 
 from .progress import progress_bar, say
+from .truth_files import write_truth_files
 
 __all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
            "add_arguments", "add_receiver_arguments", "add_stance_sway_argument", "check_arguments", "main",
@@ -457,7 +460,7 @@ def main(args: argparse.Namespace) -> int:
         return 2
     _replay_to(args, source, name, args.module, args.wire)
     if truth is not None:
-        truth.to_csv(args.wire.with_name(args.wire.name + ".truth.csv"))
+        write_truth_files(source, args.wire, module_serial(args.module))
     if gps is not None:
         _write_gps(args, truth.t, truth.pos, truth.vel, *gps)
     return 0
@@ -482,7 +485,7 @@ def _main_feet(args: argparse.Namespace) -> int:
         name = (f"scenario {args.scenario!r}, {side} foot (module {source.module}, seed {source.seed}, "
                 f"{args.rate:g} Hz{_stance_sway_note(source)})")
         _replay_to(args, source, name, source.module, wire)  # each foot's own serial number
-        source.truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
+        write_truth_files(source, wire, module_serial(source.module))
     body = body_truth(sources["left"].truth, sources["right"].truth)
     write_body_truth(body, args.wire.with_name(args.wire.name + ".body.truth.csv"))
     if gps is not None:

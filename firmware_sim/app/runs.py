@@ -207,6 +207,7 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
     from firmware_sim.transports.factory import module_serial
 
     from .batch import run_replay
+    from .truth_files import write_truth_files
 
     t1 = time.perf_counter()
     source, truth, applied = loaded.source, loaded.truth, loaded.applied
@@ -220,7 +221,7 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
         wire = Path(wire_dir) / f"{spec.name}.bin"
         wire.write_bytes(data)
         if truth is not None:
-            truth.to_csv(wire.with_name(wire.name + ".truth.csv"))
+            write_truth_files(source, wire, config.mcu_serial)
     t3 = time.perf_counter()
     row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
                            "module": spec.walking_module}

@@ -59,6 +59,7 @@ from typing import Any
 
 import numpy as np
 
+from firmware_sim.app.truth_files import shoe_iron  # the whole iron, the rotation no ellipsoid fit sees
 from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion import FusionSettings, FusionTracker
 from hostlib.gps_bias import GpsBias
@@ -132,15 +133,6 @@ def outdoor_compass() -> dict[str, Any]:
     (:func:`wmm_declination_rad`)."""
     return {"compass": True, "compass_sigma_rad": math.radians(OUTDOOR_COMPASS_SIGMA_DEG),
             "declination_rad": wmm_declination_rad()}
-
-
-def shoe_iron(source: Any) -> Any:
-    """The hard and soft iron of *source*'s shoe as simulated, as the host's
-    :class:`hostlib.magcal.MagCalibration`: the whole iron, the rotation no in-situ ellipsoid fit sees
-    included (:mod:`.magcal`)."""
-    from hostlib.magcal import MagCalibration
-
-    return MagCalibration(source.magnetic.hard_iron, np.linalg.inv(source.magnetic.soft_iron))
 
 
 class OracleCompassTracker(FusionTracker):
