@@ -154,9 +154,9 @@ def load(spec: RunSpec) -> Loaded:
     else:
         from firmware_sim.sensors.imu_array import make_source
 
+        sway = spec.stance_sway if applied.stance_sway is None else applied.stance_sway
         source = make_source(spec.source, seed=spec.seed, rate_hz=applied.rate_hz or spec.rate_hz,
-                             config=applied.sensors,
-                             module=spec.module, stance_sway=spec.stance_sway)
+                             config=applied.sensors, module=spec.module, stance_sway=sway)
         truth = source.truth
     return Loaded(source, truth, applied, time.perf_counter() - t0)
 

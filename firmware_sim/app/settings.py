@@ -21,6 +21,11 @@ pairs, applied on top of the defaults by :func:`apply`:
 ``scenario.rate_hz``
     the simulated module's loop and sample rate [Hz] (default: the sweep's ``--rate``), e.g.
     1000 (the module's) against 250 (the recordings'). Scenarios only.
+``scenario.stance_sway``
+    whether the walking stances sway and vibrate as a real foot's do
+    (:class:`firmware_sim.sensors.gait.StanceSway`; default:
+    :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`), e.g. ``true,false`` to see what a
+    real foot's stance changes. Scenarios only.
 ``link.profile``
     ``ideal`` (default), ``bt`` or ``usb``: the Bluetooth interface's link model;
 ``link.byte_loss``, ``link.corrupt``, ``link.stall_rate_hz``, ``link.disconnect_rate_hz``
@@ -55,6 +60,7 @@ SENSOR_MODELS = {"default": DEFAULT_CONFIG, "ideal": IDEAL_CONFIG}
 #: Settings whose values are words, and the words they take.
 WORDS = {"link.profile": LINK_PROFILES, "sensors.model": tuple(SENSOR_MODELS)}
 RATE = "scenario.rate_hz"
+STANCE_SWAY = "scenario.stance_sway"
 _TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
 
 
@@ -71,6 +77,7 @@ class Applied:
     link_profile: str | None = None
     link_faults: dict[str, float] = field(default_factory=dict)
     rate_hz: float | None = None  #: a simulated module's rate, when a setting says it
+    stance_sway: bool | None = None  #: whether a scenario's stances sway, when a setting says it
 
     def make_link(self, seed: int):
         """The Bluetooth link of the run (None: the ideal port, as a plain replay)."""
@@ -105,13 +112,15 @@ def _kind(name: str) -> type:
         return str
     if name == RATE:
         return float
+    if name == STANCE_SWAY:
+        return bool
     if name.startswith("link.") and name[5:] in LINK_FAULTS:
         return float
     if name.startswith("sensors."):
         return type(_sensor_field(name)[1])
     faults = ", ".join("link." + f for f in LINK_FAULTS)
     raise SettingError(f"unknown setting {name!r} (known: {', '.join(THRESHOLDS)}, sensors.model, "
-                       f"sensors.<field>, {RATE}, link.profile, {faults})")
+                       f"sensors.<field>, {RATE}, {STANCE_SWAY}, link.profile, {faults})")
 
 
 def parse_value(name: str, value: Any) -> Any:
@@ -164,6 +173,8 @@ def apply(settings: Settings) -> Applied:
             continue
         if name == RATE:
             out.rate_hz = float(value)
+        elif name == STANCE_SWAY:
+            out.stance_sway = bool(value)
         elif name in THRESHOLDS:
             out.initial_states[int(THRESHOLDS[name])] = int(value)
         elif name == "link.profile":

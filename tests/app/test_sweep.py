@@ -4,6 +4,7 @@ also when a worker process dies in the middle of the sweep."""
 from __future__ import annotations
 
 import functools
+import hashlib
 import json
 import os
 import signal
@@ -77,6 +78,8 @@ def test_a_spec_file_and_the_command_line_add_up(tmp_path):
     (["--scenario", "walk", "--set", "sensors.model=perfect"], "takes one of default, ideal"),
     (["--scenario", "walk", "--set", "scenario.rate_hz=0"], "takes positive numbers"),
     (["walk.txt", "--set", "scenario.rate_hz=250"], "scenarios only"),
+    (["--scenario", "walk", "--set", "scenario.stance_sway=maybe"], "takes bool values"),
+    (["walk.txt", "--set", "scenario.stance_sway=true"], "scenarios only"),
     (["--scenario", "walk", "--leave-one-out", "closure_pct"], "needs a setting"),
     (["--scenario", "walk", "--set", "sensors.noise=0,1", "--group-by", "speed"], "no column speed"),
     (["--scenario", "walk", "--set", "frontend.zupt_threshold=1,1"], "give each value once"),
@@ -112,6 +115,22 @@ def test_a_threshold_changes_the_run_and_the_defaults_change_nothing():
     (strict,) = runs.scenario_runs([RECIPE], [0], 250.0, (("frontend.zupt_threshold", 500),))
     a, b, c = (runs.run_one(s) for s in (plain, default, strict))
     assert a["wire_sha256"] == b["wire_sha256"] != c["wire_sha256"]
+
+
+def test_the_stance_sway_setting_sways_the_walk_and_its_default_changes_nothing():
+    """scenario.stance_sway=true makes the run the one --stance-sway replays (the same bytes); false
+    is the plain run, bit for bit."""
+    from firmware_sim.app.batch import run_replay
+    from firmware_sim.sensors.imu_array import make_source
+
+    (plain,) = runs.scenario_runs([RECIPE], [1], rate_hz=250.0)
+    (off,) = runs.scenario_runs([RECIPE], [1], 250.0, (("scenario.stance_sway", False),))
+    (on,) = runs.scenario_runs([RECIPE], [1], 250.0, (("scenario.stance_sway", True),))
+    a, b, c = (runs.run_one(s) for s in (plain, off, on))
+    assert a["wire_sha256"] == b["wire_sha256"] != c["wire_sha256"]
+    swaying = bytes(run_replay(make_source(RECIPE, seed=1, rate_hz=250.0, stance_sway=True), announce=None))
+    assert c["wire_sha256"] == hashlib.sha256(swaying).hexdigest()
+    assert settings.apply((("scenario.stance_sway", True),)).stance_sway is True
 
 
 def test_a_lossy_link_still_gives_every_step_to_a_lossless_host():
