@@ -34,6 +34,13 @@ e_χ² − P_χχ on Θ² (over the runs that turned; 0 on the others) and T² o
 at 0 (the other then fitted alone): straight walks, which turn no angle, teach the drift; loops
 the turn scale beside it — and :func:`summary_lines` shows each module's NEES with priors
 estimated on the other modules.
+
+**The gyros' warm-up.** Each run's Jacobian has a fifth column, w's (:mod:`hostlib.module_errors`:
+the warm-up ramp integrated over the steps since the last still reset). On walks whose stances
+sway (``--stance-sway``), where ZARU no longer re-learns the bias every stride, a second block
+holds w at its sensors' prior (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`, from the
+gyros' temperature coefficient and the dies' warm-up; not estimated): its share J_w σ_w² J_wᵀ of
+each run's covariance is taken as known, and s, c, k and r are estimated on top of it.
 """
 
 from __future__ import annotations
