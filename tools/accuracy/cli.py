@@ -53,6 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
     a = _seeded(sub, "two-feet-aids", "NavShoe's outage experiment with a module on each foot: the body's "
                                       "end error fused with compass + GPS, their average, fused plain, one "
                                       "foot", "1:11", "walkers", "ten")
+    _stance_sway_option(a)
     d = _seeded(sub, "two-feet-drift", "Bachmann's drift correction with two feet: one walker's modules "
                                        "round a 400 m loop, each corrected with the others' calibrations",
                 "1:7", "loops", "six")
@@ -244,7 +245,8 @@ def _two_feet_loop(args: argparse.Namespace, out) -> int:
 def _two_feet_aids(args: argparse.Namespace, out) -> int:
     from . import two_feet
 
-    return _seeded_table(args, out, two_feet.aids_rows, two_feet.aids_summary, "two-feet-aids.csv")
+    rows_of = functools.partial(two_feet.aids_rows, stance_sway=args.stance_sway)
+    return _seeded_table(args, out, rows_of, two_feet.aids_summary, "two-feet-aids.csv")
 
 
 def _two_feet_drift(args: argparse.Namespace, out) -> int:

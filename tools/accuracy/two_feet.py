@@ -24,8 +24,11 @@ the two (``average``, Bachmann et al.), and the constrained fusion's body (``fus
   (each foot's compass with its own shoe's iron removed). Per walker the error at the end of the
   outage of :data:`AIDED_ESTIMATES`: the fused body with compass and GPS, the average of the two
   feet's aided single tracks, the fused body without aids (given the true initial heading, like
-  NavShoe's ``plain``), the left foot's own aided track, and the aided joint filter without the
-  inter-foot constraint (both feet and D in one filter, never projected); the declination each learned.
+  NavShoe's ``plain``), the left foot's own aided track, the aided joint filter without the
+  inter-foot constraint (both feet and D in one filter, never projected), and the fused body with
+  each foot's module's errors held at the priors of the emulated module on a real foot's swaying
+  stance, the gyros' warm-up among them (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`: the
+  estimate for ``--stance-sway``); the declination each learned.
 * :func:`drift_rows` — **Bachmann's drift correction with two feet**: walker :data:`DRIFT_WALKER`
   walks the 400 m track once per seed, with the same two modules every time (a module's
   systematic errors belong to the module, its noise and in-run drift to the walk). Leave-one-out:
@@ -41,6 +44,7 @@ that start: a few centimetres from its true start, against end errors of metres.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -61,7 +65,7 @@ HEADING_SCENARIO = "stand:5+track400:5+stand:5"  # 2 km, about 22 minutes
 ESTIMATES = ("left", "right", "average", "fused")
 #: What :func:`aids_run` compares on NavShoe's outage loop (module docstring).
 AIDED_ESTIMATES = ("fused compass+gps", "average compass+gps", "fused plain", "left compass+gps",
-                   "unconstrained compass+gps")
+                   "unconstrained compass+gps", "fused compass+gps module errors and warm-up")
 #: The walker of :func:`drift_rows`: every loop is walked with this walker's two modules.
 DRIFT_WALKER = 1
 
@@ -100,16 +104,16 @@ def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, i
     return bytes(out), len(cut)
 
 
-def feet_captures(scenario: str, seed: int, walker: int | None = None
+def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sway: bool | None = None
                   ) -> tuple[dict[str, Any], dict[str, bytes]]:
     """A module on each foot of a walker walking *scenario* (walk *seed*; *walker*'s two modules,
-    None: the seed's own), each replayed with the fusion host: side → sensor source, side → the
-    bytes its module sent."""
+    None: the seed's own; *stance_sway* as ``make_feet_sources``'s), each replayed with the fusion
+    host: side → sensor source, side → the bytes its module sent."""
     from firmware_sim.sensors.imu_array import make_feet_sources
 
     from .runs import fusion_capture
 
-    sources = make_feet_sources(scenario, seed=seed, walker=walker)
+    sources = make_feet_sources(scenario, seed=seed, walker=walker, stance_sway=stance_sway)
     return sources, {side: fusion_capture(source, source.module) for side, source in sources.items()}
 
 
@@ -284,26 +288,33 @@ def drift_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
     return out
 
 
-def aids_run(seed: int) -> list[dict[str, Any]]:
-    """The rows of one walker's walk of NavShoe's outage loop: one per :data:`AIDED_ESTIMATES`."""
+def aids_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any]]:
+    """The rows of one walker's walk of NavShoe's outage loop: one per :data:`AIDED_ESTIMATES`
+    (*stance_sway*: the walking stances sway as a real foot's; None: the simulation's default)."""
+    from dataclasses import replace
+
     from firmware_sim.sensors.feet import body_truth
     from hostlib.compass import wrap_angle
     from hostlib.feet import FeetSettings, TwoFeetTracker
     from hostlib.fusion import FusionSettings
+    from hostlib.module_errors import EMULATED_MODULE_SWAYING
     from hostlib.replay import replay_feet
 
     from .navshoe import SCENARIO, outdoor_compass, shoe_iron, walk_fixes
 
-    sources, captures = feet_captures(SCENARIO, seed)
+    sources, captures = feet_captures(SCENARIO, seed, stance_sway=stance_sway)
     t, pos, vel, yaw = body_truth(sources["left"].truth, sources["right"].truth)
     gps = walk_fixes(SCENARIO, t, pos, vel, seed)  # the receiver on the body
     aids = FusionSettings(gps=True, **outdoor_compass())
+    irons = {side: shoe_iron(source) for side, source in sources.items()}
     aided, unconstrained = (
         TwoFeetTracker(FeetSettings(constraint=constraint), last_counter=None, defer=True, aids=aids,
-                       mag_calibrations={side: shoe_iron(source) for side, source in sources.items()})
+                       mag_calibrations=irons)
         for constraint in (True, False))
+    warmup = TwoFeetTracker(last_counter=None, defer=True, mag_calibrations=irons,
+                            aids=replace(aids, module_errors=EMULATED_MODULE_SWAYING))
     plain = TwoFeetTracker(last_counter=None, defer=True, heading=float(yaw[0]))
-    for tracker in (aided, unconstrained, plain):
+    for tracker in (aided, unconstrained, warmup, plain):
         if tracker.aids.gps:
             tracker.add_fixes(gps.times_s, gps.north_east)
         replay_feet(captures["left"], captures["right"], tracker=tracker)
@@ -319,13 +330,16 @@ def aids_run(seed: int) -> list[dict[str, Any]]:
         "left compass+gps": (aided.left.track, gps.first_fix, np.r_[left.pos[-1, :2], left.euler[-1, 2]],
                              aided.left.declination),
         "unconstrained compass+gps": (unconstrained.body, gps.first_fix, body_end, unconstrained.declination),
+        "fused compass+gps module errors and warm-up": (warmup.body, gps.first_fix, body_end,
+                                                        warmup.declination),
     }
     rows = []
     for name, (track, origin, true_end, declination) in estimates.items():
         pose = track.final_pose
         error = float(np.hypot(*(pose[:2] + origin - true_end[:2])))
         rows.append({
-            "seed": seed, "estimate": name, "without_gps_m": round(gps.without_gps_m, 1),
+            "seed": seed, "estimate": name, "stance_sway": sources["left"].trajectory.stance_sway is not None,
+            "without_gps_m": round(gps.without_gps_m, 1),
             "end_error_m": error, "end_error_pct_without_gps": 100.0 * error / gps.without_gps_m,
             "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_end[2])),
             "declination_deg": math.degrees(declination),
@@ -335,20 +349,23 @@ def aids_run(seed: int) -> list[dict[str, Any]]:
     return rows
 
 
-def aids_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
-    """Every walker's :func:`aids_run`, in order."""
+def aids_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
+              ) -> list[dict[str, Any]]:
+    """Every walker's :func:`aids_run`, in order (*stance_sway* as there)."""
     from .runs import seeded_rows
 
-    return seeded_rows(aids_run, list(seeds), workers)
+    return seeded_rows(functools.partial(aids_run, stance_sway=stance_sway), list(seeds), workers)
 
 
 def aids_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
     from .navshoe import error_table
 
     walked = np.mean([r["without_gps_m"] for r in rows])
-    return [f"two feet on navshoe-outage, {len({r['seed'] for r in rows})} walkers: the body's error at the "
-            f"end of the outage ({walked:.0f} m walked without GPS; left compass+gps: the left foot's own "
-            f"track against that foot)"] + error_table(rows, "estimate", AIDED_ESTIMATES)
+    sway = ", walking stances swaying" if any(r.get("stance_sway") for r in rows) else ""
+    walkers = len({r["seed"] for r in rows})
+    return [f"two feet on navshoe-outage, {walkers} walkers{sway}: the body's error at the end of the "
+            f"outage ({walked:.0f} m walked without GPS; left compass+gps: the left foot's own track "
+            f"against that foot)"] + error_table(rows, "estimate", AIDED_ESTIMATES)
 
 
 def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dict[str, Any]:
