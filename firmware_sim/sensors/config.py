@@ -108,6 +108,9 @@ class TemperatureConfig:
     ambient_c: float = 22.0  #: choice: temperature at power-on
     warmup_c: float = 8.0  #: choice: self-heating + foot warmth reached after warm-up
     warmup_tau_s: float = 120.0  #: choice: warm-up time constant
+    #: how long the module has been on when the run starts [s]: 0, a power-on at the start (the
+    #: default); several τ, a module already warm (walks one after another, as in the module paper)
+    powered_s: float = 0.0
     chip_spread_c: float = 0.5  #: choice: ± per-chip offset of the die temperature
     reference_c: float = 25.0  #: datasheet: offsets/sensitivities are specified at 25 °C
 

@@ -137,7 +137,7 @@ class SimulatedSource:
 
         # --- temperature ----------------------------------------------------------------------
         tc = cfg.temperature
-        warm = tc.ambient_c + tc.warmup_c * (1.0 - np.exp(-t / tc.warmup_tau_s))
+        warm = tc.ambient_c + tc.warmup_c * (1.0 - np.exp(-(t + tc.powered_s) / tc.warmup_tau_s))
         self.die_temp_c = warm[:, None] + np.array([c.temp_offset_c for c in self.chips])[None, :]
         self.temp = temp_to_lsb(self.die_temp_c, cfg)
 

@@ -148,6 +148,15 @@ def test_temperature_register_warms_up_from_ambient():
     assert np.all(temp[-1] - temp[0] == pytest.approx(8.0 * (1 - math.exp(-3)), abs=0.01))
 
 
+def test_a_module_switched_on_earlier_starts_the_run_warm():
+    warm = replace(DEFAULT_CONFIG.temperature, warmup_tau_s=2.0, powered_s=4.0)
+    temp = lsb_to_temp(make_source("stand:6", seed=2, config=replace(DEFAULT_CONFIG, temperature=warm)).temp)
+    cold = lsb_to_temp(make_source("stand:6", seed=2, config=DEFAULT_CONFIG).temp)
+    # 4 s = 2τ before the run: 1 − e⁻² of the 8 °C already reached, the rest still to come
+    assert np.all(temp[0] - cold[0] == pytest.approx(8.0 * (1 - math.exp(-2)), abs=0.01))
+    assert np.all(temp[-1] - temp[0] == pytest.approx(8.0 * (math.exp(-2) - math.exp(-5)), abs=0.01))
+
+
 def test_set_dlpf_smooths_the_registers_and_refuses_bad_settings():
     src = make_source("stand:3", seed=4)
     rough = np.abs(np.diff(src.imu[..., 3:].astype(float), axis=0)).mean()

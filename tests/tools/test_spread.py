@@ -104,6 +104,20 @@ def test_a_serial_run_prints_the_table_and_writes_csv_and_png(tmp_path, capsys):
     assert (tmp_path / "spread.png").stat().st_size > 10_000
 
 
+def test_the_modules_start_warm_unless_asked_to_start_at_power_on(tmp_path):
+    """The module paper's walks came one after another, so its modules were warm: each walk's
+    module has been on for ten minutes, five time constants of the warm-up; ``--powered-for 0``
+    walks from power-on, through the warm-up, as ``openshoe-emu`` does."""
+    warm, cold = tmp_path / "warm", tmp_path / "cold"
+    assert main(["--route", SHORT, "--seeds", "1,2", "--workers", "0", "--no-plot", "--out", str(warm)]) == 0
+    assert main(["--route", SHORT, "--seeds", "1,2", "--workers", "0", "--no-plot", "--powered-for", "0",
+                 "--out", str(cold)]) == 0
+    warm_rows, cold_rows = _csv_rows(warm / "spread.csv"), _csv_rows(cold / "spread.csv")
+    assert [r["sensors.temperature.powered_s"] for r in warm_rows] == ["600.0", "600.0"]
+    assert [r["sensors.temperature.powered_s"] for r in cold_rows] == ["0.0", "0.0"]
+    assert [r["wire_sha256"] for r in warm_rows] != [r["wire_sha256"] for r in cold_rows]
+
+
 def test_one_module_walks_every_seed(tmp_path, capsys):
     assert main(["--route", SHORT, "--seeds", "4,5", "--module", "3", "--workers", "0", "--no-plot",
                  "--out", str(tmp_path)]) == 0
@@ -138,6 +152,8 @@ def test_comparing_a_module_with_the_fleet_prints_the_ratio_of_spreads(tmp_path,
     (["--route", "stand:2+nope:3"], "unknown piece"),
     (["--route", "walk:x"], "arguments must be numbers"),
     (["--workers", "-1"], "--workers"),
+    (["--powered-for", "-1"], "--powered-for must be a number of seconds ≥ 0"),
+    (["--powered-for", "nan"], "--powered-for must be a number of seconds ≥ 0"),
 ])
 def test_bad_arguments_exit_2_with_the_reason(argv, message, tmp_path, capsys):
     assert main(["--workers", "0", "--out", str(tmp_path), *argv]) == 2  # a later --workers wins

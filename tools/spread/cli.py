@@ -15,6 +15,7 @@ PROG = "openshoe-spread"
 
 def build_parser() -> argparse.ArgumentParser:
     from . import __doc__ as doc
+    from .experiment import POWERED_S
 
     p = argparse.ArgumentParser(prog=PROG, description=(doc or "").split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -33,6 +34,10 @@ def build_parser() -> argparse.ArgumentParser:
     where.add_argument("--workers", type=int, default=2,
                        help="local Dask worker processes, 1 thread each (default 2; 0 = serial, here)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask cluster instead")
+    p.add_argument("--powered-for", type=float, default=POWERED_S, metavar="SECONDS",
+                   help=f"how long each module has been on when its walk starts (default {POWERED_S:g}: "
+                        "warm, as in walks one after another; 0: each walk starts at power-on and "
+                        "walks through the gyros' warm-up)")
     p.add_argument("--out", type=Path, default=Path("spread-out"), metavar="DIR",
                    help="write spread.csv and spread.png here (default spread-out)")
     p.add_argument("--no-plot", action="store_true", help="skip spread.png")
@@ -99,6 +104,8 @@ def main(argv: list[str] | None = None) -> int:
         check_route(args.route)
         if args.workers < 0:
             raise ValueError("--workers must be ≥ 0")
+        if not 0.0 <= args.powered_for < float("inf"):
+            raise ValueError("--powered-for must be a number of seconds ≥ 0")
     except ValueError as e:
         print(f"{PROG}: {e}", file=sys.stderr)
         return 2
@@ -106,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     quiet = not sys.stderr.isatty()
     try:
         rows = walk_groups(args.route, [(s, m) for _, s, m in wanted], workers=args.workers,
-                           scheduler=args.scheduler, quiet=quiet)
+                           scheduler=args.scheduler, quiet=quiet, powered_s=args.powered_for)
     except Exception as e:  # noqa: BLE001 - a walk that failed on every try, or a lost cluster
         print(f"{PROG}: {type(e).__name__}: {e}", file=sys.stderr)
         return 1

@@ -11,10 +11,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-__all__ = ["Group", "check_route", "walk_groups", "walk_routes"]
+__all__ = ["POWERED_S", "Group", "check_route", "walk_groups", "walk_routes"]
 
 #: Seeds to walk and the module that walks them (None: each seed its own, a new module per walk).
 Group = tuple[Sequence[int], int | None]
+
+#: How long each module has been on when its walk starts [s], by default: ten minutes, five time
+#: constants of the emulated warm-up (``TemperatureConfig.warmup_tau_s``, 99.3 % settled). The
+#: module paper's fifty walks were walked one after another, so its modules were warm for all
+#: but the first; a walk of ``openshoe-emu`` starts at power-on instead (``powered_s`` 0).
+POWERED_S = 600.0
 
 
 def check_route(route: str) -> None:
@@ -29,14 +35,16 @@ def check_route(route: str) -> None:
 
 
 def walk_groups(route: str, groups: Sequence[Group], workers: int = 2, scheduler: str | None = None,
-                quiet: bool = True) -> list[list[dict[str, Any]]]:
+                quiet: bool = True, powered_s: float = POWERED_S) -> list[list[dict[str, Any]]]:
     """The rows of every group's walks of *route*, group by group, each in the order of its seeds;
     all on one cluster (*scheduler*'s, or a local one of *workers* processes), or here in turn
-    when *workers* is 0 and there is no *scheduler*."""
+    when *workers* is 0 and there is no *scheduler*. Each module has been on for *powered_s*
+    seconds when its walk starts (the setting ``sensors.temperature.powered_s``)."""
     from firmware_sim.app import cluster
     from firmware_sim.app.runs import scenario_runs
 
-    specs = [scenario_runs([route], list(seeds), module=module) for seeds, module in groups]
+    warm = (("sensors.temperature.powered_s", float(powered_s)),)
+    specs = [scenario_runs([route], list(seeds), settings=warm, module=module) for seeds, module in groups]
     flat = [spec for group in specs for spec in group]
     if workers == 0 and scheduler is None:
         cluster.prepare_process()
@@ -52,7 +60,8 @@ def walk_groups(route: str, groups: Sequence[Group], workers: int = 2, scheduler
 
 
 def walk_routes(route: str, seeds: Sequence[int], module: int | None = None, workers: int = 2,
-                scheduler: str | None = None, quiet: bool = True) -> list[dict[str, Any]]:
+                scheduler: str | None = None, quiet: bool = True,
+                powered_s: float = POWERED_S) -> list[dict[str, Any]]:
     """The rows of *route* walked once per seed: by *module* every time, or (None) by a new
     module each walk; see :func:`walk_groups`."""
-    return walk_groups(route, [(seeds, module)], workers, scheduler, quiet)[0]
+    return walk_groups(route, [(seeds, module)], workers, scheduler, quiet, powered_s)[0]
