@@ -8,6 +8,10 @@ from pathlib import Path
 
 import pytest
 
+#: The tests pin the simulation's own default stance (gait.STANCE_SWAY_DEFAULT), whatever the
+#: user's shell asks of the tools.
+os.environ.pop("OPENSHOE_STANCE_SWAY", None)
+
 REPO = Path(__file__).resolve().parent.parent
 #: The shared recordings live beside the clone (never copied into it);
 #: OPENSHOE_WALKS overrides the location.

@@ -78,8 +78,8 @@ from .progress import progress_bar, say
 from .truth_files import write_truth_files
 
 __all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
-           "add_arguments", "add_receiver_arguments", "add_stance_sway_argument", "check_arguments", "main",
-           "module_number"]
+           "stance_note", "add_arguments", "add_receiver_arguments", "add_stance_sway_argument",
+           "check_arguments", "main", "module_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -299,10 +299,10 @@ def module_number(text: str) -> int:
 
 
 #: The help of ``--stance-sway`` (replay, serve, the demo).
-STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (gait.StanceSway, measured on the "
-                    "shared walks): the module's ZARU then never holds while walking and its heading drifts, "
-                    "as on a real module; off by default for now (--no-stance-sway: off whatever the "
-                    "default)")
+STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (gait.StanceSway, measured on "
+                    "the shared walks): the module's ZARU then seldom holds while walking and its "
+                    "heading drifts, as on a real module; on by default (--no-stance-sway: every walking "
+                    "stance perfectly still, the ZARU re-learning the gyros' bias in each)")
 
 
 def add_stance_sway_argument(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
@@ -313,11 +313,16 @@ def add_stance_sway_argument(p: argparse.ArgumentParser | argparse._ArgumentGrou
                    help=STANCE_SWAY_HELP)
 
 
+def stance_note(swaying: bool) -> str:
+    """``", stance sway"`` or ``", still stances"``: how a simulated walk's stances move, for a run's
+    announcement, so that its result can be reproduced whatever the default."""
+    return ", stance sway" if swaying else ", still stances"
+
+
 def _stance_sway_note(source: object) -> str:
-    """``", stance sway"`` when simulated *source* walks with the stance sway (for a run's
-    announcement, so that its result can be reproduced), else ""."""
+    """:func:`stance_note` of simulated *source*."""
     trajectory = getattr(source, "trajectory", None)
-    return ", stance sway" if getattr(trajectory, "stance_sway", None) is not None else ""
+    return stance_note(getattr(trajectory, "stance_sway", None) is not None)
 
 
 def add_receiver_arguments(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:

@@ -39,7 +39,7 @@ from firmware_sim.transports.pacer import Pacer
 from hostlib.tracking import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
-from .batch import MODULE_HELP, add_stance_sway_argument, module_number
+from .batch import MODULE_HELP, add_stance_sway_argument, module_number, stance_note
 from .progress import progress_bar
 
 #: Virtual seconds the module keeps running after the route ends (the last step's reset).
@@ -149,7 +149,7 @@ def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
 
     t0 = time.monotonic()
     module = "" if args.module is None else f"module {args.module}, "
-    sway = ", stance sway" if stance_sway_on(args.stance_sway) else ""
+    sway = stance_note(stance_sway_on(args.stance_sway))
     say(f"[1/4] simulating the sensors of a foot walking the {args.scenario!r} route "
         f"({module}seed {args.seed}{sway}) …")
     source = make_source(args.scenario, seed=args.seed, module=args.module, stance_sway=args.stance_sway)

@@ -3,7 +3,7 @@
 A foot trajectory is a chain of *segments*. A **stance** segment holds the
 foot flat and still at one pose (where it rests on the ground; a walk may
 give its walking stances a real foot's small zero-mean sway and sole
-vibration, :class:`StanceSway`, :meth:`Trajectory.with_stance_sway` — off by
+vibration, :class:`StanceSway`, :meth:`Trajectory.with_stance_sway` — on by
 default, :data:`STANCE_SWAY_DEFAULT`); a **swing**
 segment carries it from one stance pose to the next: lift-off with the toe
 down (toe-off pitch), a clearance arc, heel-first landing (heel-strike pitch)
@@ -48,6 +48,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -56,8 +57,8 @@ from numpy.polynomial import polynomial as P
 from .truth import GroundTruth, Kinematics, euler_to_matrix
 
 __all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS_UP", "STAIRS_DOWN", "SHUFFLE", "SHORT_STEPS", "WIGGLE",
-           "StanceSway", "STANCE_SWAY", "STANCE_SWAY_DEFAULT", "stance_sway_on", "Pose", "Swing",
-           "GaitBuilder", "Trajectory", "flat_on", "ramp_normal"]
+           "StanceSway", "STANCE_SWAY", "STANCE_SWAY_DEFAULT", "STANCE_SWAY_ENV", "stance_sway_on", "Pose",
+           "Swing", "GaitBuilder", "Trajectory", "flat_on", "ramp_normal"]
 
 DEG = math.pi / 180.0
 STANCE, SWING = 0, 1
@@ -311,19 +312,34 @@ STANCE_SWAY = StanceSway()
 #: THE switch: whether a simulated walk (:func:`~.imu_array.make_source`,
 #: :func:`~.imu_array.make_foot_source`, :func:`~.imu_array.make_feet_sources`,
 #: :class:`~.imu_array.SimulatedSource`) carries :data:`STANCE_SWAY` in its walking stances when its
-#: ``stance_sway`` argument is None. Off for now: every figure and test keeps its bytes; switching
-#: the default on is this one line.
-STANCE_SWAY_DEFAULT = False
+#: ``stance_sway`` argument is None. On: a real foot never stands perfectly still in a walking
+#: stance, and a module's heading drifts as a real one's does only with the sway
+#: (docs/sensor-errors.md). ``stance_sway=False`` gives the still stances of before, byte for byte.
+STANCE_SWAY_DEFAULT = True
 #: Mixed into the seed of a walk's stance-sway generator (apart from the walk's other draws).
 _SWAY_STREAM = 0x535759  # "SWY"
 #: 0 → 1 on [0, 1] with five derivatives zero at both ends: the sway's taper.
 _RAMP = _smoothstep(5)
 
 
+#: The environment variable that overrides :data:`STANCE_SWAY_DEFAULT` in a process and its
+#: workers: ``1`` swaying, ``0`` still stances (e.g. ``OPENSHOE_STANCE_SWAY=0 openshoe-accuracy
+#: two-feet-straight`` reproduces a table measured before the sway became the default).
+STANCE_SWAY_ENV = "OPENSHOE_STANCE_SWAY"
+
+
 def stance_sway_on(stance_sway: bool | None) -> bool:
-    """Whether a walk carries the stance sway: *stance_sway* itself, or :data:`STANCE_SWAY_DEFAULT`
-    (read when called) if it is None."""
-    return STANCE_SWAY_DEFAULT if stance_sway is None else bool(stance_sway)
+    """Whether a walk carries the stance sway: *stance_sway* itself or, if it is None,
+    :data:`STANCE_SWAY_ENV` when set, else :data:`STANCE_SWAY_DEFAULT` (both read when called).
+    Raises ValueError for a value of the variable other than 1 or 0."""
+    if stance_sway is not None:
+        return bool(stance_sway)
+    env = os.environ.get(STANCE_SWAY_ENV, "").strip()
+    if env == "":
+        return STANCE_SWAY_DEFAULT
+    if env not in ("0", "1"):
+        raise ValueError(f"{STANCE_SWAY_ENV}={env!r}: give 1 (stances sway) or 0 (still stances)")
+    return env == "1"
 
 
 def _sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, u: np.ndarray

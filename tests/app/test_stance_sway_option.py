@@ -1,6 +1,6 @@
 """`--stance-sway`: the walking stances sway and vibrate as a real foot's do (gait.StanceSway), in
-``openshoe-emu replay`` (one run, both feet, many), ``openshoe-emu serve`` and the demo; without it
-every capture keeps its bytes."""
+``openshoe-emu replay`` (one run, both feet, many), ``openshoe-emu serve`` and the demo. It is the
+default; ``--no-stance-sway`` gives every capture the bytes of the still stances of before."""
 
 from __future__ import annotations
 
@@ -34,36 +34,35 @@ def _steps(data: bytes) -> tuple[int, int]:
 
 def test_stance_sway_changes_the_capture_not_the_steps(tmp_path):
     swaying = _replay(tmp_path, "sway.bin", "--stance-sway")
-    still = _replay(tmp_path, "still.bin")
+    still = _replay(tmp_path, "still.bin", "--no-stance-sway")
     assert swaying == bytes(run_replay(make_source(RECIPE, seed=3, rate_hz=RATE, stance_sway=True),
                                        announce=None))
     assert swaying != still, "the swaying foot's sensors and the module's output differ"
     assert _steps(swaying) == _steps(still), "the walker took the same steps"
 
 
-def test_without_stance_sway_the_bytes_are_those_of_before(tmp_path):
-    before = bytes(run_replay(make_source(RECIPE, seed=3, rate_hz=RATE), announce=None))
-    assert _replay(tmp_path, "default.bin") == before
-    assert _replay(tmp_path, "off.bin", "--no-stance-sway") == before
-    assert before == bytes(run_replay(make_source(RECIPE, seed=3, rate_hz=RATE, stance_sway=False),
-                                      announce=None)), "off by default"
+def test_by_default_the_stances_sway_and_without_it_the_bytes_are_those_of_before(tmp_path):
+    swaying = bytes(run_replay(make_source(RECIPE, seed=3, rate_hz=RATE), announce=None))
+    assert _replay(tmp_path, "default.bin") == swaying == _replay(tmp_path, "on.bin", "--stance-sway")
+    still = bytes(run_replay(make_source(RECIPE, seed=3, rate_hz=RATE, stance_sway=False), announce=None))
+    assert _replay(tmp_path, "off.bin", "--no-stance-sway") == still != swaying
 
 
-def test_the_announcement_says_when_the_stance_sways(tmp_path, capsys):
-    _replay(tmp_path, "sway.bin", "--stance-sway", quiet=False)
+def test_the_announcement_says_how_the_stances_move(tmp_path, capsys):
+    _replay(tmp_path, "sway.bin", quiet=False)
     assert f"scenario {RECIPE!r} (seed 3, 250 Hz, stance sway): " in capsys.readouterr().err
-    _replay(tmp_path, "still.bin", quiet=False)
+    _replay(tmp_path, "still.bin", "--no-stance-sway", quiet=False)
     err = capsys.readouterr().err
-    assert f"scenario {RECIPE!r} (seed 3, 250 Hz): " in err and "stance sway" not in err
+    assert f"scenario {RECIPE!r} (seed 3, 250 Hz, still stances): " in err and "stance sway" not in err
 
 
 def test_each_foot_sways_with_its_own_walk(tmp_path, capsys):
     out = tmp_path / "walk.bin"
     assert cli.main(["replay", "--scenario", RECIPE, "--rate", str(RATE), "--feet", "2", "--seed", "3",
-                     "--stance-sway", "--wire", str(out)]) == 0
+                     "--wire", str(out)]) == 0
     assert "left foot (module 6, seed 6, 250 Hz, stance sway): " in capsys.readouterr().err
     swaying = make_feet_sources(RECIPE, seed=3, rate_hz=RATE, stance_sway=True)
-    still = make_feet_sources(RECIPE, seed=3, rate_hz=RATE)
+    still = make_feet_sources(RECIPE, seed=3, rate_hz=RATE, stance_sway=False)
     for side, source in swaying.items():
         config = ModuleConfig(rate_hz=RATE, mcu_serial=module_serial(source.module))
         wire = out.with_name(f"walk.bin.{side}").read_bytes()

@@ -117,9 +117,9 @@ def test_a_threshold_changes_the_run_and_the_defaults_change_nothing():
     assert a["wire_sha256"] == b["wire_sha256"] != c["wire_sha256"]
 
 
-def test_the_stance_sway_setting_sways_the_walk_and_its_default_changes_nothing():
-    """scenario.stance_sway=true makes the run the one --stance-sway replays (the same bytes); false
-    is the plain run, bit for bit."""
+def test_the_stance_sway_setting_is_the_replays_option_and_its_default_sways():
+    """scenario.stance_sway=true makes the run the one --stance-sway replays (the same bytes), which
+    is also the run without the setting; false is the still-stance run."""
     from firmware_sim.app.batch import run_replay
     from firmware_sim.sensors.imu_array import make_source
 
@@ -127,7 +127,9 @@ def test_the_stance_sway_setting_sways_the_walk_and_its_default_changes_nothing(
     (off,) = runs.scenario_runs([RECIPE], [1], 250.0, (("scenario.stance_sway", False),))
     (on,) = runs.scenario_runs([RECIPE], [1], 250.0, (("scenario.stance_sway", True),))
     a, b, c = (runs.run_one(s) for s in (plain, off, on))
-    assert a["wire_sha256"] == b["wire_sha256"] != c["wire_sha256"]
+    assert a["wire_sha256"] == c["wire_sha256"] != b["wire_sha256"]
+    still = bytes(run_replay(make_source(RECIPE, seed=1, rate_hz=250.0, stance_sway=False), announce=None))
+    assert b["wire_sha256"] == hashlib.sha256(still).hexdigest()
     swaying = bytes(run_replay(make_source(RECIPE, seed=1, rate_hz=250.0, stance_sway=True), announce=None))
     assert c["wire_sha256"] == hashlib.sha256(swaying).hexdigest()
     assert settings.apply((("scenario.stance_sway", True),)).stance_sway is True

@@ -99,18 +99,22 @@ def test_closed_loop_closes_within_0_5_percent():
 
 
 @pytest.mark.slow
-def test_stepwise_sum_reproduces_the_full_rate_ins():
-    """Steps summed on the host end where the full-rate INS (0x33) ends, to 2 cm after 100 m.
+@pytest.mark.parametrize("stance_sway, parting_m", [(False, 0.02), (True, 0.06)], ids=["still", "swaying"])
+def test_stepwise_sum_reproduces_the_full_rate_ins(stance_sway, parting_m):
+    """Steps summed on the host end where the full-rate INS (0x33) ends, to 2 cm after 100 m with
+    still stances, to 6 cm with a real foot's swaying ones.
 
     The two are not the same filter (each reset zeroes position and heading and their
     covariance), so with a real module's gyro errors (g-sensitivity, bias instability:
     docs/sensor-errors.md) they part by about a centimetre per 100 m; error-free they agree to
-    millimetres."""
-    src = make_source("walk", seed=1, rate_hz=250.0)
+    millimetres. On swaying stances the ZARU seldom holds and both headings drift more, and the
+    ZUPTs correct a drifting heading differently with and without the reset's correlations: seeds
+    1–4 part by 1.5–4.3 cm, well inside the fleet's 0.25 m across-track spread."""
+    src = make_source("walk", seed=1, rate_hz=250.0, stance_sway=stance_sway)
     _, tracker = replay_track(src)
     full = build_module(reference_config(250.0), sensors=src)
     full.usb.port.host_write(bytes.fromhex("330033"))
     full.run(len(src))
     pos = full.memory[StateId.POSITION]
     assert float(np.hypot(*tracker.position[:2])) > 99.0
-    assert float(np.hypot(*(pos[:2] - tracker.position[:2]))) <= 0.02
+    assert float(np.hypot(*(pos[:2] - tracker.position[:2]))) <= parting_m

@@ -21,7 +21,8 @@ step-wise host; against the same run without the bias:
   (:func:`trace_bias` *zaru_off_from*), as in the walking stances of the six shared real walks,
   where ZARU never holds (docs/accuracy.md).
 
-The simulated stance is perfectly still (``firmware_sim.sensors.gait``: "foot flat and still"), so
+The simulated stance studied here is perfectly still (``stance_sway=False``; a default walk's
+stances sway as a real foot's do since, ``gait.STANCE_SWAY_DEFAULT``), so
 T2 is the standing noise floor in every walking stance and ZARU holds there: BIASEST re-learns a
 vertical bias in every stance (a time constant of √(R/Q) ≈ 550 ZARU loops, about a second of
 walking) and the stances' vertical rate is dropped, so the heading keeps only the bias of the
@@ -61,14 +62,15 @@ DEG = math.pi / 180.0
 
 
 def biased_source(scenario: str, bias: Callable[[np.ndarray], np.ndarray] | None, *, rate_hz: float = 1000.0,
-                  config=None, seed: int = 0):
-    """The simulated source of *scenario* (``SensorConfig.ideal()`` unless *config*) with *bias*
-    (sample times [s] → the board z rate's bias [rad/s]) added to every chip's gyro, in its own
-    axes, before the rounding to the registers."""
+                  config=None, seed: int = 0, stance_sway: bool = False):
+    """The simulated source of *scenario* (``SensorConfig.ideal()`` unless *config*; still walking
+    stances unless *stance_sway*) with *bias* (sample times [s] → the board z rate's bias [rad/s])
+    added to every chip's gyro, in its own axes, before the rounding to the registers."""
     from firmware_sim.sensors.config import SensorConfig
     from firmware_sim.sensors.imu_array import make_source
 
-    src = make_source(scenario, seed=seed, rate_hz=rate_hz, config=config or SensorConfig.ideal())
+    src = make_source(scenario, seed=seed, rate_hz=rate_hz, config=config or SensorConfig.ideal(),
+                      stance_sway=stance_sway)
     if bias is not None:
         b = np.asarray(bias(src.truth.t), dtype=float)
         mount = src.geometry.mounting.astype(float)

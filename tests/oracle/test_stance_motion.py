@@ -1,5 +1,5 @@
 """A real foot is never still in a walking stance, and the module's ZARU never holds there; the gait's
-stance sway (``StanceSway``, one switch, off by default) gives a simulated foot the same
+stance sway (``StanceSway``, one switch, on by default) gives a simulated foot the same
 (:mod:`.stance_motion`)."""
 
 from __future__ import annotations
@@ -45,6 +45,22 @@ def test_off_the_registers_keep_their_bytes_and_one_switch_turns_it_on(monkeypat
     for source in make_feet_sources(SHORT, seed=3).values():
         walking = walking_stance_samples(source.truth)
         assert walking.sum() > 1000 and np.abs(source.truth.omega_b[walking]).max() > 0.05  # rad/s
+
+
+def test_the_default_sways_and_the_environment_can_still_the_stances_of_every_walk(monkeypatch):
+    assert gait.STANCE_SWAY_DEFAULT is True
+    assert make_source(SHORT, seed=3).trajectory.stance_sway is not None
+    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "0")
+    still = make_source(SHORT, seed=3)
+    assert still.trajectory.stance_sway is None
+    assert _registers(still) == _registers(make_source(SHORT, seed=3, stance_sway=False))
+    assert make_source(SHORT, seed=3, stance_sway=True).trajectory.stance_sway is not None  # asked wins
+    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "1")
+    monkeypatch.setattr(gait, "STANCE_SWAY_DEFAULT", False)
+    assert make_source(SHORT, seed=3).trajectory.stance_sway is not None
+    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "yes")
+    with pytest.raises(ValueError, match="OPENSHOE_STANCE_SWAY='yes': give 1 .* or 0"):
+        make_source(SHORT, seed=3)
 
 
 def test_with_the_sway_zaru_leaves_the_walking_stances_and_the_error_free_walk_still_retraces():

@@ -99,9 +99,11 @@ def test_the_speed_tables_sweep_spec_is_the_tools_product_and_gives_its_row():
     assert spec.scenarios == tuple(speed_recipe(v) for v in SPEEDS_KMH)
     settings = dict(spec.settings)
     assert settings["scenario.rate_hz"] == RATES_HZ and set(settings["sensors.model"]) == {"ideal", "default"}
-    assert spec.group_by == ("source", "scenario.rate_hz", "sensors.model")
+    assert settings["scenario.stance_sway"] == (False, True)
+    assert spec.group_by == ("source", "scenario.rate_hz", "sensors.model", "scenario.stance_sway")
     (ideal_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 1
-                     and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "ideal"}]
+                     and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "ideal",
+                                              "scenario.stance_sway": False}]
     row = runs.run_one(ideal_5kmh)
     tool = speed_run((5.0, 250.0, None))
     for k in ("along", "across", "height"):

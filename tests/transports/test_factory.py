@@ -152,9 +152,10 @@ def test_a_url_switches_the_stance_sway():
         EmulatorSettings(stance_sway=2)  # type: ignore[arg-type]
 
 
-def test_a_built_module_walks_with_the_stance_sway_only_when_asked():
+def test_a_built_module_sways_in_its_stances_unless_asked_not_to():
     assert _simulated(build(quick(stance_sway=True))).trajectory.stance_sway is not None
-    assert _simulated(build(quick())).trajectory.stance_sway is None
+    assert _simulated(build(quick())).trajectory.stance_sway is not None
+    assert _simulated(build(quick(stance_sway=False))).trajectory.stance_sway is None
     left, right = (_simulated(build(quick(seed=3, feet=2, stance_sway=True), i)) for i in range(2))
     assert left.trajectory.stance_sway is not None and right.trajectory.stance_sway is not None
 

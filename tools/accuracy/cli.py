@@ -81,10 +81,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _stance_sway_option(q: argparse.ArgumentParser) -> None:
     """``--stance-sway`` of an experiment on simulated walks."""
-    q.add_argument("--stance-sway", action="store_true", default=None,
+    q.add_argument("--stance-sway", action=argparse.BooleanOptionalAction, default=None,
                    help="the walking stances sway and vibrate as a real foot's do (firmware_sim.sensors.gait."
-                        "StanceSway): the module's ZARU then never holds while walking and its gyro bias "
-                        "turns its heading, as on a real module (default: the simulation's default, off)")
+                        "StanceSway): the module's ZARU then seldom holds while walking and its gyro bias "
+                        "turns its heading, as on a real module (default: the simulation's default, on; "
+                        "--no-stance-sway: still stances)")
 
 
 def _seeded(sub: Any, name: str, help: str, default: str, what: str, count: str) -> argparse.ArgumentParser:

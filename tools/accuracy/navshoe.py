@@ -65,6 +65,8 @@ from hostlib.fusion import FusionSettings, FusionTracker
 from hostlib.gps_bias import GpsBias
 from hostlib.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
 
+from .runs import stance_words
+
 __all__ = ["SCENARIO", "HOSTS", "ORACLES", "OracleCompassTracker", "WalkFixes", "error_table", "outage_rows",
            "outage_run", "outdoor_compass", "simulated_warmup",
            "shoe_iron", "summary_lines", "walk_fixes", "wmm_declination_rad"]
@@ -291,7 +293,7 @@ def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     """Per host: mean ± sd and worst of the end error and |heading error|; the declination learned."""
-    sway = ", walking stances swaying" if any(r.get("stance_sway") for r in rows) else ""
+    sway = stance_words(rows)
     return [f"navshoe-outage, {len({r['seed'] for r in rows})} seeds{sway}: error at the end of the outage "
             f"({np.mean([r['without_gps_m'] for r in rows]):.0f} m walked without GPS)"
             ] + (error_table(rows, "host", HOSTS) + _silent_lines(rows) + _warmup_lines(rows)

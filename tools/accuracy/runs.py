@@ -8,12 +8,14 @@ swing times and the module's serial number.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-__all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "map_runs", "seeded_rows"]
+__all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "map_runs", "seeded_rows",
+           "stance_words"]
 
 
 @dataclass
@@ -70,3 +72,10 @@ def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:
 
     pos = track.positions
     return walked_distance(pos), -pos[:, 2]
+
+
+def stance_words(rows: Sequence[dict[str, Any]]) -> str:
+    """How the walks' stances moved, for a table's title (so that it can be reproduced whatever the
+    simulation's default): ", walking stances swaying" or ", walking stances still"."""
+    swaying = any(r.get("stance_sway") for r in rows)
+    return ", walking stances swaying" if swaying else ", walking stances still"

@@ -53,6 +53,8 @@ from typing import Any
 
 import numpy as np
 
+from .runs import stance_words
+
 __all__ = ["AIDED_ESTIMATES", "DRIFT_WALKER", "ESTIMATES", "HEADING_SCENARIO", "LOOP_SCENARIO",
            "STRAIGHT_SCENARIO", "FeetWalk", "aids_rows", "aids_run", "aids_summary", "drift_loop",
            "drift_rows", "drift_summary", "drop_packets", "feet_captures", "feet_walk", "heading_run",
@@ -361,7 +363,7 @@ def aids_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
     from .navshoe import error_table
 
     walked = np.mean([r["without_gps_m"] for r in rows])
-    sway = ", walking stances swaying" if any(r.get("stance_sway") for r in rows) else ""
+    sway = stance_words(rows)
     walkers = len({r["seed"] for r in rows})
     return [f"two feet on navshoe-outage, {walkers} walkers{sway}: the body's error at the end of the "
             f"outage ({walked:.0f} m walked without GPS; left compass+gps: the left foot's own track "
