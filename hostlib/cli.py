@@ -139,9 +139,10 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "these 1σ priors (e.g. 0.001,0.0017,0.01,20,0.05,120: 0.1 %% per metre, 1.7 mm/m, "
                         "1 %% of the angle turned, 20 °/h, and a vertical rate bias settling 0.05 °/s away "
                         "with a warm-up time constant of 120 s, counted from the first step; a drift or "
-                        "warm-up of 0 or none: not held), or 'emulated' for the emulated module's, or "
-                        "'emulated-sway' for the emulated module on a real foot's swaying stance "
-                        "(openshoe-emu --stance-sway; its warm-up from the sensors' physics): the covariance "
+                        "warm-up of 0 or none: not held), or 'emulated' (also 'emulated-sway') for the "
+                        "emulated module's on a real foot's swaying stance (openshoe-emu's default; its "
+                        "warm-up from the sensors' physics), or 'emulated-still' for the emulated module "
+                        "on still stances (openshoe-emu --no-stance-sway): the covariance "
                         "then grows with the distance, the angle turned and the time walked, as a module's "
                         "systematic errors do; with two modules each foot's module holds its own")
     where = "once tracking started" if live else "the capture's"
@@ -308,12 +309,14 @@ def _uses_aids(args: argparse.Namespace) -> bool:
 
 
 def _module_errors(text: str):
-    """The argparse type of ``--module-errors``: 'emulated', 'emulated-sway' or
+    """The argparse type of ``--module-errors``: 'emulated' or 'emulated-sway' (the emulated module
+    as it walks by default, on swaying stances), 'emulated-still' (on still stances) or
     SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (numbers ≥ 0, τ > 0; the heading
     drift rate's 1σ in °/h and the warm-up's in °/s, held as [rad/s])."""
     from .module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING, ModuleErrors
 
-    presets = {"emulated": EMULATED_MODULE, "emulated-sway": EMULATED_MODULE_SWAYING}
+    presets = {"emulated": EMULATED_MODULE_SWAYING, "emulated-sway": EMULATED_MODULE_SWAYING,
+               "emulated-still": EMULATED_MODULE}
     if text.strip().lower() in presets:
         return presets[text.strip().lower()]
     try:
@@ -328,7 +331,7 @@ def _module_errors(text: str):
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (1σ, numbers ≥ 0, "
-            f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'emulated' or 'emulated-sway', "
+            f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'emulated', 'emulated-sway' or 'emulated-still', "
             f"got {text!r}") from None
 
 

@@ -282,7 +282,7 @@ def test_track_with_two_devices_holds_the_module_errors_live(tmp_path):
     try:
         out, csv_path = io.StringIO(), tmp_path / "live.csv"
         argv = ["track", "fakeshoe://4", "fakeshoe://5", "--fusion", "--duration", "1.0",
-                "--module-errors", "emulated", "--csv", str(csv_path)]
+                "--module-errors", "emulated-still", "--csv", str(csv_path)]
         assert main(argv, out) == 0
     finally:
         serial.protocol_handler_packages.remove("tests.hostlib")

@@ -157,6 +157,9 @@ def test_the_module_errors_option_takes_the_warmup_and_its_time_constant():
     assert errors.warmup_tau_s == 90.0
     assert _module_errors("0.001,0.002,0.01,20,0.05").warmup_tau_s == TAU
     assert _module_errors("Emulated-Sway") is EMULATED_MODULE_SWAYING and EMULATED_MODULE_SWAYING.holds_warmup
+    # 'emulated' is the emulated module as it walks by default, on swaying stances
+    assert _module_errors("emulated") is EMULATED_MODULE_SWAYING
+    assert _module_errors("emulated-still") is EMULATED_MODULE and not EMULATED_MODULE.holds_warmup
     for bad in ("0.001,0.002,0.01,20,0.05,0", "1,2,3,4,5,6,7"):
         with pytest.raises(argparse.ArgumentTypeError, match="WARMUP_DEG_PER_S"):
             _module_errors(bad)

@@ -125,8 +125,9 @@ def house_run(seed: int, scenario: str = SCENARIO) -> list[dict[str, Any]]:
         pose = tracker.track.final_pose
         error = float(np.hypot(*(pose[:2] - end[:2])))
         rows.append({
-            "seed": seed, "run": run, "distance_m": round(tracker.track.distance, 1),
-            "without_gps_m": round(path, 1), "end_error_m": error,
+            "seed": seed, "run": run, "stance_sway": source.trajectory.stance_sway is not None,
+            "distance_m": round(tracker.track.distance, 1), "without_gps_m": round(path, 1),
+            "end_error_m": error,
             "height_error_m": float(end[2] - pose[2]),  # z is down: the height estimated too high > 0
             "end_error_pct_without_gps": 100.0 * error / path,
             "heading_error_deg": math.degrees(wrap_angle(float(pose[3]) - true_heading)),
@@ -157,7 +158,9 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     first = [r for r in rows if r["run"] == RUNS[0]]
     rms = np.mean([r["deviation_rms_deg"] for r in first])
     corr = np.mean([r["deviation_next_rest_corr"] for r in first])
-    head = [f"{SCENARIO}, {len(first)} seeds: error back at the start after "
+    from .runs import stance_words
+
+    head = [f"{SCENARIO}, {len(first)} seeds{stance_words(rows)}: error back at the start after "
             f"{np.mean([r['without_gps_m'] for r in first]):.0f} m indoors (no GPS); the building's "
             f"deviation at the rests {rms:.1f}° RMS (compass σ {INDOOR_COMPASS_SIGMA_DEG:g}°), "
             f"successive rests correlated {corr:.2f}"]
