@@ -95,7 +95,7 @@ def test_on_swaying_feet_each_modules_warmup_held_keeps_the_fused_outage_under_o
     compass and GPS without them."""
     out = io.StringIO()
     assert main(["two-feet-aids", "--seeds", "1", "--workers", "0", "--out", str(tmp_path)], out) == 0
-    assert "walking stances swaying" in out.getvalue()
+    assert "walkers, stance sway:" in out.getvalue()
     with (tmp_path / "two-feet-aids.csv").open() as f:
         rows = {r["estimate"]: r for r in csv.DictReader(f)}
     held = float(rows["fused compass+gps module errors and warm-up"]["end_error_pct_without_gps"])

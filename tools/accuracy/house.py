@@ -34,6 +34,8 @@ import numpy as np
 
 from hostlib.fusion import FusionSettings, FusionTracker
 
+from .runs import stance_words
+
 __all__ = ["SCENARIO", "RUNS", "INDOOR_COMPASS_SIGMA_DEG", "ContinuousCompassTracker", "house_rows",
            "house_run", "summary_lines", "verdict"]
 
@@ -158,8 +160,6 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     first = [r for r in rows if r["run"] == RUNS[0]]
     rms = np.mean([r["deviation_rms_deg"] for r in first])
     corr = np.mean([r["deviation_next_rest_corr"] for r in first])
-    from .runs import stance_words
-
     head = [f"{SCENARIO}, {len(first)} seeds{stance_words(rows)}: error back at the start after "
             f"{np.mean([r['without_gps_m'] for r in first]):.0f} m indoors (no GPS); the building's "
             f"deviation at the rests {rms:.1f}° RMS (compass σ {INDOOR_COMPASS_SIGMA_DEG:g}°), "

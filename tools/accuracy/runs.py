@@ -75,7 +75,8 @@ def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:
 
 
 def stance_words(rows: Sequence[dict[str, Any]]) -> str:
-    """How the walks' stances moved, for a table's title (so that it can be reproduced whatever the
-    simulation's default): ", walking stances swaying" or ", walking stances still"."""
-    swaying = any(r.get("stance_sway") for r in rows)
-    return ", walking stances swaying" if swaying else ", walking stances still"
+    """How the walks' stances moved, for a table's title, so that it can be reproduced whatever the
+    simulation's default (:func:`firmware_sim.app.batch.stance_note` of the rows' ``stance_sway``)."""
+    from firmware_sim.app.batch import stance_note
+
+    return stance_note(any(r.get("stance_sway") for r in rows))
