@@ -89,7 +89,7 @@ def test_track_reads_a_gps_file_as_replay_does(tmp_path):
     nmea.write_text("".join(line + "\r\n" for line in epochs(3)))
     out, csv = io.StringIO(), tmp_path / "t.csv"
     argv = ["track", "fakeshoe://4/fusion", "--fusion", "--gps", str(nmea), "--csv", str(csv),
-            "--duration", "1.0"]
+            "--steps", "4", "--duration", "30"]
     assert main(argv, out) == 0
     assert "6 NMEA lines: 3 fixes" in out.getvalue() and "WMM at the first fix" in out.getvalue()
     assert csv_header_and_first_row(csv)[0] == CSV_COLUMNS + GEO_COLUMNS
@@ -129,7 +129,7 @@ def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tm
 
     out = io.StringIO()
     argv = ["track", "fakeshoe://5/fusion/wiggle", "--fusion", "--compass", "--calibrate-mag",
-            "--mag-cal-dir", str(tmp_path), "--duration", "1.5"]
+            "--mag-cal-dir", str(tmp_path), "--steps", "5", "--duration", "30"]
     assert main(argv, out) == 0
     text, err = out.getvalue(), capsys.readouterr().err
     assert_the_stream_ran_from_the_fusion_set_up_to_a_stop()
@@ -140,7 +140,7 @@ def test_track_calibrates_in_situ_stops_the_stream_and_a_later_walk_reuses_it(tm
     assert compass == 3, "the first of 5 steps ends the calibration, the next aligns, 3 update"
     again = io.StringIO()
     argv = ["track", "fakeshoe://5/fusion", "--fusion", "--compass", "--mag-cal-dir", str(tmp_path),
-            "--duration", "1.5"]
+            "--steps", "5", "--duration", "30"]
     assert main(argv, again) == 0
     assert f"(calibrated: saved {saved})" in again.getvalue()
 
@@ -161,7 +161,7 @@ def test_log_records_the_wiggle_saves_its_calibration_and_a_replay_fits_it_again
 
     raw, name = tmp_path / "cal.bin", f"{MCU_ID.hex('-').upper()}.json"
     argv = ["log", "fakeshoe://5/fusion/wiggle", "--raw", str(raw), "--start", "--fusion", "--calibrate-mag",
-            "--mag-cal-dir", str(tmp_path / "live"), "--duration", "1.5"]
+            "--mag-cal-dir", str(tmp_path / "live"), "--steps", "5", "--duration", "30"]
     assert main(argv, io.StringIO()) == 0
     err = capsys.readouterr().err
     assert_the_stream_ran_from_the_fusion_set_up_to_a_stop()
@@ -235,7 +235,8 @@ def test_two_feet_read_a_gps_file_as_replay_does(tmp_path):
     nmea = tmp_path / "walk.nmea"
     nmea.write_text("".join(line + "\r\n" for line in epochs(3)))
     out = io.StringIO()
-    assert main(["track", *FEET, "--fusion", "--gps", str(nmea), "--duration", "1.0"], out) == 0
+    argv = ["track", *FEET, "--fusion", "--gps", str(nmea), "--steps", "5", "--duration", "30"]
+    assert main(argv, out) == 0
     assert "6 NMEA lines: 3 fixes" in out.getvalue() and "WMM at the first fix" in out.getvalue()
 
 
@@ -244,7 +245,7 @@ def test_two_feet_check_each_foots_magnetometer_calibration_against_the_module_o
     for module in (2, 3):
         files[module] = str(tmp_path / f"mag{module}.json")
         _mag_calibration(module).save(files[module])
-    base = ["track", *FEET, "--fusion", "--compass", "--duration", "1.0"]
+    base = ["track", *FEET, "--fusion", "--compass", "--steps", "5", "--duration", "30"]
     out = io.StringIO()
     assert main([*base, "--mag-cal", files[2], files[3]], out) == 0
     assert "(calibrated: left and right foot)" in out.getvalue()
@@ -261,7 +262,8 @@ def test_two_feet_take_each_modules_saved_magnetometer_calibration(tmp_path):
 
     right = save_for_module(_mag_calibration(3), tmp_path)
     out = io.StringIO()
-    argv = ["track", *FEET, "--fusion", "--compass", "--mag-cal-dir", str(tmp_path), "--duration", "1.0"]
+    argv = ["track", *FEET, "--fusion", "--compass", "--mag-cal-dir", str(tmp_path), "--steps", "5",
+            "--duration", "30"]
     assert main(argv, out) == 0
     assert f"(calibrated: right foot, saved {right})" in out.getvalue(), "none saved for the left module"
     left = save_for_module(_mag_calibration(2), tmp_path)
