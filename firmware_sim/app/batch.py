@@ -21,9 +21,9 @@ writes its ground truth beside OUT (``OUT.truth.csv``) and the shoe's iron as si
 host's magnetometer calibration of the module (``OUT.iron.json``, :mod:`.truth_files`);
 ``--module N`` makes it module N's walk
 (module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module);
-``--stance-sway`` makes its walking stances sway and vibrate as a real foot's do
-(:class:`firmware_sim.sensors.gait.StanceSway`; off by default for now, and said in the run's
-announcement when on).
+its walking stances sway and vibrate as a real foot's do
+(:class:`firmware_sim.sensors.gait.StanceSway`; the default, ``--stance-sway``), or with
+``--no-stance-sway`` stand perfectly still; the run's announcement says which.
 
 The replayed host may also use the emulator's extensions, as a host app would:
 ``--host fusion`` sends :data:`protocol.extensions.FUSION_SETUP` after the ack of 0x34 (the
