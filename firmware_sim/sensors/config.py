@@ -114,6 +114,13 @@ class TemperatureConfig:
     chip_spread_c: float = 0.5  #: choice: ± per-chip offset of the die temperature
     reference_c: float = 25.0  #: datasheet: offsets/sensitivities are specified at 25 °C
 
+    @property
+    def settled_s(self) -> float:
+        """How long a module has been on when it is warm [s]: five time constants of the warm-up
+        (99.3 % of it done). Experiments that compare walks start their modules so (the module
+        paper's walks came one after another)."""
+        return 5.0 * self.warmup_tau_s
+
 
 @dataclass(frozen=True)
 class ImpactConfig:

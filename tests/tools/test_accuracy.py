@@ -103,11 +103,19 @@ def test_the_speed_tables_sweep_spec_is_the_tools_product_and_gives_its_row():
     assert spec.group_by == ("source", "scenario.rate_hz", "sensors.model", "scenario.stance_sway")
     (ideal_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 1
                      and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "ideal",
-                                              "scenario.stance_sway": False}]
+                                              "scenario.stance_sway": False,
+                                              "sensors.temperature.powered_s": 600.0}]
     row = runs.run_one(ideal_5kmh)
     tool = speed_run((5.0, 250.0, None))
     for k in ("along", "across", "height"):
         assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # metres on 100 m = % of it
+    (warm_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 2
+                    and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "default",
+                                             "scenario.stance_sway": True,
+                                             "sensors.temperature.powered_s": 600.0}]
+    row, tool = runs.run_one(warm_5kmh), speed_run((5.0, 250.0, 2))
+    for k in ("along", "across", "height"):
+        assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # the same warm, swaying module
 
 
 def test_every_experiment_explains_itself(capsys):

@@ -11,16 +11,18 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+from firmware_sim.sensors.config import DEFAULT_CONFIG
+
 __all__ = ["POWERED_S", "Group", "check_route", "walk_groups", "walk_routes"]
 
 #: Seeds to walk and the module that walks them (None: each seed its own, a new module per walk).
 Group = tuple[Sequence[int], int | None]
 
-#: How long each module has been on when its walk starts [s], by default: ten minutes, five time
-#: constants of the emulated warm-up (``TemperatureConfig.warmup_tau_s``, 99.3 % settled). The
-#: module paper's fifty walks were walked one after another, so its modules were warm for all
-#: but the first; a walk of ``openshoe-emu`` starts at power-on instead (``powered_s`` 0).
-POWERED_S = 600.0
+#: How long each module has been on when its walk starts [s], by default: five time constants of
+#: the emulated warm-up (``TemperatureConfig.settled_s``, 600 s). The module paper's fifty walks
+#: were walked one after another, so its modules were warm for all but the first; a walk of
+#: ``openshoe-emu`` starts at power-on instead (``powered_s`` 0).
+POWERED_S = DEFAULT_CONFIG.temperature.settled_s
 
 
 def check_route(route: str) -> None:
