@@ -237,6 +237,12 @@ class SensorConfig:
         """This configuration with every sensor error switched off."""
         return replace(self, dlpf=replace(self.dlpf, enabled=False), **_ERRORS_OFF)
 
+    def warm(self) -> SensorConfig:
+        """This configuration with the module on for :attr:`TemperatureConfig.settled_s` when the run
+        starts: its warm-up done (experiments that compare walks, as the module paper's walked one
+        after another)."""
+        return replace(self, temperature=replace(self.temperature, powered_s=self.temperature.settled_s))
+
 
 DEFAULT_CONFIG = SensorConfig()
 IDEAL_CONFIG = SensorConfig.ideal()

@@ -155,6 +155,9 @@ def test_a_module_switched_on_earlier_starts_the_run_warm():
     # 4 s = 2τ before the run: 1 − e⁻² of the 8 °C already reached, the rest still to come
     assert np.all(temp[0] - cold[0] == pytest.approx(8.0 * (1 - math.exp(-2)), abs=0.01))
     assert np.all(temp[-1] - temp[0] == pytest.approx(8.0 * (math.exp(-2) - math.exp(-5)), abs=0.01))
+    settled = DEFAULT_CONFIG.warm().temperature
+    assert settled.powered_s == 5 * settled.warmup_tau_s == DEFAULT_CONFIG.temperature.settled_s
+    assert DEFAULT_CONFIG.warm().gyro == DEFAULT_CONFIG.gyro and DEFAULT_CONFIG.temperature.powered_s == 0.0
 
 
 def test_set_dlpf_smooths_the_registers_and_refuses_bad_settings():

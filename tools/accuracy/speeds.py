@@ -14,7 +14,6 @@ stance: along and across the true path and in height, in % of the 100 m.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -50,8 +49,7 @@ def speed_run(job: tuple[float | str, float, int | None]) -> dict[str, Any]:
     if seed is None:
         kwargs = {"config": SensorConfig.ideal(), "stance_sway": False}
     else:  # a warm module: the warm-up would turn the slower walks, which last longer, the more
-        temperature = replace(DEFAULT_CONFIG.temperature, powered_s=DEFAULT_CONFIG.temperature.settled_s)
-        kwargs = {"config": replace(DEFAULT_CONFIG, temperature=temperature)}
+        kwargs = {"config": DEFAULT_CONFIG.warm()}
     source = make_source(speed_recipe(speed), seed=0 if seed is None else seed, rate_hz=rate, **kwargs)
     track, _ = replay_bytes(run_replay(source, announce=None))
     err = end_errors(track, source.truth)

@@ -106,25 +106,27 @@ def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, i
     return bytes(out), len(cut)
 
 
-def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sway: bool | None = None
-                  ) -> tuple[dict[str, Any], dict[str, bytes]]:
+def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sway: bool | None = None,
+                  config: Any = None) -> tuple[dict[str, Any], dict[str, bytes]]:
     """A module on each foot of a walker walking *scenario* (walk *seed*; *walker*'s two modules,
-    None: the seed's own; *stance_sway* as ``make_feet_sources``'s), each replayed with the fusion
-    host: side → sensor source, side → the bytes its module sent."""
+    None: the seed's own; *stance_sway* and the sensors' *config* as ``make_feet_sources``'s), each
+    replayed with the fusion host: side → sensor source, side → the bytes its module sent."""
     from firmware_sim.sensors.imu_array import make_feet_sources
 
     from .runs import fusion_capture
 
-    sources = make_feet_sources(scenario, seed=seed, walker=walker, stance_sway=stance_sway)
+    sources = make_feet_sources(scenario, seed=seed, walker=walker, stance_sway=stance_sway, config=config)
     return sources, {side: fusion_capture(source, source.module) for side, source in sources.items()}
 
 
-def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None) -> FeetWalk:
-    """Walk *scenario* with a module on each foot (walker *seed*) and fuse the two captures."""
+def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None,
+              config: Any = None) -> FeetWalk:
+    """Walk *scenario* with a module on each foot (walker *seed*; the sensors' *config*, None: the
+    default) and fuse the two captures."""
     from hostlib.feet import FeetSettings
     from hostlib.replay import replay_feet
 
-    sources, captures = feet_captures(scenario, seed)
+    sources, captures = feet_captures(scenario, seed, config=config)
     dropped = 0
     if drop_s is not None:
         captures["right"], dropped = drop_packets(captures["right"], *drop_s)
@@ -149,8 +151,11 @@ def _ends(walk: FeetWalk) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def straight_run(seed: int) -> list[dict[str, Any]]:
-    """The rows of one walker's 100 m straight walk (one per estimate)."""
-    walk = feet_walk(STRAIGHT_SCENARIO, seed)
+    """The rows of one walker's 100 m straight walk (one per estimate), the modules warm as in the
+    module paper's walks one after another (``openshoe-spread``'s)."""
+    from firmware_sim.sensors.config import DEFAULT_CONFIG
+
+    walk = feet_walk(STRAIGHT_SCENARIO, seed, config=DEFAULT_CONFIG.warm())
     rows = []
     for name, (end, true, cov) in _ends(walk).items():
         err = end - true  # north = along the walk, east = across it, down
