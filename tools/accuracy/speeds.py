@@ -6,9 +6,8 @@ ZUPT's zero velocity holds exactly: what the navigation itself loses) and by mod
 default sensor errors and a real foot's swaying stances (one per seed; warm, as in
 ``openshoe-spread``: from power-on the gyros' warm-up would turn the slower walks, which last
 longer, the more, and the table would compare durations, not speeds), at the module's own 1 kHz
-and at the
-recordings' 250 Hz. The errors are those of :func:`firmware_sim.app.runs.end_errors` at the last
-stance: along and across the true path and in height, in % of the 100 m.
+and at the recordings' 250 Hz. The errors are those of :func:`firmware_sim.app.runs.end_errors`
+at the last stance: along and across the true path and in height, in % of the 100 m.
 """
 
 from __future__ import annotations
