@@ -363,3 +363,42 @@ def test_multipacer_waits_on_each_module():
         assert loop.wait_until(1, lambda mod: mod is modules[1], timeout=WAIT_S)
     assert all(p.ticks >= 40 for p in loop.pacers)
     assert loop.wait_ticks(0, 1, timeout=0.05) is False  # stopped
+
+
+
+def test_an_fd_closed_outside_a_pump_is_no_longer_watched_after_a_refresh():
+    """What a control call that hangs a host up does between two pumps: the endpoint's socket is
+    closed, and a select on it fails (the loop ended so); refreshed, the selector forgets it."""
+    import socket
+    from types import SimpleNamespace
+
+    from firmware_sim.transports.pacer.pumps import Pumps
+
+    a, b = socket.socketpair()
+    ep = SimpleNamespace(fds=(a.fileno(),), pump=lambda: None, close=lambda: None)
+    pumps = Pumps([SimpleNamespace(endpoints=[ep])], idle_pump_s=0, poll=1)
+    try:
+        pumps.pump(0, 0)
+        b.send(b"x")
+        assert pumps.select(0) == [0], "the endpoint's fd is watched"
+        a.close()
+        ep.fds = ()
+        with pytest.raises(OSError):
+            pumps.select(0)
+        pumps.refresh()
+        assert pumps.select(0) is None, "nothing left to watch"
+    finally:
+        b.close()
+
+
+def test_the_loop_refreshes_what_it_watches_after_control_calls(monkeypatch):
+    from firmware_sim.transports.pacer.pumps import Pumps
+
+    refreshed = threading.Event()
+    monkeypatch.setattr(Pumps, "refresh", lambda self: refreshed.set())
+    m = build_module()
+    with Pacer(m, [QueueEndpoint(m.usb.port)], speed=1.0) as pacer:
+        assert pacer.wait_ticks(50, timeout=WAIT_S)
+        assert not refreshed.is_set(), "no control call, nothing to refresh"
+        pacer.call(lambda mod: None).result(WAIT_S)
+        assert refreshed.wait(WAIT_S)

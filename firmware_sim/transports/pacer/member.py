@@ -126,15 +126,15 @@ class PacedModule:
         return self.waits.wait(lambda: predicate(module), timeout)
 
     # ------------------------------------------------------------------ in the loop's thread
-    def run_controls(self) -> None:
-        """Run the calls queued by :meth:`call` (the loop, between two ticks)."""
+    def run_controls(self) -> bool:
+        """Run the calls queued by :meth:`call` (the loop, between two ticks): whether any ran."""
         if self._controls.empty():
-            return
+            return False
         while True:
             try:
                 fn, fut = self._controls.get_nowait()
             except queue.Empty:
-                return
+                return True
             if fut.set_running_or_notify_cancel():
                 try:
                     fut.set_result(fn(self.module))

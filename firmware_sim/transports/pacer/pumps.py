@@ -46,7 +46,17 @@ class Pumps:
             p.error = p.error or e
             raise
         self.last[i] = f
-        fds = getattr(ep, "fds", ())
+        self._sync(i)
+
+    def refresh(self) -> None:
+        """Watch every endpoint's fds as they are now, where something other than a pump changed
+        them (a control call that hung a host up): the selector must never hold a closed fd, or
+        the next select fails."""
+        for i in range(len(self.eps)):
+            self._sync(i)
+
+    def _sync(self, i: int) -> None:
+        fds = getattr(self.eps[i], "fds", ())
         if fds != self._registered[i]:
             self._register(i, fds)
 

@@ -125,8 +125,8 @@ class RunLoop:
     # ------------------------------------------------------------------ one pass
     def _pass(self) -> bool:
         """One pass of the loop; False when its time is up."""
-        for p in self.members:
-            p.run_controls()
+        if any([p.run_controls() for p in self.members]):  # every member's, then the fds once
+            self.pumps.refresh()  # a call may have hung a host up or closed an endpoint
         now = self.perf()
         if self.end is not None and now >= self.end:
             return False
