@@ -7,7 +7,6 @@ from __future__ import annotations
 import csv
 import io
 import math
-import re
 
 import numpy as np
 import pytest
@@ -19,7 +18,8 @@ def test_one_seed_of_the_outage_loop_is_tracked_by_every_host(tmp_path):
     out = io.StringIO()
     assert main(["navshoe-outage", "--seeds", "3", "--workers", "0", "--out", str(tmp_path)], out) == 0
     text = out.getvalue()
-    assert re.search(r"\(63\d m walked without GPS\)", text) and (tmp_path / "navshoe-outage.csv").is_file()
+    # the sway's millimetres in each of the ~690 stances add to the path: 631 m (630 m still)
+    assert "(631 m walked without GPS)" in text and (tmp_path / "navshoe-outage.csv").is_file()
     with (tmp_path / "navshoe-outage.csv").open() as f:
         rows = {r["host"]: r for r in csv.DictReader(f)}
     assert set(rows) == set(navshoe.HOSTS)
