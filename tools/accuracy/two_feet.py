@@ -49,11 +49,14 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .runs import stance_words
+
+if TYPE_CHECKING:
+    from firmware_sim.sensors.config import SensorConfig
 
 __all__ = ["AIDED_ESTIMATES", "DRIFT_WALKER", "ESTIMATES", "HEADING_SCENARIO", "LOOP_SCENARIO",
            "STRAIGHT_SCENARIO", "FeetWalk", "aids_rows", "aids_run", "aids_summary", "drift_loop",
@@ -107,7 +110,7 @@ def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, i
 
 
 def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sway: bool | None = None,
-                  config: Any = None) -> tuple[dict[str, Any], dict[str, bytes]]:
+                  config: SensorConfig | None = None) -> tuple[dict[str, Any], dict[str, bytes]]:
     """A module on each foot of a walker walking *scenario* (walk *seed*; *walker*'s two modules,
     None: the seed's own; *stance_sway* and the sensors' *config* as ``make_feet_sources``'s), each
     replayed with the fusion host: side → sensor source, side → the bytes its module sent."""
@@ -120,7 +123,7 @@ def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sw
 
 
 def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None,
-              config: Any = None) -> FeetWalk:
+              config: SensorConfig | None = None) -> FeetWalk:
     """Walk *scenario* with a module on each foot (walker *seed*; the sensors' *config*, None: the
     default) and fuse the two captures."""
     from hostlib.feet import FeetSettings
