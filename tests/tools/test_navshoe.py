@@ -64,3 +64,18 @@ def test_on_a_swaying_walk_compass_and_gps_teach_the_warmup_the_simulated_dies_h
     assert best["warmup_deg_s"] == pytest.approx(best["true_warmup_deg_s"], rel=0.25)
     assert math.isnan(rows["compass+gps"]["warmup_deg_s"])
     assert best["end_error_m"] < 0.5 * rows["compass+gps every error state"]["end_error_m"]
+
+
+def test_the_simulated_warmup_is_what_is_left_of_it_at_the_first_step():
+    """A module switched on before the run has less of its warm-up still to come: the simulated w
+    shrinks by e^(−t/τ) for t on before the run, as the dies' temperature does."""
+    from firmware_sim.sensors.config import DEFAULT_CONFIG
+    from firmware_sim.sensors.imu_array import make_source
+
+    cold = make_source("stand:2+walk:3+stand:1", seed=4)
+    warm = make_source("stand:2+walk:3+stand:1", seed=4, config=DEFAULT_CONFIG.warm())
+    tau, on = DEFAULT_CONFIG.temperature.warmup_tau_s, DEFAULT_CONFIG.temperature.settled_s
+    w = navshoe.simulated_warmup(cold, 2.0)
+    assert abs(w) > 0.0
+    assert navshoe.simulated_warmup(warm, 2.0) == pytest.approx(w * math.exp(-on / tau), rel=1e-12)
+

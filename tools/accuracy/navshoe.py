@@ -273,13 +273,14 @@ def simulated_warmup(source, first_step_s: float) -> float:
     whose first step is at module time *first_step_s* [s]: each chip's gyro offset temperature
     coefficient turned into the board's axes (the mounting's transpose), the vertical (z, down when
     the foot is flat) averaged over the four chips as the firmware averages them, times the warm-up
-    still to come at the first step; with the sign that corrects the heading (the host's w undoes
-    the drift the bias turns in)."""
+    still to come at the first step (the module on for ``powered_s`` before the run, as the dies'
+    temperature has it); with the sign that corrects the heading (the host's w undoes the drift the
+    bias turns in)."""
     tc = source.config.temperature
     mounting = source.geometry.mounting.astype(float)
     vertical = float(np.mean([(m.T @ chip.gyro_offset_tempco)[2] for m, chip in zip(mounting, source.chips,
                                                                                         strict=True)]))
-    return -vertical * tc.warmup_c * math.exp(-first_step_s / tc.warmup_tau_s)
+    return -vertical * tc.warmup_c * math.exp(-(first_step_s + tc.powered_s) / tc.warmup_tau_s)
 
 
 def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
