@@ -317,8 +317,9 @@ def _module_errors(text: str):
 
     presets = {"emulated": EMULATED_MODULE_SWAYING, "emulated-sway": EMULATED_MODULE_SWAYING,
                "emulated-still": EMULATED_MODULE}
-    if text.strip().lower() in presets:
-        return presets[text.strip().lower()]
+    word = text.strip().lower()
+    if word in presets:
+        return presets[word]
     try:
         sigmas = [float(v) for v in text.split(",")]
         if not 2 <= len(sigmas) <= 6:
@@ -341,8 +342,9 @@ def _compass_deviation(text: str):
     from .deviation import INDOORS, OUTDOORS, CompassDeviation
 
     presets = {"outdoors": OUTDOORS, "indoors": INDOORS}
-    if text.strip().lower() in presets:
-        return presets[text.strip().lower()]
+    word = text.strip().lower()
+    if word in presets:
+        return presets[word]
     try:
         values = [float(v) for v in text.split(",")]
         if len(values) != 2:

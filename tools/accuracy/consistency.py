@@ -37,7 +37,8 @@ estimated on the other modules.
 
 **The gyros' warm-up.** Each run's Jacobian has a fifth column, w's (:mod:`hostlib.module_errors`:
 the warm-up ramp integrated over the steps since the last still reset). On walks whose stances
-sway (``--stance-sway``), where ZARU no longer re-learns the bias every stride, a second block
+sway (the default; ``--no-stance-sway`` stills them), where ZARU no longer re-learns the bias every
+stride, a second block
 holds w at its sensors' prior (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`, from the
 gyros' temperature coefficient and the dies' warm-up; not estimated): its share J_w σ_w² J_wᵀ of
 each run's covariance is taken as known, and s, c, k and r are estimated on top of it.

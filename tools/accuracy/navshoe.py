@@ -29,9 +29,9 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
   errors and warm-up`` and ``compass+gps every error state and warm-up``: the same with the
   module's errors at the priors of the emulated module on a real foot's swaying stance
   (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`), the gyros' warm-up among them: the
-  hosts for ``--stance-sway``, where the module's ZARU no longer re-learns the bias in every
-  stance and the warm-up turns the heading (on still stances the warm-up does not, and their
-  prior is wrong);
+  hosts for swaying stances (the default), where the module's ZARU no longer re-learns the bias in
+  every stance and the warm-up turns the heading (on still stances, ``--no-stance-sway``, the
+  warm-up does not, and their prior is wrong);
 * ``compass true declination``: the compass without GPS, given the simulated declination (what
   the compass alone holds when the declination is not to be learned);
 * two oracles, as ``compass+gps`` with the truth put into each compass reading

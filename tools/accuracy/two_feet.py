@@ -28,7 +28,7 @@ the two (``average``, Bachmann et al.), and the constrained fusion's body (``fus
   inter-foot constraint (both feet and D in one filter, never projected), and the fused body with
   each foot's module's errors held at the priors of the emulated module on a real foot's swaying
   stance, the gyros' warm-up among them (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`: the
-  estimate for ``--stance-sway``); the declination each learned.
+  estimate for swaying stances, the default); the declination each learned.
 * :func:`drift_rows` — **Bachmann's drift correction with two feet**: walker :data:`DRIFT_WALKER`
   walks the 400 m track once per seed, with the same two modules every time (a module's
   systematic errors belong to the module, its noise and in-run drift to the walk). Leave-one-out:
