@@ -81,10 +81,19 @@ def test_info_against_the_emulator_url():
 
 
 def test_attach_does_not_restart_the_module(tmp_path):
-    # Without 0x34 the scripted module sends nothing: attaching just listens.
+    # Without 0x34 the scripted module sends nothing: attaching just listens (for 0.2 s: nothing
+    # comes, whatever the clock, as the scripted module steps only after a 0x34 it never gets).
+    from protocol.frames import build_command
+    from protocol.ids import Command
+
+    from .protocol_fakeshoe import PORTS
+
     out = io.StringIO()
     assert main(["track", "fakeshoe://3", "--attach", "--duration", "0.2", "--leave-running"], out) == 0
     assert "steps     0" in out.getvalue()
+    sent = PORTS[-1].commands
+    assert build_command(Command.STEPWISE_DEAD_RECKONING) not in sent, "attaching restarted the module"
+    assert build_command(Command.OUTPUT_ALL_OFF) not in sent, "--leave-running switched the outputs off"
 
 
 def test_initial_heading_rotates_the_track(tmp_path):

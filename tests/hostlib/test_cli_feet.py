@@ -261,28 +261,31 @@ def fakeshoe_scheme():
 
 def test_track_with_two_devices_acks_each_stream_and_fuses_both_feet(fakeshoe_scheme, tmp_path):
     out, csv_path = io.StringIO(), tmp_path / "live.csv"
-    argv = ["track", "fakeshoe://4", "fakeshoe://5", "--duration", "1.0", "--csv", str(csv_path)]
+    # two modules of four steps each (serial numbers apart); the run stops on the steps, not a clock
+    left, right = "fakeshoe://4", "fakeshoe://4/module2"
+    argv = ["track", left, right, "--steps", "4", "--duration", "30", "--csv", str(csv_path)]
     assert main(argv, out) == 0
     ports = {p.port: p for p in fakeshoe_scheme}
-    assert sorted(set(ports["fakeshoe://4"].packet_acks)) == [1, 2, 3, 4]
-    assert sorted(set(ports["fakeshoe://5"].packet_acks)) == [1, 2, 3, 4, 5]
+    assert sorted(set(ports[left].packet_acks)) == [1, 2, 3, 4]
+    assert sorted(set(ports[right].packet_acks)) == [1, 2, 3, 4]
     text = out.getvalue()
     live = [line for line in text.splitlines() if line.startswith("left ") and "| body x" in line]
-    # the live line shows both feet; it is printed on the host's clock, so its last print may come
-    # before the last packets (the summary below counts them all)
-    assert live and re.search(r"left +[1-4]/ +[1-4] steps", live[-1])
-    assert re.search(r"right +[1-5]/ +[1-5] steps", live[-1])
+    # the live line shows both feet; the last one counts every step
+    assert live and re.search(r"left +4/ +4 steps", live[-1])
+    assert re.search(r"right +4/ +4 steps", live[-1])
     lines = _lines(text)
-    assert lines["left foot"].startswith("left foot (fakeshoe://4): 4 step packets")
-    assert lines["right foot"].startswith("right foot (fakeshoe://5): 5 step packets")
+    assert lines["left foot"].startswith(f"left foot ({left}): 4 step packets")
+    assert lines["right foot"].startswith(f"right foot ({right}): 4 step packets")
     feet = read_feet_csv(csv_path)
-    assert feet.sides.count("left") == 4 and feet.sides.count("right") == 5
-    assert len(feet.body) == 9  # the joint filter took every step of both, in arrival order
+    assert feet.sides.count("left") == 4 and feet.sides.count("right") == 4
+    assert len(feet.body) == 8  # the joint filter took every step of both, in arrival order
 
 
 def test_track_goes_on_with_one_foot_when_the_other_foots_link_is_lost(fakeshoe_scheme, tmp_path, capsys):
     out, csv_path = io.StringIO(), tmp_path / "live.csv"
-    argv = ["track", "fakeshoe://6/drop2", "fakeshoe://6", "--duration", "1.0", "--csv", str(csv_path)]
+    # the run stops once the foot still walking has all its six steps
+    argv = ["track", "fakeshoe://6/drop2", "fakeshoe://6", "--steps", "6", "--duration", "30",
+            "--csv", str(csv_path)]
     assert main(argv, out) == 0
     err = capsys.readouterr().err
     assert "the left foot (fakeshoe://6/drop2): link lost" in err
@@ -308,13 +311,14 @@ def test_track_goes_on_when_one_devices_walk_fails_and_stops_when_both_do(fakesh
     monkeypatch.setattr(Device, "recv_step", recv_step_or_fail)
     failing.add("fakeshoe://3")
     csv_path = tmp_path / "live.csv"
-    argv = ["track", "fakeshoe://3", "fakeshoe://5", "--duration", "0.5", "--csv", str(csv_path)]
+    argv = ["track", "fakeshoe://3", "fakeshoe://5", "--steps", "5", "--duration", "30", "--csv",
+            str(csv_path)]
     assert main(argv, io.StringIO()) == 0
     assert "the left foot (fakeshoe://3): fakeshoe://3 is closed; tracking goes on without it" in \
         capsys.readouterr().err
     assert read_feet_csv(csv_path).sides.count("right") == 5
     failing.add("fakeshoe://5")
-    assert main(["track", "fakeshoe://3", "fakeshoe://5", "--duration", "0.5"], io.StringIO()) == 1
+    assert main(["track", "fakeshoe://3", "fakeshoe://5", "--duration", "30"], io.StringIO()) == 1
 
 
 def test_track_with_two_devices_corrects_each_foots_drift(fakeshoe_scheme, tmp_path):
