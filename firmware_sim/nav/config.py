@@ -103,6 +103,9 @@ SR_Q = 415
 #: (tests/nav/test_fidelity.py; 8172 → mean 0.57 %, walk 2 1.2 %; 16000 → 0.60 %, ≤ 0.94 %).
 #: Neighbourhood (mean / worst walk, %): TH_ZUPT 15000 → 0.61 / 0.94, 17000 → 0.59 / 0.92;
 #: TH_ZARU 14 → 0.56 / 0.89, 18 → 0.58 / 0.94; TH_ZARU 32 → 0.57 / 1.21 (ZARU in walking stances).
+#: On the module's own sensors at 1 kHz, swaying stances, it misses no mid-stance sample and
+#: accepts no mid-swing one (stance T1 ≤ 3300, 6800 running; ≥ 200000 between 20 % and 80 % of a
+#: swing: ``python -m tests.oracle.threshold --simulated``, docs/accuracy.md).
 TH_ZUPT_DEFAULT = 16000
 #: TH_ZARU: total variance (acc + SR · gyro) in LSB_f²; on the walks T2 is 7–13 (5–95 %) while
 #: standing and ≥ 88 (1st percentile) in walking stances: 16 = only a foot that is really still.

@@ -11,7 +11,15 @@ import pytest
 from firmware_sim.nav.profiles import GX2_PROFILE
 from tests.conftest import WALK_IDS, requires_walks, walk_path
 
-from .threshold import GRID, DetectorSample, choose, detector_sample, error_rates, leave_one_out
+from .threshold import (
+    GRID,
+    DetectorSample,
+    choose,
+    detector_sample,
+    error_rates,
+    leave_one_out,
+    simulated_sample,
+)
 
 
 def _sample(stance_t1, swing_t1) -> DetectorSample:
@@ -55,3 +63,17 @@ def test_a_threshold_chosen_on_five_walks_holds_on_the_sixth(walks):
         assert abs(fold.threshold - GX2_PROFILE.zupt_threshold) <= 0.1 * GX2_PROFILE.zupt_threshold, fold
         assert fold.missed < 0.005 and fold.false_alarm < 0.01, fold
         assert fold.agreement > 0.97, fold
+
+
+@pytest.mark.parametrize("scenario", ["walk", "stairs_down", "run"])
+def test_the_modules_own_threshold_tells_its_swaying_stances_from_its_swings_with_margin(scenario):
+    """On the emulated module's own data (1 kHz, every sensor error, a real foot's swaying stances)
+    the power-on TH_ZUPT misses no sample in the middle 80 % of a walking stance and accepts none in
+    the middle 60 % of a swing, with a factor of two to spare on either side."""
+    from firmware_sim.nav.config import TH_ZUPT_DEFAULT
+
+    walk = simulated_sample(scenario, seed=1, swing_cut=0.2)
+    assert walk.stance.max() < TH_ZUPT_DEFAULT / 2, "a swaying stance nears the threshold"
+    assert walk.swing.min() > 2 * TH_ZUPT_DEFAULT, "a swing nears the threshold in its middle"
+    missed, false_alarm = error_rates([walk], np.array([TH_ZUPT_DEFAULT]))
+    assert missed[0] == 0.0 and false_alarm[0] == 0.0

@@ -20,7 +20,15 @@ each walk (the oracle's first stance), the other statistic a threshold must resp
 Every walk is traced once (T1 per recorded sample, :mod:`.firmware_trace`): the module's decision
 at any threshold is then ``T1 < TH``, with no further run.
 
-``python -m tests.oracle.threshold`` prints the table.
+**The module's own threshold** (:func:`simulated_sample`): the same statistics on the emulated
+MIMU22BT at its own 1 kHz, every sensor error on and a real foot's swaying stances (the gait's
+:class:`~firmware_sim.sensors.gait.StanceSway`), against the simulation's true stances: the middle
+80 % of each walking stance (the truth's stance begins at the heel's touch, the oracle's after the
+impact has rung out) and the middle 80 % of each swing, as above. On walking data the two do not
+overlap: every threshold between the largest stance T1 and the smallest mid-swing T1 makes neither
+error, so the statistics bound the module's power-on TH_ZUPT rather than pick it.
+
+``python -m tests.oracle.threshold`` prints the table; ``--simulated`` the module's own figures.
 """
 
 from __future__ import annotations
@@ -33,8 +41,8 @@ import numpy as np
 from .firmware_trace import align, trace_module
 from .reference_ins import run_reference, stance_phases
 
-__all__ = ["DetectorSample", "GRID", "detector_sample", "error_rates", "agreement", "choose",
-           "leave_one_out"]
+__all__ = ["DetectorSample", "GRID", "detector_sample", "simulated_sample", "error_rates", "agreement",
+           "choose", "leave_one_out", "SIMULATED_SCENARIOS"]
 
 #: Thresholds considered [LSB_f²]: from the reference's γ·σ_a² (8172) halved to five times it.
 GRID = np.arange(4000, 40001, 250)
@@ -74,6 +82,52 @@ def detector_sample(path: str | Path) -> DetectorSample:
             swings.append(t1[end + 1 + gap // 10:start - gap // 10])
     return DetectorSample(Path(path), t1, stance, t1[first:last + 1], np.concatenate(walking),
                           np.concatenate(swings))
+
+
+def _middle(start: int, end: int, mask: np.ndarray, cut: float = 0.1) -> None:
+    """Mark samples start…end-1 in *mask* but the fraction *cut* of them at either end."""
+    k = int((end - start) * cut)
+    mask[start + k:end - k] = True
+
+
+def simulated_sample(scenario: str, seed: int, stance_sway: bool | None = None,
+                     swing_cut: float = 0.1) -> DetectorSample:
+    """The emulated module's statistic on a simulated walk of *scenario* (every sensor error, module
+    *seed*, at 1 kHz, the stances swaying unless *stance_sway* is False), against the true stances:
+    ``oracle`` holds the truth's stance flags, ``standing`` T1 over the start-up stand, ``stance``
+    over the middle 80 % of the walking stances (shorter than a second) and ``swing`` over the swings
+    of at least :data:`MIN_SWING_S` but the fraction *swing_cut* of each at either end."""
+    from firmware_sim.sensors.imu_array import make_source
+
+    source = make_source(scenario, seed=seed, stance_sway=stance_sway)
+    return _against_truth(f"{scenario}#{seed}", align(trace_module(source)).t1, source.truth, swing_cut)
+
+
+def _against_truth(name: str, t1: np.ndarray, truth, swing_cut: float) -> DetectorSample:
+    import math
+
+    n = len(t1)
+
+    def sample(t: float) -> int:
+        return min(n, int(math.ceil(t * truth.rate_hz - 1e-9)))
+
+    flags, stance, swing = (np.zeros(n, bool) for _ in range(3))
+    starts = [sample(t) for t in truth.stance_start]
+    ends = [sample(t) for t in truth.stance_end]
+    for a, b, t_start, t_end in zip(starts, ends, truth.stance_start, truth.stance_end, strict=True):
+        flags[a:b] = True
+        if t_end - t_start < 1.0:
+            _middle(a, b, stance)
+    for end, start in zip(ends[:-1], starts[1:], strict=True):
+        if start - end >= MIN_SWING_S * truth.rate_hz:
+            _middle(end, start, swing, swing_cut)
+    return DetectorSample(Path(name), t1, flags, t1[:ends[0]], t1[stance], t1[swing])
+
+
+#: The scenarios :func:`simulated_sample` is reported on: walking at three speeds, corners, stairs
+#: both ways, running, and the short steps and turns on the spot of the house walk.
+SIMULATED_SCENARIOS = ("walk", "walk_slow", "walk_fast", "rectangle", "stairs_up", "stairs_down",
+                       "default", "run", "side_steps", "back_steps", "navshoe-house")
 
 
 def error_rates(walks: list[DetectorSample], grid: np.ndarray = GRID) -> tuple[np.ndarray, np.ndarray]:
@@ -140,7 +194,13 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover - a report 
     from .compare import closure_pct
 
     p = argparse.ArgumentParser(prog="python -m tests.oracle.threshold", description=__doc__.split("\n\n")[0])
-    p.parse_args(argv)
+    p.add_argument("--simulated", action="store_true",
+                   help="the emulated module's own statistics at 1 kHz, against the true stances")
+    p.add_argument("--seeds", type=int, default=5, help="modules per scenario with --simulated (default 5)")
+    args = p.parse_args(argv)
+    if args.simulated:
+        _report_simulated(args.seeds, nav_cfg.TH_ZUPT_DEFAULT)
+        return
     if not have_walks():
         raise SystemExit("the shared walks are not here (see tests/conftest.py)")
     walks = [detector_sample(walk_path(w)) for w in WALK_IDS]
@@ -157,6 +217,28 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover - a report 
         print(f"{f.held_out.stem[5:]:9s} | {f.threshold:14d} | {rates}"
               f"       | {100 * f.agreement:6.2f} / {100 * f.agreement_default:6.2f}"
               f"                 | {f.standing_max:15d} | {h:.3f} / {d:.3f}")
+
+
+def _report_simulated(seeds: int, default: int) -> None:  # pragma: no cover - a report for a person
+    from firmware_sim.sensors.imu_array import make_source
+
+    print(f"the emulated module at 1 kHz, every sensor error, swaying stances, modules 1–{seeds}; "
+          f"power-on TH_ZUPT {default}")
+    print("scenario      | stance T1 99.9 % / max | swing T1 min, middle 80 % / 60 % "
+          "| at TH_ZUPT, middle 80 %: missed / false alarm %")
+    for scenario in SIMULATED_SCENARIOS:
+        walks: dict[float, list[DetectorSample]] = {0.1: [], 0.2: []}
+        for seed in range(1, seeds + 1):
+            source = make_source(scenario, seed=seed)
+            t1 = align(trace_module(source)).t1
+            for cut, found in walks.items():
+                found.append(_against_truth(scenario, t1, source.truth, cut))
+        stance = np.concatenate([w.stance for w in walks[0.1]])
+        swing80, swing60 = (np.concatenate([w.swing for w in walks[cut]]) for cut in (0.1, 0.2))
+        missed, false_alarm = error_rates(walks[0.1], np.array([default]))
+        print(f"{scenario:13s} | {np.percentile(stance, 99.9):8.0f} / {stance.max():6d}    "
+              f"| {swing80.min():8d} / {swing60.min():8d}             "
+              f"| {100 * missed[0]:6.3f} / {100 * false_alarm[0]:6.3f}")
 
 
 if __name__ == "__main__":  # pragma: no cover
