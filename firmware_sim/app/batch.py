@@ -460,6 +460,10 @@ def main(args: argparse.Namespace) -> int:
         else:
             source = ReplaySource.from_file(args.files[0])
             name = str(args.files[0])
+            if source.filled_samples and not args.quiet:
+                print(f"{name}: {source.filled_samples} samples the recorder skipped (gaps in its sample "
+                      f"numbers, the longest {source.longest_gap}) are served interpolated",
+                      file=sys.stderr)
     except (OSError, RecordingFormatError, KeyError, ValueError) as e:
         print(f"openshoe-emu replay: {e}", file=sys.stderr)
         return 2

@@ -270,4 +270,48 @@ def test_a_corrupted_csv_field_is_refused_with_its_line_number(tmp_path, n, data
 def test_samples_the_recorder_skipped_are_counted(tmp_path):
     rows = [openshoe_row(k) for k in (0, 1, 4, 5)]  # nr 1 2 5 6
     rec = load_openshoe(write_openshoe(tmp_path / "w.txt", rows))
-    assert len(rec) == 4 and rec.missing_samples == 2
+    assert len(rec) == 4 and rec.missing_samples == 2 and rec.longest_gap == 2
+
+
+def test_samples_the_recorder_skipped_are_served_interpolated_between_their_neighbours(tmp_path):
+    rows = [openshoe_row(k, acc=(0.01 * k, 0.0, 1.0), gyro=(0.1 * k, 0.0, 0.0)) for k in (0, 1, 4, 5)]
+    rec = load_openshoe(write_openshoe(tmp_path / "w.txt", rows))
+    filled = rec.with_missing_filled()
+    assert list(filled.nr) == [1, 2, 3, 4, 5, 6] and filled.missing_samples == 0
+    np.testing.assert_allclose(filled.acc_g[:, 0], [0.0, 0.01, 0.02, 0.03, 0.04, 0.05], atol=1e-12)
+    np.testing.assert_allclose(filled.gyro[:, 0], [0.0, 0.1, 0.2, 0.3, 0.4, 0.5], atol=1e-12)
+    np.testing.assert_allclose(filled.t, np.arange(6) * 0.004, atol=1e-9)
+    assert np.isnan(filled.mag[2:4]).all() and not np.isnan(filled.mag[[0, 1, 4, 5]]).any()
+    source = ReplaySource(rec)
+    assert len(source) == 6 and (source.filled_samples, source.longest_gap) == (2, 2)
+    assert rec.with_missing_filled() is not rec and filled.with_missing_filled() is filled
+
+
+@settings(max_examples=60, deadline=None)
+@given(steps=st.lists(st.integers(1, 5), min_size=1, max_size=40))
+def test_filling_puts_every_written_sample_at_its_own_number(steps):
+    """Whatever the gaps, the filled recording numbers its samples without a gap, holds every written
+    sample unchanged at its number, and has as many more samples as were missing."""
+    nr = 7 + np.concatenate([[0], np.cumsum(steps)])
+    n = len(nr)
+    rng = np.random.default_rng(len(steps))
+    rec = Recording(t=(nr - 7) * 0.004, acc_g=rng.normal(size=(n, 3)), gyro=rng.normal(size=(n, 3)),
+                    mag=rng.normal(size=(n, 3)), rate_hz=250.0, nr=nr)
+    filled = rec.with_missing_filled()
+    assert len(filled) == n + rec.missing_samples
+    assert np.array_equal(filled.nr, np.arange(nr[0], nr[-1] + 1))
+    at = nr - nr[0]
+    assert np.array_equal(filled.acc_g[at], rec.acc_g) and np.array_equal(filled.gyro[at], rec.gyro)
+    assert np.array_equal(filled.mag[at], rec.mag) and np.allclose(filled.t[at], rec.t)
+
+
+def test_a_replay_says_how_many_samples_the_recorder_skipped(tmp_path, capsys):
+    from firmware_sim.app import cli
+
+    rows = [openshoe_row(k) for k in (0, 1, 2, 6, 7, 9)]  # nr 1 2 3 7 8 10: 4 missing, 3 at most
+    path = write_openshoe(tmp_path / "w.txt", rows)
+    assert cli.main(["replay", str(path), "--wire", str(tmp_path / "w.bin")]) == 0
+    err = capsys.readouterr().err
+    assert (f"{path}: 4 samples the recorder skipped (gaps in its sample numbers, the longest 3) are "
+            "served interpolated") in err
+    assert f"{path}: 10 samples in" in err
