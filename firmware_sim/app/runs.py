@@ -41,8 +41,8 @@ __all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "
            "parse_seeds", "run_one", "scenario_runs", "summary_lines", "write_csv", "write_rows"]
 
 #: The columns every row has, after the run's identity and its settings.
-METRICS = ("samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct", "end_along_m",
-           "end_across_m", "end_height_m", "end_heading_deg", "wire_bytes", "wire_sha256")
+METRICS = ("samples", "filled_samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct",
+           "end_along_m", "end_across_m", "end_height_m", "end_heading_deg", "wire_bytes", "wire_sha256")
 TIMINGS = ("parse_s", "nav_s", "write_s", "time_s")
 #: A scenario whose true path ends this close [m] to its start is a closed loop.
 CLOSED_LOOP_M = 0.05
@@ -182,12 +182,13 @@ def end_errors(track, truth) -> dict[str, float]:
                                                                      2.0 * math.pi))), strict=True))
 
 
-def _metrics(data: bytes, samples: int, truth) -> dict[str, Any]:
+def _metrics(data: bytes, samples: int, truth, filled: int = 0) -> dict[str, Any]:
     from hostlib.replay import replay_bytes
 
     track, _stats = replay_bytes(data)
     measured = _closed_loop(truth) and len(track) > 0
-    return {"samples": samples, "step_packets": len(track), "steps": track.motion_steps,
+    return {"samples": samples, "filled_samples": filled, "step_packets": len(track),
+            "steps": track.motion_steps,
             "distance_m": float(track.distance),
             "closure_m": track.closure_error() if measured else math.nan,
             "closure_pct": 100.0 * track.relative_closure_error() if measured else math.nan,
@@ -226,7 +227,7 @@ def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[
     row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
                            "module": spec.walking_module}
     row.update(spec.settings)
-    row.update(_metrics(data, data.samples, truth))
+    row.update(_metrics(data, data.samples, truth, getattr(source, "filled_samples", 0)))
     row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
                time_s=loaded.parse_s + time.perf_counter() - t1)
     return row
@@ -259,8 +260,11 @@ def summary_lines(rows: Sequence[dict[str, Any]], setting_names: Sequence[str] =
     kinds = {r["kind"] for r in rows}
     reading = {frozenset({"file"}): "parsing", frozenset({"scenario"}): "simulating"}.get(
         frozenset(kinds), "parsing/simulating")
+    filled = [r for r in rows if r.get("filled_samples")]
+    put_back = (f"; {sum(r['filled_samples'] for r in filled)} samples the recorders skipped put back "
+                f"(interpolated) in {len(filled)} file{'s' if len(filled) > 1 else ''}") if filled else ""
     lines.append(f"{len(rows)} runs, {total:.2f} s in the runs: {reading} {parse:.2f} s, "
-                 f"navigation {nav:.2f} s, writing {write:.2f} s{mean}")
+                 f"navigation {nav:.2f} s, writing {write:.2f} s{mean}{put_back}")
     return lines
 
 

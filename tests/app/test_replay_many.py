@@ -91,3 +91,19 @@ def test_a_malformed_file_stops_the_batch_with_its_line(tmp_path, capsys):
     bad.write_text("# rate_hz=100\nt,ax,ay,az,gx,gy,gz\n0.1,0,0,-1,0,0,x\n")
     assert cli.main(["replay", str(bad), "--wire-dir", str(tmp_path / "w"), "--quiet"]) == 2
     assert "bad.csv, line 3" in capsys.readouterr().err
+
+
+def test_the_summary_counts_the_samples_the_recorders_skipped(tmp_path, capsys):
+    from tests.sensors.test_replay import openshoe_row, write_openshoe
+
+    gappy = write_openshoe(tmp_path / "gappy.txt", [openshoe_row(k) for k in (0, 1, 2, 6, 7, 9)])
+    whole = write_openshoe(tmp_path / "whole.txt", [openshoe_row(k) for k in range(6)])
+    args = ["replay", str(gappy), str(whole), "--wire-dir", str(tmp_path / "wire"),
+            "--table", str(tmp_path / "runs.csv"), "--quiet"]
+    assert cli.main(args) == 0
+    out = capsys.readouterr().out.splitlines()
+    assert "; 4 samples the recorders skipped put back (interpolated) in 1 file" in out[3]
+    with (tmp_path / "runs.csv").open() as f:
+        rows = {r["name"]: r for r in csv.DictReader(f)}
+    assert (rows["gappy"]["filled_samples"], rows["gappy"]["samples"]) == ("4", "10")
+    assert rows["whole"]["filled_samples"] == "0"
