@@ -18,6 +18,15 @@ is the foot's single-module track — and feeds every step it sums to one :class
   correlation of each foot's position with its heading, the projection also turns the headings
   towards each other: the drift between the feet stays bounded.
 
+  It turns them towards each other **only**: the heading correction is the two feet's difference,
+  its common part taken out. Turning both feet together about the body keeps ‖p_L − p_R‖, so the
+  bound says nothing of the walker's heading. A common part still comes out of ``P Dᵀ`` once the
+  feet's headings differ, because each foot's correlation is linearised at its own heading. Every
+  violation then turns the walker the same way. On a 22-minute walk whose modules' gyros warm up
+  apart (60° free), that turned the body 42° and ended it 54 m off, against 14 m for the
+  average of the two tracks; without the common part it ends 15 m off
+  (docs/two-feet.md).
+
   The covariance is **not** projected. The bound is an inequality the truth keeps well inside (a
   walker's last rests lie about 0.75 m apart, never at γ), so a violation says where the
   estimate must not be, not where the feet are. Projecting P as well (``P ← P − P Dᵀ (D P Dᵀ)⁻¹
@@ -397,6 +406,7 @@ class TwoFeetTracker(AidedFilter):
             h = np.zeros(len(s))
             h[0:3], h[4:7] = u, -u
             ph = p @ h
+            ph[[3, 7]] -= 0.5 * (ph[3] + ph[7])  # the bound turns the headings apart only (docstring)
             var = float(h @ ph)
             if var <= 1e-18:
                 return  # both feet known exactly: nothing to move
