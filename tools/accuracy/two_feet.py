@@ -14,10 +14,12 @@ the two (``average``, Bachmann et al.), and the constrained fusion's body (``fus
 * :func:`loop_rows` — **Bachmann's experiment**: a 400 m track walked once per seed; the closure
   (distance from the start at the end, horizontal) per foot, of the average and of the fusion.
 * :func:`heading_run` — **the feet's headings over 20 minutes**: five laps of the 400 m track
-  (≈ 22 min), with and without the constraint; the heading difference between the feet and their
-  separation after every step (:func:`plot_heading`). With ``drop_s``, the right foot's link is
-  lost for that long mid-walk: its packets in that window never reach the host, so its counter
-  jumps and the fused track continues on the left foot (the gap and the restart are reported).
+  (≈ 22 min), with and without the constraint, and constrained with each module's errors held
+  (the emulated module's priors, its heading drift among them); the heading difference between
+  the feet and their separation after every step (:func:`plot_heading`). With ``drop_s``, the
+  right foot's link is lost for that long mid-walk: its packets in that window never reach the
+  host, so its counter jumps and the fused track continues on the left foot (the gap and the
+  restart are reported).
 * :func:`aids_rows` — **NavShoe's outage experiment with two feet**: the ``navshoe-outage`` loop
   (1 km outdoors, GPS for the first 400 m) walked with a module on each foot, the receiver on the
   body, the per-step compass and the declination prior chosen as :mod:`.navshoe` chooses them
@@ -83,6 +85,7 @@ class FeetWalk:
     free: Any  #: the same steps without the constraint
     truth: dict[str, Any]  #: side → GroundTruth
     dropped: int = 0  #: packets of the right foot that never reached the host
+    held: Any = None  #: constrained, each module's errors held (None: not asked for)
 
 
 def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, int]:
@@ -123,10 +126,12 @@ def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sw
 
 
 def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None,
-              config: SensorConfig | None = None) -> FeetWalk:
+              config: SensorConfig | None = None, module_errors: Any = None) -> FeetWalk:
     """Walk *scenario* with a module on each foot (walker *seed*; the sensors' *config*, None: the
-    default) and fuse the two captures."""
-    from hostlib.feet import FeetSettings
+    default) and fuse the two captures; with *module_errors* (a ``hostlib.module_errors.ModuleErrors``)
+    also with each module's errors held at those priors (:attr:`FeetWalk.held`)."""
+    from hostlib.feet import FeetSettings, TwoFeetTracker
+    from hostlib.fusion import FusionSettings
     from hostlib.replay import replay_feet
 
     sources, captures = feet_captures(scenario, seed, config=config)
@@ -135,7 +140,13 @@ def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = Non
         captures["right"], dropped = drop_packets(captures["right"], *drop_s)
     trackers = [replay_feet(captures["left"], captures["right"], FeetSettings(constraint=constraint))[0]
                 for constraint in (True, False)]
-    return FeetWalk(trackers[0], trackers[1], {side: s.truth for side, s in sources.items()}, dropped)
+    held = None
+    if module_errors is not None:
+        held = TwoFeetTracker(last_counter=None, defer=True,
+                              aids=FusionSettings(module_errors=module_errors))
+        replay_feet(captures["left"], captures["right"], tracker=held)
+    return FeetWalk(trackers[0], trackers[1], {side: s.truth for side, s in sources.items()}, dropped,
+                    held)
 
 
 def _ends(walk: FeetWalk) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
@@ -380,10 +391,16 @@ def aids_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
 
 def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dict[str, Any]:
     """The 20-minute walk: per fused step its time, the heading difference between the feet and
-    their separation, with and without the constraint; and what the link drop did."""
-    walk = feet_walk(HEADING_SCENARIO, seed, drop_s)
+    their separation, with and without the constraint, and constrained with each module's errors
+    held (the emulated module's priors, swaying or still as the walk's stances); and what the link
+    drop did."""
+    from firmware_sim.sensors.gait import stance_sway_on
+    from hostlib.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
+
+    priors = EMULATED_MODULE_SWAYING if stance_sway_on(None) else EMULATED_MODULE
+    walk = feet_walk(HEADING_SCENARIO, seed, drop_s, module_errors=priors)
     result: dict[str, Any] = {"seed": seed, "drop_s": drop_s, "dropped_packets": walk.dropped}
-    for name, tracker in (("fused", walk.tracker), ("free", walk.free)):
+    for name, tracker in (("fused", walk.tracker), ("free", walk.free), ("held", walk.held)):
         left, right = tracker.fused_foot("left"), tracker.fused_foot("right")
         result[name] = {"heading_difference_deg": np.degrees(left[:, 3] - right[:, 3]),
                         "separation_m": tracker.separation(), "projections": tracker.projections}
@@ -396,7 +413,8 @@ def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dic
     body_true = 0.5 * (truth["left"].stance_positions[-1] + truth["right"].stance_positions[-1])
     result["body_end_error_m"] = {
         name: float(np.hypot(*(track.final_pose[:2] - track.poses[0][:2] - body_true[:2])))
-        for name, track in (("fused", walk.tracker.body), ("average", walk.tracker.average))}
+        for name, track in (("fused", walk.tracker.body), ("average", walk.tracker.average),
+                            ("held", walk.held.body))}
     result["duration_s"] = float(truth["left"].t[-1])
     return result
 
@@ -404,13 +422,14 @@ def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dic
 def heading_summary(result: dict[str, Any]) -> list[str]:
     minutes = result["duration_s"] / 60.0
     out = [f"the feet's headings over {minutes:.0f} minutes (walker {result['seed']})"]
-    for name in ("free", "fused") if result["drop_s"] is None else ():  # a silent foot's stale pose
+    for name in ("free", "fused", "held") if result["drop_s"] is None else ():  # a silent foot's stale pose
         r = result[name]
         d = np.abs(r["heading_difference_deg"])
         out.append(f"{name:<6} |χ_L − χ_R| max {d.max():6.2f}°, at the end {d[-1]:6.2f}°; separation max "
                    f"{r['separation_m'].max():6.2f} m ({r['projections']} projections)")
     ends = result["body_end_error_m"]
-    out.append(f"body end error: fused {ends['fused']:.2f} m, average {ends['average']:.2f} m")
+    out.append(f"body end error: fused {ends['fused']:.2f} m, average {ends['average']:.2f} m, fused "
+               f"with each module's errors held {ends['held']:.2f} m")
     if result["drop_s"] is not None:
         a, b = result["drop_s"]
         gaps = "; ".join(f"{side}: {len(g)} gap(s), {sum(m for m, _ in g)} steps missing"
@@ -470,7 +489,8 @@ def plot_heading(path: Path, result: dict[str, Any]) -> Path:
     plt = _pyplot()
     t = result["time_s"] / 60.0
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
-    for name, label in (("free", "no constraint (two single modules)"), ("fused", "constrained fusion")):
+    for name, label in (("free", "no constraint (two single modules)"), ("fused", "constrained fusion"),
+                        ("held", "constrained fusion, each module's errors held")):
         ax1.plot(t, result[name]["heading_difference_deg"], label=label)
         ax2.plot(t, result[name]["separation_m"], label=label)
     ax2.axhline(1.0, color="k", ls="--", lw=0.8, label="bound γ = 1 m")
