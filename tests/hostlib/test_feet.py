@@ -105,6 +105,22 @@ def test_the_constraint_turns_the_feet_towards_each_other_and_never_the_walker()
     assert held.state[3] + held.state[7] == pytest.approx(free.state[3] + free.state[7], abs=1e-9)
 
 
+def test_the_bound_holds_exactly_when_the_feet_are_uncertain_far_across_their_difference():
+    """800 steps with 1.8° of heading σ each: the feet's lateral σ grows to about 190 m, and the
+    left foot's steps, 10 % short, pull the feet apart along the walk. Projecting onto the bound
+    by relinearising at the violation swung the feet round the sphere and left them up to 10 m
+    apart; the exact projection keeps every step within it."""
+    dp = np.diag([1e-4, 1e-4, 1e-4, 1e-3])
+    turn = math.radians(0.3)
+    steps = [(side, [dx[0] * (0.9 if side == "left" else 1.0), *dx[1:]])
+             for side, dx in _walk(400, left_turn=turn, right_turn=-turn)]
+    tracker = TwoFeetTracker()
+    _alternate(tracker, steps, dp=dp)
+    assert tracker.covariance[1, 1] > 100.0 ** 2
+    assert tracker.projections > 300
+    assert tracker.separation().max() <= 1.0 + 1e-9
+
+
 def test_steps_of_two_strides_leave_the_constraint_out_and_the_body_is_the_average():
     """A running module resets every other stride: each foot's step spans two strides and the
     feet's reported rests lie alternately half and one and a half strides apart. Those steps are
