@@ -23,14 +23,15 @@ is the foot's single-module track — and feeds every step it sums to one :class
   correlation of each foot's position with its heading, the projection also turns the headings
   towards each other: the drift between the feet stays bounded.
 
-  It turns them towards each other **only**: the heading correction is the two feet's difference,
-  its common part taken out. Turning both feet together about the body keeps ‖p_L − p_R‖, so the
-  bound says nothing of the walker's heading. A common part still comes out of ``P Dᵀ`` once the
-  feet's headings differ, because each foot's correlation is linearised at its own heading. Every
-  violation then turns the walker the same way. On a 22-minute walk whose modules' gyros warm up
-  apart (60° free), that turned the body 42° and ended it 54 m off, against 14 m for the
-  average of the two tracks; without the common part it ends 15 m off
-  (docs/two-feet.md).
+  The projection does not know which way the walker faces, and it can turn both headings
+  together. The covariance is not projected, so it still holds each foot's steps as they were
+  summed, in that foot's own direction, not as the projections moved them. Once the feet's
+  headings differ, ``P Dᵀ`` therefore turns both feet the same way at every violation.
+  Example: a 22-minute walk whose modules' gyros warm up apart (60° free), with no aid. The walker
+  turns 42° by the end and the body ends 54 m off, against 14 m for the average of the two tracks.
+  With each module's heading drift held as a state (``module_errors``) the feet stay parallel,
+  and the body ends where the average does (docs/two-feet.md). With the aids the common part
+  is needed: taken out, the aided two-feet outage ended 13 m off instead of 4 m.
 
   The covariance is **not** projected. The bound is an inequality the truth keeps well inside (a
   walker's last rests lie about 0.75 m apart, never at γ), so a violation says where the
@@ -424,7 +425,6 @@ class TwoFeetTracker(AidedFilter):
             if mid in (lo, hi):
                 break
             lo, hi = (mid, hi) if float(np.linalg.norm(apart_at(mid))) > gamma else (lo, mid)
-        p_d[[3, 7]] -= 0.5 * (p_d[3] + p_d[7])  # the bound turns the headings apart only (docstring)
         self._s = s - hi * (p_d @ apart_at(hi))  # the covariance stays: module docstring
         self.projections += 1
 

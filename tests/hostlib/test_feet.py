@@ -92,19 +92,6 @@ def test_the_constraint_bounds_the_heading_drift_between_the_feet():
     assert held.projections > 0
 
 
-def test_the_constraint_turns_the_feet_towards_each_other_and_never_the_walker():
-    """Modules that turn unequally (+0.4° and −0.1° a step): the bound may turn each foot, but the
-    feet's mean heading stays the free tracks' (it is blind to the two turning together)."""
-    left, right = math.radians(0.4), math.radians(-0.1)
-    free = TwoFeetTracker(FeetSettings(constraint=False))
-    held = TwoFeetTracker()
-    for tracker in (free, held):
-        _alternate(tracker, _walk(300, left_turn=left, right_turn=right))
-    assert held.projections > 100
-    assert abs(held.state[3] - held.state[7]) < 0.5 * abs(free.state[3] - free.state[7])
-    assert held.state[3] + held.state[7] == pytest.approx(free.state[3] + free.state[7], abs=1e-9)
-
-
 def test_the_bound_holds_exactly_when_the_feet_are_uncertain_far_across_their_difference():
     """800 steps with 1.8° of heading σ each: the feet's lateral σ grows to about 190 m, and the
     left foot's steps, 10 % short, pull the feet apart along the walk. Projecting onto the bound
