@@ -28,7 +28,7 @@ is the foot's single-module track — and feeds every step it sums to one :class
   summed, in that foot's own direction, not as the projections moved them. Once the feet's
   headings differ, ``P Dᵀ`` therefore turns both feet the same way at every violation.
   Example: a 22-minute walk whose modules' gyros warm up apart (60° free), with no aid. The walker
-  turns 42° by the end and the body ends 54 m off, against 14 m for the average of the two tracks.
+  turns 43° by the end and the body ends 54 m off, against 14 m for the average of the two tracks.
   With each module's heading drift held as a state (``module_errors``) the feet stay parallel,
   and the body ends where the average does (docs/two-feet.md). With the aids the common part
   is needed: taken out, the aided two-feet outage ended 13 m off instead of 4 m.
