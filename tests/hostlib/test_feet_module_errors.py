@@ -196,6 +196,32 @@ def test_each_foots_compass_teaches_its_own_modules_heading_drift():
     assert abs(feet.module_errors("right")[3]) < 0.1 * rate
 
 
+def test_with_each_modules_drift_held_the_constraint_keeps_two_drifting_feet_parallel():
+    """Without an aid, the left module's heading drifts +90 °/h and the right one's −45 °/h for
+    twenty minutes north: alone the feet part by 45°; the constraint alone leaves 18° between
+    them; with each module's drift held it learns the rates' difference and keeps them within 2°
+    (docs/two-feet.md, the 22-minute walk)."""
+    rates = {"left": math.radians(90.0) / 3600.0, "right": math.radians(-45.0) / 3600.0}
+    errors = ModuleErrors(0.0, 0.0, 0.0, math.radians(100.0) / 3600.0)
+
+    def walk(feet: TwoFeetTracker) -> float:
+        counter = dict.fromkeys(FOOT_SIDES, 0)
+        for k in range(2200):
+            side = FOOT_SIDES[(k + 1) % 2]
+            counter[side] += 1
+            drift = 2 * STEP_PERIOD * rates[side] if k > 0 else 0.0
+            feet.foot(side).add_step([STRIDE * (0.5 if k == 0 else 1.0), 0.0, 0.0, drift], DP, counter[side],
+                                     0.4, time_s=STEP_PERIOD * (k + 1))
+        return math.degrees(abs(feet.state[3] - feet.state[7]))
+
+    free = walk(TwoFeetTracker(FeetSettings(constraint=False)))
+    constrained = walk(TwoFeetTracker())
+    held = walk(TwoFeetTracker(aids=FusionSettings(module_errors=errors)))
+    assert free == pytest.approx(45.4, abs=0.5)
+    assert 10.0 < constrained < 0.5 * free
+    assert held < 2.0
+
+
 # -- the covariance stays a covariance ------------------------------------------------------
 
 
