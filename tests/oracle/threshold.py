@@ -33,6 +33,7 @@ error, so the statistics bound the module's power-on TH_ZUPT rather than pick it
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -104,8 +105,6 @@ def simulated_sample(scenario: str, seed: int, stance_sway: bool | None = None,
 
 
 def _against_truth(name: str, t1: np.ndarray, truth, swing_cut: float) -> DetectorSample:
-    import math
-
     n = len(t1)
 
     def sample(t: float) -> int:
