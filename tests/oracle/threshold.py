@@ -98,10 +98,16 @@ def simulated_sample(scenario: str, seed: int, stance_sway: bool | None = None,
     ``oracle`` holds the truth's stance flags, ``standing`` T1 over the start-up stand, ``stance``
     over the middle 80 % of the walking stances (shorter than a second) and ``swing`` over the swings
     of at least :data:`MIN_SWING_S` but the fraction *swing_cut* of each at either end."""
+    t1, truth = _simulated_trace(scenario, seed, stance_sway)
+    return _against_truth(f"{scenario}#{seed}", t1, truth, swing_cut)
+
+
+def _simulated_trace(scenario: str, seed: int, stance_sway: bool | None = None) -> tuple[np.ndarray, object]:
+    """T1 per sample of the simulated walk (as :func:`simulated_sample` makes it) and its truth."""
     from firmware_sim.sensors.imu_array import make_source
 
     source = make_source(scenario, seed=seed, stance_sway=stance_sway)
-    return _against_truth(f"{scenario}#{seed}", align(trace_module(source)).t1, source.truth, swing_cut)
+    return align(trace_module(source)).t1, source.truth
 
 
 def _against_truth(name: str, t1: np.ndarray, truth, swing_cut: float) -> DetectorSample:
@@ -219,8 +225,6 @@ def main(argv: list[str] | None = None) -> None:  # pragma: no cover - a report 
 
 
 def _report_simulated(seeds: int, default: int) -> None:  # pragma: no cover - a report for a person
-    from firmware_sim.sensors.imu_array import make_source
-
     print(f"the emulated module at 1 kHz, every sensor error, swaying stances, modules 1–{seeds}; "
           f"power-on TH_ZUPT {default}")
     print("scenario      | stance T1 99.9 % / max | swing T1 min, middle 80 % / 60 % "
@@ -228,10 +232,9 @@ def _report_simulated(seeds: int, default: int) -> None:  # pragma: no cover - a
     for scenario in SIMULATED_SCENARIOS:
         walks: dict[float, list[DetectorSample]] = {0.1: [], 0.2: []}
         for seed in range(1, seeds + 1):
-            source = make_source(scenario, seed=seed)
-            t1 = align(trace_module(source)).t1
+            t1, truth = _simulated_trace(scenario, seed)
             for cut, found in walks.items():
-                found.append(_against_truth(scenario, t1, source.truth, cut))
+                found.append(_against_truth(scenario, t1, truth, cut))
         stance = np.concatenate([w.stance for w in walks[0.1]])
         swing80, swing60 = (np.concatenate([w.swing for w in walks[cut]]) for cut in (0.1, 0.2))
         missed, false_alarm = error_rates(walks[0.1], np.array([default]))
