@@ -1,19 +1,19 @@
 """Host SDK for OpenShoe modules, real or emulated.
 
 Its data path uses only :mod:`protocol` and pyserial (numpy for the numbers;
-matplotlib only for :mod:`hostlib.plot`), so it talks to a real module on
+matplotlib only for :mod:`hostlib.files.plot`), so it talks to a real module on
 ``/dev/rfcomm0`` exactly as to the emulator.
 
 * :class:`Device` — open a link, typed commands with acks, reader thread,
-  lossless acking, steps and packets (:mod:`hostlib.device`);
-* :class:`HostSession` — the same protocol logic without I/O (:mod:`hostlib.session`);
+  lossless acking, steps and packets (:mod:`hostlib.link.device`);
+* :class:`HostSession` — the same protocol logic without I/O (:mod:`hostlib.link.session`);
 * the events a host receives — :class:`CommandAckEvent`, :class:`PacketEvent`,
   :class:`StepEvent`, :class:`GapEvent`, :class:`LinkEvent` (:mod:`hostlib.events`);
 * :class:`StepTracker`, :class:`Track` — step-wise dead reckoning with covariance
-  (:mod:`hostlib.tracking`);
-* :mod:`hostlib.drift` — closed-loop drift correction of one module (calibrate from closed
+  (:mod:`hostlib.track.steps`);
+* :mod:`hostlib.calibration.drift` — closed-loop drift correction of one module (calibrate from closed
   loops walked with the fusion set-up, apply to its later tracks);
-* :mod:`hostlib.export` (CSV, GeoJSON), :mod:`hostlib.plot` (PNG), :mod:`hostlib.cli`.
+* :mod:`hostlib.files.export` (CSV, GeoJSON), :mod:`hostlib.files.plot` (PNG), :mod:`hostlib.cli`.
 """
 
 from typing import TYPE_CHECKING
@@ -29,11 +29,11 @@ from .events import (
     StepOutcome,
     StreamEvent,
 )
-from .tracking import StepTracker, Track
+from .track.steps import StepTracker, Track
 
 if TYPE_CHECKING:  # type checkers see the classes the lazy __getattr__ below hands out
-    from .device import Device
-    from .session import HostSession
+    from .link.device import Device
+    from .link.session import HostSession
 
 __all__ = [
     "AckTimeout",
@@ -59,13 +59,13 @@ __all__ = [
 
 def __getattr__(name: str):
     # Device and HostSession pull in pyserial/protocol.stream; import them on first use so that
-    # `import hostlib.tracking` stays light for users who only sum steps.
+    # `import hostlib.track.steps` stays light for users who only sum steps.
     if name == "Device":
-        from .device import Device
+        from .link.device import Device
 
         return Device
     if name == "HostSession":
-        from .session import HostSession
+        from .link.session import HostSession
 
         return HostSession
     raise AttributeError(f"module 'hostlib' has no attribute {name!r}")

@@ -6,7 +6,7 @@
     openshoe-host track /dev/rfcomm0 --steps 100 --csv walk.csv      # stop after 100 step packets
     openshoe-host replay capture.bin --csv walk.csv
 
-Two feet (a module on each; hostlib.feet): both streams acked and gap-checked on their own, fused
+Two feet (a module on each; hostlib.fusion.feet): both streams acked and gap-checked on their own, fused
 into one body track (the feet's midpoint); a lost link on one foot degrades the fusion to the
 other foot, it never stops it::
 
@@ -17,16 +17,16 @@ other foot, it never stops it::
 Per-module calibrations (--drift, --mag-cal) then take one file per foot, the left foot's first
 (- for none); each is checked against the serial number of the module on its foot.
 
-Heading aids on a live walk (the fusion set-up; hostlib.fusion): a compass update per step, and GPS
-fixes from a receiver read as they come (hostlib.gps_stream), each put on the module's clock; with a
+Heading aids on a live walk (the fusion set-up; hostlib.fusion.tracker): a compass update per step, and GPS
+fixes from a receiver read as they come (hostlib.run.gps_stream), each put on the module's clock; with a
 module on each foot, each foot's compass and the body's fixes, each fix on each module's clock::
 
     openshoe-host track /dev/rfcomm0 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
     openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
 
-In-situ magnetometer calibration (hostlib.wiggle, NavShoe's): once tracking started, wiggle the
+In-situ magnetometer calibration (hostlib.calibration.wiggle, NavShoe's): once tracking started, wiggle the
 shoe in one place for about 30 s — toe down and up, the sole to either side, all round — then walk
-off: the first step longer than 0.5 m ends it. It is saved for the module (hostlib.magcal; the
+off: the first step longer than 0.5 m ends it. It is saved for the module (hostlib.calibration.magcal; the
 directory --mag-cal-dir, else $OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/openshoe/magcal), and
 --compass without --mag-cal takes the saved one of the module it talks to. ``log`` records the
 wiggle's stream in its capture (and saves the calibration too), for ``replay`` to fit it again::
@@ -36,7 +36,7 @@ wiggle's stream in its capture (and saves the calibration too), for ``replay`` t
     openshoe-host log /dev/rfcomm0 --start --fusion --calibrate-mag --raw walk.bin
     openshoe-host replay walk.bin --compass --calibrate-mag --csv walk.csv
 
-Closed-loop drift correction (per module; hostlib.drift): record closed loops with the fusion
+Closed-loop drift correction (per module; hostlib.calibration.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
     openshoe-host log /dev/rfcomm0 --start --fusion --raw loop1.bin --duration 120
@@ -64,13 +64,13 @@ from typing import Any, TextIO
 from protocol.board import FOOT_SIDES
 from protocol.ids import OutputMode, StateId
 
-from .device import Device
-from .drift import DriftCalibration, DriftError, calibrate, loop_closure, serial_text
+from .calibration.drift import DriftCalibration, DriftError, calibrate, loop_closure, serial_text
 from .errors import HostError
 from .events import LinkEvent
-from .feet import FeetSettings, TwoFeetTracker
-from .session import SessionStats
-from .tracking import StepTracker, Track
+from .fusion.feet import FeetSettings, TwoFeetTracker
+from .link.device import Device
+from .link.session import SessionStats
+from .track.steps import StepTracker, Track
 
 __all__ = ["feet_summary", "feet_summary_line", "heading_deg", "main", "summary_line"]
 
@@ -99,7 +99,7 @@ def _setup_options(p: argparse.ArgumentParser) -> None:
 def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
     """The heading aids' options; *live*: of ``track`` (one URL, a GPS device read as it talks)."""
     what = "one URL, with --fusion" if live else "the capture needs the --fusion set-up"
-    g = p.add_argument_group(f"heading aids (hostlib.fusion; {what})")
+    g = p.add_argument_group(f"heading aids (hostlib.fusion.tracker; {what})")
     g.add_argument("--compass", action="store_true",
                    help="one compass update per step from the magnetometers and attitude at the end of "
                         "each stance")
@@ -109,7 +109,8 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "default 1.5)")
     g.add_argument("--compass-deviation", type=_compass_deviation, default=None,
                    metavar="outdoors|indoors|SIGMA_DEG,LENGTH_M",
-                   help="hold the local magnetic deviation as a state of the filter (hostlib.deviation), "
+                   help="hold the local magnetic deviation as a state of the filter "
+                        "(hostlib.fusion.deviation), "
                         "correlated over the distance walked: 'outdoors' (3° over 9 m), 'indoors' "
                         "(20° over 0.5 m) or its 1σ [deg] and correlation length [m]; with two modules "
                         "one deviation for both feet (with --compass)")
@@ -124,7 +125,8 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                        help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
                             "and the CSV gets lat_deg, lon_deg, alt_m")
     g.add_argument("--gps-bias", action="store_true",
-                   help="hold the receiver's correlated error as a state of the filter (hostlib.gps_bias): "
+                   help="hold the receiver's correlated error as a state of the filter "
+                        "(hostlib.fusion.gps_bias): "
                         "a bias wandering over minutes (3 m RMS, τ 120 s) plus 0.3 m white per fix, every "
                         "fix used (without it a fix is white noise of 15 m every 10 s); with two modules one "
                         "bias for the body's receiver (with --gps)")
@@ -135,7 +137,8 @@ def _aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
     g.add_argument("--module-errors", type=_module_errors, default=None,
                    metavar="SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]]",
                    help="hold the module's step-length scale, climb per metre, turn scale, heading drift "
-                        "rate and the gyros' warm-up as states of the filter (hostlib.module_errors), with "
+                        "rate and the gyros' warm-up as states of the filter "
+                        "(hostlib.fusion.module_errors), with "
                         "these 1σ priors (e.g. 0.001,0.0017,0.01,20,0.05,120: 0.1 %% per metre, 1.7 mm/m, "
                         "1 %% of the angle turned, 20 °/h, and a vertical rate bias settling 0.05 °/s away "
                         "with a warm-up time constant of 120 s, counted from the first step; a drift or "
@@ -169,7 +172,7 @@ def _mag_cal_dir_option(g: Any) -> None:
 
 def _log_calibration_options(p: argparse.ArgumentParser) -> None:
     """``log --calibrate-mag``: record the wiggle's stream, and fit and save it as ``track`` does."""
-    g = p.add_argument_group("in-situ magnetometer calibration (hostlib.wiggle; with --fusion)")
+    g = p.add_argument_group("in-situ magnetometer calibration (hostlib.calibration.wiggle; with --fusion)")
     g.add_argument("--calibrate-mag", action="store_true",
                    help="after the fusion set-up the module streams its magnetometers and attitude while "
                         "the shoe is wiggled in one place, until the first step longer than 0.5 m: the "
@@ -207,7 +210,7 @@ def _enough_steps(steps: int | None, setups: Iterable[_HostSetup]) -> bool:
 
 def _feet_options(p: argparse.ArgumentParser, what: str) -> None:
     g = p.add_argument_group(f"two feet (with two {what}s: the left foot's, then the right foot's; "
-                             "hostlib.feet)")
+                             "hostlib.fusion.feet)")
     g.add_argument("--max-separation", type=_positive_metres, default=None, metavar="M",
                    help="γ: the feet's last rests are never farther apart than M metres (default "
                         f"{FeetSettings.max_separation_m:g}, the longest walking step; a runner's: 1.5); a "
@@ -313,7 +316,7 @@ def _module_errors(text: str):
     as it walks by default, on swaying stances), 'emulated-still' (on still stances) or
     SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (numbers ≥ 0, τ > 0; the heading
     drift rate's 1σ in °/h and the warm-up's in °/s, held as [rad/s])."""
-    from .module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING, ModuleErrors
+    from .fusion.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING, ModuleErrors
 
     presets = {"emulated": EMULATED_MODULE_SWAYING, "emulated-sway": EMULATED_MODULE_SWAYING,
                "emulated-still": EMULATED_MODULE}
@@ -339,7 +342,7 @@ def _module_errors(text: str):
 def _compass_deviation(text: str):
     """The argparse type of ``--compass-deviation``: 'outdoors', 'indoors' or SIGMA_DEG,LENGTH_M
     (numbers > 0)."""
-    from .deviation import INDOORS, OUTDOORS, CompassDeviation
+    from .fusion.deviation import INDOORS, OUTDOORS, CompassDeviation
 
     presets = {"outdoors": OUTDOORS, "indoors": INDOORS}
     word = text.strip().lower()
@@ -358,10 +361,10 @@ def _compass_deviation(text: str):
 def _fusion_settings(args: argparse.Namespace):
     """The aids' settings the options change (``--compass-sigma``, ``--compass-deviation``: σ_c is
     then only the white part, 1.5° unless given; ``--gps-bias``: the receiver's defaults); the rest
-    as hostlib.aids sets them."""
-    from .deviation import WHITE_SIGMA_RAD
-    from .fusion import FusionSettings
-    from .gps_bias import GpsBias
+    as hostlib.run.aid_setup sets them."""
+    from .fusion.deviation import WHITE_SIGMA_RAD
+    from .fusion.gps_bias import GpsBias
+    from .fusion.tracker import FusionSettings
 
     deviation = args.compass_deviation
     bias = GpsBias() if args.gps_bias else None
@@ -374,10 +377,10 @@ def _fusion_settings(args: argparse.Namespace):
 
 def _prepare_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
                   saved: tuple[Any, Path] | None = None, **more: Any):
-    """The fusion tracker the aid options ask for (hostlib.aids; *more*: to :func:`prepare_aids`),
+    """The fusion tracker the aid options ask for (hostlib.run.aid_setup; *more*: to :func:`prepare_aids`),
     with the calibration of --mag-cal, else the module's *saved* one (calibration, file)."""
-    from .aids import prepare_aids
-    from .magcal import MagCalibration
+    from .calibration.magcal import MagCalibration
+    from .run.aid_setup import prepare_aids
 
     cal = MagCalibration.load(args.mag_cal[0]) if args.mag_cal else saved[0] if saved else None
     gps_path = None if more.get("live_gps") else args.gps
@@ -397,7 +400,7 @@ def _wants_saved_calibration(args: argparse.Namespace) -> bool:
 def _saved_calibration(args: argparse.Namespace, serial: bytes | None) -> tuple[Any, Path] | None:
     """The saved magnetometer calibration (calibration, file) of the module whose serial number is
     *serial*, when the options want one (:func:`_wants_saved_calibration`); else None."""
-    from .magcal import load_for_module
+    from .calibration.magcal import load_for_module
 
     if not _wants_saved_calibration(args) or not serial:
         return None
@@ -412,10 +415,10 @@ def _per_foot(files: Sequence[str] | None, load: Callable[[str], Any]) -> dict[s
 def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] | None, *,
                   last_counter: int | None, defer: bool, heading: float = 0.0, **more: Any):
     """The two-feet tracker the options ask for, with each module's drift calibration, and — with
-    --compass, --gps or --module-errors — the aids (hostlib.aids; None otherwise; *more*: to
-    :func:`~hostlib.aids.prepare_feet_aids`, e.g. a receiver read live)."""
-    from .aids import prepare_feet_aids
-    from .magcal import MagCalibration
+    --compass, --gps or --module-errors — the aids (hostlib.run.aid_setup; None otherwise; *more*: to
+    :func:`~hostlib.run.aid_setup.prepare_feet_aids`, e.g. a receiver read live)."""
+    from .calibration.magcal import MagCalibration
+    from .run.aid_setup import prepare_feet_aids
 
     drift = _per_foot(args.drift, DriftCalibration.load)
     if not _uses_aids(args):
@@ -430,7 +433,7 @@ def _feet_tracker(args: argparse.Namespace, origin: tuple[float, float, float] |
 
 
 def _check_mag_module(cal: Any, serial: bytes | None) -> None:
-    """Refuse a magnetometer calibration (hostlib.magcal) fitted on another module than the one
+    """Refuse a magnetometer calibration (hostlib.calibration.magcal) fitted on another module than the one
     whose MCU serial number is *serial* (None: unknown, accepted)."""
     cal.check_module(serial_text(serial) if serial else "")
 
@@ -470,7 +473,7 @@ def build_parser() -> argparse.ArgumentParser:
     _common(t)
     t.add_argument("url2", nargs="?", metavar="URL2",
                    help="a module on the other foot: url is then the left foot's, URL2 the right foot's, "
-                        "and the two are fused (hostlib.feet)")
+                        "and the two are fused (hostlib.fusion.feet)")
     t.add_argument("--duration", type=float, default=None, help="seconds to track (default: until Ctrl-C)")
     t.add_argument("--steps", type=_step_count, default=None, metavar="N",
                    help="stop once N step packets came (from each module, with two); with --duration, "
@@ -511,7 +514,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("capture", help="file of module bytes")
     r.add_argument("capture2", nargs="?", metavar="CAPTURE2",
                    help="the capture of a module on the other foot: capture is then the left foot's, "
-                        "CAPTURE2 the right foot's, and the two are fused (hostlib.feet)")
+                        "CAPTURE2 the right foot's, and the two are fused (hostlib.fusion.feet)")
     r.add_argument("--command-set", choices=("2014", "2015"), default="2015")
     r.add_argument("--csv", help="write the track to this CSV file (two feet: the body's, and each "
                                  "foot's in more columns)")
@@ -525,7 +528,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "two captures, the left foot's module's then the right foot's (- for none)")
     _feet_options(r, "capture")
 
-    d = sub.add_parser("drift", help="closed-loop drift correction of one module (hostlib.drift)")
+    d = sub.add_parser("drift", help="closed-loop drift correction of one module (hostlib.calibration.drift)")
     dsub = d.add_subparsers(dest="drift_cmd", required=True)
     dc = dsub.add_parser("calibrate", help="the module's drift velocity from closed-loop captures")
     dc.add_argument("captures", nargs="+", metavar="CAPTURE",
@@ -546,9 +549,9 @@ def summary_line(dev: Device, drift: DriftCalibration | None = None) -> str:
     """One line: step packets, steps with motion, distance, position, heading, 1σ, gaps.
 
     The module sends a step packet at every INS reset, also while the wearer stands
-    still; "steps" counts only those that moved the foot (hostlib.tracking.is_motion_step).
+    still; "steps" counts only those that moved the foot (hostlib.track.steps.is_motion_step).
     With *drift* the position is the drift-corrected one (refused for another module, or a
-    step without a swing time: :class:`~hostlib.drift.DriftError`).
+    step without a swing time: :class:`~hostlib.calibration.drift.DriftError`).
     """
     tr = dev.track_snapshot()
     x, y, z, chi = tr.final_pose
@@ -666,14 +669,14 @@ class _HostSetup:
 
 class _InSitu:
     """``track --calibrate-mag`` and ``log --calibrate-mag``: the in-situ magnetometer calibration
-    of one module (hostlib.wiggle). The device's reader thread hands it the session's packets and
+    of one module (hostlib.calibration.wiggle). The device's reader thread hands it the session's packets and
     steps, in their order; when the first long step ends it, the fit goes at once to the tracker of
     *aids* (``track``: its compass waits for it; ``log`` has none, its capture holds the stream); the
     main loop then stops the stream, saves the calibration for the module and says what it did
     (*cmd*: whose messages they are)."""
 
     def __init__(self, dev: Device, directory: str | None, cmd: str, aids: Any = None):
-        from .wiggle import WiggleCalibration
+        from .calibration.wiggle import WiggleCalibration
 
         self.dev, self.directory, self.cmd, self.aids = dev, directory, cmd, aids
         self.wiggle = WiggleCalibration()
@@ -743,9 +746,9 @@ class _InSitu:
 
 
 def _keep_in_situ(wiggle: Any, directory: str | None, cmd: str) -> str:
-    """Save an in-situ calibration for its module (hostlib.magcal.save_for_module); returns where
+    """Save an in-situ calibration for its module (hostlib.calibration.magcal.save_for_module); returns where
     the tracker's calibration came from, for the summary."""
-    from .magcal import MagCalibrationError, save_for_module
+    from .calibration.magcal import MagCalibrationError, save_for_module
 
     if wiggle.calibration is None:
         return "the in-situ calibration was refused"
@@ -848,7 +851,7 @@ def _follow(args: argparse.Namespace, modules: list[_Tracked], live: _LiveLine,
 
 
 def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
-    from .export import parse_origin
+    from .aids.geodesy import parse_origin
 
     drift = DriftCalibration.load(args.drift[0]) if args.drift and args.url2 is None else None
     origin = parse_origin(args.origin) if args.origin else None  # refused before the port opens
@@ -899,8 +902,8 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
 def _track_feet(args: argparse.Namespace, origin: tuple[float, float, float] | None, last_counter: int | None,
                 heading: float, out: TextIO) -> int:
     """``track LEFT RIGHT``: a device per foot, both feet's steps fused in arrival order
-    (hostlib.feet); with the aids, each foot's compass and a receiver read live (its fixes the
-    body's, on each module's clock: hostlib.gps_stream), each foot's calibrations checked against
+    (hostlib.fusion.feet); with the aids, each foot's compass and a receiver read live (its fixes the
+    body's, on each module's clock: hostlib.run.gps_stream), each foot's calibrations checked against
     the module on that foot once both named themselves."""
     with ExitStack() as stack:
         live = _open_live_gps(args, stack) if _reads_live_gps(args) else None
@@ -938,8 +941,8 @@ def _reads_live_gps(args: argparse.Namespace) -> bool:
 
 
 def _open_live_gps(args: argparse.Namespace, stack: ExitStack):
-    """The GPS receiver at ``--gps`` (a device or URL), read in its own thread (hostlib.gps_stream)."""
-    from .gps_stream import GpsStream, LiveFixes
+    """The GPS receiver at ``--gps`` (a device or URL), read in its own thread (hostlib.run.gps_stream)."""
+    from .run.gps_stream import GpsStream, LiveFixes
 
     def report(text: str) -> None:
         print(f"openshoe-host track: {text}", file=sys.stderr)
@@ -953,14 +956,14 @@ def _open_live_gps(args: argparse.Namespace, stack: ExitStack):
 def _feed_live_gps(live, tracker: Any, modules: list[_Tracked]) -> None:
     """Queue the receiver's fixes on *tracker* (the module's, or the two feet's) between two steps:
     under the session lock of every module whose steps it sums, taken in the modules' order; each
-    module's step renews that module's clock (hostlib.gps_stream)."""
+    module's step renews that module's clock (hostlib.run.gps_stream)."""
     live.fixes.attach(tracker, *(m.dev.session_lock for m in modules))
     for m in modules:
         m.dev.on_step(lambda _ev, side=m.side: live.fixes.stepped(module=side))
 
 
 def _live_gps_start(live) -> dict[str, Any]:
-    """What a receiver read live gives the aids before the walk (to hostlib.aids): its first fix,
+    """What a receiver read live gives the aids before the walk (to hostlib.run.aid_setup): its first fix,
     waited for up to :data:`FIRST_FIX_WAIT_S`, places the walk. Nothing without a receiver."""
     if live is None:
         return {}
@@ -975,7 +978,7 @@ def _live_gps_start(live) -> dict[str, Any]:
 
 
 def _track_aids(args: argparse.Namespace, origin: tuple[float, float, float] | None, live, **more: Any):
-    """The aids of ``track`` (hostlib.aids; None without --compass or --gps). With a receiver read
+    """The aids of ``track`` (hostlib.run.aid_setup; None without --compass or --gps). With a receiver read
     live, its first fix (waited for up to :data:`FIRST_FIX_WAIT_S`) places the walk."""
     if not _uses_aids(args):
         return None
@@ -1045,7 +1048,7 @@ def _use_saved_calibrations(args: argparse.Namespace, aids: Any, serials: Mappin
                             ) -> None:
     """Before the first step: give the compass of each module (side → its serial number, None
     unknown; side None: the only module) the module's saved magnetometer calibration, if there is
-    one (hostlib.magcal.load_for_module); the summary says which file each came from."""
+    one (hostlib.calibration.magcal.load_for_module); the summary says which file each came from."""
     for side, serial in serials.items():
         found = _saved_calibration(args, serial)
         if found is None:
@@ -1097,18 +1100,18 @@ def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[floa
     """The files the options ask for: *track*'s, or with *feet* the body track's (its CSV with each
     foot's columns, its plot with each fused foot's path)."""
     if args.csv:
-        from .export import write_csv, write_feet_csv
+        from .files.export import write_csv, write_feet_csv
 
         if feet is not None:
             write_feet_csv(feet, args.csv)
         else:
             write_csv(track, args.csv, origin if geographic_csv else None)
     if args.geojson:
-        from .export import write_geojson
+        from .files.export import write_geojson
 
         write_geojson(track, args.geojson, origin)
     if args.png:
-        from .plot import plot_track
+        from .files.plot import plot_track
 
         paths = None if feet is None else {f"{side} foot": feet.fused_foot(side) for side in FOOT_SIDES}
         title = None if feet is None else (f"body of two feet: {len(track)} steps, {track.distance:.1f} m, "
@@ -1210,8 +1213,8 @@ def cmd_info(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
-    from .export import parse_origin
-    from .replay import replay_calibrating, replay_session
+    from .aids.geodesy import parse_origin
+    from .files.replay import replay_calibrating, replay_session
 
     if args.capture2 is not None:
         return _replay_feet(args, out)
@@ -1224,7 +1227,7 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     aids = _prepare_aids(args, origin, saved=saved) if _uses_aids(args) else None
     wiggle = None
     if args.calibrate_mag:
-        from .wiggle import WiggleCalibration
+        from .calibration.wiggle import WiggleCalibration
 
         wiggle = WiggleCalibration()
         session = replay_calibrating(data, wiggle, aids.tracker, command_set=args.command_set)
@@ -1257,8 +1260,8 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
 def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
     """``replay LEFT RIGHT``: each capture decoded by its own session (its counters, resends and
     gaps), the two feet's steps then fused in module-time order."""
-    from .export import parse_origin
-    from .replay import decode_feet, replay_session
+    from .aids.geodesy import parse_origin
+    from .files.replay import decode_feet, replay_session
 
     origin = parse_origin(args.origin) if args.origin else None
     paths = dict(zip(FOOT_SIDES, (args.capture, args.capture2), strict=True))
@@ -1280,7 +1283,7 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
 
 def cmd_drift(args: argparse.Namespace, out: TextIO) -> int:
     """``drift calibrate CAPTURE... -o CAL.json``: each capture one closed loop of one module."""
-    from .replay import replay_capture_session
+    from .files.replay import replay_capture_session
 
     sessions = [replay_capture_session(path, command_set=args.command_set) for path in args.captures]
     serials = {s.mcu_serial for s in sessions}

@@ -6,11 +6,11 @@
 * :class:`GapEvent` — step counters skipped between two summed steps;
 * :class:`LinkEvent` — the serial link dropped or came back.
 
-:class:`hostlib.session.HostSession` produces the first four from the byte
-stream (:data:`StreamEvent`); :class:`hostlib.device.Device` adds the fifth
+:class:`hostlib.link.session.HostSession` produces the first four from the byte
+stream (:data:`StreamEvent`); :class:`hostlib.link.device.Device` adds the fifth
 (:data:`Event` is any of them). All are frozen dataclasses.
 
-This module is as light as :mod:`hostlib.tracking`, which records its gaps as
+This module is as light as :mod:`hostlib.track.steps`, which records its gaps as
 :class:`GapEvent`: it needs numpy at run time and names :mod:`protocol` types
 for type checkers only (the payload hexdump imports :mod:`protocol.frames` when
 an event is printed).
@@ -114,7 +114,7 @@ class GapEvent:
     """Steps lost between two summed steps: counters ``after+1 .. counter−1`` never arrived.
 
     The pose continues from the last summed step (the lost displacement is
-    unknown); the gap is also kept in :attr:`hostlib.tracking.Track.gaps`.
+    unknown); the gap is also kept in :attr:`hostlib.track.steps.Track.gaps`.
     """
 
     after: int | None  #: counter of the last summed step (None: none summed yet)

@@ -43,7 +43,8 @@ def walks_dir() -> Path:
 
 @pytest.fixture(autouse=True)
 def own_magcal_dir(tmp_path_factory, monkeypatch) -> Path:
-    """``OPENSHOE_MAGCAL_DIR`` (hostlib.magcal's per-module calibrations) set to an empty folder of
+    """``OPENSHOE_MAGCAL_DIR`` (hostlib.calibration.magcal's per-module calibrations) set to an empty
+    folder of
     this test's, for it and the processes it starts: no test reads or writes the user's."""
     folder = tmp_path_factory.mktemp("magcal")
     monkeypatch.setenv("OPENSHOE_MAGCAL_DIR", str(folder))

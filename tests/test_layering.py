@@ -129,7 +129,7 @@ def test_the_host_sdk_data_path_uses_only_protocol_pyserial_numpy_and_its_format
     stdlib = set(sys.stdlib_module_names)
     found = []
     for mod in project_modules():
-        if not under(mod, "hostlib") or mod in ("hostlib.plot", "hostlib.cli"):
+        if not under(mod, "hostlib") or mod in ("hostlib.files.plot", "hostlib.cli"):
             continue
         for name, line in imports_of(mod):
             top = name.split(".")[0]

@@ -31,13 +31,13 @@ step packets then carry each step's swing time, and the module outputs its seria
 once), and ``--height-compensation`` turns the module's height compensation on when the first
 step packet arrives (:func:`protocol.extensions.height_compensation_on`). ``--calibrate-mag``
 (with ``--host fusion``) runs the in-situ magnetometer calibration as ``openshoe-host track
---calibrate-mag`` does, with the same :class:`hostlib.wiggle.WiggleCalibration`: after the fusion
+--calibrate-mag`` does, with the same :class:`hostlib.calibration.wiggle.WiggleCalibration`: after the fusion
 set-up the host starts the magnetometer stream (:data:`protocol.extensions.MAG_STREAM_START`) and
 stops it (:data:`~protocol.extensions.MAG_STREAM_STOP`) at the first step longer than 0.5 m, so
 that ``openshoe-host replay OUT --compass --calibrate-mag`` fits the calibration from the capture
 (walk the ``navshoe-calibration`` scenario, which starts with a wiggle). Each command goes
 out once the module acknowledged the one before; frames are built by the host session
-(:class:`hostlib.session.HostSession`). Without them the host sends ``34 00 34`` only, and
+(:class:`hostlib.link.session.HostSession`). Without them the host sends ``34 00 34`` only, and
 the bytes are those of before. A module made with ``--module N`` has the MCU serial number
 ``OSEMU-M`` + N in 8 digits (:func:`firmware_sim.transports.factory.module_serial`).
 
@@ -228,17 +228,17 @@ class _HostSetup:
     (*fusion*) :data:`~protocol.extensions.FUSION_SETUP` once 0x34 is acked, and
     (*height_compensation*) :func:`~protocol.extensions.height_compensation_on` once the first
     step packet came; (*calibrate_mag*) the magnetometer stream's start after the fusion set-up and
-    its stop when the in-situ calibration (:class:`hostlib.wiggle.WiggleCalibration`) ends at the
+    its stop when the in-situ calibration (:class:`hostlib.calibration.wiggle.WiggleCalibration`) ends at the
     first long step; each waits for the ack of the command before it.
 
-    A host session (:class:`hostlib.session.HostSession`) builds the frames, follows the module's
+    A host session (:class:`hostlib.link.session.HostSession`) builds the frames, follows the module's
     bytes (acks, and packets split by what was asked for) and says which packets to acknowledge:
     every one while the module is lossless, only the steps while the magnetometer stream has it
     lossy, as ``openshoe-host`` does."""
 
     def __init__(self, fusion: bool, height_compensation: bool, calibrate_mag: bool = False):
-        from hostlib.session import HostSession
-        from hostlib.wiggle import WiggleCalibration
+        from hostlib.calibration.wiggle import WiggleCalibration
+        from hostlib.link.session import HostSession
 
         self.session = HostSession(ack_policy="auto")
         self.wiggle = WiggleCalibration() if calibrate_mag else None
@@ -362,7 +362,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--calibrate-mag", action="store_true",
                    help="with --host fusion (one replay, or every run of --wire-dir): the replayed host "
                         "runs the in-situ magnetometer "
-                        "calibration (hostlib.wiggle): it streams the magnetometers after the fusion set-up "
+                        "calibration (hostlib.calibration.wiggle): it streams the magnetometers after the "
+                        "fusion set-up "
                         "and stops the stream at the first step longer than 0.5 m (walk a scenario that "
                         "starts with a wiggle, e.g. navshoe-calibration); openshoe-host replay OUT --compass "
                         "--calibrate-mag then fits the calibration from the capture")
@@ -419,7 +420,7 @@ def check_arguments(args: argparse.Namespace) -> str | None:
 def _gps_errors(args: argparse.Namespace):
     """The receiver's origin and errors from the command line (ValueError naming the problem)."""
     from firmware_sim.sensors.gps import DEFAULT_ORIGIN, GpsErrors, parse_outages
-    from hostlib.export import parse_origin
+    from hostlib.aids.geodesy import parse_origin
 
     origin = DEFAULT_ORIGIN if args.origin is None else parse_origin(args.origin)
     return origin, GpsErrors(outages=parse_outages(args.gps_outage))

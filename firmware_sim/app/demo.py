@@ -36,7 +36,7 @@ from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.truth import GroundTruth
 from firmware_sim.transports.factory import EmulatorSettings, build
 from firmware_sim.transports.pacer import Pacer
-from hostlib.tracking import StepTracker, Track, is_motion_step
+from hostlib.track.steps import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
 from .batch import MODULE_HELP, add_stance_sway_argument, module_number, stance_note
@@ -51,7 +51,7 @@ class DemoResult:
     """What the demo measured."""
 
     step_packets: int  #: step packets summed: one per INS reset, standing still included
-    motion_steps: int  #: of those, the steps that moved the foot (hostlib.tracking.is_motion_step)
+    motion_steps: int  #: of those, the steps that moved the foot (hostlib.track.steps.is_motion_step)
     true_motion_steps: int  #: the walker's steps, counted by the same rule on the ground truth
     distance_m: float
     true_distance_m: float
@@ -246,7 +246,7 @@ def _track(emu: _EmulatedModule, route: _Route, args: argparse.Namespace, say: _
 
 
 def true_motion_steps(truth: GroundTruth) -> int:
-    """The walker's steps counted by the host's rule (:func:`hostlib.tracking.is_motion_step`):
+    """The walker's steps counted by the host's rule (:func:`hostlib.track.steps.is_motion_step`):
     from each rest of the foot to the next."""
     poses = truth.stance_poses
     moves = np.hstack([np.diff(poses[:, :3], axis=0), np.diff(poses[:, 5:6], axis=0)])
@@ -279,14 +279,14 @@ def _measure(track: Track, route: _Route, wall_s: float) -> DemoResult:
 
 
 def _write(result: DemoResult, track: Track, route: _Route, args: argparse.Namespace) -> None:
-    from hostlib.export import write_csv
+    from hostlib.files.export import write_csv
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     result.csv = out / "track.csv"
     write_csv(track, result.csv)
     if not args.no_plot:
-        from hostlib.plot import plot_track
+        from hostlib.files.plot import plot_track
 
         result.png = plot_track(
             track, out / "track.png", reference=route.truth.stances_in_start_frame(),

@@ -4,10 +4,10 @@ A :class:`RunSpec` names what one run replays — a recording file, or a simulat
 with a seed — and the settings it changes (:mod:`firmware_sim.app.settings`). :func:`run_one`
 replays it exactly as ``openshoe-emu replay`` does (:func:`firmware_sim.app.batch.run_replay`:
 the same module, the same lossless host, the same bytes), optionally writes the wire bytes,
-and sums the steps the host received (:func:`hostlib.replay.replay_bytes`) into a row:
+and sums the steps the host received (:func:`hostlib.files.replay.replay_bytes`) into a row:
 
 * ``samples``, ``step_packets``, ``steps`` (the step packets that moved the foot,
-  :attr:`hostlib.tracking.Track.motion_steps`), ``distance_m`` (summed horizontal step lengths);
+  :attr:`hostlib.track.steps.Track.motion_steps`), ``distance_m`` (summed horizontal step lengths);
 * ``closure_m``, ``closure_pct`` — for a closed loop, the horizontal distance from the end of
   the track to its start, in metres and in % of ``distance_m``. Recordings are taken as closed
   loops (the shared walks are); a scenario is one when its true path ends within 5 cm of its
@@ -183,7 +183,7 @@ def end_errors(track, truth) -> dict[str, float]:
 
 
 def _metrics(data: bytes, samples: int, truth, filled: int = 0) -> dict[str, Any]:
-    from hostlib.replay import replay_bytes
+    from hostlib.files.replay import replay_bytes
 
     track, _stats = replay_bytes(data)
     measured = _closed_loop(truth) and len(track) > 0

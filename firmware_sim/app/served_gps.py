@@ -71,7 +71,7 @@ class GpsSettings:
 
 def gps_settings(pty: str, origin: str | None, outages: Sequence[str]) -> GpsSettings:
     """``--gps-pty``, ``--origin`` and ``--gps-outage`` as settings; a SettingsError names the option."""
-    from hostlib.export import parse_origin
+    from hostlib.aids.geodesy import parse_origin
 
     try:
         place = DEFAULT_ORIGIN if origin is None else parse_origin(origin)

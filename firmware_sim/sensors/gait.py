@@ -206,7 +206,7 @@ WIGGLE_LEVER_M = (0.05, 0.0, 0.08)
 #: behind) or up, the sole turned to face sideways. An ellipsoid fit needs the field seen from
 #: nearly every side: at the emulator's inclination (72.5°, Stockholm) tilts of at most 65° keep it
 #: within 78° of the board's z axis, a cap on which the fit cannot pin the centre and extent along
-#: that axis (the fit's own heading error 3.4° on level ground, and hostlib.wiggle refuses it);
+#: that axis (the fit's own heading error 3.4° on level ground, and hostlib.calibration.wiggle refuses it);
 #: 90° takes it to 102°, and the error to 0.1° (``openshoe-accuracy magcal``, docs/heading-aids.md).
 WIGGLE_TILT_DEG = 90.0
 #: The golden angle [rad]: successive tilt directions of a wiggle never repeat and fill the circle

@@ -85,7 +85,7 @@ def module_serial(module: int | None) -> bytes:
     ``OSEMU-M`` and the number in 8 digits; None (no identity given): the default serial.
 
     A host tells modules apart by it (``MCU_ID``), e.g. to refuse one module's drift
-    calibration for another (:mod:`hostlib.drift`)."""
+    calibration for another (:mod:`hostlib.calibration.drift`)."""
     if module is None:
         return DEFAULT_MCU_SERIAL
     if not 0 <= module <= MAX_MODULE:

@@ -18,8 +18,8 @@ from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.transports.factory import module_serial
 from hostlib import cli as host_cli
-from hostlib.magcal import MagCalibration
-from hostlib.replay import replay_session
+from hostlib.calibration.magcal import MagCalibration
+from hostlib.files.replay import replay_session
 from protocol.extensions import MAG_STREAM_STATES, fusion_step_ids
 from protocol.frames import CommandAck, StatePacket
 from protocol.stream import decode_all

@@ -19,8 +19,8 @@ from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.transports.factory import EmulatorSettings, SettingsError, build, module_serial
 from hostlib import cli as host_cli
-from hostlib.export import read_csv
-from hostlib.replay import replay_capture_session, replay_session
+from hostlib.files.export import read_csv
+from hostlib.files.replay import replay_capture_session, replay_session
 from protocol.codec import payload_len
 from protocol.extensions import FUSION_SETUP, fusion_step_ids, height_compensation_on
 from protocol.frames import build_command, build_command_ack

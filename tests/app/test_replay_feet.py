@@ -11,7 +11,7 @@ from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.sensors.imu_array import make_feet_sources
 from firmware_sim.transports.factory import module_serial
-from hostlib.replay import replay_session
+from hostlib.files.replay import replay_session
 
 RECIPE = "stand:2+walk:6+stand:2"
 RATE = 250.0
@@ -56,7 +56,7 @@ def test_a_running_walker_s_feet_fuse_without_being_pulled_back(tmp_path):
     """Running, each module resets every other stride (its resets are at least 0.75 s apart): the
     feet's steps span two strides, the constraint leaves them out, and the fused body ends where
     the two feet's average does instead of a metre short."""
-    from hostlib.replay import replay_feet
+    from hostlib.files.replay import replay_feet
 
     out = tmp_path / "run.bin"
     assert cli.main(["replay", "--scenario", "stand:3+run:30+stand:2", "--feet", "2", "--host", "fusion",

@@ -24,7 +24,7 @@ from firmware_sim.sensors.feet import body_truth
 from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START, GpsErrors, Receiver
 from firmware_sim.sensors.playback import StartOnFirstRead
 from firmware_sim.transports.factory import EmulatorSettings, build
-from hostlib.gps import NmeaReader, local_positions
+from hostlib.aids.gps import NmeaReader, local_positions
 
 from .serve_args import serve_args
 

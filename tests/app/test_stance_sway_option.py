@@ -11,7 +11,7 @@ from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.sensors.imu_array import make_feet_sources, make_source
 from firmware_sim.transports.factory import module_serial
-from hostlib.replay import replay_bytes
+from hostlib.files.replay import replay_bytes
 
 from .serve_args import serve_args
 

@@ -11,8 +11,8 @@ import numpy as np
 from firmware_sim.app import cli
 from firmware_sim.app.truth_files import shoe_iron
 from firmware_sim.sensors.imu_array import make_feet_sources, make_source
+from hostlib.calibration.magcal import MagCalibration
 from hostlib.cli import main as host_main
-from hostlib.magcal import MagCalibration
 
 RECIPE = "stand:2+walk:4+stand:1"
 RATE = ("--rate", "250")

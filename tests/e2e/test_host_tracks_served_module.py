@@ -3,7 +3,7 @@
 * over a real pty and over socket://: the tracked end position lies within 3σ (of the
   track's own covariance) of the scenario's ground truth, and the track equals what an
   independent decoder makes of the raw bytes the host received (protocol.stream +
-  protocol.codec + hostlib.tracking, offline);
+  protocol.codec + hostlib.track.steps, offline);
 * with faults injected by the emulator's link model and a forced disconnect/reconnect
   (the serve control channel), no step is summed twice and none is lost silently: every
   missing step is reported as a gap.
@@ -24,9 +24,9 @@ import pytest
 
 from firmware_sim.app.serve import spawn
 from firmware_sim.sensors import make_source
-from hostlib.device import Device
 from hostlib.events import StepOutcome
-from hostlib.tracking import StepTracker
+from hostlib.link.device import Device
+from hostlib.track.steps import StepTracker
 from protocol.codec import decode_step
 from protocol.frames import StatePacket
 from protocol.stream import StreamDecoder

@@ -16,8 +16,8 @@ import pytest
 pytest.importorskip("firmware_sim.transports.protocol_openshoe")
 
 from firmware_sim.sensors.imu_array import make_source  # noqa: E402
+from hostlib.calibration.magcal import MagCalibration  # noqa: E402
 from hostlib.cli import main  # noqa: E402
-from hostlib.magcal import MagCalibration  # noqa: E402
 from protocol.frames import CommandAck, StatePacket  # noqa: E402
 from protocol.stream import decode_all  # noqa: E402
 

@@ -22,7 +22,7 @@ import serial
 from firmware_sim.app.serve import spawn
 from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START
 from hostlib.cli import main
-from hostlib.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
+from hostlib.files.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux")
 

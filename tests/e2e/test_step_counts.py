@@ -1,7 +1,7 @@
 """The host's "steps with motion" count the walker's steps, by the same rule on both sides.
 
 The module also sends a step packet at every INS reset while the wearer stands
-still; :func:`hostlib.tracking.is_motion_step` leaves those out. Summed from the
+still; :func:`hostlib.track.steps.is_motion_step` leaves those out. Summed from the
 wire of a batch replay, the count must equal the ground truth's count of moves
 from one rest of the foot to the next (:func:`firmware_sim.app.demo.true_motion_steps`),
 for plain walking, turns on the spot, side steps and stairs. Running is the
@@ -16,7 +16,7 @@ import pytest
 from firmware_sim.app.batch import run_replay
 from firmware_sim.app.demo import true_motion_steps
 from firmware_sim.sensors.imu_array import make_source
-from hostlib.replay import replay_capture
+from hostlib.files.replay import replay_capture
 
 
 def summed(name: str, tmp_path):

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from hostlib.feet import FOOT_SIDES, FootStep, TwoFeetTracker
+from hostlib.fusion.feet import FOOT_SIDES, FootStep, TwoFeetTracker
 
 
 def assert_symmetric_psd(p: np.ndarray) -> None:

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hostlib.tracking import StepTracker, Track, rotation_z
+from hostlib.track.steps import StepTracker, Track, rotation_z
 from protocol.codec import STEP_IDS, encode_states
 from protocol.extensions import FUSION_SETUP, fusion_step_ids
 from protocol.frames import build_command, build_command_ack, build_state_packet

@@ -10,7 +10,7 @@ import pytest
 import serial
 
 from hostlib.cli import heading_deg, main
-from hostlib.export import read_csv
+from hostlib.files.export import read_csv
 
 
 @pytest.fixture(autouse=True)

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from firmware_sim.sensors.gps import simulate_fixes, write_nmea
+from hostlib.calibration.magcal import fit_ellipsoid
 from hostlib.cli import main
-from hostlib.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
-from hostlib.magcal import fit_ellipsoid
+from hostlib.files.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
 
 from .loops import fusion_capture, rectangle
 

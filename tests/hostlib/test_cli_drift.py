@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import serial
 
+from hostlib.calibration.drift import DriftCalibration
 from hostlib.cli import main
-from hostlib.drift import DriftCalibration
-from hostlib.export import read_csv
-from hostlib.replay import replay_capture_session
+from hostlib.files.export import read_csv
+from hostlib.files.replay import replay_capture_session
 from protocol.extensions import FUSION_SETUP, height_compensation_on
 from protocol.frames import build_command
 from protocol.ids import Command

@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 import serial
 
+from hostlib.calibration.drift import DriftCalibration
 from hostlib.cli import main
-from hostlib.device import Device
-from hostlib.drift import DriftCalibration
 from hostlib.errors import DeviceClosed
-from hostlib.export import read_csv, read_feet_csv
-from hostlib.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
-from hostlib.replay import replay_feet
+from hostlib.files.export import read_csv, read_feet_csv
+from hostlib.files.replay import replay_feet
+from hostlib.fusion.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
+from hostlib.link.device import Device
 from tools.accuracy.two_feet import drop_packets
 
 from . import protocol_fakeshoe
@@ -206,7 +206,7 @@ def test_drift_calibrations_given_in_the_wrong_order_are_refused_as_swapped(capt
 
 
 def test_a_magnetometer_calibration_per_foot_is_checked_against_that_foots_module(captures, tmp_path, capsys):
-    from hostlib.magcal import MagCalibration
+    from hostlib.calibration.magcal import MagCalibration
 
     cal = tmp_path / "mag.json"
     MagCalibration(np.zeros(3), np.eye(3), module_serial="OSEMU-M00000003").save(cal)
@@ -219,7 +219,7 @@ def test_a_magnetometer_calibration_per_foot_is_checked_against_that_foots_modul
 
 
 def test_two_captures_with_the_compass_take_each_modules_saved_magnetometer_calibration(captures, tmp_path):
-    from hostlib.magcal import MagCalibration, save_for_module
+    from hostlib.calibration.magcal import MagCalibration, save_for_module
 
     saved = save_for_module(MagCalibration(np.zeros(3), np.eye(3), module_serial="OSEMU-M00000003"), tmp_path)
     out = io.StringIO()

@@ -20,7 +20,7 @@ import serial
 
 from firmware_sim.sensors.gps import DEFAULT_ORIGIN
 from hostlib.cli import build_parser, main
-from hostlib.export import CSV_COLUMNS, GEO_COLUMNS
+from hostlib.files.export import CSV_COLUMNS, GEO_COLUMNS
 
 from .protocol_fakegps import epochs
 
@@ -203,8 +203,8 @@ def _mag_calibration(module: int):
     """A magnetometer calibration (no iron) of ``fakeshoe://…/moduleK``."""
     import numpy as np
 
-    from hostlib.drift import serial_text
-    from hostlib.magcal import MagCalibration
+    from hostlib.calibration.drift import serial_text
+    from hostlib.calibration.magcal import MagCalibration
 
     from .protocol_fakeshoe import module_id
 
@@ -258,7 +258,7 @@ def test_two_feet_check_each_foots_magnetometer_calibration_against_the_module_o
 
 
 def test_two_feet_take_each_modules_saved_magnetometer_calibration(tmp_path):
-    from hostlib.magcal import save_for_module
+    from hostlib.calibration.magcal import save_for_module
 
     right = save_for_module(_mag_calibration(3), tmp_path)
     out = io.StringIO()

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from firmware_sim.sensors.truth import euler_to_matrix, euler_to_quat
-from hostlib.compass import compass_heading, quaternion_rotation, stance_reading, wrap_angle
+from hostlib.aids.compass import compass_heading, quaternion_rotation, stance_reading, wrap_angle
 from protocol.board import AK8975_AXES, CHIP_MOUNTING, MAG_UT_PER_LSB, mag_to_board
 from protocol.ids import StateId
 

@@ -6,7 +6,7 @@ import datetime as dt
 
 import pytest
 
-from hostlib.declination import decimal_year, declination_deg, magnetic_field
+from hostlib.aids.declination import decimal_year, declination_deg, magnetic_field
 
 
 def test_a_date_is_a_fraction_of_its_year():

@@ -12,12 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.compass import StanceReading
-from hostlib.deviation import INDOORS, OUTDOORS, WHITE_SIGMA_RAD, CompassDeviation
-from hostlib.feet import FOOT_SIDES, TwoFeetTracker
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.module_errors import ModuleErrors
-from hostlib.tracking import StepTracker, rotation_z
+from hostlib.aids.compass import StanceReading
+from hostlib.fusion.deviation import INDOORS, OUTDOORS, WHITE_SIGMA_RAD, CompassDeviation
+from hostlib.fusion.feet import FOOT_SIDES, TwoFeetTracker
+from hostlib.fusion.module_errors import ModuleErrors
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.track.steps import StepTracker, rotation_z
 
 from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
 from .pins import assert_as_pinned
@@ -80,7 +80,7 @@ def _pinned_walks() -> list:
 #: before the local deviation could be held (where their bytes had SHA-256 a878469b…3d70ff):
 #: without it no state or covariance may change by more than a machine's rounding.
 #: The two feet's arrays (the 17th to the 22nd) were pinned again when the inter-foot constraint
-#: came to project onto the sphere exactly (hostlib/feet.py): they moved by that change alone.
+#: came to project onto the sphere exactly (hostlib/fusion/feet.py): they moved by that change alone.
 PINNED = [
     -31.570051524460354, -58.553214041472785, -18.355310582557237, -0.08785795611409503,
     -32.059024211420116, -59.86574646314091, -18.218473462198695, -0.08328535785016196, -31.804956133453583,

@@ -14,9 +14,9 @@ import numpy as np
 import pytest
 import serial
 
-from hostlib.device import Device
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
 from hostlib.events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent
+from hostlib.link.device import Device
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
@@ -59,7 +59,7 @@ def test_the_packet_ack_is_not_a_command_that_waits(dev, fake):
 
 
 def test_command_methods_declare_what_they_return():
-    from hostlib.command_methods import CommandMethods
+    from hostlib.link.commands import CommandMethods
 
     methods = {n: f for n, f in vars(CommandMethods).items() if callable(f) and not n.startswith("_")}
     returns = {n: inspect.get_annotations(f)["return"] for n, f in methods.items()}
@@ -328,7 +328,7 @@ def test_already_open_serial_object():
 
 
 def test_openshoe_url_needs_the_emulator_package(monkeypatch):
-    import hostlib.connection as conn
+    import hostlib.link.connection as conn
 
     monkeypatch.setattr(conn, "EMULATOR_HANDLER_PACKAGE", "no_such_package_here")
     with pytest.raises(ValueError, match="emulator"):
@@ -438,7 +438,7 @@ def test_close_ends_an_iterator_even_when_its_queue_is_full(fake):
 def test_ack_behind_lossless_data_extends_the_wait(fake, monkeypatch):
     """The module acks only after 10 data packets, 0.05 s apart (on a test clock): longer than the
     0.1 s ack timeout, but the data keeps flowing, so the host keeps waiting (and acking)."""
-    import hostlib.device as device_module
+    import hostlib.link.device as device_module
 
     clock = [1000.0]
     monkeypatch.setattr(device_module, "_now", lambda: clock[0])

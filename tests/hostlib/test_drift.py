@@ -1,4 +1,4 @@
-"""Closed-loop drift correction (hostlib.drift): calibrating a module from closed loops, applying
+"""Closed-loop drift correction (hostlib.calibration.drift): calibrating a module from closed loops, applying
 the calibration step by step, and its file."""
 
 from __future__ import annotations
@@ -9,8 +9,16 @@ import math
 import numpy as np
 import pytest
 
-from hostlib.drift import FORMAT, VERSION, DriftCalibration, DriftError, calibrate, loop_closure, serial_text
-from hostlib.tracking import StepTracker, Track
+from hostlib.calibration.drift import (
+    FORMAT,
+    VERSION,
+    DriftCalibration,
+    DriftError,
+    calibrate,
+    loop_closure,
+    serial_text,
+)
+from hostlib.track.steps import StepTracker, Track
 
 from .loops import DP, rectangle
 

@@ -11,8 +11,8 @@ import pytest
 
 pytest.importorskip("firmware_sim.transports.protocol_openshoe")
 
-from hostlib.device import Device  # noqa: E402
 from hostlib.errors import AckTimeout  # noqa: E402
+from hostlib.link.device import Device  # noqa: E402
 from protocol.ids import OutputMode, StateId  # noqa: E402
 
 

@@ -15,7 +15,7 @@ from firmware_sim.nav.firmware import build_module
 from firmware_sim.transports.pacer import Pacer  # noqa: E402
 from firmware_sim.transports.pty_endpoint import PtyEndpoint  # noqa: E402
 from firmware_sim.transports.tcp import TcpEndpoint  # noqa: E402
-from hostlib.device import Device  # noqa: E402
+from hostlib.link.device import Device  # noqa: E402
 from protocol.ids import OutputMode, StateId  # noqa: E402
 
 

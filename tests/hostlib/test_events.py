@@ -9,7 +9,7 @@ import pytest
 
 import hostlib
 import hostlib.events
-from hostlib.session import HostSession
+from hostlib.link.session import HostSession
 from protocol.codec import encode_step
 from protocol.frames import build_command_ack, build_state_packet
 

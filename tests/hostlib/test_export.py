@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from hostlib.export import (
+from hostlib.files.export import (
     enu_to_geodetic,
     geodetic_to_enu,
     read_csv,
@@ -17,8 +17,8 @@ from hostlib.export import (
     write_csv,
     write_geojson,
 )
-from hostlib.plot import along_track, ellipse_params, ellipse_scale, plot_track
-from hostlib.tracking import StepTracker
+from hostlib.files.plot import along_track, ellipse_params, ellipse_scale, plot_track
+from hostlib.track.steps import StepTracker
 
 
 def walk(n: int = 12, seed: int = 3) -> StepTracker:

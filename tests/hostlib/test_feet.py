@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.feet import FOOT_SIDES, FeetSettings, FootTracker, TwoFeetTracker
-from hostlib.tracking import StepTracker
+from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, FootTracker, TwoFeetTracker
+from hostlib.track.steps import StepTracker
 
 DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
 
@@ -175,7 +175,7 @@ def test_resends_are_dropped_per_foot():
 
 
 def test_deferred_steps_fuse_in_module_time_order_else_alternately():
-    from hostlib.feet import FootStep, _time_order
+    from hostlib.fusion.feet import FootStep, _time_order
 
     def fs(side, t):
         return FootStep(side, np.zeros(4), DP, t, False)

@@ -9,12 +9,12 @@ import math
 import numpy as np
 import pytest
 
-from hostlib.compass import StanceReading
-from hostlib.drift import DriftCalibration
-from hostlib.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
-from hostlib.fusion import FusionSettings
-from hostlib.magcal import MagCalibration
-from hostlib.tracking import rotation_z
+from hostlib.aids.compass import StanceReading
+from hostlib.calibration.drift import DriftCalibration
+from hostlib.calibration.magcal import MagCalibration
+from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
+from hostlib.fusion.tracker import FusionSettings
+from hostlib.track.steps import rotation_z
 
 DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
 FIELD_NED = 51.5 * np.array([math.cos(math.radians(72.5)), 0.0, math.sin(math.radians(72.5))])

@@ -13,8 +13,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.export import CSV_COLUMNS, FEET_COLUMNS, read_csv, read_feet_csv, write_csv, write_feet_csv
-from hostlib.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
+from hostlib.files.export import CSV_COLUMNS, FEET_COLUMNS, read_csv, read_feet_csv, write_csv, write_feet_csv
+from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 
 
 def upper(covariances: np.ndarray) -> np.ndarray:

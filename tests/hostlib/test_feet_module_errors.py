@@ -15,13 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.cli import main
-from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
-from hostlib.export import read_feet_csv
-from hostlib.feet import FOOT_SIDES, FeetSettings, FootStep, TwoFeetTracker
-from hostlib.fusion import AidIndices, FusionSettings, FusionTracker
-from hostlib.gps_bias import GpsBias
-from hostlib.module_errors import EMULATED_MODULE, ModuleErrors
-from hostlib.tracking import rotation_z
+from hostlib.files.export import read_feet_csv
+from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
+from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, FootStep, TwoFeetTracker
+from hostlib.fusion.gps_bias import GpsBias
+from hostlib.fusion.module_errors import EMULATED_MODULE, ModuleErrors
+from hostlib.fusion.tracker import AidIndices, FusionSettings, FusionTracker
+from hostlib.track.steps import rotation_z
 
 from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
 from .loops import fusion_capture, rectangle

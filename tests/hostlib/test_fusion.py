@@ -11,10 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.compass import StanceReading
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.replay import replay_session
-from hostlib.tracking import StepTracker, rotation_z
+from hostlib.aids.compass import StanceReading
+from hostlib.files.replay import replay_session
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.track.steps import StepTracker, rotation_z
 
 from .loops import fusion_capture, rectangle
 

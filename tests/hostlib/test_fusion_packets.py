@@ -12,8 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.events import CommandAckEvent, PacketEvent, StepEvent
-from hostlib.replay import replay_bytes, replay_session
-from hostlib.session import HostSession
+from hostlib.files.replay import replay_bytes, replay_session
+from hostlib.link.session import HostSession
 from protocol.codec import STEP_IDS, encode_states, encode_step
 from protocol.extensions import EXTENSION_STATES, FUSION_SETUP, fusion_step_ids
 from protocol.frames import build_command, build_command_ack, build_packet_ack, build_state_packet

@@ -6,7 +6,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from hostlib.gps import KEEP_GARBLED, NmeaReader, local_positions, read_nmea
+from hostlib.aids.gps import KEEP_GARBLED, NmeaReader, local_positions, read_nmea
 
 GGA = "$GPGGA,120000.00,5823.69400,N,01534.36800,E,1,09,0.9,90.00,M,0.0,M,,*5A"
 RMC = "$GPRMC,120000.00,A,5823.69400,N,01534.36800,E,1.50,90.0,241126,,,A*6E"

@@ -12,13 +12,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.compass import StanceReading
-from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
-from hostlib.feet import FOOT_SIDES, TwoFeetTracker
-from hostlib.fusion import AidIndices, FusionSettings, FusionTracker
-from hostlib.gps_bias import GpsBias
-from hostlib.module_errors import ModuleErrors
-from hostlib.tracking import StepTracker, rotation_z
+from hostlib.aids.compass import StanceReading
+from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
+from hostlib.fusion.feet import FOOT_SIDES, TwoFeetTracker
+from hostlib.fusion.gps_bias import GpsBias
+from hostlib.fusion.module_errors import ModuleErrors
+from hostlib.fusion.tracker import AidIndices, FusionSettings, FusionTracker
+from hostlib.track.steps import StepTracker, rotation_z
 
 from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
 from .pins import assert_as_pinned
@@ -83,7 +83,7 @@ def _pinned_gps_walks() -> bytes:
 #: were before the receiver's bias could be held (where their bytes had SHA-256 eeaeaf19…bfe2c03):
 #: without it no state or covariance may change by more than a machine's rounding.
 #: The two feet's arrays (the 13th to 16th and 19th to 22nd) were pinned again when the
-#: inter-foot constraint came to project onto the sphere exactly (hostlib/feet.py).
+#: inter-foot constraint came to project onto the sphere exactly (hostlib/fusion/feet.py).
 PINNED_GPS = [
     16.427652566185532, -37.60679475279801, -16.94958931840928, 66.15206682134182, 19.56539051708216,
     -39.774537589009796, 2.4767777766470873, 66.15206682134182, 20.666953384468897, -12.250464911736351,

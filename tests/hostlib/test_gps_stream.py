@@ -18,8 +18,8 @@ import pytest
 import serial
 
 from firmware_sim.sensors.gps import DEFAULT_ORIGIN
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.gps_stream import FixClock, GpsStream, LiveFixes
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.run.gps_stream import FixClock, GpsStream, LiveFixes
 
 from .protocol_fakegps import EXACT, epochs
 
@@ -166,7 +166,7 @@ class FeetLocks:
 
 
 def test_with_two_feet_each_foot_takes_a_fix_on_its_own_module_clock_and_the_joint_filter_on_the_latest():
-    from hostlib.feet import TwoFeetTracker
+    from hostlib.fusion.feet import TwoFeetTracker
 
     clock = HostClock(0.0)
     live = LiveFixes(clock)

@@ -23,7 +23,7 @@ def run_fresh(code: str) -> str:
 
 def test_host_sdk_does_not_import_the_emulator_or_matplotlib():
     code = (
-        "import sys, hostlib, hostlib.device, hostlib.cli, hostlib.export, hostlib.plot\n"
+        "import sys, hostlib, hostlib.link.device, hostlib.cli, hostlib.files.export, hostlib.files.plot\n"
         "d = hostlib.Device('loop://'); d.close()\n"
         "bad = sorted(m for m in sys.modules if m.split('.')[0] in ('firmware_sim', 'matplotlib', 'tools'))\n"
         "print(bad)\n"
@@ -49,11 +49,12 @@ def _third_party_modules_after(statement: str) -> dict[str, list[str]]:
 def test_the_events_module_needs_nothing_but_numpy_and_the_standard_library():
     loaded = _third_party_modules_after("import hostlib.events")
     assert loaded["top"] == ["hostlib"]
-    assert loaded["hostlib"] == ["hostlib", "hostlib.errors", "hostlib.events", "hostlib.tracking"]
+    assert loaded["hostlib"] == ["hostlib", "hostlib.errors", "hostlib.events", "hostlib.track", "hostlib.track.steps"]
 
 
 def test_summing_steps_loads_no_protocol_decoding_and_no_serial_port():
-    loaded = _third_party_modules_after("import hostlib.tracking; from hostlib import StepEvent, StepTracker")
+    loaded = _third_party_modules_after(
+        "import hostlib.track.steps; from hostlib import StepEvent, StepTracker")
     assert loaded["top"] == ["hostlib"]
 
 

@@ -1,4 +1,4 @@
-"""The iron's rotation of the field from the attitude (hostlib.iron_rotation): recovered from the
+"""The iron's rotation of the field from the attitude (hostlib.calibration.iron_rotation): recovered from the
 field's constant inclination whatever the quaternion's yaw does at the resets, from the readings
 held still only; refused, saying why, when the shoe was never tilted, never held still, or when
 the attitude does not go with the field."""
@@ -12,16 +12,16 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.compass import StanceReading, compass_heading
-from hostlib.iron_rotation import (
+from hostlib.aids.compass import StanceReading, compass_heading
+from hostlib.calibration.iron_rotation import (
     MAX_INCLINATION_SCATTER_DEG,
     STILL_TILT_DEG,
     IronRotation,
     fit_iron_rotation,
     still_readings,
 )
-from hostlib.magcal import MagCalibration, MagCalibrationError
-from hostlib.tracking import rotation_z
+from hostlib.calibration.magcal import MagCalibration, MagCalibrationError
+from hostlib.track.steps import rotation_z
 
 from .wiggles import FIELD, rotation_deg
 

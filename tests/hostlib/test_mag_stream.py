@@ -9,8 +9,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.events import PacketEvent, StepEvent
-from hostlib.replay import implied_commands, replay_session
-from hostlib.session import HostSession
+from hostlib.files.replay import implied_commands, replay_session
+from hostlib.link.session import HostSession
 from protocol.codec import encode_states
 from protocol.extensions import (
     FUSION_SETUP,

@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.magcal import (
+from hostlib.calibration.magcal import (
     MagCalibration,
     MagCalibrationError,
     calibration_dir,

@@ -9,9 +9,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.module_errors import ModuleErrors, error_jacobian, step_duration
-from hostlib.tracking import StepTracker
+from hostlib.fusion.module_errors import ModuleErrors, error_jacobian, step_duration
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.track.steps import StepTracker
 
 DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
 

@@ -15,15 +15,15 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.cli import _module_errors
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.module_errors import (
+from hostlib.fusion.module_errors import (
     EMULATED_MODULE,
     EMULATED_MODULE_SWAYING,
     DriftClock,
     ModuleErrors,
     error_jacobian,
 )
-from hostlib.tracking import StepTracker
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.track.steps import StepTracker
 
 DP = np.diag([1e-4, 1e-4, 1e-4, 1e-5])
 WALK = np.array([0.75, 0.0, 0.0, 0.0])

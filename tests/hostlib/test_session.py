@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from hostlib.errors import NotSupportedByCommandSet
 from hostlib.events import CommandAckEvent, GapEvent, PacketEvent, StepEvent
-from hostlib.outputs import OutputPlan, match_layout
-from hostlib.session import HostSession
+from hostlib.link.outputs import OutputPlan, match_layout
+from hostlib.link.session import HostSession
 from protocol.codec import Step, encode_states, encode_step
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet
 from protocol.ids import Command, OutputMode, StateId
@@ -304,7 +304,7 @@ def test_a_stray_packet_header_does_not_hold_back_frames_once_the_link_is_quiet(
 
 
 def test_replay_of_bytes_with_garbage_and_resends():
-    from hostlib.replay import replay_bytes
+    from hostlib.files.replay import replay_bytes
 
     data = b"\x00garbage" + step_packet(7, 3) * 2 + step_packet(8, 4) + b"\xaa\x00"
     track, stats = replay_bytes(data, chunk=5)

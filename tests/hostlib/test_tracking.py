@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.events import GapEvent, StepOutcome
-from hostlib.tracking import (
+from hostlib.track.steps import (
     StepTracker,
     counter_delta,
     is_motion_step,

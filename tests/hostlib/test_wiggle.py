@@ -1,4 +1,4 @@
-"""The in-situ calibration (hostlib.wiggle): it collects the stream's readings, ends by itself at
+"""The in-situ calibration (hostlib.calibration.wiggle): it collects the stream's readings, ends by itself at
 the first step longer than half a metre and not before, fits the shoe's iron — the ellipsoid, then
 its rotation from the attitude — and refuses, saying why, readings that do not determine an
 ellipsoid (attitudes that do not determine the rotation leave the ellipsoid's calibration); the
@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from firmware_sim.sensors.config import DEFAULT_CONFIG
+from hostlib.calibration.wiggle import HEADING_SIGMA_DEG, STOP_STEP_M, WiggleCalibration
 from hostlib.events import PacketEvent, StepEvent, StepOutcome
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.wiggle import HEADING_SIGMA_DEG, STOP_STEP_M, WiggleCalibration
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from protocol.codec import Step
 from protocol.extensions import MAG_STREAM_START, MAG_STREAM_STOP
 from protocol.ids import StateId

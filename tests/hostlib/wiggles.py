@@ -1,5 +1,5 @@
 """A simulated wiggle as the magnetometer stream delivers it: each packet's attitude and three
-chips' registers (hostlib.wiggle's readings), with a shoe iron an ellipsoid fit recovers whole, or
+chips' registers (hostlib.calibration.wiggle's readings), with a shoe iron an ellipsoid fit recovers whole, or
 one turned by a rotation only the attitude shows."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from firmware_sim.sensors.config import DEFAULT_CONFIG
 from firmware_sim.sensors.gait import GaitBuilder
 from firmware_sim.sensors.magnetic import earth_field_ned
 from firmware_sim.sensors.truth import euler_to_quat
-from hostlib.iron_rotation import rotation_of_vector
+from hostlib.calibration.iron_rotation import rotation_of_vector
 from protocol.board import MAG_UT_PER_LSB, mag_to_board_matrix
 from protocol.ids import StateId
 

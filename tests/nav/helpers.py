@@ -10,7 +10,7 @@ import numpy as np
 from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav.firmware import build_module
-from hostlib.tracking import StepTracker
+from hostlib.track.steps import StepTracker
 from protocol.codec import decode_step
 from protocol.extensions import height_compensation_on
 from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack

@@ -3,7 +3,7 @@
 The main acceptance test replays the six shared closed-loop walks (OpenShoe,
 MicroStrain 3DM-GX2, 250 Hz) through the emulated module exactly as a host
 sees it (``run_replay``: 0x34 over Bluetooth, every packet acknowledged), sums
-the steps from the wire with :class:`hostlib.tracking.StepTracker`, and takes
+the steps from the wire with :class:`hostlib.track.steps.StepTracker`, and takes
 the horizontal closure error as % of the distance walked (sum of horizontal
 step lengths). The OpenShoe MATLAB implementation (GLRT detector, W = 3,
 γ = 0.3e5, σ_a = 0.01 m/s², σ_g = 0.1 °/s; filter σ_acc = 0.5 m/s²,

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from firmware_sim.app import cli
 from firmware_sim.sensors.gps import DEFAULT_ORIGIN, Fix, GpsErrors, nmea_lines, parse_outages, simulate_fixes
-from hostlib.gps import NmeaReader, local_positions, read_nmea
+from hostlib.aids.gps import NmeaReader, local_positions, read_nmea
 
 
 def _still(seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

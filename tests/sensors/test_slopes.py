@@ -179,8 +179,8 @@ def _ideal_replay_heights(name: str) -> tuple[np.ndarray, np.ndarray]:
     from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.sensors.config import IDEAL_CONFIG
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.replay import replay_bytes
-    from hostlib.tracking import is_motion_step
+    from hostlib.files.replay import replay_bytes
+    from hostlib.track.steps import is_motion_step
 
     source = make_source(name, seed=0, rate_hz=1000.0, config=IDEAL_CONFIG)
     track, _ = replay_bytes(run_replay(source, config=ModuleConfig(rate_hz=1000.0), announce=None))

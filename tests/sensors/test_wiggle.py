@@ -15,8 +15,8 @@ from firmware_sim.sensors.gait import WIGGLE, WIGGLE_LEVER_M, GaitBuilder, Pose
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.scenarios import environment, feet, trajectory
 from firmware_sim.sensors.truth import strapdown_rk4
-from hostlib.replay import replay_session
-from hostlib.wiggle import STOP_STEP_M
+from hostlib.calibration.wiggle import STOP_STEP_M
+from hostlib.files.replay import replay_session
 
 CALIBRATION = "navshoe-calibration"
 

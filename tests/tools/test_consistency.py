@@ -136,7 +136,7 @@ def test_with_the_warmup_held_at_its_prior_the_drift_and_turn_scale_are_estimate
     warm-up w of 1σ 0.02 °/s (its Jacobian, the ramp's integral, is not the drift's time): given
     the warm-up's prior, the fit gives σ_r and σ_k back and the heading NEES is 1; without it the
     drift rate takes the warm-up's share and reads high."""
-    from hostlib.module_errors import ModuleErrors
+    from hostlib.fusion.module_errors import ModuleErrors
 
     rng = np.random.default_rng(13)
     sigma_r, sigma_w, tau = math.radians(30.0) / 3600.0, math.radians(0.02), 120.0

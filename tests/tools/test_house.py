@@ -15,8 +15,8 @@ from firmware_sim.sensors.gps import GpsErrors, scenario_errors
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.scenarios import SCENARIOS, environment, trajectory
 from firmware_sim.sensors.truth import walked_distance
-from hostlib.fusion import FusionSettings
-from hostlib.replay import replay_session
+from hostlib.files.replay import replay_session
+from hostlib.fusion.tracker import FusionSettings
 from tools.accuracy import house, main
 from tools.accuracy.runs import fusion_capture
 

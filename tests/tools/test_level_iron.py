@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from hostlib.compass import StanceReading, compass_heading, wrap_angle
-from hostlib.tracking import rotation_z
+from hostlib.aids.compass import StanceReading, compass_heading, wrap_angle
+from hostlib.track.steps import rotation_z
 from tools.accuracy.level_iron import MIN_TILT_SPAN_DEG, fit_level_hard_iron, iron_calibration, tilt_span_deg
 
 #: A field of 50 µT dipping 70° (north, east, down) [µT].

@@ -38,8 +38,8 @@ def test_one_seed_of_the_outage_loop_is_tracked_by_every_host(tmp_path):
 
 def test_the_perfect_compass_oracle_reads_the_true_heading_from_magnetic_north():
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.compass import StanceReading, wrap_angle
-    from hostlib.fusion import FusionSettings
+    from hostlib.aids.compass import StanceReading, wrap_angle
+    from hostlib.fusion.tracker import FusionSettings
 
     source = make_source("walk", seed=0)
     truth = source.truth

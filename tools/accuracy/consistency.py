@@ -1,6 +1,6 @@
 """Is the summed covariance honest? The normalised squared error of the end pose over many seeds.
 
-The host weighs every step by the covariance dP the module sends with it (:mod:`hostlib.tracking`),
+The host weighs every step by the covariance dP the module sends with it (:mod:`hostlib.track.steps`),
 and every aid trusts the track as much as that covariance says: it has to be honest. For each
 scenario and seed a simulated module walks, the host sums its steps, and the end pose is compared
 with the truth of the last stance in the module's start frame
@@ -21,7 +21,7 @@ on the other scenarios (leave one scenario out: the geometric mean of their hori
 and shows what it does to the one left out.
 
 **The module's errors as states.** A systematic step-length scale s, climb c, turn scale k and
-heading drift rate r (:mod:`hostlib.module_errors`) add σ_s² d dᵀ to the horizontal covariance
+heading drift rate r (:mod:`hostlib.fusion.module_errors`) add σ_s² d dᵀ to the horizontal covariance
 (d: the displacement from the start), σ_c² L² to the height's (L: the path walked) and
 σ_k² Θ² + σ_r² T² to the heading's (Θ: the angle turned, T: the time walked, the steps' durations
 on the module's clock summed), with what that heading does to the positions after; each run
@@ -35,11 +35,11 @@ at 0 (the other then fitted alone): straight walks, which turn no angle, teach t
 the turn scale beside it — and :func:`summary_lines` shows each module's NEES with priors
 estimated on the other modules.
 
-**The gyros' warm-up.** Each run's Jacobian has a fifth column, w's (:mod:`hostlib.module_errors`:
+**The gyros' warm-up.** Each run's Jacobian has a fifth column, w's (:mod:`hostlib.fusion.module_errors`:
 the warm-up ramp integrated over the steps since the last still reset). On walks whose stances
 sway (the default; ``--no-stance-sway`` stills them), where ZARU no longer re-learns the bias every
 stride, a second block
-holds w at its sensors' prior (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`, from the
+holds w at its sensors' prior (:data:`hostlib.fusion.module_errors.EMULATED_MODULE_SWAYING`, from the
 gyros' temperature coefficient and the dies' warm-up; not estimated): its share J_w σ_w² J_wᵀ of
 each run's covariance is taken as known, and s, c, k and r are estimated on top of it.
 """
@@ -55,7 +55,7 @@ import numpy as np
 from .runs import map_runs
 
 if TYPE_CHECKING:
-    from hostlib.module_errors import ModuleErrors
+    from hostlib.fusion.module_errors import ModuleErrors
 
 __all__ = ["SCENARIOS", "consistency_rows", "consistency_run", "module_error_priors", "nees_interval",
            "summary_lines"]
@@ -95,9 +95,9 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     """One walk: *job* = (scenario, seed[, stance sway]; the sway as ``make_source``'s, None: the
     simulation's default). Its end errors, their 1σ and NEES."""
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.fusion import FusionSettings, FusionTracker
-    from hostlib.module_errors import EMULATED_MODULE_SWAYING, ModuleErrors
-    from hostlib.replay import replay_bytes, replay_session
+    from hostlib.files.replay import replay_bytes, replay_session
+    from hostlib.fusion.module_errors import EMULATED_MODULE_SWAYING, ModuleErrors
+    from hostlib.fusion.tracker import FusionSettings, FusionTracker
 
     from .runs import fusion_capture
 
@@ -149,7 +149,7 @@ def module_error_priors(rows: Sequence[dict[str, Any]], warmup: ModuleErrors | N
     *rows*' end errors (module docstring). With *warmup* (a module whose warm-up prior is known,
     from its sensors' physics), the warm-up is held at that prior: what it adds to each run's
     covariance is taken as known beside the steps' own, and the four are estimated on top."""
-    from hostlib.module_errors import ModuleErrors
+    from hostlib.fusion.module_errors import ModuleErrors
 
     num = np.zeros(2)
     den = np.zeros(2)
@@ -275,7 +275,7 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     lines += _held_lines(by, flat, None, "the module's step-length scale, climb, turn scale and heading "
                          "drift held as states")
     if any(r.get("stance_sway") for r in rows):
-        from hostlib.module_errors import EMULATED_MODULE_SWAYING as swaying
+        from hostlib.fusion.module_errors import EMULATED_MODULE_SWAYING as swaying
 
         sigma_w = math.degrees(swaying.heading_warmup_sigma)
         lines += _held_lines(by, flat, swaying,

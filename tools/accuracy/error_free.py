@@ -4,7 +4,7 @@ Each scenario (:func:`firmware_sim.sensors.scenarios.list_scenarios`) is simulat
 ``SensorConfig.ideal()``, still walking stances (where the ZUPT's zero velocity holds exactly) and
 seed 0 at the module's own 1 kHz, replayed through the module
 (:func:`firmware_sim.app.batch.run_replay`) and its steps summed by a host
-(:func:`hostlib.replay.replay_bytes`). Each row: the end error of the summed steps against the
+(:func:`hostlib.files.replay.replay_bytes`). Each row: the end error of the summed steps against the
 truth's last stance (in the frame the track starts in) in % of the true 3-D path (the straight
 lines between the foot's rests), the height error (track minus truth, up positive), the step
 packets and the true stances. What the navigation itself loses, with no sensor error to blame
@@ -37,7 +37,7 @@ def _walk(scenario: str, stance_sway: bool):
     from firmware_sim.app.batch import run_replay
     from firmware_sim.sensors.config import SensorConfig
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.replay import replay_bytes
+    from hostlib.files.replay import replay_bytes
 
     source = make_source(scenario, seed=0, rate_hz=RATE_HZ, config=SensorConfig.ideal(),
                          stance_sway=stance_sway)

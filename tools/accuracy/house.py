@@ -5,7 +5,7 @@ flight of stairs, round the upper floor, down again and back to the front door, 
 and a building's magnetic deviation of about 20° RMS that changes within a metre — goes once
 through the module (``openshoe-emu replay --host fusion``: each step packet carries the
 magnetometers and the attitude at the end of its stance). The host then tracks the same bytes
-five ways (:class:`hostlib.fusion.FusionTracker`):
+five ways (:class:`hostlib.fusion.tracker.FusionTracker`):
 
 * ``per step``: NavShoe's compass, one reading per step that moved the foot, at the end of its
   stance, σ :data:`INDOOR_COMPASS_SIGMA_DEG`, the declination as simulated;
@@ -32,7 +32,7 @@ from typing import Any
 
 import numpy as np
 
-from hostlib.fusion import FusionSettings, FusionTracker
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
 
 from .runs import stance_words
 
@@ -93,8 +93,8 @@ def house_run(seed: int, scenario: str = SCENARIO) -> list[dict[str, Any]]:
     """The five runs' rows of walk *seed* of *scenario* (module docstring)."""
     from firmware_sim.sensors.imu_array import make_source
     from firmware_sim.sensors.truth import walked_distance
-    from hostlib.compass import wrap_angle
-    from hostlib.replay import replay_session
+    from hostlib.aids.compass import wrap_angle
+    from hostlib.files.replay import replay_session
 
     from .navshoe import shoe_iron, wmm_declination_rad
     from .runs import fusion_capture

@@ -3,7 +3,7 @@
 A host sees the magnetometers once per step, at the end of the stance, with the foot flat on the
 floor: the board's vertical stays within a few degrees of one direction while its heading turns
 through every direction of the walk. Such readings lie on a band round the vertical, not on an
-ellipsoid: the quadric fit of :func:`hostlib.magcal.fit_ellipsoid` cannot tell the vertical
+ellipsoid: the quadric fit of :func:`hostlib.calibration.magcal.fit_ellipsoid` cannot tell the vertical
 semi-axis (soft iron) nor the vertical offset (hard iron) from the field's vertical component, and
 with a disturbed field (a building's) it comes out as no ellipsoid at all.
 
@@ -36,9 +36,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from hostlib.compass import StanceReading
-from hostlib.magcal import MagCalibration, MagCalibrationError, fit_ellipsoid
-from hostlib.tracking import rotation_z
+from hostlib.aids.compass import StanceReading
+from hostlib.calibration.magcal import MagCalibration, MagCalibrationError, fit_ellipsoid
+from hostlib.track.steps import rotation_z
 
 __all__ = ["MIN_TILT_SPAN_DEG", "IronFit", "fit_level_hard_iron", "iron_calibration", "levelling",
            "tilt_span_deg"]
@@ -91,7 +91,7 @@ class IronFit:
     calibration: MagCalibration
     model: str  #: "ellipsoid" or "level circle"
     tilt_span_deg: float  #: :func:`tilt_span_deg` of the readings
-    ellipsoid: str  #: what :func:`hostlib.magcal.fit_ellipsoid` made of the readings
+    ellipsoid: str  #: what :func:`hostlib.calibration.magcal.fit_ellipsoid` made of the readings
     horizontal_ut: float = math.nan  #: the level circle's radius |B_h| [µT] (NaN for the ellipsoid)
 
 

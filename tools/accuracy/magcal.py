@@ -5,35 +5,37 @@ iron): standing outdoors, the wearer wiggles the shoe for 30 s, then walks 76 m.
 through the module with the calibrating host (``openshoe-emu replay --host fusion --calibrate-mag``:
 the magnetometers stream from the fusion set-up until the first step longer than 0.5 m), and the
 host decodes the bytes as ``openshoe-host replay --calibrate-mag`` does
-(:class:`hostlib.wiggle.WiggleCalibration`). Against the iron as simulated (m_b = (I + S) Rᵀ m_n + h):
+(:class:`hostlib.calibration.wiggle.WiggleCalibration`). Against the iron as simulated (m_b = (I + S) Rᵀ
+m_n + h):
 
 * **hard iron** — |ĥ − h| [µT];
 * **soft iron** — what is left of the distortion once the fit is applied to the true one:
   M = Â (I + S) would be a scale if the fit were perfect. Its polar decomposition M = U P splits
   off the rotation U, which no ellipsoid fit can see (the readings are the same for any rotation of
-  the sphere) and the attitude can (:mod:`hostlib.iron_rotation`); the residual distortion is
+  the sphere) and the attitude can (:mod:`hostlib.calibration.iron_rotation`); the residual distortion is
   ‖P / det(P)^⅓ − I‖₂ (the scale does not matter to a heading), and U's angle, the rotation left,
   is reported beside it;
 * **compass** — the per-step compass on the walk after the wiggle, each step that moved the foot
   (its reading at the end of its stance): the heading from the packet's magnetometers and attitude
-  (:func:`hostlib.compass.compass_heading`) against the true heading less the declination and the
+  (:func:`hostlib.aids.compass.compass_heading`) against the true heading less the declination and the
   local deviation (outdoors, a few degrees over tens of metres); its RMS over the walk.
 
 Each with the fitted calibration (the ellipsoid turned by the rotation the attitude shows, as
-:class:`~hostlib.wiggle.WiggleCalibration` gives it); with the ellipsoid fit alone; with the best any
+:class:`~hostlib.calibration.wiggle.WiggleCalibration` gives it); with the ellipsoid fit alone; with the
+best any
 ellipsoid fit could give (the true iron's symmetric part V⁻¹, where I + S = V U: only the rotation U
 left); with the true iron (:func:`.navshoe.shoe_iron`); and uncalibrated. With them, the attitude's
 fit: how many readings were held still, the inclination they agree on and their scatter about it,
 and the 1σ of its three angles (board x, y, z) from that scatter — how well the attitudes
 determine each.
 
-:func:`tilt_rows` is the study behind :data:`hostlib.wiggle.MIN_COVERAGE_DEG`: the same walk with
+:func:`tilt_rows` is the study behind :data:`hostlib.calibration.wiggle.MIN_COVERAGE_DEG`: the same walk with
 wiggles that tilt the shoe less (``wiggle:30:DEG``; DEG = 90 is the scenario's), for each the
-readings' coverage (:func:`hostlib.wiggle.coverage_deg`) and the fit's own worst level-heading
+readings' coverage (:func:`hostlib.calibration.wiggle.coverage_deg`) and the fit's own worst level-heading
 error — against the best any ellipsoid fit could do, the true iron's symmetric part (with U, the
 part it cannot see, left out), so that only the fit's error counts; and, against the true iron,
 the same fit alone and turned by the attitude's rotation
-(:func:`hostlib.iron_rotation.fit_iron_rotation`, its limits lifted so that it always turns; the
+(:func:`hostlib.calibration.iron_rotation.fit_iron_rotation`, its limits lifted so that it always turns; the
 inclination's scatter about it beside, and whether the calibration would have turned it).
 """
 
@@ -70,14 +72,14 @@ def _calibrating_capture(source: Any) -> bytes:
 
 
 def _decode(data: bytes) -> tuple[Any, list[tuple[Any, float, np.ndarray]]]:
-    """The capture's calibration (:class:`~hostlib.wiggle.WiggleCalibration`, as ``openshoe-host
+    """The capture's calibration (:class:`~hostlib.calibration.wiggle.WiggleCalibration`, as ``openshoe-host
     replay --calibrate-mag`` runs it) and every step packet's (stance reading, module time [s], dx)."""
-    from hostlib.compass import stance_reading
+    from hostlib.aids.compass import stance_reading
+    from hostlib.calibration.wiggle import WiggleCalibration
     from hostlib.events import PacketEvent
-    from hostlib.fusion import FusionSettings, FusionTracker
-    from hostlib.module_clock import ModuleClock
-    from hostlib.replay import replay_calibrating
-    from hostlib.wiggle import WiggleCalibration
+    from hostlib.files.replay import replay_calibrating
+    from hostlib.fusion.tracker import FusionSettings, FusionTracker
+    from hostlib.link.module_clock import ModuleClock
     from protocol.ids import StateId
 
     wiggle = WiggleCalibration()
@@ -108,9 +110,9 @@ def _soft_iron_residual(fit_soft: np.ndarray, true_soft: np.ndarray) -> tuple[fl
 def calibration_run(seed: int) -> list[dict[str, Any]]:
     """Every calibration's row of walk *seed* (module docstring)."""
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.compass import compass_heading, wrap_angle
-    from hostlib.magcal import MagCalibration
-    from hostlib.tracking import is_motion_step
+    from hostlib.aids.compass import compass_heading, wrap_angle
+    from hostlib.calibration.magcal import MagCalibration
+    from hostlib.track.steps import is_motion_step
 
     from .navshoe import shoe_iron
 
@@ -154,7 +156,7 @@ def calibration_run(seed: int) -> list[dict[str, Any]]:
 
 
 def _attitude_row(wiggle: Any) -> dict[str, Any]:
-    """The attitude's fit of a :class:`~hostlib.wiggle.WiggleCalibration`: readings held still,
+    """The attitude's fit of a :class:`~hostlib.calibration.wiggle.WiggleCalibration`: readings held still,
     inclination and its scatter, the rotation's 1σ about the board's axes and on a level compass
     [deg] (NaN where it was not fitted), why it was not."""
     rotation = wiggle.rotation
@@ -190,9 +192,9 @@ def tilt_run(seed: int) -> list[dict[str, Any]]:
     from firmware_sim.sensors.config import DEFAULT_CONFIG
     from firmware_sim.sensors.imu_array import make_source
     from firmware_sim.sensors.magnetic import earth_field_ned
-    from hostlib.iron_rotation import fit_iron_rotation
-    from hostlib.magcal import MagCalibration, MagCalibrationError, fit_quadric
-    from hostlib.wiggle import MAX_FIT_HEADING_SIGMA_DEG, coverage_deg, fit_heading_sigma_deg
+    from hostlib.calibration.iron_rotation import fit_iron_rotation
+    from hostlib.calibration.magcal import MagCalibration, MagCalibrationError, fit_quadric
+    from hostlib.calibration.wiggle import MAX_FIT_HEADING_SIGMA_DEG, coverage_deg, fit_heading_sigma_deg
 
     from .navshoe import shoe_iron
 
@@ -234,8 +236,8 @@ def _worst_level_error_deg(calibration: Any, against: Any, magnetic: Any, field:
     """The worst difference [deg] of a level compass's heading with *calibration* and with
     *against*, over the headings of :data:`_LEVEL_HEADINGS_DEG`, in the Earth's *field* (NED) as
     *magnetic*'s shoe iron distorts it."""
-    from hostlib.compass import compass_heading, wrap_angle
-    from hostlib.tracking import rotation_z
+    from hostlib.aids.compass import compass_heading, wrap_angle
+    from hostlib.track.steps import rotation_z
 
     worst = 0.0
     for psi in np.radians(_LEVEL_HEADINGS_DEG):

@@ -4,8 +4,8 @@ One walk of the ``navshoe-outage`` scenario per seed — a hilly 1 km loop outdo
 north-east, whose GPS receiver stops giving fixes after the first 400 m — goes once through the
 module (``openshoe-emu replay --host fusion``: each step packet carries the magnetometers and the
 attitude at the end of its stance) and its receiver's NMEA sentences once through
-:class:`hostlib.gps.NmeaReader`. The host then tracks the same bytes four ways
-(:class:`hostlib.fusion.FusionTracker`):
+:class:`hostlib.aids.gps.NmeaReader`. The host then tracks the same bytes four ways
+(:class:`hostlib.fusion.tracker.FusionTracker`):
 
 * ``compass+gps``: the per-step compass (σ 5°, outdoors), the declination from the World Magnetic
   Model at the first fix as a state with σ 15°, GPS updates while there are fixes;
@@ -14,21 +14,21 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
 * ``compass+gps uncalibrated``: as the first, without removing the shoe's iron;
 * ``plain``: the step sum, given the true initial heading (the best plain dead reckoning can do);
 * ``compass+gps deviation state`` and ``compass deviation state``: as ``compass+gps`` and
-  ``compass`` with the local deviation held as a state (:data:`hostlib.deviation.OUTDOORS`, each
-  reading's own σ :data:`hostlib.deviation.WHITE_SIGMA_RAD`);
+  ``compass`` with the local deviation held as a state (:data:`hostlib.fusion.deviation.OUTDOORS`, each
+  reading's own σ :data:`hostlib.fusion.deviation.WHITE_SIGMA_RAD`);
 * ``gps bias state`` and ``compass+gps bias state``: as ``gps`` and ``compass+gps`` with the
-  receiver's correlated error held as a state (:class:`hostlib.gps_bias.GpsBias`, its defaults: the
+  receiver's correlated error held as a state (:class:`hostlib.fusion.gps_bias.GpsBias`, its defaults: the
   receiver's 3 m RMS over τ = 120 s, the fix's white 0.3 m) and every fix used;
 * ``gps module errors`` and ``compass+gps module errors``: as ``gps`` and ``compass+gps`` with the
   module's errors held as states at the emulated module's priors
-  (:data:`hostlib.module_errors.EMULATED_MODULE`: step-length scale, climb, turn scale and heading
+  (:data:`hostlib.fusion.module_errors.EMULATED_MODULE`: step-length scale, climb, turn scale and heading
   drift rate), which GPS trains and the outage then carries on;
 * ``compass+gps every error state``: ``compass+gps`` with every error the host can hold as a
   state at once: the local deviation, the receiver's bias and the module's errors (each as above);
 * ``gps module errors and warm-up``, ``compass+gps module errors and warm-up``, ``compass module
   errors and warm-up`` and ``compass+gps every error state and warm-up``: the same with the
   module's errors at the priors of the emulated module on a real foot's swaying stance
-  (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`), the gyros' warm-up among them: the
+  (:data:`hostlib.fusion.module_errors.EMULATED_MODULE_SWAYING`), the gyros' warm-up among them: the
   hosts for swaying stances (the default), where the module's ZARU no longer re-learns the bias in
   every stance and the warm-up turns the heading (on still stances, ``--no-stance-sway``, the
   warm-up does not, and their prior is wrong);
@@ -60,10 +60,10 @@ from typing import Any
 import numpy as np
 
 from firmware_sim.app.truth_files import shoe_iron  # the whole iron, the rotation no ellipsoid fit sees
-from hostlib.deviation import OUTDOORS, WHITE_SIGMA_RAD
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.gps_bias import GpsBias
-from hostlib.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
+from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
+from hostlib.fusion.gps_bias import GpsBias
+from hostlib.fusion.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
 
 from .runs import stance_words
 
@@ -88,7 +88,7 @@ OUTDOOR_COMPASS_SIGMA_DEG = 5.0
 @dataclass(frozen=True)
 class WalkFixes:
     """The fixes of a walk's GPS receiver as the host reads them (its NMEA through
-    :class:`hostlib.gps.NmeaReader`)."""
+    :class:`hostlib.aids.gps.NmeaReader`)."""
 
     times_s: np.ndarray  #: (n,) each fix's time, seconds since the receiver started talking
     north_east: np.ndarray  #: (n, 2) [m] each fix about the first fix: what the host's filter takes
@@ -108,7 +108,7 @@ def walk_fixes(scenario: str, t: np.ndarray, pos: np.ndarray, vel: np.ndarray, s
         simulate_fixes,
     )
     from firmware_sim.sensors.truth import walked_distance
-    from hostlib.gps import NmeaReader, local_positions, seconds_since
+    from hostlib.aids.gps import NmeaReader, local_positions, seconds_since
 
     errors = scenario_errors(GpsErrors(), scenario, t, pos)
     reader = NmeaReader()
@@ -124,13 +124,13 @@ def walk_fixes(scenario: str, t: np.ndarray, pos: np.ndarray, vel: np.ndarray, s
 def wmm_declination_rad() -> float:
     """The World Magnetic Model's declination [rad] at the simulated walks' default origin and start."""
     from firmware_sim.sensors.gps import DEFAULT_ORIGIN, DEFAULT_START
-    from hostlib.declination import declination_deg
+    from hostlib.aids.declination import declination_deg
 
     return math.radians(declination_deg(*DEFAULT_ORIGIN, DEFAULT_START))
 
 
 def outdoor_compass() -> dict[str, Any]:
-    """The per-step compass outdoors, as :class:`hostlib.fusion.FusionSettings` fields: σ
+    """The per-step compass outdoors, as :class:`hostlib.fusion.tracker.FusionSettings` fields: σ
     :data:`OUTDOOR_COMPASS_SIGMA_DEG`, the declination prior from the World Magnetic Model
     (:func:`wmm_declination_rad`)."""
     return {"compass": True, "compass_sigma_rad": math.radians(OUTDOOR_COMPASS_SIGMA_DEG),
@@ -138,7 +138,7 @@ def outdoor_compass() -> dict[str, Any]:
 
 
 class OracleCompassTracker(FusionTracker):
-    """A :class:`~hostlib.fusion.FusionTracker` whose compass readings have the simulated truth put
+    """A :class:`~hostlib.fusion.tracker.FusionTracker` whose compass readings have the simulated truth put
     in, at the step's time (the foot stands at the end of its stance, so the nearest truth sample is
     the reading's pose). *take_out* ``"deviation"`` adds back the heading error the simulated
     deviation makes at the true position
@@ -170,8 +170,8 @@ def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any
     *stance_sway*: the walking stances sway as a real foot's (:class:`firmware_sim.sensors.gait.StanceSway`;
     None: the simulation's default)."""
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.compass import wrap_angle
-    from hostlib.replay import replay_session
+    from hostlib.aids.compass import wrap_angle
+    from hostlib.files.replay import replay_session
 
     from .runs import fusion_capture
 
@@ -269,7 +269,7 @@ def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any
 
 
 def simulated_warmup(source, first_step_s: float) -> float:
-    """The warm-up w [rad/s] of :mod:`hostlib.module_errors` that the simulated dies hold for a host
+    """The warm-up w [rad/s] of :mod:`hostlib.fusion.module_errors` that the simulated dies hold for a host
     whose first step is at module time *first_step_s* [s]: each chip's gyro offset temperature
     coefficient turned into the board's axes (the mounting's transpose), the vertical (z, down when
     the foot is flat) averaged over the four chips as the firmware averages them, times the warm-up

@@ -2,7 +2,7 @@
 
 :func:`replay_track` is the whole path a user runs: ``openshoe-emu replay --host fusion
 [--height-compensation]`` (:func:`firmware_sim.app.batch.run_replay`) into the capture bytes,
-then ``openshoe-host replay`` (:func:`hostlib.replay.replay_session`) into the track, the step
+then ``openshoe-host replay`` (:func:`hostlib.files.replay.replay_session`) into the track, the step
 swing times and the module's serial number.
 """
 
@@ -22,7 +22,7 @@ __all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "map_
 class Replayed:
     """A replayed walk as the host saw it."""
 
-    track: Any  #: hostlib.tracking.Track (with swing times)
+    track: Any  #: hostlib.track.steps.Track (with swing times)
     serial: bytes | None  #: the module's MCU serial number
     truth: Any = None  #: the simulated walk's GroundTruth (None for a recording)
 
@@ -44,7 +44,7 @@ def fusion_capture(source: Any, module: int | None = None, height_compensation: 
 def replay_track(source: Any, height_compensation: bool, module: int | None = None,
                  truth: Any = None) -> Replayed:
     """Replay *source* (a sensor source) through the module with the fusion host."""
-    from hostlib.replay import replay_session
+    from hostlib.files.replay import replay_session
 
     session = replay_session(fusion_capture(source, module, height_compensation))
     return Replayed(session.tracker.track, session.mcu_serial, truth)

@@ -42,7 +42,7 @@ def speed_run(job: tuple[float | str, float, int | None]) -> dict[str, Any]:
     from firmware_sim.app.runs import end_errors
     from firmware_sim.sensors.config import DEFAULT_CONFIG, SensorConfig
     from firmware_sim.sensors.imu_array import make_source
-    from hostlib.replay import replay_bytes
+    from hostlib.files.replay import replay_bytes
 
     speed, rate, seed = job
     if seed is None:

@@ -3,7 +3,7 @@
 Every walk goes through the emulated modules exactly as a user's would — each foot's module
 replayed with the fusion host (``openshoe-emu replay --scenario NAME --feet 2 --host fusion``:
 each step packet carries its T_INT_K), both captures decoded by their own host session and fused
-in module-time order by :class:`hostlib.feet.TwoFeetTracker` (``openshoe-host replay LEFT RIGHT``).
+in module-time order by :class:`hostlib.fusion.feet.TwoFeetTracker` (``openshoe-host replay LEFT RIGHT``).
 Four estimates of each walk: each foot's single-module track (``left``, ``right``), the midpoint of
 the two (``average``, Bachmann et al.), and the constrained fusion's body (``fused``).
 
@@ -29,12 +29,12 @@ the two (``average``, Bachmann et al.), and the constrained fusion's body (``fus
   NavShoe's ``plain``), the left foot's own aided track, the aided joint filter without the
   inter-foot constraint (both feet and D in one filter, never projected), and the fused body with
   each foot's module's errors held at the priors of the emulated module on a real foot's swaying
-  stance, the gyros' warm-up among them (:data:`hostlib.module_errors.EMULATED_MODULE_SWAYING`: the
+  stance, the gyros' warm-up among them (:data:`hostlib.fusion.module_errors.EMULATED_MODULE_SWAYING`: the
   estimate for swaying stances, the default); the declination each learned.
 * :func:`drift_rows` — **Bachmann's drift correction with two feet**: walker :data:`DRIFT_WALKER`
   walks the 400 m track once per seed, with the same two modules every time (a module's
   systematic errors belong to the module, its noise and in-run drift to the walk). Leave-one-out:
-  each loop is re-fused with each foot's module calibrated (:func:`hostlib.drift.calibrate`) on
+  each loop is re-fused with each foot's module calibrated (:func:`hostlib.calibration.drift.calibrate`) on
   the other loops' single-module tracks of that foot; its closure per foot, average and fusion,
   with and without the correction.
 
@@ -81,7 +81,7 @@ DRIFT_WALKER = 1
 class FeetWalk:
     """One walker's walk as the host saw it."""
 
-    tracker: Any  #: hostlib.feet.TwoFeetTracker (constrained)
+    tracker: Any  #: hostlib.fusion.feet.TwoFeetTracker (constrained)
     free: Any  #: the same steps without the constraint
     truth: dict[str, Any]  #: side → GroundTruth
     dropped: int = 0  #: packets of the right foot that never reached the host
@@ -93,9 +93,9 @@ def drop_packets(capture: bytes, start_s: float, end_s: float) -> tuple[bytes, i
     receives when the link is down that long and the module's queue overflows. Returns the bytes
     and the number of packets dropped."""
     from hostlib.events import StepEvent
-    from hostlib.feet import FootTracker
-    from hostlib.replay import implied_commands
-    from hostlib.session import HostSession
+    from hostlib.files.replay import implied_commands
+    from hostlib.fusion.feet import FootTracker
+    from hostlib.link.session import HostSession
     from protocol.frames import StatePacket
     from protocol.stream import decode_all
 
@@ -128,11 +128,11 @@ def feet_captures(scenario: str, seed: int, walker: int | None = None, stance_sw
 def feet_walk(scenario: str, seed: int, drop_s: tuple[float, float] | None = None,
               config: SensorConfig | None = None, module_errors: Any = None) -> FeetWalk:
     """Walk *scenario* with a module on each foot (walker *seed*; the sensors' *config*, None: the
-    default) and fuse the two captures; with *module_errors* (a ``hostlib.module_errors.ModuleErrors``)
+    default) and fuse the two captures; with *module_errors* (a ``hostlib.fusion.module_errors.ModuleErrors``)
     also with each module's errors held at those priors (:attr:`FeetWalk.held`)."""
-    from hostlib.feet import FeetSettings, TwoFeetTracker
-    from hostlib.fusion import FusionSettings
-    from hostlib.replay import replay_feet
+    from hostlib.files.replay import replay_feet
+    from hostlib.fusion.feet import FeetSettings, TwoFeetTracker
+    from hostlib.fusion.tracker import FusionSettings
 
     sources, captures = feet_captures(scenario, seed, config=config)
     dropped = 0
@@ -261,9 +261,9 @@ def drift_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
     docstring): each loop's modules calibrated on the other loops' uncorrected single tracks."""
     from firmware_sim.sensors.feet import SIDES, foot_module
     from firmware_sim.transports.factory import module_serial
-    from hostlib.drift import calibrate
-    from hostlib.feet import TwoFeetTracker
-    from hostlib.replay import replay_feet
+    from hostlib.calibration.drift import calibrate
+    from hostlib.files.replay import replay_feet
+    from hostlib.fusion.feet import TwoFeetTracker
 
     from .runs import map_runs
 
@@ -315,11 +315,11 @@ def aids_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any]]
     from dataclasses import replace
 
     from firmware_sim.sensors.feet import body_truth
-    from hostlib.compass import wrap_angle
-    from hostlib.feet import FeetSettings, TwoFeetTracker
-    from hostlib.fusion import FusionSettings
-    from hostlib.module_errors import EMULATED_MODULE_SWAYING
-    from hostlib.replay import replay_feet
+    from hostlib.aids.compass import wrap_angle
+    from hostlib.files.replay import replay_feet
+    from hostlib.fusion.feet import FeetSettings, TwoFeetTracker
+    from hostlib.fusion.module_errors import EMULATED_MODULE_SWAYING
+    from hostlib.fusion.tracker import FusionSettings
 
     from .navshoe import SCENARIO, outdoor_compass, shoe_iron, walk_fixes
 
@@ -395,7 +395,7 @@ def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dic
     held (the emulated module's priors, swaying or still as the walk's stances); and what the link
     drop did."""
     from firmware_sim.sensors.gait import stance_sway_on
-    from hostlib.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
+    from hostlib.fusion.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
 
     priors = EMULATED_MODULE_SWAYING if stance_sway_on(None) else EMULATED_MODULE
     walk = feet_walk(HEADING_SCENARIO, seed, drop_s, module_errors=priors)
@@ -456,7 +456,7 @@ def plot_end_points(path: Path, rows: Sequence[dict[str, Any]]) -> Path:
     """The end points of the straight walks, per estimate, with their 1σ ellipses (Fig. 7)."""
     from matplotlib.patches import Ellipse
 
-    from hostlib.plot import ellipse_params
+    from hostlib.files.plot import ellipse_params
 
     plt = _pyplot()
     fig, grid = plt.subplots(2, 2, figsize=(11, 5.5), sharex=True, sharey=True)

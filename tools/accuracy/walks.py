@@ -2,9 +2,9 @@
 
 Every walk is replayed twice with the fusion host (:func:`.runs.replay_track`): as the module
 tracks by default, and with height compensation on. Drift correction is leave-one-out: walk *i*
-is corrected with :func:`hostlib.drift.calibrate` of the other walks' tracks (of the same kind,
+is corrected with :func:`hostlib.calibration.drift.calibrate` of the other walks' tracks (of the same kind,
 plain or height-compensated), so no walk ever calibrates itself. Closures are those of
-:meth:`hostlib.tracking.Track.relative_closure_error`, in % of the horizontal distance walked.
+:meth:`hostlib.track.steps.Track.relative_closure_error`, in % of the horizontal distance walked.
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ class WalkResult:
 
 def walk_results(paths: Sequence[str | Path], workers: int = 2) -> list[WalkResult]:
     """Replay every recording both ways and correct each with the others' drift calibration."""
-    from hostlib.drift import calibrate
+    from hostlib.calibration.drift import calibrate
 
     if len(paths) < 2:
         raise ValueError("leave-one-out drift correction needs at least two walks")

@@ -3,10 +3,10 @@
 Every recording goes once through the emulated module with the fusion host
 (:func:`.runs.fusion_capture`, ``openshoe-emu replay --host fusion``): each step packet carries the
 attitude quaternion and the magnetometers at the end of its stance. The capture is then decoded as
-``openshoe-host replay`` decodes it (:func:`hostlib.replay.replay_session`), three ways:
+``openshoe-host replay`` decodes it (:func:`hostlib.files.replay.replay_session`), three ways:
 
 * ``plain``: the step sum (``openshoe-host replay CAPTURE``);
-* ``uncalibrated``: the per-step compass (:func:`hostlib.aids.prepare_aids`, no GPS), the field as
+* ``uncalibrated``: the per-step compass (:func:`hostlib.run.aid_setup.prepare_aids`, no GPS), the field as
   the sensor measured it (``--compass --compass-sigma S``);
 * ``calibrated``: the same with the shoe's iron removed (``--mag-cal``), the calibration fitted on
   the *other* walks' readings (:func:`.level_iron.iron_calibration`; the same sensor in the same
@@ -50,12 +50,12 @@ from typing import Any
 
 import numpy as np
 
-from hostlib.compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from hostlib.aids.compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from hostlib.calibration.magcal import MagCalibration
 from hostlib.events import StepOutcome
-from hostlib.fusion import FusionSettings, FusionTracker
-from hostlib.magcal import MagCalibration
-from hostlib.module_clock import ModuleClock
-from hostlib.tracking import StepTracker, is_motion_step
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
+from hostlib.link.module_clock import ModuleClock
+from hostlib.track.steps import StepTracker, is_motion_step
 
 from .level_iron import IronFit, iron_calibration
 from .runs import fusion_capture, map_runs
@@ -105,7 +105,7 @@ class StanceLog:
     name: str
     path: str
     capture: bytes
-    track: Any  #: hostlib.tracking.Track, the plain step sum
+    track: Any  #: hostlib.track.steps.Track, the plain step sum
     readings: list[StanceReading | None]  #: each summed step's end-of-stance reading (None: none)
     moved: np.ndarray  #: (n,) bool, the step moved the foot (a compass updates on those only)
     headings: np.ndarray  #: (n,) the plain track's χ after each step [rad]
@@ -120,7 +120,7 @@ class StanceLog:
 def stance_log(path: str | Path, capture: bytes) -> StanceLog:
     """Decode *capture* (of the recording at *path*) as ``openshoe-host replay`` does, keeping each
     step's reading."""
-    from hostlib.replay import replay_session
+    from hostlib.files.replay import replay_session
 
     logger = _StanceLogger()
     replay_session(capture, tracker=logger)
@@ -229,7 +229,7 @@ def _control_changes(log: StanceLog, sigma: float, draws: int = CONTROL_DRAWS) -
     """The horizontal closure's change [percentage points] when the compass readings carry no
     information on the heading's change (the INS's heading plus white noise of *sigma*), one per
     draw (seeded 0, 1, …): what the filter alone does to a closed loop at that σ."""
-    from hostlib.replay import replay_session
+    from hostlib.files.replay import replay_session
 
     plain = log.track.relative_closure_error()
     out = []
@@ -267,8 +267,8 @@ class CompassWalkResult:
 def _compass_tracker(log: StanceLog, sigma: float, calibration: MagCalibration | None) -> FusionTracker:
     """The fusion tracker ``openshoe-host replay CAPTURE --compass --compass-sigma S [--mag-cal]``
     decodes *log*'s capture with (no GPS, no declination)."""
-    from hostlib.aids import prepare_aids
-    from hostlib.replay import replay_session
+    from hostlib.files.replay import replay_session
+    from hostlib.run.aid_setup import prepare_aids
 
     aids = prepare_aids(compass=True, mag_calibration=calibration,
                         settings=FusionSettings(compass_sigma_rad=sigma))

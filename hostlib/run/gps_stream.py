@@ -1,7 +1,7 @@
 """A GPS receiver read live: its fixes queued on a fusion tracker, on the module's clock.
 
 A receiver (a serial device, a pty, any pyserial URL) talks NMEA in its own time, and the
-:class:`~hostlib.fusion.FusionTracker` applies a fix at the first step at or after the fix's
+:class:`~hostlib.fusion.tracker.FusionTracker` applies a fix at the first step at or after the fix's
 *module* time. The host shares no clock with the module; what it knows is when each step packet
 arrived. So a fix received at host time h is put at module time
 
@@ -17,7 +17,7 @@ Before the first step there is nothing to map to: the fixes are held and queued 
 (their times then fall before it, so they apply at the next step). Times never go backwards: a fix
 is never put before the one before.
 
-**A module on each foot** (:class:`~hostlib.feet.TwoFeetTracker`): each module has a clock of its
+**A module on each foot** (:class:`~hostlib.fusion.feet.TwoFeetTracker`): each module has a clock of its
 own (T_INT_K counts from its power-on), so each has its own :class:`FixClock`, renewed by that
 module's steps. A fix goes to each foot's own tracker on that foot's clock, and to the joint filter
 at the latest of its times on the two clocks (those of the feet that stepped yet): the joint filter
@@ -25,18 +25,18 @@ times itself by the latest module time of the steps it fused, which is the clock
 With one clock for both modules (the emulator's) the two times agree but for the step packets' way
 to the host. A foot that has not stepped yet holds its own tracker's fixes until it does.
 
-The first fix is the walk's geographic origin (as a log's first fix is, :mod:`hostlib.aids`): the
-fixes are north and east of it (:func:`~hostlib.gps.local_positions`). Garbled lines and epochs
-without a fix are skipped and counted (:class:`~hostlib.gps.NmeaStats`).
+The first fix is the walk's geographic origin (as a log's first fix is, :mod:`hostlib.run.aid_setup`): the
+fixes are north and east of it (:func:`~hostlib.aids.gps.local_positions`). Garbled lines and epochs
+without a fix are skipped and counted (:class:`~hostlib.aids.gps.NmeaStats`).
 
 * :class:`FixClock` — the mapping, with an injectable host clock;
 * :class:`LiveFixes` — lines in, fixes queued on a tracker; no I/O;
 * :class:`GpsStream` — a thread reading a pyserial port line by line into a :class:`LiveFixes`;
   a receiver that vanishes is reported once, and the walk goes on without it.
 
-Threads: a :class:`~hostlib.device.Device`'s reader thread sums the steps — and applies the queued
+Threads: a :class:`~hostlib.link.device.Device`'s reader thread sums the steps — and applies the queued
 fixes — holding the device's session lock (:attr:`Device.session_lock
-<hostlib.device.Device.session_lock>`). The GPS thread queues a fix holding that same lock (with
+<hostlib.link.device.Device.session_lock>`). The GPS thread queues a fix holding that same lock (with
 two feet, both devices' locks, in the feet's order: then neither foot is in the middle of a step,
 nor the joint filter, which each foot's step reaches under that foot's lock), so ``add_fix`` never
 runs while ``add_step`` does. :meth:`LiveFixes.stepped` runs in the device's thread (a step
@@ -56,10 +56,10 @@ from typing import Any
 import numpy as np
 import serial
 
-from .connection import open_port
-from .feet import FOOT_SIDES, TwoFeetTracker
-from .fusion import FusionTracker
-from .gps import GpsFix, NmeaReader, NmeaStats, fix_place, local_positions
+from ..aids.gps import GpsFix, NmeaReader, NmeaStats, fix_place, local_positions
+from ..fusion.feet import FOOT_SIDES, TwoFeetTracker
+from ..fusion.tracker import FusionTracker
+from ..link.connection import open_port
 
 __all__ = ["GPS_BAUDRATE", "FixClock", "GpsStream", "LiveFixes"]
 
@@ -125,8 +125,8 @@ class _Route:
 
 class LiveFixes:
     """A receiver's lines in, fixes queued on a tracker on the module's clock (module docstring):
-    a :class:`~hostlib.fusion.FusionTracker` (one module), or a
-    :class:`~hostlib.feet.TwoFeetTracker` (a module on each foot, each with its clock).
+    a :class:`~hostlib.fusion.tracker.FusionTracker` (one module), or a
+    :class:`~hostlib.fusion.feet.TwoFeetTracker` (a module on each foot, each with its clock).
 
     Until :meth:`attach` gives it the tracker, and until the first step, fixes are held.
     """
@@ -217,7 +217,7 @@ class GpsStream:
     """A thread reading the receiver at *url* (a device path or pyserial URL) into *fixes*.
 
     *report* hears, once, that the receiver went away (the thread then ends; the walk goes on).
-    *open_port*: how the port is opened (default :func:`hostlib.connection.open_port`). Opening
+    *open_port*: how the port is opened (default :func:`hostlib.link.connection.open_port`). Opening
     raises what pyserial raises (an OSError) for a receiver that is not there. A context manager.
     """
 

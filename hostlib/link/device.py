@@ -3,7 +3,7 @@
 Why a thread and not asyncio: pyserial's reads block (and on a Bluetooth SPP
 port or a pty there is no portable non-blocking API), so one daemon reader
 thread per device does the reading with a short port timeout, runs the pure
-:class:`hostlib.session.HostSession` on every chunk, writes the packet acks it
+:class:`hostlib.link.session.HostSession` on every chunk, writes the packet acks it
 produces immediately (a lossless module waits for them), and hands events to
 bounded queues and callbacks. User calls (commands, iterators) run in the
 caller's thread and wait on condition variables with deadlines — never sleeps.
@@ -31,13 +31,13 @@ import serial
 
 from protocol.ids import Command
 
-from .command_methods import CommandMethods
+from ..errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
+from ..events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
+from ..track.steps import StepTracker, Track
+from .commands import CommandMethods
 from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
-from .errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
-from .events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from .outputs import OutputPlan
 from .session import HostSession
-from .tracking import StepTracker, Track
 
 __all__ = ["Device"]
 
@@ -569,7 +569,7 @@ class Device(CommandMethods):
     def session_lock(self) -> threading.RLock:
         """The lock the reader thread holds while it feeds the session, and so while it sums a step
         into :attr:`tracker`. Hold it to touch the tracker from another thread without racing a
-        step: e.g. to queue a GPS fix as it arrives (:mod:`hostlib.gps_stream`)."""
+        step: e.g. to queue a GPS fix as it arrives (:mod:`hostlib.run.gps_stream`)."""
         return self._lock
 
     @property

@@ -1,5 +1,6 @@
 """A first-order Gauss–Markov state of the host's filter: the local compass deviation d over the
-distance walked (:mod:`hostlib.deviation`), the receiver's bias b over time (:mod:`hostlib.gps_bias`).
+distance walked (:mod:`hostlib.fusion.deviation`), the receiver's bias b over time
+(:mod:`hostlib.fusion.gps_bias`).
 
 Over a span s (metres or seconds) of a process with correlation scale L and stationary variance σ²,
 the state decays by φ = exp(−|s|/L) and its variance gains q = (1 − φ²) σ²

@@ -26,7 +26,7 @@ from numpy.typing import ArrayLike
 from protocol.ids import NR_IMUS, Command, Interface, OutputMode
 from protocol.states import state_spec
 
-from .events import CommandAckEvent
+from ..events import CommandAckEvent
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack  # typing.Unpack from Python 3.11; for type checkers only

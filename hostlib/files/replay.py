@@ -15,7 +15,7 @@ states (with the swing time), its module serial number is read, and the stream's
 told from the steps. A capture without the stream has no ack of it: nothing changes.
 
 :func:`replay_calibrating` replays a capture of the in-situ calibration
-(``openshoe-host replay --calibrate-mag``): a :class:`hostlib.wiggle.WiggleCalibration` follows
+(``openshoe-host replay --calibrate-mag``): a :class:`hostlib.calibration.wiggle.WiggleCalibration` follows
 the session's events as it does live, and hands its result to the tracker when the first long
 step ends it. Both
 ``openshoe-host log --raw`` and ``openshoe-emu replay --wire`` write such a
@@ -32,12 +32,12 @@ from protocol.commands import command_set as _command_set
 from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP
 from protocol.ids import Command
 
-from .drift import serial_text
-from .events import StreamEvent
-from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
-from .session import HostSession, SessionStats
-from .tracking import StepTracker, Track
-from .wiggle import WiggleCalibration
+from ..calibration.drift import serial_text
+from ..calibration.wiggle import WiggleCalibration
+from ..events import StreamEvent
+from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
+from ..link.session import HostSession, SessionStats
+from ..track.steps import StepTracker, Track
 
 __all__ = ["CALIBRATION_CHUNK", "CAPTURE_HOST_COMMANDS", "decode_feet", "implied_commands", "replay_bytes",
            "replay_calibrating", "replay_capture", "replay_capture_session", "replay_feet", "replay_session"]
@@ -88,9 +88,9 @@ CALIBRATION_CHUNK = 64
 def replay_calibrating(data: bytes, wiggle: WiggleCalibration, tracker: Any, *, command_set: str = "2015",
                        on_events: Callable[[list[StreamEvent]], object] | None = None) -> HostSession:
     """The host session after the capture *data* of an in-situ calibration: *tracker* (a
-    :class:`hostlib.fusion.FusionTracker`) holds its compass while *wiggle* takes the stream's
+    :class:`hostlib.fusion.tracker.FusionTracker`) holds its compass while *wiggle* takes the stream's
     readings and the steps; when the first long step ends it, the result goes to the tracker
-    (:meth:`~hostlib.wiggle.WiggleCalibration.release`), named after the module's serial number.
+    (:meth:`~hostlib.calibration.wiggle.WiggleCalibration.release`), named after the module's serial number.
     *on_events* sees the session's events too, after the calibration. The step counter before the
     first step is unknown, as in :func:`replay_session`."""
     tracker.hold_compass()
@@ -133,7 +133,7 @@ def decode_feet(left: bytes, right: bytes, tracker: TwoFeetTracker, *,
     """Each foot's capture decoded by its own session into *tracker*'s foot (its counters,
     resends and gaps; the counter before its first step unknown, as in :func:`replay_session`).
     With a deferring tracker (``defer=True``) the steps wait for
-    :meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`: the caller can check each module's
+    :meth:`~hostlib.fusion.feet.TwoFeetTracker.fuse_in_time_order`: the caller can check each module's
     serial number (``session.mcu_serial``) against its calibrations first."""
     return {side: replay_session(data, command_set=command_set, tracker=tracker.foot(side))
             for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
@@ -144,7 +144,7 @@ def replay_feet(left: bytes, right: bytes, settings: FeetSettings | None = None,
                 ) -> tuple[TwoFeetTracker, dict[str, SessionStats]]:
     """The two feet of one walker from their modules' captures (``openshoe-host replay LEFT RIGHT``):
     :func:`decode_feet`, then both feet's steps fused in module-time order
-    (:meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`). *tracker* (made with ``defer=True``
+    (:meth:`~hostlib.fusion.feet.TwoFeetTracker.fuse_in_time_order`). *tracker* (made with ``defer=True``
     and ``last_counter=None``, e.g. with aids) replaces the plain one of *settings*. Returns the
     tracker and each foot's session counters."""
     if tracker is None:

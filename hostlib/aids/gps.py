@@ -11,7 +11,7 @@ position. Nothing it meets stops it, and nothing is lost without being counted
 * other sentences (RMC, GSA, GSV, …) are counted as **other**; RMC's date is kept, so fixes get a
   full UTC time once the receiver has said the date.
 
-A receiver read live, as its sentences come, is :mod:`hostlib.gps_stream`.
+A receiver read live, as its sentences come, is :mod:`hostlib.run.gps_stream`.
 
 :func:`read_nmea` reads a whole file; :func:`local_positions` turns fixes into north, east, down
 metres about an origin (the first fix's position unless given), the frame a host fuses them in.
@@ -177,7 +177,7 @@ def local_positions(fixes: Sequence[GpsFix], origin: Sequence[float] | None = No
     """(n, 3) north, east, down [m] of *fixes* about *origin* (lat, lon[, alt]; default the first fix)."""
     import pymap3d
 
-    from .export import parse_origin
+    from .geodesy import parse_origin
 
     if not fixes:
         return np.zeros((0, 3))

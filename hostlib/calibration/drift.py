@@ -22,7 +22,7 @@ is in that frame; one that starts at heading χ₀ gets Δv rotated by χ₀.
 **How it is applied.** The correction moves positions only, never the heading,
 so it does not feed back into the summation of later steps: the corrected pose
 after step *k* is the summed pose plus ``R(χ₀) Δv · Σ_{j≤k} T_swing,j``. It is
-therefore a separate layer over a summed :class:`~hostlib.tracking.Track`
+therefore a separate layer over a summed :class:`~hostlib.track.steps.Track`
 (:meth:`DriftCalibration.apply`, :meth:`DriftCalibration.offsets`) rather than a
 hook inside the tracker: the summation and its covariance stay exactly those of
 the module paper, the uncorrected track stays at hand beside the corrected one
@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HostError
-from .tracking import Track, rotation_z
+from ..errors import HostError
+from ..track.steps import Track, rotation_z
 
 __all__ = ["FORMAT", "VERSION", "DriftCalibration", "DriftError", "LoopClosure", "calibrate", "loop_closure",
            "serial_text"]

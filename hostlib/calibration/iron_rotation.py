@@ -1,7 +1,7 @@
 """The shoe iron's rotation of the field, from the attitude: what an ellipsoid fit cannot see.
 
 The shoe's soft iron is a 3×3 matrix I + S = V U, a symmetric distortion V times a rotation U. An
-ellipsoid fit of the readings alone (:mod:`hostlib.magcal`) recovers the hard iron and V⁻¹: its
+ellipsoid fit of the readings alone (:mod:`hostlib.calibration.magcal`) recovers the hard iron and V⁻¹: its
 calibrated field m_c = A (m − b) has the right magnitude, but it is the board-frame field turned
 by U — the readings of a sphere are the same however it is turned. With the iron's elements a few
 per cent, U turns the field by a degree or two, and a tilt δ of the field turns a level compass by
@@ -33,7 +33,7 @@ at 100 Hz): 6–16 ms apart at 1 kHz. While the shoe tilts, that mismatch tilts 
 much as the iron does; fitted on all a wiggle's readings, the rotation comes out 0.7° off, mostly
 about the board's z axis. (A turn about the vertical does not matter: it keeps the angle with it.)
 
-It refuses — :class:`hostlib.magcal.MagCalibrationError`, saying why — readings that do not
+It refuses — :class:`hostlib.calibration.magcal.MagCalibrationError`, saying why — readings that do not
 determine the rotation: too few held still; attitudes that leave it so uncertain that a level
 compass could be off by more than the caller's limit (1σ, worst heading: the vertical never left
 one axis of the board); or readings whose inclination scatters by more than
@@ -50,9 +50,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .compass import StanceReading
+from ..aids.compass import StanceReading
+from ..track.steps import rotation_z
 from .magcal import MIN_READINGS, MagCalibration, MagCalibrationError
-from .tracking import rotation_z
 
 __all__ = ["MAX_INCLINATION_SCATTER_DEG", "STILL_TILT_DEG", "IronRotation", "fit_iron_rotation",
            "rotation_of_vector", "still_readings"]

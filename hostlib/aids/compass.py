@@ -15,9 +15,9 @@ and takes the heading of the board's x axis from magnetic north, east positive::
     n = R(q) m_b,   ψ_compass = ψ(q) − atan2(n_y, n_x)
 
 which does not depend on the field's inclination or magnitude, and not on the quaternion's yaw
-(the module zeroes it at each reset). A :class:`hostlib.magcal.MagCalibration` first removes the
+(the module zeroes it at each reset). A :class:`hostlib.calibration.magcal.MagCalibration` first removes the
 shoe's hard and soft iron from the field. The result measures the true heading minus the
-declination (plus the local deviation): that is how :mod:`hostlib.fusion` uses it.
+declination (plus the local deviation): that is how :mod:`hostlib.fusion.tracker` uses it.
 """
 
 from __future__ import annotations

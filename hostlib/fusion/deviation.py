@@ -4,7 +4,7 @@ A per-step compass reading is the true heading less the declination D, less the 
 d(p) of the field where the foot stands, plus the compass's own error (the chips' noise, the
 attitude at the end of stance). The deviation is not white: it is a property of the place, so two
 readings a step apart carry almost the same d, and thirty readings over one patch of deviation are
-worth about one. Taken as white noise (:attr:`hostlib.fusion.FusionSettings.compass_sigma_rad`
+worth about one. Taken as white noise (:attr:`hostlib.fusion.tracker.FusionSettings.compass_sigma_rad`
 alone) they make the filter too sure of its heading, and two feet a step apart read the same d
 twice.
 

@@ -26,7 +26,7 @@ continues from the last summed step (the lost displacement is unknown).
 Each step may come with its swing time [s] (state 0x34 SWING_TIME, when the host
 asked for it: :data:`protocol.extensions.FUSION_SETUP`); the track keeps it beside
 the step (NaN when the step had none) for the aids that need it
-(:mod:`hostlib.drift`). It changes nothing in the summation.
+(:mod:`hostlib.calibration.drift`). It changes nothing in the summation.
 
 This module is pure computation: no I/O, no protocol decoding. It accepts any
 object with ``dx`` (4,), ``dp`` (4×4) and ``counter`` attributes, such as
@@ -42,7 +42,7 @@ from typing import Protocol
 
 import numpy as np
 
-from .events import GapEvent, StepOutcome
+from ..events import GapEvent, StepOutcome
 
 __all__ = [
     "COUNTER_MODULUS",
@@ -415,7 +415,7 @@ class StepTracker:
 
         *swing_time* [s] is kept beside the step (:attr:`Track.swing_times`); NaN: none.
         *states* are the step packet's decoded states, for trackers that use more than the
-        step (:class:`hostlib.fusion.FusionTracker`); the summation ignores them."""
+        step (:class:`hostlib.fusion.tracker.FusionTracker`); the summation ignores them."""
         return self.add_step(step.dx, step.dp, step.counter, swing_time)
 
     def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int,

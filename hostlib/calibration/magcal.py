@@ -9,7 +9,7 @@ mapping it back onto a sphere of the local field's magnitude recovers::
 
 with A symmetric: a rotation of the whole sphere is not observable from the readings alone, so it
 is the part of the soft iron no fit of them recovers. With the attitude of each reading it is
-(:mod:`hostlib.iron_rotation`), and :meth:`MagCalibration.turned` makes the soft iron R_m A, no
+(:mod:`hostlib.calibration.iron_rotation`), and :meth:`MagCalibration.turned` makes the soft iron R_m A, no
 longer symmetric. :func:`fit_ellipsoid` is the algebraic
 least-squares fit of the general quadric ``mᵀ M m + 2 vᵀ m = 1`` (:func:`fit_quadric`, which also
 gives the covariance of its nine coefficients, from which a caller can judge how well the readings
@@ -34,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import HostError
+from ..errors import HostError
 
 __all__ = ["MAGCAL_DIR_ENV", "MagCalibration", "MagCalibrationError", "QuadricFit", "calibration_dir",
            "fit_ellipsoid", "fit_quadric", "load_for_module", "module_file", "save_for_module"]

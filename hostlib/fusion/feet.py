@@ -1,13 +1,13 @@
 """Two feet on the host: a module on each foot, both step streams fused in one filter.
 
 The module paper recommends a module on each foot (shared/spec/aids.md §6). Each module sends
-its own steps (:mod:`hostlib.tracking`); the host keeps, per foot, a :class:`FootTracker` — a
-:class:`~hostlib.tracking.StepTracker` with that module's counter, resends and gaps, whose track
+its own steps (:mod:`hostlib.track.steps`); the host keeps, per foot, a :class:`FootTracker` — a
+:class:`~hostlib.track.steps.StepTracker` with that module's counter, resends and gaps, whose track
 is the foot's single-module track — and feeds every step it sums to one :class:`TwoFeetTracker`:
 
 * **the joint state** ``s = [x_L, y_L, z_L, χ_L, x_R, y_R, z_R, χ_R]`` with its 8×8 covariance.
   A step of one foot moves that foot's block by the summation map of
-  :func:`~hostlib.tracking.propagate`; the other block stays, and the cross-covariance goes through
+  :func:`~hostlib.track.steps.propagate`; the other block stays, and the cross-covariance goes through
   the stepping foot's Jacobian (``P_LR ← F P_LR``). Without the constraint each block is that
   foot's single-module track, bit for bit;
 * **the inter-foot constraint** (Prateek, Girisha, Hari and Händel 2013; aids.md §6): the feet are
@@ -75,41 +75,41 @@ constraint pulls it in. The gap stays reported on that foot's tracker (``tracker
 
 **With the other aids** (shared/spec/aids.md §1–4; ``TwoFeetTracker(aids=…, drift=…)``):
 
-* the heading aids of :mod:`hostlib.fusion` act on the joint state, which gains the declination D
-  as a ninth state (:class:`~hostlib.fusion.AidedFilter`): each foot's per-step compass measures
+* the heading aids of :mod:`hostlib.fusion.tracker` act on the joint state, which gains the declination D
+  as a ninth state (:class:`~hostlib.fusion.tracker.AidedFilter`): each foot's per-step compass measures
   *that foot's* heading minus D, with its own module's magnetometer calibration; a GPS fix
   measures the body. The first reading (or the GPS course) turns both feet about the body's
   start; the other foot's heading keeps its uncertainty relative to the aligned one;
-* with the local compass deviation held (:attr:`~hostlib.fusion.FusionSettings.compass_deviation`,
-  :mod:`hostlib.deviation`) the joint state holds **one** d for both feet, just before D
+* with the local compass deviation held (:attr:`~hostlib.fusion.tracker.FusionSettings.compass_deviation`,
+  :mod:`hostlib.fusion.deviation`) the joint state holds **one** d for both feet, just before D
   (``[…L, …R, d, D]``): the feet walk through one field, and their rests, half a stride apart,
   read nearly the same deviation, so each foot's compass measures its heading minus D minus the
   same d. d walks with the body: each step moves the feet's midpoint by half the stepping foot's
   displacement, so d's Gauss–Markov step is half that foot's horizontal step (each foot's own
   step would walk it twice as far as the body goes: the readings, one from each foot in turn,
   lie half a stride apart along the walk, not a stride);
-* with the receiver's bias held (:attr:`~hostlib.fusion.FusionSettings.gps_bias`,
-  :mod:`hostlib.gps_bias`) the joint state holds **one** b = [b_n, b_e] for the body's receiver,
+* with the receiver's bias held (:attr:`~hostlib.fusion.tracker.FusionSettings.gps_bias`,
+  :mod:`hostlib.fusion.gps_bias`) the joint state holds **one** b = [b_n, b_e] for the body's receiver,
   before d (``[…L, …R, b_n, b_e, [d,] D]``): a fix measures the body plus b. The first fix moves
   both feet by the same unknown translation (the start's error, b₀ plus the fix's white part), so
   each foot's position is correlated with b as the body's is;
-* with the module's errors held (:attr:`~hostlib.fusion.FusionSettings.module_errors`,
-  :mod:`hostlib.module_errors`) each foot's module has **its own** step-length scale, climb, turn
+* with the module's errors held (:attr:`~hostlib.fusion.tracker.FusionSettings.module_errors`,
+  :mod:`hostlib.fusion.module_errors`) each foot's module has **its own** step-length scale, climb, turn
   scale (and, with a drift prior, heading drift rate), after both feet's poses and before the aid
   states: ``[…L, …R, s_L, c_L, k_L, [r_L,] s_R, c_R, k_R, [r_R,] [b_n, b_e,] [d,] D]``. They are
   two modules' errors: independent priors, uncorrelated until an aid correlates them (the
   constraint, which moves the estimate only, does not). A step of one foot takes its pose and its
-  module's errors through the step as one foot's :class:`~hostlib.fusion.FusionTracker` does
-  (:func:`hostlib.module_errors.through_step`), the drift over the time since that foot's step
+  module's errors through the step as one foot's :class:`~hostlib.fusion.tracker.FusionTracker` does
+  (:func:`hostlib.fusion.module_errors.through_step`), the drift over the time since that foot's step
   before (0 for the step that restarts a foot after a gap: its heading is the other foot's);
   without an aid the feet's estimates stay and each foot's covariance grows as its single-module
   track's. A GPS fix of the body then teaches the scales' sum, the constraint (which holds the feet
   together) their difference (in the estimate: it leaves the covariance, so their σ stays what
   the aids left), each foot's compass that module's turns and drift;
-* each module's drift calibration (:mod:`hostlib.drift`) moves that foot's every step by
+* each module's drift calibration (:mod:`hostlib.calibration.drift`) moves that foot's every step by
   ``R(χ₀) Δv · T_swing`` before the constraint sees it, χ₀ the walk's start heading (turned with
   the alignment). A step without a swing time is fused uncorrected and counted;
-* each foot's own tracker is a :class:`~hostlib.fusion.FusionTracker` with the same aids (and its
+* each foot's own tracker is a :class:`~hostlib.fusion.tracker.FusionTracker` with the same aids (and its
   module's calibrations), so the baseline is the average of two aided single-module tracks.
 """
 
@@ -124,13 +124,13 @@ import numpy as np
 
 from protocol.board import FOOT_SIDES
 
-from .compass import StanceReading
-from .drift import DriftCalibration
-from .events import StepOutcome
-from .fusion import AidedFilter, AidIndices, FusionSettings, FusionTracker
-from .magcal import MagCalibration
+from ..aids.compass import StanceReading
+from ..calibration.drift import DriftCalibration
+from ..calibration.magcal import MagCalibration
+from ..events import StepOutcome
+from ..track.steps import Track, is_motion_step, propagate, rotation_z, step_jacobian
 from .module_errors import through_step
-from .tracking import Track, is_motion_step, propagate, rotation_z, step_jacobian
+from .tracker import AidedFilter, AidIndices, FusionSettings, FusionTracker
 
 __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
 
@@ -174,11 +174,11 @@ class FootStep:
 
 
 class FootTracker(FusionTracker):
-    """One foot's stream in a two-foot fusion: a :class:`~hostlib.fusion.FusionTracker` (its own
+    """One foot's stream in a two-foot fusion: a :class:`~hostlib.fusion.tracker.FusionTracker` (its own
     counter, resends and gaps, and the aids of *settings* on this foot alone; its track is the
     foot's single-module track) that hands every step it sums to *on_step*. Use it as that foot's
-    :class:`~hostlib.session.HostSession` tracker. With every aid off it is a
-    :class:`~hostlib.tracking.StepTracker`, bit for bit."""
+    :class:`~hostlib.link.session.HostSession` tracker. With every aid off it is a
+    :class:`~hostlib.track.steps.StepTracker`, bit for bit."""
 
     def __init__(self, side: str, on_step: Callable[[FootStep], None] | None = None,
                  settings: FusionSettings | None = None, **tracker_args):
@@ -211,14 +211,14 @@ class TwoFeetTracker(AidedFilter):
     other). *heading* [rad] is the way the walker faces at the start (from north towards east);
     the feet start half of :attr:`FeetSettings.step_width_m` to either side of the origin.
 
-    *aids* (:class:`~hostlib.fusion.FusionSettings`) are the heading aids on the joint filter —
+    *aids* (:class:`~hostlib.fusion.tracker.FusionSettings`) are the heading aids on the joint filter —
     each foot's compass measures its heading minus the declination D (a ninth state; minus the
     local deviation d too, one shared state before D, if the aids hold it), a GPS fix the body
     (plus the receiver's bias b, two states before d and D, if held); with the module's errors
     held each foot's module has its own, after the poses (module docstring) —
     and on each foot's own tracker (the baseline). *mag_calibrations* are each foot's
     module's magnetometer calibration, *drift* each module's drift calibration
-    (:mod:`hostlib.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
+    (:mod:`hostlib.calibration.drift`): its Δv moves that foot's every step by ``R(χ₀) Δv · T_swing``."""
 
     def __init__(self, settings: FeetSettings | None = None, *, last_counter: int | None = 0,
                  defer: bool = False, heading: float = 0.0, aids: FusionSettings | None = None,
@@ -304,7 +304,7 @@ class TwoFeetTracker(AidedFilter):
     def add_body_fix(self, time_s: float, north_east) -> None:
         """Queue one GPS fix of the body for the joint filter alone, at *time_s* on the clock it
         times its steps by (the latest module time of the steps it fused). A receiver read live
-        (:mod:`hostlib.gps_stream`) gives each foot's own tracker the fix on that foot's module
+        (:mod:`hostlib.run.gps_stream`) gives each foot's own tracker the fix on that foot's module
         clock (``foot(side).add_fix``): the two modules' clocks need not be one."""
         super().add_fix(time_s, north_east)
 

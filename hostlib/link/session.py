@@ -10,15 +10,15 @@ stream, without any I/O, so it can be tested byte by byte:
   cycles until it sees ``01 nn nn ck ck`` with its number (protocol.md §6);
 * suppress resends: in lossless mode only the oldest packet is sent, so a resend
   carries the same number as the packet just before it (stop-and-wait);
-* split each new packet into its states (:class:`hostlib.outputs.OutputPlan`),
-  recognise steps, sum them (:class:`hostlib.tracking.StepTracker`) with their
+* split each new packet into its states (:class:`hostlib.link.outputs.OutputPlan`),
+  recognise steps, sum them (:class:`hostlib.track.steps.StepTracker`) with their
   swing time when the packet carries one (state 0x34 SWING_TIME, after
   :data:`protocol.extensions.FUSION_SETUP`), report step-counter gaps;
 * note the module's serial number when a packet carries it (state 0x04 MCU_ID).
 
 Replaying a capture, the session sees only the module's bytes: *implied_commands*
 tells it which commands the capture's host sent, so that the module's ack of one
-has that command's effect on the expected outputs (:mod:`hostlib.replay`). A host
+has that command's effect on the expected outputs (:mod:`hostlib.files.replay`). A host
 may send several commands with one wire id (the magnetometer stream on, later off):
 the acks of that id stand for them in the order given.
 
@@ -43,10 +43,10 @@ from protocol.frames import CommandAck, StatePacket, build_command, build_packet
 from protocol.ids import Command, StateId
 from protocol.stream import StreamDecoder
 
-from .errors import NotSupportedByCommandSet
-from .events import CommandAckEvent, PacketEvent, StepEvent, StepOutcome, StreamEvent
+from ..errors import NotSupportedByCommandSet
+from ..events import CommandAckEvent, PacketEvent, StepEvent, StepOutcome, StreamEvent
+from ..track.steps import StepTracker
 from .outputs import OutputPlan
-from .tracking import StepTracker
 
 __all__ = [
     "AckPolicy",

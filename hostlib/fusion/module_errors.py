@@ -12,7 +12,8 @@ describes it: the summed covariance is over-confident along the track, in height
 (docs/accuracy.md, "Is the summed covariance honest?").
 
 :class:`ModuleErrors` models them as three or four more states of the host's filter
-(:class:`hostlib.fusion.FusionTracker`; with a module on each foot, :class:`hostlib.feet.TwoFeetTracker`
+(:class:`hostlib.fusion.tracker.FusionTracker`; with a module on each foot,
+:class:`hostlib.fusion.feet.TwoFeetTracker`
 holds each module's own), constant over a walk, zero-mean, with priors:
 
 * the **step-length scale** s: each step's horizontal displacement, turned into the navigation
@@ -62,7 +63,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .tracking import is_motion_step
+from ..track.steps import is_motion_step
 
 __all__ = ["DRIFT_STATE", "EMULATED_MODULE", "EMULATED_MODULE_SWAYING", "ERROR_STATES", "DriftClock",
            "DriftSpan", "ModuleErrors", "error_jacobian", "step_duration", "through_step"]
@@ -224,7 +225,7 @@ def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.nda
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pose of a filter's state through a step with its module's errors held, beside the rest
     of the state, which the step does not change: the pose *pose* and its 4×4 covariance *cov*
-    after the summation map (:func:`hostlib.tracking.propagate`: the step's own dP is in), *cross*
+    after the summation map (:func:`hostlib.track.steps.propagate`: the step's own dP is in), *cross*
     (4, m) its covariance with the rest before the step, *f* the step's Jacobian F, *j* its
     :func:`error_jacobian` J, *rest* (m,) and *rest_cov* (m×m) the rest's estimate and covariance,
     and *columns* where this module's errors [s, c, k, [r]] sit in the rest. Returns the pose, its
@@ -233,8 +234,8 @@ def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.nda
     With A the (4, m) J in those columns, the pose moves by J e (e the errors' estimate: nothing
     while it is 0), its covariance gains F C Aᵀ + A Cᵀ Fᵀ + A R Aᵀ (C: *cross*, R: *rest_cov*) and
     cross ← F C + A R (without the errors it would be F C: the rest does not move the pose). One
-    foot's :class:`hostlib.fusion.FusionTracker` (the rest: its errors, then the aid states) and
-    each foot of :class:`hostlib.feet.TwoFeetTracker` (the rest: the other foot, both modules'
+    foot's :class:`hostlib.fusion.tracker.FusionTracker` (the rest: its errors, then the aid states) and
+    each foot of :class:`hostlib.fusion.feet.TwoFeetTracker` (the rest: the other foot, both modules'
     errors and the aid states) step through it."""
     fa = np.zeros((4, len(rest)))
     fa[:, columns] = j

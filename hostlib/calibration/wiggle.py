@@ -14,21 +14,21 @@ fusion --calibrate-mag``):
 * :data:`WiggleCalibration.START` — the commands that make the module stream its magnetometers and
   attitude (:data:`protocol.extensions.MAG_STREAM_START`), sent after the fusion set-up;
 * :meth:`WiggleCalibration.feed` — the host session's events in order: each stream packet gives a
-  reading (the board-frame field averaged over the chips, :func:`hostlib.compass.stance_reading`,
+  reading (the board-frame field averaged over the chips, :func:`hostlib.aids.compass.stance_reading`,
   with the attitude), each step its horizontal length; step packets are steps, not readings (the
   first long step's reading is taken a stride away). At the first step whose horizontal length
-  exceeds :data:`STOP_STEP_M` it fits the readings (:func:`hostlib.magcal.fit_quadric`, the
+  exceeds :data:`STOP_STEP_M` it fits the readings (:func:`hostlib.calibration.magcal.fit_quadric`, the
   calibration named after the module's serial number), turns the fit's soft iron by the field's
-  rotation the readings' attitudes show (:func:`hostlib.iron_rotation.fit_iron_rotation`, the part
+  rotation the readings' attitudes show (:func:`hostlib.calibration.iron_rotation.fit_iron_rotation`, the part
   of the iron no ellipsoid sees) and returns True: then send
   :data:`WiggleCalibration.STOP` (:data:`protocol.extensions.MAG_STREAM_STOP`), and hand the result
-  to the tracker (:meth:`hostlib.fusion.FusionTracker.release_compass`, σ :data:`HEADING_SIGMA_DEG`
+  to the tracker (:meth:`hostlib.fusion.tracker.FusionTracker.release_compass`, σ :data:`HEADING_SIGMA_DEG`
   for the first reading).
 
 It refuses — :attr:`~WiggleCalibration.calibration` stays None and
 :attr:`~WiggleCalibration.refusal` says why — when the readings do not determine an ellipsoid:
 
-* too few of them (:data:`hostlib.magcal.MIN_READINGS`), or no ellipsoid fits them at all;
+* too few of them (:data:`hostlib.calibration.magcal.MIN_READINGS`), or no ellipsoid fits them at all;
 * too little rotation: the field was not seen from enough sides. Readings confined to one half of
   the sphere of directions (a cap about the board's z axis, when the shoe is tilted less than the
   field is steep) leave the ellipsoid's extent and centre along the cap's axis to its curvature
@@ -69,11 +69,11 @@ import numpy as np
 from protocol.extensions import MAG_STREAM_START, MAG_STREAM_STOP
 from protocol.ids import Command, StateId
 
-from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
-from .events import PacketEvent, StepEvent
+from ..aids.compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from ..events import PacketEvent, StepEvent
+from ..track.steps import rotation_z
 from .iron_rotation import IronRotation, fit_iron_rotation
 from .magcal import MagCalibration, MagCalibrationError, QuadricFit, fit_quadric
-from .tracking import rotation_z
 
 __all__ = ["HEADING_SIGMA_DEG", "MAX_FIT_HEADING_SIGMA_DEG", "MIN_COVERAGE_DEG", "STOP_STEP_M",
            "WiggleCalibration", "coverage_deg", "fit_heading_sigma_deg"]
@@ -273,7 +273,7 @@ class WiggleCalibration:
     # -- output -----------------------------------------------------------------------
 
     def release(self, tracker: Any) -> None:
-        """Hand the result to *tracker* (a :class:`hostlib.fusion.FusionTracker` holding its compass
+        """Hand the result to *tracker* (a :class:`hostlib.fusion.tracker.FusionTracker` holding its compass
         since the calibration began): the calibration, the first reading aligning the heading with
         σ :data:`HEADING_SIGMA_DEG`; refused, the readings uncalibrated and the compass's own σ."""
         calibrated = self.calibration is not None

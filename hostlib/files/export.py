@@ -8,9 +8,9 @@ Geographic export. Given an *origin* (latitude, longitude [deg], altitude [m],
 WGS84) the local offsets are east, north, up in the tangent plane at the origin,
 and are turned into longitude, latitude and altitude on the WGS84 ellipsoid
 exactly (through Earth-centred coordinates) by ``pymap3d``; GPS fixes come in
-the other way (:mod:`hostlib.gps`) through the same functions.
+the other way (:mod:`hostlib.aids.gps`) through the same functions.
 
-Two feet. A walker's two modules fused (:mod:`hostlib.feet`) give one CSV: the body track (the
+Two feet. A walker's two modules fused (:mod:`hostlib.fusion.feet`) give one CSV: the body track (the
 feet's midpoint) and its covariance in the usual columns, each row followed by
 :data:`FEET_COLUMNS` — which foot made the row's step and both feet's fused poses with their 1σ
 (:func:`write_feet_csv`, :func:`read_feet_csv`); :func:`read_csv` reads its body track.
@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import csv
 import json
-import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +29,8 @@ import numpy as np
 
 from protocol.board import FOOT_SIDES
 
-from .tracking import Track
+from ..aids.geodesy import enu_to_geodetic, enu_to_ned, geodetic_to_enu, ned_to_enu, parse_origin
+from ..track.steps import Track
 
 __all__ = [
     "CSV_COLUMNS",
@@ -170,15 +170,15 @@ class FeetTrack:
 
     @classmethod
     def of(cls, tracker: Any) -> FeetTrack:
-        """The fused track of a :class:`hostlib.feet.TwoFeetTracker` (take it while no steps
-        arrive: after the walk, or after :meth:`~hostlib.feet.TwoFeetTracker.fuse_in_time_order`)."""
+        """The fused track of a :class:`hostlib.fusion.feet.TwoFeetTracker` (take it while no steps
+        arrive: after the walk, or after :meth:`~hostlib.fusion.feet.TwoFeetTracker.fuse_in_time_order`)."""
         return cls(tracker.body, tuple(tracker.sides),
                    {side: tracker.fused_foot(side) for side in FOOT_SIDES},
                    {side: tracker.fused_foot_sigmas(side) for side in FOOT_SIDES})
 
 
 def write_feet_csv(feet: Any, path: str | Path) -> None:
-    """Write the body track of *feet* (a :class:`hostlib.feet.TwoFeetTracker` or a
+    """Write the body track of *feet* (a :class:`hostlib.fusion.feet.TwoFeetTracker` or a
     :class:`FeetTrack`) in :data:`CSV_COLUMNS`, each row followed by :data:`FEET_COLUMNS`."""
     ft = feet if isinstance(feet, FeetTrack) else FeetTrack.of(feet)
     rows = ([("" if k == 0 else ft.sides[k - 1]),
@@ -212,53 +212,6 @@ def _parse_floats(fields: list[str], row: int) -> list[float]:
 #: What may follow :data:`CSV_COLUMNS` in a track CSV, and how its fields are read.
 _EXTRA_COLUMNS: dict[tuple[str, ...], Callable[[list[str], int], Any]] = {
     (): _parse_floats, GEO_COLUMNS: _parse_floats, FEET_COLUMNS: _parse_feet_fields}
-
-
-# -- coordinates ---------------------------------------------------------------------------
-
-
-def ned_to_enu(xyz: np.ndarray) -> np.ndarray:
-    """(…, 3) north, east, down → east, north, up."""
-    xyz = np.asarray(xyz, dtype=np.float64)
-    return np.stack([xyz[..., 1], xyz[..., 0], -xyz[..., 2]], axis=-1)
-
-
-def enu_to_ned(enu: np.ndarray) -> np.ndarray:
-    enu = np.asarray(enu, dtype=np.float64)
-    return np.stack([enu[..., 1], enu[..., 0], -enu[..., 2]], axis=-1)
-
-
-def enu_to_geodetic(enu: np.ndarray, origin: Sequence[float]) -> np.ndarray:
-    """(…, 3) local east, north, up [m] → longitude, latitude [deg], altitude [m] (WGS84, pymap3d)."""
-    import pymap3d
-
-    lat0, lon0, h0 = parse_origin(origin)
-    enu = np.asarray(enu, dtype=np.float64)
-    lat, lon, alt = pymap3d.enu2geodetic(enu[..., 0], enu[..., 1], enu[..., 2], lat0, lon0, h0)
-    return np.stack(np.broadcast_arrays(lon, lat, alt), axis=-1)
-
-
-def geodetic_to_enu(lonlath: np.ndarray, origin: Sequence[float]) -> np.ndarray:
-    """Inverse of :func:`enu_to_geodetic`."""
-    import pymap3d
-
-    lat0, lon0, h0 = parse_origin(origin)
-    g = np.asarray(lonlath, dtype=np.float64)
-    e, n, u = pymap3d.geodetic2enu(g[..., 1], g[..., 0], g[..., 2], lat0, lon0, h0)
-    return np.stack(np.broadcast_arrays(e, n, u), axis=-1)
-
-
-def parse_origin(origin: Sequence[float] | str) -> tuple[float, float, float]:
-    """(latitude, longitude, altitude) from a sequence of 2 or 3 numbers or ``"LAT,LON[,ALT]"``
-    (altitude 0 when left out); a ``ValueError`` naming the form otherwise."""
-    try:
-        o = [float(v) for v in (origin.split(",") if isinstance(origin, str) else origin)]
-    except (TypeError, ValueError):
-        o = []
-    if len(o) not in (2, 3) or not all(math.isfinite(v) for v in o) or abs(o[0]) > 90 or abs(o[1]) > 180:
-        raise ValueError(f"origin is LAT,LON[,ALT] in degrees and metres (|LAT| ≤ 90, |LON| ≤ 180), "
-                         f"got {origin!r}")
-    return o[0], o[1], (o[2] if len(o) == 3 else 0.0)
 
 
 # -- GeoJSON -------------------------------------------------------------------------------

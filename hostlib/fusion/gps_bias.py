@@ -3,7 +3,7 @@
 A consumer receiver's horizontal error is mostly a slowly wandering offset (multipath and the
 atmosphere change as the satellites move: a few metres, correlated over minutes) plus a little
 white noise per fix. Taken as white noise, fixes a second apart are far from independent, so the
-filter must inflate their σ and use them seldom (:attr:`hostlib.fusion.FusionSettings.gps_sigma_m`,
+filter must inflate their σ and use them seldom (:attr:`hostlib.fusion.tracker.FusionSettings.gps_sigma_m`,
 15 m every 10 s for a 3 m receiver); even so it learns the heading from fixes hundreds of metres
 apart more surely than a wandering offset allows.
 
@@ -14,7 +14,7 @@ time, the same on both axes and independent between them: over Δt seconds
 
 stationary with variance σ_b² per axis, two fixes Δt apart correlated exp(−Δt / τ). The filter
 holds b as two more states; a fix then measures the position plus b, north and east, with only
-its white σ_w, and every fix can be used (:mod:`hostlib.fusion`).
+its white σ_w, and every fix can be used (:mod:`hostlib.fusion.tracker`).
 
 The defaults are a receiver specified at **3 m RMS horizontally** (both axes together, as
 receivers are specified: σ_b = 3 / √2 ≈ 2.12 m per axis) whose error is correlated over

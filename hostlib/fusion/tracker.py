@@ -1,18 +1,18 @@
 """The host-side fusion filter: the step track with a per-step compass, declination and GPS fixes.
 
-The module keeps its ZUPT INS and hands the host one step at a time (:mod:`hostlib.tracking`).
-:class:`FusionTracker` sums the steps exactly as :class:`~hostlib.tracking.StepTracker` does — it
+The module keeps its ZUPT INS and hands the host one step at a time (:mod:`hostlib.track.steps`).
+:class:`FusionTracker` sums the steps exactly as :class:`~hostlib.track.steps.StepTracker` does — it
 *is* one — and holds one more state, the magnetic declination D, so that its state is
 ``[x, y, z, χ, D]`` with a 5×5 covariance. On top of the summation it applies, each switched on
 by :class:`FusionSettings` (shared/spec/aids.md §1–2, NavShoe):
 
 * **the per-step compass** — at each step's end of stance the packet's magnetometers and attitude
-  give a heading from magnetic north, ψ_c (:mod:`hostlib.compass`), which measures ``χ − D`` with
+  give a heading from magnetic north, ψ_c (:mod:`hostlib.aids.compass`), which measures ``χ − D`` with
   variance σ_c² (the local deviation, not the sensor noise: tens of degrees indoors). One reading
   per step that moved the foot; the module's resets while the wearer stands still carry no
   update (their readings are the same reading again, and the module's ZARU holds the heading).
   The first reading aligns the heading: χ ← ψ_c + D, with variance σ_c² + var D. While the
-  shoe's iron is being calibrated in situ (:mod:`hostlib.wiggle`) the compass waits
+  shoe's iron is being calibrated in situ (:mod:`hostlib.calibration.wiggle`) the compass waits
   (:meth:`FusionTracker.hold_compass`); the calibration then applies, and the first reading after
   it aligns the heading with the calibration's σ (NavShoe: 10°,
   :meth:`FusionTracker.release_compass`);
@@ -24,14 +24,14 @@ by :class:`FusionSettings` (shared/spec/aids.md §1–2, NavShoe):
   GPS course: once the receiver has moved :attr:`FusionSettings.gps_align_distance_m` from the
   first fix, the track turns onto it, with σ = √2 σ_rx / distance;
 * **declination** — a state with a prior (the World Magnetic Model at the first fix, chosen by
-  the caller: :func:`hostlib.declination.declination_deg`) and σ_D (NavShoe: 15°) while GPS is
+  the caller: :func:`hostlib.aids.declination.declination_deg`) and σ_D (NavShoe: 15°) while GPS is
   used; the compass then measures χ − D and GPS χ alone, so D becomes observable. Without GPS it
   is a constant.
 
-With every aid off the track is :class:`~hostlib.tracking.StepTracker`'s, bit for bit: the
+With every aid off the track is :class:`~hostlib.track.steps.StepTracker`'s, bit for bit: the
 summation is the same code, and D is uncorrelated with the pose until an aid correlates it.
 
-**The module's errors** (:attr:`FusionSettings.module_errors`, :mod:`hostlib.module_errors`): a
+**The module's errors** (:attr:`FusionSettings.module_errors`, :mod:`hostlib.fusion.module_errors`): a
 step-length scale s, a climb c per metre and a turn scale k, held as three more states before D
 (``[x, y, z, χ, s, c, k, D]``), and with a heading drift prior the drift rate r [rad/s] as a
 fourth (``[x, y, z, χ, s, c, k, r, D]``: each step's heading turns by r Δt, Δt its duration from
@@ -40,18 +40,18 @@ they leave the track as it is and widen its covariance along the displacement, i
 the angle turned and with the time walked, as a module's systematic errors do; the aids make them
 observable, and the steps after are corrected by what they taught.
 
-**The local deviation** (:attr:`FusionSettings.compass_deviation`, :mod:`hostlib.deviation`):
+**The local deviation** (:attr:`FusionSettings.compass_deviation`, :mod:`hostlib.fusion.deviation`):
 a compass reading's error is mostly the deviation d of the field where the foot stands, which is
 the same for readings a step apart. Held, d is one more state just before D
 (``[x, y, z, χ, d, D]``, or ``[x, y, z, χ, s, c, k, d, D]`` with the module's errors), a
 Gauss–Markov process in the distance walked: each step of horizontal length Δs takes
 d ← φ d and adds (1 − φ²) σ_d² to its variance, φ = exp(−Δs / ℓ); it starts at 0 with variance
 σ_d². The compass then measures ``χ − D − d``, and σ_c is only the reading's own, white error
-(the chips' noise and the attitude: about 1.5°, :data:`hostlib.deviation.WHITE_SIGMA_RAD`). The
+(the chips' noise and the attitude: about 1.5°, :data:`hostlib.fusion.deviation.WHITE_SIGMA_RAD`). The
 first reading aligns χ ← ψ_c + D + d, correlated with D and d. Not held, the filter is the one
 without it, bit for bit.
 
-**The receiver's bias** (:attr:`FusionSettings.gps_bias`, :mod:`hostlib.gps_bias`): a receiver's
+**The receiver's bias** (:attr:`FusionSettings.gps_bias`, :mod:`hostlib.fusion.gps_bias`): a receiver's
 error is mostly an offset b = [b_north, b_east] that wanders over minutes. Held, b is two more
 states before d (``[x, y, z, χ, b_n, b_e, D]``; with every state held
 ``[x, y, z, χ, s, c, k, b_n, b_e, d, D]``), a Gauss–Markov process in the module's time: over Δt,
@@ -66,13 +66,13 @@ its covariance with the poses (the origin's translation) does not turn. The GPS 
 heading as without it. Not held, the filter is the one without it, bit for bit.
 
 The aids themselves are :class:`AidedFilter`, which does not care how many poses the state
-holds: :class:`hostlib.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
+holds: :class:`hostlib.fusion.feet.TwoFeetTracker` applies the same aids to both feet's poses and D. A
 fix's north and east are applied one after the other, the second with the state the first left.
 
 Time: a step packet of the fusion set-up carries T_INT_K (the module's 64 MHz cycle counter when
 the step's last measurement was taken); the tracker unwraps it into seconds since the module's
-power-on (:class:`~hostlib.module_clock.ModuleClock`). Fix times are seconds since the receiver started
-talking (:func:`hostlib.gps.seconds_since`); the two clocks are taken to start together, as the
+power-on (:class:`~hostlib.link.module_clock.ModuleClock`). Fix times are seconds since the receiver started
+talking (:func:`hostlib.aids.gps.seconds_since`); the two clocks are taken to start together, as the
 emulator's receiver and module do (:attr:`FusionSettings.gps_offset_s` shifts the fixes).
 """
 
@@ -84,15 +84,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from ..aids.compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from ..calibration.magcal import MagCalibration
+from ..events import StepOutcome
+from ..link.module_clock import ModuleClock
+from ..track.steps import StepTracker, is_motion_step, rotation_z, step_jacobian
 from .deviation import CompassDeviation
-from .events import StepOutcome
 from .gauss_markov import decay
 from .gps_bias import GpsBias
-from .magcal import MagCalibration
-from .module_clock import ModuleClock
 from .module_errors import ModuleErrors, through_step
-from .tracking import StepTracker, is_motion_step, rotation_z, step_jacobian
 
 __all__ = ["AidIndices", "AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
 
@@ -105,7 +105,7 @@ class FusionSettings:
     #: 1σ of one compass reading [rad]: the local deviation. Our default is indoor: the emulator's
     #: building deviation (5 µT RMS per axis against a 15.5 µT horizontal field) is ≈ 18°. With
     #: :attr:`compass_deviation` held, only the reading's own white error beyond the deviation (the
-    #: chips' noise, the attitude): about 1.5° (:data:`hostlib.deviation.WHITE_SIGMA_RAD`)
+    #: chips' noise, the attitude): about 1.5° (:data:`hostlib.fusion.deviation.WHITE_SIGMA_RAD`)
     compass_sigma_rad: float = math.radians(20.0)
     #: "step": one update per step that moved the foot (NavShoe); "every-reset": at every reset,
     #: standing ones too (the continuous compass NavShoe warns against, kept for comparison)
@@ -132,14 +132,15 @@ class FusionSettings:
     declination_rad: float = 0.0
     declination_sigma_rad: float = math.radians(15.0)
     #: the module's step-length scale, climb and turn scale (and, with its prior, heading drift rate)
-    #: as states (:mod:`hostlib.module_errors`; None: not held, and the covariance is the steps' own)
+    #: as states (:mod:`hostlib.fusion.module_errors`; None: not held, and the covariance is the steps' own)
     module_errors: ModuleErrors | None = None
     #: the local compass deviation d as a state, correlated over the distance walked
-    #: (:mod:`hostlib.deviation`: :data:`~hostlib.deviation.OUTDOORS`, :data:`~hostlib.deviation.INDOORS`;
+    #: (:mod:`hostlib.fusion.deviation`: :data:`~hostlib.fusion.deviation.OUTDOORS`,
+    #: :data:`~hostlib.fusion.deviation.INDOORS`;
     #: None: not held, each reading's deviation is in σ_c as white noise)
     compass_deviation: CompassDeviation | None = None
     #: the receiver's correlated error b as states, a Gauss–Markov process in time
-    #: (:mod:`hostlib.gps_bias`; None: not held, a fix's error is white, of σ :attr:`gps_sigma_m`)
+    #: (:mod:`hostlib.fusion.gps_bias`; None: not held, a fix's error is white, of σ :attr:`gps_sigma_m`)
     gps_bias: GpsBias | None = None
 
     @property
@@ -206,7 +207,7 @@ class AidedFilter:
     """The aids of :class:`FusionSettings` on a filter whose state is poses and, last, the declination D.
 
     The aids do not care how many poses the state holds: :class:`FusionTracker` holds one foot's
-    ``[x, y, z, χ, D]``, :class:`hostlib.feet.TwoFeetTracker` both feet's and D. With
+    ``[x, y, z, χ, D]``, :class:`hostlib.fusion.feet.TwoFeetTracker` both feet's and D. With
     :attr:`FusionSettings.compass_deviation` the local deviation d sits just before D, one for
     all the poses (they walk through one field); with :attr:`FusionSettings.gps_bias` the
     receiver's bias [b_n, b_e] before that, one for the walker's receiver. :attr:`_aid_indices`
@@ -560,7 +561,7 @@ class AidedFilter:
 class FusionTracker(AidedFilter, StepTracker):
     """A :class:`StepTracker` with a declination state and the aids of :class:`FusionSettings`.
 
-    Use it wherever a step tracker goes (a :class:`~hostlib.session.HostSession`'s tracker): the
+    Use it wherever a step tracker goes (a :class:`~hostlib.link.session.HostSession`'s tracker): the
     session hands it each step packet's decoded states, which carry the stance reading and the
     step's time. :attr:`declination` and :attr:`covariance5` give the full state,
     :attr:`state_covariance` all of it (with the module's errors, the receiver's bias and the local
@@ -645,7 +646,7 @@ class FusionTracker(AidedFilter, StepTracker):
 
     def hold_compass(self) -> None:
         """No compass update until :meth:`release_compass`: the shoe's iron is being calibrated
-        (:class:`hostlib.wiggle.WiggleCalibration`). The readings meanwhile count as skipped."""
+        (:class:`hostlib.calibration.wiggle.WiggleCalibration`). The readings meanwhile count as skipped."""
         self._compass_held = True
 
     def release_compass(self, calibration: MagCalibration | None,
@@ -702,7 +703,7 @@ class FusionTracker(AidedFilter, StepTracker):
         """The step just summed, with the module's errors held: its pose moves by the learned
         errors (nothing while they are 0), and the covariance goes through the step's Jacobians
         (F for the pose, J for [s, c, k] or [s, c, k, r]; b, d and D do not move it; the steps' own
-        dP is already in; :func:`hostlib.module_errors.through_step`, the rest [s, c, k, [r,]] then
+        dP is already in; :func:`hostlib.fusion.module_errors.through_step`, the rest [s, c, k, [r,]] then
         the aid states)."""
         pose, cov, self._pa = through_step(self.track._poses[-1], self.track._covs[-1], self._pa, f, j,
                                            self._a, self._aa, slice(0, self._errors))

@@ -1,20 +1,20 @@
 """Setting the host-side aids up from what a user has: a GPS log, a place and date, a calibration.
 
-:func:`prepare_aids` turns command-line facts into a ready :class:`~hostlib.fusion.FusionTracker`:
+:func:`prepare_aids` turns command-line facts into a ready :class:`~hostlib.fusion.tracker.FusionTracker`:
 
-* with a GPS log, the fixes are read (:mod:`hostlib.gps`; garbled lines and missing fixes are
+* with a GPS log, the fixes are read (:mod:`hostlib.aids.gps`; garbled lines and missing fixes are
   skipped and counted), placed north/east of the first fix (pymap3d), and queued on the tracker;
   the first fix is also the geographic origin of the track and, with its date, where the World
-  Magnetic Model gives the declination prior (:mod:`hostlib.declination`);
+  Magnetic Model gives the declination prior (:mod:`hostlib.aids.declination`);
 * without GPS, the declination comes from the WMM at *origin* (and *when*) if given, else 0 (the
   compass then gives magnetic headings, and the summary says so);
-* with a receiver read live (:mod:`hostlib.gps_stream`), its first fix places the walk in the same
+* with a receiver read live (:mod:`hostlib.run.gps_stream`), its first fix places the walk in the same
   way, and the later fixes are queued as they come;
-* a magnetometer calibration (:class:`hostlib.magcal.MagCalibration`) is applied to every
+* a magnetometer calibration (:class:`hostlib.calibration.magcal.MagCalibration`) is applied to every
   reading; one fitted on another module is refused once the module names itself.
 
 :func:`prepare_feet_aids` does the same for a module on each foot: a
-:class:`~hostlib.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
+:class:`~hostlib.fusion.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
 magnetometer and drift calibration, the fixes queued for the body and for each foot (or, from a
 receiver read live, its first fix placing the walk as for one module).
 """
@@ -27,13 +27,13 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from .declination import declination_deg
-from .drift import DriftCalibration
-from .export import parse_origin
-from .feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
-from .fusion import FusionSettings, FusionTracker
-from .gps import GpsFix, NmeaStats, fix_place, local_positions, read_nmea, seconds_since
-from .magcal import MagCalibration
+from ..aids.declination import declination_deg
+from ..aids.geodesy import parse_origin
+from ..aids.gps import GpsFix, NmeaStats, fix_place, local_positions, read_nmea, seconds_since
+from ..calibration.drift import DriftCalibration
+from ..calibration.magcal import MagCalibration
+from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
+from ..fusion.tracker import FusionSettings, FusionTracker
 
 __all__ = ["AidSetup", "prepare_aids", "prepare_feet_aids"]
 
@@ -149,7 +149,7 @@ def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
     """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
     calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
     place the walk when there is no GPS. *live_gps*: fixes come from a receiver as the walk goes
-    (:mod:`hostlib.gps_stream` queues them): GPS updates on, no fix queued now; its *first_fix*, if
+    (:mod:`hostlib.run.gps_stream` queues them): GPS updates on, no fix queued now; its *first_fix*, if
     one came already, places the walk as a log's first fix does. *heading* [rad]: the initial
     heading. Raises OSError for an unreadable GPS log and ValueError when it holds no fix."""
     plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
@@ -168,7 +168,7 @@ def prepare_feet_aids(*, compass: bool, gps_path: str | Path | None = None,
     *heading*, *last_counter*) with the aids on the joint filter and on each foot's tracker,
     each foot's magnetometer calibration (side → calibration) and drift calibration; the GPS
     log's fixes are the body's. *live_gps* and *first_fix*: a receiver read live, as for
-    :func:`prepare_aids` (:mod:`hostlib.gps_stream` queues its fixes for the body and each foot)."""
+    :func:`prepare_aids` (:mod:`hostlib.run.gps_stream` queues its fixes for the body and each foot)."""
     plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
     tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading,
                              aids=plan.settings, mag_calibrations=mag_calibrations, drift=drift)

@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from .tracking import Track
+from ..track.steps import Track
 
 __all__ = ["along_track", "ellipse_params", "ellipse_scale", "plot_track"]
 
