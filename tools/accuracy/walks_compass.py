@@ -9,8 +9,8 @@ attitude quaternion and the magnetometers at the end of its stance. The capture 
 * ``uncalibrated``: the per-step compass (:func:`hostlib.run.aid_setup.prepare_aids`, no GPS), the field as
   the sensor measured it (``--compass --compass-sigma S``);
 * ``calibrated``: the same with the shoe's iron removed (``--mag-cal``), the calibration fitted on
-  the *other* walks' readings (:func:`.level_iron.iron_calibration`; the same sensor in the same
-  shoe walked all of them), never on the walk it corrects.
+  the *other* walks' readings (:func:`hostlib.calibration.level_iron.iron_calibration`; the same
+  sensor in the same shoe walked all of them), never on the walk it corrects.
 
 Without GPS the declination is a constant: the compass's headings are magnetic, the whole track
 turns by D about its start, and a closed loop's closure does not change. It is left at 0.
@@ -51,13 +51,13 @@ from typing import Any
 import numpy as np
 
 from hostlib.aids.compass import StanceReading, compass_heading, stance_reading, wrap_angle
+from hostlib.calibration.level_iron import IronFit, iron_calibration
 from hostlib.calibration.magcal import MagCalibration
 from hostlib.events import StepOutcome
 from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.link.module_clock import ModuleClock
 from hostlib.track.steps import StepTracker, is_motion_step
 
-from .level_iron import IronFit, iron_calibration
 from .runs import fusion_capture, map_runs
 
 __all__ = ["VARIANTS", "StanceLog", "CompassWalkResult", "capture_walk", "compass_walk_results",

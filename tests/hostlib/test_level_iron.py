@@ -8,8 +8,13 @@ import numpy as np
 import pytest
 
 from hostlib.aids.compass import StanceReading, compass_heading, wrap_angle
+from hostlib.calibration.level_iron import (
+    MIN_TILT_SPAN_DEG,
+    fit_level_hard_iron,
+    iron_calibration,
+    tilt_span_deg,
+)
 from hostlib.track.steps import rotation_z
-from tools.accuracy.level_iron import MIN_TILT_SPAN_DEG, fit_level_hard_iron, iron_calibration, tilt_span_deg
 
 #: A field of 50 µT dipping 70° (north, east, down) [µT].
 FIELD = 50.0 * np.array([math.cos(math.radians(70.0)), 0.0, math.sin(math.radians(70.0))])
