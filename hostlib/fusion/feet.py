@@ -13,9 +13,8 @@ is the foot's single-module track — and feeds every step it sums to one :class
 * **the inter-foot constraint** (Prateek, Girisha, Hari and Händel 2013; aids.md §6): the feet are
   never farther apart than a step, ``‖p_L − p_R‖ ≤ γ``. After each step, if the estimate violates
   it, the estimate is projected onto ``‖p_L − p_R‖ = γ`` with the covariance as the metric
-  (Simon and Chia 2002), the nearest point of that sphere exactly: with ``D = [I 0 −I 0 …]``,
-  ``d = p_L − p_R`` and ``C = D P Dᵀ``, ``s ← s − μ P Dᵀ (I + μ C)⁻¹ d``, the multiplier μ ≥ 0
-  found (bisected on C's eigenvalues) so that ``‖(I + μ C)⁻¹ d‖ = γ``. (Linearising the sphere
+  (Simon and Chia 2002), the nearest point of that sphere exactly
+  (:func:`hostlib.fusion.constraint.project_separation`). (Linearising the sphere
   at ``u = d/‖d‖`` and iterating, as the first versions did, did not always converge: twenty
   minutes without an aid, C's error ellipse is hundreds of square metres long across u, the step
   along ``P Dᵀ u`` swings the feet's difference round the sphere, and the iteration ended up to
@@ -128,9 +127,13 @@ from ..aids.compass import StanceReading
 from ..calibration.drift import DriftCalibration
 from ..calibration.magcal import MagCalibration
 from ..events import StepOutcome
-from ..track.steps import Track, is_motion_step, propagate, rotation_z, step_jacobian
-from .module_errors import through_step
-from .tracker import AidedFilter, AidIndices, FusionSettings, FusionTracker
+from ..track.steps import Track, is_motion_step, rotation_z
+from .aid_states import add_aid_states
+from .aided import AidedFilter
+from .constraint import project_separation
+from .core import StateFilter
+from .settings import FusionSettings
+from .tracker import FusionTracker
 
 __all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
 
@@ -192,7 +195,7 @@ class FootTracker(FusionTracker):
                  reading: StanceReading | None = None, time_s: float = math.nan) -> StepOutcome:
         outcome = super().add_step(dx, dp, counter, swing_time, reading=reading, time_s=time_s)
         if outcome is not StepOutcome.DUPLICATE and self.on_step is not None:
-            self.on_step(FootStep(self.side, self.track._steps[-1], np.asarray(dp, dtype=np.float64), time_s,
+            self.on_step(FootStep(self.side, self.track.last_step, np.asarray(dp, dtype=np.float64), time_s,
                                   outcome is StepOutcome.SUMMED_AFTER_GAP, float(swing_time),
                                   self.compass_heading(reading)))
         return outcome
@@ -243,31 +246,21 @@ class TwoFeetTracker(AidedFilter):
         self._lock = threading.Lock()
         self._deferred: list[FootStep] = []
         # both feet's poses, then each module's errors if held (the left's, then the right's), then
-        # the aid states (AidIndices): [b_n, b_e,] [d,] D
-        idx = AidIndices.of(self.aids)
+        # the aid states: [b_n, b_e,] [d,] D
         errors = self.aids.module_errors
-        self._errors = 0 if errors is None else errors.states  # per module: 0, or 3 to 5
-        self._s = np.concatenate([self.left.track._poses[0], self.right.track._poses[0],
-                                  np.zeros(2 * self._errors + idx.count)])
-        self._s[idx.declination] = self.aids.declination_rad
-        n = len(self._s)
-        self._p = np.zeros((n, n))
+        self.aid_settings = self.aids
+        self.filter = StateFilter()
+        for side in FOOT_SIDES:
+            self.filter.add_block(side, self.foot(side).track.initial_pose)
         if errors is not None:
-            for i in range(len(FOOT_SIDES)):
-                e = self._error_slice(i)
-                self._p[e, e] = errors.prior
-        if self.aids.gps_bias is not None:
-            for i in idx.gps_bias:
-                self._p[i, i] = self.aids.gps_bias.variance
-        if self.aids.compass_deviation is not None:
-            self._p[idx.deviation, idx.deviation] = self.aids.compass_deviation.variance
-        if self.aids.gps and self.aids.compass:
-            self._p[idx.declination, idx.declination] = self.aids.declination_sigma_rad ** 2
+            for side in FOOT_SIDES:
+                self.filter.add_block(f"errors.{side}", np.zeros(errors.states), errors.prior)
+            self.error_blocks = tuple(f"errors.{side}" for side in FOOT_SIDES)
+        add_aid_states(self.filter, self.aids)
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last
         # each foot's steps' times as its module's heading drift sees them (with the errors held)
-        errors = self.aids.module_errors
         self._drift_clocks = {side: errors.clock() for side in FOOT_SIDES} if errors is not None else {}
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
         self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
@@ -326,29 +319,19 @@ class TwoFeetTracker(AidedFilter):
 
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
-        block = slice(4 * i, 4 * i + 4)
-        # the other foot, [the modules' errors,] [b,] [d,] D
-        rest = np.r_[4 * (1 - i): 4 * (1 - i) + 4, 8: len(self._s)]
         if step.after_gap and len(self._sides) > 0:
             self._restart_at_other(i)
         # the stepping foot's block through the summation map, its cross terms through its Jacobian
-        chi = float(self._s[block][3])
-        f = step_jacobian(chi, step.dx)
-        pose, cov = propagate(self._s[block], self._p[block, block], step.dx, step.dp)
+        # (and through its module's errors, held)
         errors = self.aids.module_errors
         if errors is None:
-            self._p[block, rest] = f @ self._p[block, rest]
+            self.filter.step_pose(step.side, step.dx, step.dp)
         else:
-            # and through its module's errors (in the rest, 4 places earlier than in the state)
-            j = errors.jacobian(chi, step.dx, self._drift_clocks[step.side].span(step.dx, step.time_s))
-            e = self._error_slice(i)
-            pose, cov, self._p[block, rest] = through_step(
-                pose, cov, self._p[block, rest], f, j, self._s[rest], self._p[np.ix_(rest, rest)],
-                slice(e.start - 4, e.stop - 4))
-        self._p[rest, block] = self._p[block, rest].T
-        self._s[block] = pose
-        self._p[block, block] = cov
-        self._correct_drift(step, block)
+            chi = float(self.filter.x[self.filter.index(step.side, 3)])
+            span = self._drift_clocks[step.side].span(step.dx, step.time_s)
+            self.filter.step_pose(step.side, step.dx, step.dp, f"errors.{step.side}",
+                                  errors.jacobian(chi, step.dx, span))
+        self._correct_drift(step)
         self._since[step.side] = 0
         self._since[FOOT_SIDES[1 - i]] += 1
         self._sides.append(step.side)
@@ -359,7 +342,7 @@ class TwoFeetTracker(AidedFilter):
             # d walks with the body: the feet's midpoint moves half the stepping foot's step
             self._walk_deviation(0.5 * math.hypot(step.dx[0], step.dx[1]))
         if self.aids.compass:
-            self._compass_step(step.compass, 4 * i + 3, is_motion_step(step.dx))
+            self._compass_step(step.compass, step.side, is_motion_step(step.dx))
         if self.aids.gps:
             self._gps_until(self._time)
         if self._since[FOOT_SIDES[1 - i]] > 1:
@@ -367,17 +350,19 @@ class TwoFeetTracker(AidedFilter):
         elif float(np.linalg.norm(step.dx[:3])) > 2.0 * self.settings.max_separation_m:
             self.long_steps += 1  # the other foot moved meanwhile: its last rest is not where it is
         elif self.settings.constraint:
-            self._constrain()
+            self.projections += project_separation(self.filter, "left", "right",
+                                                   self.settings.max_separation_m)
         self._record()
 
-    def _correct_drift(self, step: FootStep, block: slice) -> None:
+    def _correct_drift(self, step: FootStep) -> None:
         calibration = self.drift.get(step.side)
         if calibration is None:
             return
         if not math.isfinite(step.swing_time):
             self.drift_uncorrected += 1
             return
-        self._s[block.start: block.start + 3] += calibration.velocity(self._frame_heading) * step.swing_time
+        position = slice(self.filter.index(step.side), self.filter.index(step.side) + 3)
+        self.filter.x[position] += calibration.velocity(self._frame_heading) * step.swing_time
 
     def _stale_foot(self) -> int:
         """0: both feet fresh; 1 + i: foot i is stale (the other stepped on without it)."""
@@ -388,95 +373,45 @@ class TwoFeetTracker(AidedFilter):
         """Foot *i* lost steps: put it where the other foot is, as uncertain as that foot plus γ
         in position and the restart σ in heading, correlated with it as a copy is (its module's
         errors stay; its next step drifts over no time: the heading is the other foot's)."""
-        a, b = slice(4 * i, 4 * i + 4), slice(4 * (1 - i), 4 * (1 - i) + 4)
-        self._s[a] = self._s[b]
-        self._p[a, :] = self._p[b, :]
-        self._p[:, a] = self._p[:, b]
-        self._p[a, a] = self._p[b, b] + np.diag([self.settings.max_separation_m ** 2] * 3
-                                                + [self.settings.restart_heading_sigma_rad ** 2])
+        a, b = self.filter.slice(FOOT_SIDES[i]), self.filter.slice(FOOT_SIDES[1 - i])
+        x, p = self.filter.x, self.filter.P
+        x[a] = x[b]
+        p[a, :] = p[b, :]
+        p[:, a] = p[:, b]
+        p[a, a] = p[b, b] + np.diag([self.settings.max_separation_m ** 2] * 3
+                                    + [self.settings.restart_heading_sigma_rad ** 2])
         if self._drift_clocks:
             self._drift_clocks[FOOT_SIDES[i]].lose_previous()
         self.restarts.append((FOOT_SIDES[i], len(self._sides) + 1))
 
-    def _constrain(self) -> None:
-        gamma = self.settings.max_separation_m
-        s, p = self._s, self._p
-        apart = s[0:3] - s[4:7]
-        if float(np.linalg.norm(apart)) <= gamma:
-            return
-        # the covariance-metric projection onto ‖p_L − p_R‖ = γ, exactly (module docstring):
-        # s ← s − μ P Dᵀ (I + μ C)⁻¹ d, C = D P Dᵀ, with μ ≥ 0 making ‖(I + μ C)⁻¹ d‖ = γ
-        p_d = p[:, 0:3] - p[:, 4:7]  # P Dᵀ, D = [I 0 −I 0 …]
-        c = p_d[0:3] - p_d[4:7]
-        lam, v = np.linalg.eigh(0.5 * (c + c.T))
-        lam = np.clip(lam, 0.0, None)
-        a = v.T @ apart
-        if float(np.sum(a[lam <= 1e-18] ** 2)) >= gamma ** 2:
-            return  # the violation lies where both feet are known exactly: nothing to move
-
-        def apart_at(mu: float) -> np.ndarray:
-            return v @ (a / (1.0 + mu * lam))
-
-        lo, hi = 0.0, 1.0 / max(float(lam.max()), 1e-18)
-        while float(np.linalg.norm(apart_at(hi))) > gamma:
-            lo, hi = hi, 2.0 * hi
-        for _ in range(200):  # ‖·‖ falls as μ grows: bisect to the float's resolution
-            mid = 0.5 * (lo + hi)
-            if mid in (lo, hi):
-                break
-            lo, hi = (mid, hi) if float(np.linalg.norm(apart_at(mid))) > gamma else (lo, mid)
-        self._s = s - hi * (p_d @ apart_at(hi))  # the covariance stays: module docstring
-        self.projections += 1
-
     def _record(self) -> None:
-        self._states.append(self._s.copy())
-        self._covs.append(self._p.copy())
+        self._states.append(self.filter.x.copy())
+        self._covs.append(self.filter.P.copy())
         self._stale.append(self._stale_foot())
         self._counts.append((self._fused["left"], self._fused["right"]))
 
-    # -- the aids' view of the joint state -------------------------------------------------
+    # -- what the aids need of the joint state ----------------------------------------------
 
-    _heading_indices = (3, 7)
-
-    def _error_slice(self, i: int) -> slice:
-        """Where foot *i*'s module's errors [s, c, k, [r]] are in the joint state (empty: not held)."""
-        return slice(8 + self._errors * i, 8 + self._errors * (i + 1))
-
-    def _heading_carried(self) -> list[int]:
-        return list(range(8, 8 + 2 * self._errors))
-
-    @property
-    def aid_settings(self) -> FusionSettings:
-        return self.aids
-
-    def _aid_state(self) -> tuple[np.ndarray, np.ndarray]:
-        return self._s.copy(), self._p.copy()
-
-    def _aid_set_state(self, x: np.ndarray, p: np.ndarray) -> None:
-        self._s, self._p = x.copy(), p.copy()
+    pose_blocks = FOOT_SIDES
 
     def _gps_rows(self) -> np.ndarray:
         """A fix measures the body: the feet's midpoint, or the fresh foot while the other is stale."""
-        return _body_rows(len(self._s))[self._stale_foot()][:2]
-
-    def _origin_rows(self) -> np.ndarray:
-        rows = np.zeros((2, len(self._s)))
-        rows[0, [0, 4]] = rows[1, [1, 5]] = 1.0
-        return rows
+        return self._body_rows()[self._stale_foot()][:2]
 
     def _travelled(self) -> np.ndarray:
-        return self._gps_rows() @ (self._s - self._states[0])
+        return self._gps_rows() @ (self.filter.x - self._states[0])
 
     def _rotate_frame(self, turn: float) -> None:
         """Turn both feet, now and in every recorded row, about the origin (the body's start)."""
-        t = np.eye(len(self._s))
-        t[0:3, 0:3] = t[4:7, 4:7] = rotation_z(turn)
-        shift = np.zeros(len(self._s))
-        shift[[3, 7]] = turn
+        t = np.eye(len(self.filter))
+        shift = np.zeros(len(self.filter))
+        for side in FOOT_SIDES:
+            position = self.filter.index(side)
+            t[position: position + 3, position: position + 3] = rotation_z(turn)
+            shift[self.filter.index(side, 3)] = turn
         self._states = [t @ s + shift for s in self._states]
         self._covs = [t @ c @ t.T for c in self._covs]
-        self._s = t @ self._s + shift
-        self._p = t @ self._p @ t.T
+        self.filter.transform(t, shift)
         self._frame_heading += turn
 
     # -- results --------------------------------------------------------------------------
@@ -484,12 +419,13 @@ class TwoFeetTracker(AidedFilter):
     @property
     def state(self) -> np.ndarray:
         """The joint state [x_L, y_L, z_L, χ_L, x_R, y_R, z_R, χ_R] (a copy)."""
-        return self._s[:8].copy()
+        return self.filter.x[self.filter.indices(*FOOT_SIDES)]
 
     @property
     def covariance(self) -> np.ndarray:
         """Its 8×8 covariance (a copy)."""
-        return self._p[:8, :8].copy()
+        feet = self.filter.indices(*FOOT_SIDES)
+        return self.filter.P[np.ix_(feet, feet)]
 
     def module_errors(self, side: str) -> tuple[float, ...] | None:
         """The estimated errors of *side*'s module: its step-length scale s, climb c [m/m] and turn
@@ -497,15 +433,14 @@ class TwoFeetTracker(AidedFilter):
         if self.aids.module_errors is None:
             return None
         with self._lock:
-            return tuple(float(v) for v in self._s[self._error_slice(FOOT_SIDES.index(side))])
+            return tuple(float(v) for v in self.filter.mean(f"errors.{side}"))
 
     def module_error_sigmas(self, side: str) -> np.ndarray | None:
         """The 1σ of :meth:`module_errors` (None: not held)."""
         if self.aids.module_errors is None:
             return None
-        e = self._error_slice(FOOT_SIDES.index(side))
         with self._lock:
-            return np.sqrt(np.clip(np.diagonal(self._p)[e], 0.0, None))
+            return np.sqrt(np.clip(np.diagonal(self.filter.covariance(f"errors.{side}")), 0.0, None))
 
     @property
     def sides(self) -> list[str]:
@@ -518,7 +453,7 @@ class TwoFeetTracker(AidedFilter):
         while one foot is stale, the other foot."""
         with self._lock:
             states, covs, stale = np.array(self._states), np.array(self._covs), np.array(self._stale)
-        return _body_track(states, covs, stale)
+        return _body_track(states, covs, self._body_rows()[stale])
 
     @property
     def average(self) -> Track:
@@ -527,12 +462,22 @@ class TwoFeetTracker(AidedFilter):
         with self._lock:
             counts, stale = np.array(self._counts), np.array(self._stale)
         single = [self._single_poses(side)[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
-        covs = [np.array(self.foot(side).track._covs)[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
-        states = np.zeros((len(stale), 9))
-        states[:, 0:4], states[:, 4:8] = single
-        joint = np.zeros((len(stale), 9, 9))
-        joint[:, 0:4, 0:4], joint[:, 4:8, 4:8] = covs
-        return _body_track(states, joint, stale)
+        covs = [self.foot(side).track.covariances[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
+        n = len(self.filter)
+        states, joint = np.zeros((len(stale), n)), np.zeros((len(stale), n, n))
+        for side, poses, cov in zip(FOOT_SIDES, single, covs, strict=True):
+            b = self.filter.slice(side)
+            states[:, b], joint[:, b, b] = poses, cov
+        return _body_track(states, joint, self._body_rows()[stale])
+
+    def _body_rows(self) -> np.ndarray:
+        """(3, 4, n): the body pose from the joint state — the midpoint; the right foot while the
+        left is stale; the left foot while the right is stale."""
+        def pose_rows(weights: dict[str, float]) -> np.ndarray:
+            return np.stack([self.filter.row({(side, k): w for side, w in weights.items()})
+                             for k in range(4)])
+        return np.stack([pose_rows({"left": 0.5, "right": 0.5}), pose_rows({"right": 1.0}),
+                         pose_rows({"left": 1.0})])
 
     def _single_poses(self, side: str) -> np.ndarray:
         """One foot's single-module track, drift-corrected with its calibration (steps without a
@@ -548,22 +493,23 @@ class TwoFeetTracker(AidedFilter):
 
     def fused_foot(self, side: str) -> np.ndarray:
         """(n + 1, 4) the fused poses of *side* after each fused step (row 0: the start)."""
-        i = FOOT_SIDES.index(side)
+        b = self.filter.slice(side)
         with self._lock:
-            return np.array([s[4 * i: 4 * i + 4] for s in self._states])
+            return np.array([s[b] for s in self._states])
 
     def fused_foot_sigmas(self, side: str) -> np.ndarray:
         """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
-        i = FOOT_SIDES.index(side)
+        b = self.filter.slice(side)
         with self._lock:
-            var = np.array([np.diagonal(c)[4 * i: 4 * i + 4] for c in self._covs])
+            var = np.array([np.diagonal(c)[b] for c in self._covs])
         return np.sqrt(np.clip(var, 0.0, None))
 
     def separation(self) -> np.ndarray:
         """(n + 1,) the fused feet's distance apart after each fused step [m]."""
         with self._lock:
             feet = np.array(self._states)
-        return np.linalg.norm(feet[:, 0:3] - feet[:, 4:7], axis=1)
+        left, right = self.filter.index("left"), self.filter.index("right")
+        return np.linalg.norm(feet[:, left:left + 3] - feet[:, right:right + 3], axis=1)
 
     def __len__(self) -> int:
         return len(self._sides)
@@ -575,19 +521,9 @@ class TwoFeetTracker(AidedFilter):
                 f"{len(self.restarts)} restarts)")
 
 
-def _body_rows(width: int = 9) -> np.ndarray:
-    """(3, 4, width): the body pose from the joint state of *width* (the feet's poses, then [the
-    modules' errors,] [b,] [d,] D) — the midpoint; the right foot while the left is stale; the left
-    foot while the right is stale."""
-    mid = np.hstack([0.5 * np.eye(4), 0.5 * np.eye(4), np.zeros((4, width - 8))])
-    left, right = np.zeros((4, width)), np.zeros((4, width))
-    left[:, 0:4] = right[:, 4:8] = np.eye(4)
-    return np.stack([mid, right, left])
-
-
-def _body_track(states: np.ndarray, covs: np.ndarray, stale: np.ndarray) -> Track:
-    """The body's track from (n, m) joint states, their (n, m, m) covariances and stale codes."""
-    m = _body_rows(states.shape[1])[stale]
+def _body_track(states: np.ndarray, covs: np.ndarray, m: np.ndarray) -> Track:
+    """The body's track from (n, k) joint states, their (n, k, k) covariances and each row's (4, k)
+    body rows *m* (:meth:`TwoFeetTracker._body_rows`)."""
     poses = np.einsum("kij,kj->ki", m, states)
     return Track.from_arrays(poses, m @ covs @ np.transpose(m, (0, 2, 1)))
 

@@ -250,7 +250,7 @@ class HostSession:
             events.append(gap)
         track = self.tracker.track
         events.append(
-            StepEvent(step, number, outcome, track._poses[-1].copy(), track._covs[-1].copy(), len(track),
+            StepEvent(step, number, outcome, track.final_pose, track.final_covariance, len(track),
                       swing_time)
         )
 

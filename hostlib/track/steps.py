@@ -163,14 +163,37 @@ class Track:
         self.distance: float = 0.0  #: sum of the horizontal step lengths [m]
         self.gaps: list[GapEvent] = []  #: every gap in the step counter, in order
 
-    def _append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int,
-                swing_time: float = math.nan) -> None:
+    def append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int,
+               swing_time: float = math.nan) -> None:
+        """Add the pose *pose* (4,) and covariance *cov* (4×4) after a step *dx* (4,) numbered
+        *counter*, with its swing time [s] (NaN: none); the arrays are kept, not copied."""
         self._poses.append(pose)
         self._covs.append(cov)
         self._steps.append(dx)
         self._counters.append(counter)
         self._swing_times.append(float(swing_time))
         self.distance += math.hypot(float(dx[0]), float(dx[1]))
+
+    def replace_last(self, pose: np.ndarray, cov: np.ndarray) -> None:
+        """The last pose and covariance as a filter corrected them (copies are kept)."""
+        self._poses[-1] = np.array(pose, dtype=np.float64)
+        self._covs[-1] = np.array(cov, dtype=np.float64)
+
+    def rotate_about_start(self, turn: float) -> None:
+        """Turn every pose about the start by *turn* [rad]: positions about the first one, every
+        heading by *turn*, and each covariance with them (an aid aligned the frame)."""
+        r = rotation_z(turn)
+        start = self._poses[0][:3].copy()
+        for k in range(len(self._poses)):
+            p = self._poses[k].copy()
+            p[:3] = start + r @ (p[:3] - start)
+            p[3] += turn
+            self._poses[k] = p
+            c = self._covs[k].copy()
+            c[:3, :3] = r @ c[:3, :3] @ r.T
+            c[:3, 3] = r @ c[:3, 3]
+            c[3, :3] = c[:3, 3]
+            self._covs[k] = c
 
     @classmethod
     def from_arrays(
@@ -213,7 +236,7 @@ class Track:
         for k in range(n):
             if prev is not None and counter_delta(prev, cnt[k]) > 1:
                 track.gaps.append(GapEvent(prev, cnt[k], counter_delta(prev, cnt[k]) - 1, k + 1))
-            track._append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k], swings[k])
+            track.append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k], swings[k])
             prev = cnt[k]
         return track
 
@@ -260,6 +283,11 @@ class Track:
         return np.array(self._steps).reshape(-1, 4)
 
     @property
+    def last_step(self) -> np.ndarray | None:
+        """The last summed step's dx (4,) as received (None: no step yet)."""
+        return self._steps[-1] if self._steps else None
+
+    @property
     def counters(self) -> np.ndarray:
         """(n,) uint16: the summed steps' counters."""
         return np.array(self._counters, dtype=np.uint16)
@@ -284,6 +312,11 @@ class Track:
     def missing(self) -> int:
         """Total number of steps lost in gaps."""
         return sum(g.missing for g in self.gaps)
+
+    @property
+    def initial_pose(self) -> np.ndarray:
+        """The pose before the first step [x, y, z, χ] (a copy)."""
+        return self._poses[0].copy()
 
     @property
     def final_pose(self) -> np.ndarray:
@@ -429,19 +462,30 @@ class StepTracker:
         dpa = np.asarray(dp, dtype=np.float64)
         if dxa.shape != (4,) or dpa.shape != (4, 4):
             raise ValueError(f"a step needs dx (4,) and dp (4, 4); got {dxa.shape} and {dpa.shape}")
-        outcome = StepOutcome.SUMMED
-        if self._last is not None:
-            delta = counter_delta(self._last, counter)
-            if delta <= 0:
-                self.duplicates += 1
-                return StepOutcome.DUPLICATE
-            if delta > 1:
-                self.track.gaps.append(GapEvent(self._last, counter, delta - 1, len(self.track) + 1))
-                outcome = StepOutcome.SUMMED_AFTER_GAP
-        pose, cov = propagate(self.track._poses[-1], self.track._covs[-1], dxa, dpa)
-        self.track._append(pose, cov, dxa.copy(), counter, swing_time)
-        self._last = counter
+        outcome = self._admit(counter)
+        if outcome is not StepOutcome.DUPLICATE:
+            self._sum(dxa, dpa, counter, swing_time)
+            self._last = counter
         return outcome
+
+    def _admit(self, counter: int) -> StepOutcome:
+        """Whether step *counter* is summed: a resend is counted and left out, a jump in the
+        counter is recorded as a gap."""
+        if self._last is None:
+            return StepOutcome.SUMMED
+        delta = counter_delta(self._last, counter)
+        if delta <= 0:
+            self.duplicates += 1
+            return StepOutcome.DUPLICATE
+        if delta > 1:
+            self.track.gaps.append(GapEvent(self._last, counter, delta - 1, len(self.track) + 1))
+            return StepOutcome.SUMMED_AFTER_GAP
+        return StepOutcome.SUMMED
+
+    def _sum(self, dx: np.ndarray, dp: np.ndarray, counter: int, swing_time: float) -> None:
+        """Sum one admitted step into the track (the summation map)."""
+        pose, cov = propagate(self.track.final_pose, self.track.final_covariance, dx, dp)
+        self.track.append(pose, cov, dx.copy(), counter, swing_time)
 
     def extend(self, steps: Iterable[StepLike]) -> Track:
         """Sum many steps in order; returns the track."""

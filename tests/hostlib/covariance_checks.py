@@ -27,4 +27,4 @@ def walk_two_feet_at_random(feet: TwoFeetTracker, rng: np.random.Generator, step
         reading = None if rng.random() < 0.1 else rng.uniform(-3, 3)
         feet.take(FootStep(side, dx, np.diag(rng.uniform(1e-6, 1e-2, 4)), 0.5 * (n + 1),
                            after_gap=rng.random() < 0.03, compass=reading))
-        assert_symmetric_psd(feet._p)
+        assert_symmetric_psd(feet.filter.P)

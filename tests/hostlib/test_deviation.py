@@ -72,7 +72,8 @@ def _pinned_walks() -> list:
                                  reading=_reading(0.07, math.radians(6.0 + 3 * rng.standard_normal())),
                                  time_s=0.55 * (n + 1))
     body = feet.body
-    out += [feet._s, feet._p, body.poses, body.covariances, feet.average.poses, [feet.separation()[-1]]]
+    out += [feet.filter.x, feet.filter.P, body.poses, body.covariances, feet.average.poses,
+            [feet.separation()[-1]]]
     return out
 
 
@@ -99,7 +100,7 @@ def test_not_held_there_is_no_deviation_state():
     assert f.deviation is None and f.deviation_sigma is None
     assert f.state_covariance.shape == (5, 5) and f.module_errors is None
     feet = TwoFeetTracker(aids=FusionSettings(compass=True))
-    assert feet._p.shape == (9, 9) and feet.deviation is None
+    assert feet.filter.P.shape == (9, 9) and feet.deviation is None
 
 
 # -- the process ------------------------------------------------------------------------
@@ -132,9 +133,8 @@ def test_walked_without_readings_the_deviation_relaxes_to_its_stationary_varianc
     track is the plain sum."""
     dev = CompassDeviation(math.radians(sigma_deg), length)
     f, plain = FusionTracker(FusionSettings(compass_deviation=dev)), StepTracker()
-    x, p = f._aid_state()
+    x, p = f.filter.x, f.filter.P
     x[-2], p[-2, -2] = d0, v0 * dev.variance
-    f._aid_set_state(x, p)
     for k, s in enumerate(steps):
         for t in (f, plain):
             t.add_step([0.6 * s, 0.8 * s, 0.01, 0.0], DP, k + 1)
@@ -317,12 +317,12 @@ def test_two_feet_share_one_deviation_which_walks_with_the_body():
     left foot's stride then moves the body, and d, by half of it."""
     dev = CompassDeviation(math.radians(10.0), 5.0)
     feet = _feet(dev, WHITE_SIGMA_RAD)
-    assert feet._p.shape == (10, 10) and feet.deviation_sigma == pytest.approx(dev.sigma_rad)
+    assert feet.filter.P.shape == (10, 10) and feet.deviation_sigma == pytest.approx(dev.sigma_rad)
     feet.right.add_step([0.5 * STRIDE, 0.0, 0.0, 0.0], DP, 1, 0.4, reading=_reading(0.3), time_s=0.55)
-    assert feet._p[7, 8] == pytest.approx(dev.variance)
+    assert feet.filter.P[7, 8] == pytest.approx(dev.variance)
     feet.left.add_step([STRIDE, 0.0, 0.0, 0.0], DP, 1, 0.4, reading=None, time_s=1.1)
-    assert feet._p[7, 8] == pytest.approx(math.exp(-0.5 * STRIDE / dev.length_m) * dev.variance)
-    assert feet._p[8, 8] == pytest.approx(dev.variance)
+    assert feet.filter.P[7, 8] == pytest.approx(math.exp(-0.5 * STRIDE / dev.length_m) * dev.variance)
+    assert feet.filter.P[8, 8] == pytest.approx(dev.variance)
     # the left foot's reading, where the right foot's was, says the same: no innovation
     feet.right.add_step([STRIDE, 0.0, 0.0, 0.0], DP, 2, 0.4, reading=_reading(0.3), time_s=1.65)
     assert feet.fusion.compass_innovations[-1][1] == pytest.approx(0.0, abs=1e-12)

@@ -12,6 +12,7 @@ import pytest
 from hostlib.aids.compass import StanceReading
 from hostlib.calibration.drift import DriftCalibration
 from hostlib.calibration.magcal import MagCalibration
+from hostlib.fusion.constraint import project_separation
 from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from hostlib.fusion.tracker import FusionSettings
 from hostlib.track.steps import rotation_z
@@ -159,10 +160,11 @@ def test_calibrations_name_a_foot_and_belong_to_one_module():
 def test_a_projection_onto_the_bound_moves_the_estimate_and_keeps_the_covariance():
     tracker = TwoFeetTracker(aids=FusionSettings(compass=True, compass_sigma_rad=math.radians(10.0)))
     _walk(tracker, 3, heading=0.3)
-    before, p = tracker._s.copy(), tracker._p.copy()
-    tracker._s[4:6] += [2.0, 0.5]  # the right foot's estimate now 2 m ahead of the left
-    tracker._constrain()
-    assert tracker.projections == 1
-    assert np.linalg.norm(tracker._s[0:3] - tracker._s[4:7]) == pytest.approx(1.0)
-    assert np.array_equal(tracker._p, p)
-    assert not np.array_equal(tracker._s, before)
+    before, p = tracker.filter.x.copy(), tracker.filter.P.copy()
+    right = tracker.filter.index("right")
+    tracker.filter.x[right:right + 2] += [2.0, 0.5]  # the right foot's estimate now 2 m ahead of the left
+    assert project_separation(tracker.filter, "left", "right", tracker.settings.max_separation_m)
+    apart = tracker.filter.mean("left")[:3] - tracker.filter.mean("right")[:3]
+    assert np.linalg.norm(apart) == pytest.approx(1.0)
+    assert np.array_equal(tracker.filter.P, p)
+    assert not np.array_equal(tracker.filter.x, before)

@@ -20,7 +20,7 @@ from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion.feet import FOOT_SIDES, FeetSettings, FootStep, TwoFeetTracker
 from hostlib.fusion.gps_bias import GpsBias
 from hostlib.fusion.module_errors import EMULATED_MODULE, ModuleErrors
-from hostlib.fusion.tracker import AidIndices, FusionSettings, FusionTracker
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.track.steps import rotation_z
 
 from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
@@ -34,7 +34,7 @@ ERRORS = ModuleErrors(0.002, 0.003, 0.01, math.radians(20.0) / 3600.0)
 
 def _errors(feet: TwoFeetTracker, side: str) -> slice:
     """Where *side*'s module's errors are in the joint state."""
-    return feet._error_slice(FOOT_SIDES.index(side))
+    return feet.filter.slice(f"errors.{side}")
 
 
 def _walk_steps(seed: int, strides: int = 60) -> list[tuple[str, np.ndarray, float]]:
@@ -77,7 +77,7 @@ def test_without_aids_the_errors_leave_both_feet_and_widen_each_as_its_single_mo
     for feet in (held, plain):
         _feed(feet, steps)
     assert held.projections == plain.projections == 0 and len(held) == len(steps)
-    assert held._p.shape == (8 + 2 * errors.states + 1,) * 2
+    assert held.filter.P.shape == (8 + 2 * errors.states + 1,) * 2
     for i, side in enumerate(FOOT_SIDES):
         assert np.array_equal(held.fused_foot(side), plain.fused_foot(side))
         single = FusionTracker(FusionSettings(module_errors=errors), position=plain.fused_foot(side)[0, :3])
@@ -86,12 +86,13 @@ def test_without_aids_the_errors_leave_both_feet_and_widen_each_as_its_single_mo
         rows = [0] + [n + 1 for n, stepped in enumerate(held.sides) if stepped == side]  # row 0: the start
         np.testing.assert_allclose(np.array(held._covs)[rows][:, 4 * i: 4 * i + 4, 4 * i: 4 * i + 4],
                                    single.track.covariances, rtol=1e-12, atol=1e-18)
-        np.testing.assert_allclose(held._p[_errors(held, side), _errors(held, side)], errors.prior, rtol=0,
+        e = _errors(held, side)
+        np.testing.assert_allclose(held.filter.P[e, e], errors.prior, rtol=0,
                                    atol=0)
         assert held.module_errors(side) == (0.0,) * errors.states
         # the plain filter's covariance is narrower: the errors grow with the distance and the turns
         assert np.all(held.fused_foot_sigmas(side)[-1] > plain.fused_foot_sigmas(side)[-1])
-    assert not held._p[_errors(held, "left"), _errors(held, "right")].any()
+    assert not held.filter.P[_errors(held, "left"), _errors(held, "right")].any()
 
 
 def test_without_aids_the_modules_errors_stay_uncorrelated_through_the_constraint_and_restarts():
@@ -100,26 +101,28 @@ def test_without_aids_the_modules_errors_stay_uncorrelated_through_the_constrain
     feet = TwoFeetTracker(FeetSettings(max_separation_m=0.8), aids=FusionSettings(module_errors=ERRORS))
     walk_two_feet_at_random(feet, np.random.default_rng(8), steps=120)
     assert feet.projections > 0 and feet.restarts
-    assert not feet._p[_errors(feet, "left"), _errors(feet, "right")].any()
+    assert not feet.filter.P[_errors(feet, "left"), _errors(feet, "right")].any()
     for side in FOOT_SIDES:
-        np.testing.assert_array_equal(feet._p[_errors(feet, side), _errors(feet, side)], ERRORS.prior)
+        np.testing.assert_array_equal(feet.filter.P[_errors(feet, side), _errors(feet, side)], ERRORS.prior)
 
 
 def test_not_held_the_joint_state_is_the_feet_and_the_aid_states():
     feet = TwoFeetTracker(aids=FusionSettings(gps=True, gps_bias=GpsBias(), compass=True,
                                               compass_deviation=OUTDOORS))
-    assert feet._p.shape == (12, 12) and feet.module_errors("left") is None
+    assert feet.filter.P.shape == (12, 12) and feet.module_errors("left") is None
     assert feet.module_error_sigmas("right") is None
 
 
 def test_the_errors_sit_after_both_feet_and_the_aid_states_last():
     """[L, R, s_L, c_L, k_L, r_L, s_R, c_R, k_R, r_R, b_n, b_e, d, D]: each module's priors where
-    its errors are, the aid states where :class:`AidIndices` says, read back by the properties."""
+    its errors are, the aid states after them (b, d, D: four), read back by the properties."""
     s = FusionSettings(compass=True, gps=True, gps_bias=GpsBias(sigma_m=2.0), compass_deviation=OUTDOORS,
                        module_errors=ERRORS, declination_rad=0.1, declination_sigma_rad=0.2)
     feet = TwoFeetTracker(aids=s)
-    idx = AidIndices.of(s)
-    assert feet._p.shape == (8 + 8 + idx.count,) * 2
+    aid_states = 4  # b_n, b_e, d, D
+    assert list(feet.filter.blocks) == ["left", "right", "errors.left", "errors.right",
+                                        "gps_bias", "deviation", "declination"]
+    assert feet.filter.P.shape == (8 + 8 + aid_states,) * 2
     assert _errors(feet, "left") == slice(8, 12) and _errors(feet, "right") == slice(12, 16)
     np.testing.assert_array_equal(feet.module_error_sigmas("left"),
                                   [0.002, 0.003, 0.01, ERRORS.heading_drift_sigma])
@@ -127,7 +130,7 @@ def test_the_errors_sit_after_both_feet_and_the_aid_states_last():
     assert feet.gps_bias_sigma[0] == 2.0 and feet.deviation_sigma == OUTDOORS.sigma_rad
     assert feet.state.shape == (8,) and feet.covariance.shape == (8, 8)
     # each foot's own tracker holds its module's errors on its own
-    assert all(feet.foot(side).state_covariance.shape == (4 + 4 + idx.count,) * 2 for side in FOOT_SIDES)
+    assert all(feet.foot(side).state_covariance.shape == (4 + 4 + aid_states,) * 2 for side in FOOT_SIDES)
 
 
 # -- learned from the aids ------------------------------------------------------------------
@@ -168,7 +171,7 @@ def test_gps_of_the_body_and_the_constraint_teach_the_short_modules_step_length_
     assert abs(held.body.final_pose[0] - truth) < 0.5 < abs(plain.body.final_pose[0] - truth)
     # GPS measures the sum: the two modules' scales are now correlated, negatively
     e_l, e_r = _errors(held, "left").start, _errors(held, "right").start
-    assert held._p[e_l, e_r] < 0.0
+    assert held.filter.P[e_l, e_r] < 0.0
     # without the constraint nothing tells the feet apart: each learns half
     apart = _gps_walk(errors, constraint=False)
     s = [apart.module_errors(side)[0] for side in FOOT_SIDES]
@@ -259,16 +262,16 @@ def test_the_first_reading_keeps_each_headings_covariance_with_the_turn_scales_r
                                               module_errors=errors))
     feet.take(FootStep("right", np.array([0.7, 0.0, 0.0, 1.0]), DP, 0.55, False, compass=None))
     feet.take(FootStep("left", np.array([1.4, 0.0, 0.0, 0.5]), DP, 1.1, False, compass=None))
-    before = feet._p.copy()
+    before = feet.filter.P.copy()
     feet.take(FootStep("right", np.zeros(4), DP, 1.65, False, compass=0.2))
     assert feet.fusion.heading_aligned_by == "compass"
     k_left, k_right = _errors(feet, "left").start + 2, _errors(feet, "right").start + 2
     for k in (k_left, k_right):
-        assert feet._p[3, k] == pytest.approx(before[3, k] - before[7, k])
-        assert feet._p[7, k] == 0.0
-    assert feet._p[3, k_left] == pytest.approx(0.5 * 0.05 ** 2)
-    assert feet._p[3, k_right] == pytest.approx(-1.0 * 0.05 ** 2)
-    assert_symmetric_psd(feet._p)
+        assert feet.filter.P[3, k] == pytest.approx(before[3, k] - before[7, k])
+        assert feet.filter.P[7, k] == 0.0
+    assert feet.filter.P[3, k_left] == pytest.approx(0.5 * 0.05 ** 2)
+    assert feet.filter.P[3, k_right] == pytest.approx(-1.0 * 0.05 ** 2)
+    assert_symmetric_psd(feet.filter.P)
     assert feet.state[3] == pytest.approx(0.2 - 1.0 + 0.5) and feet.state[7] == pytest.approx(0.2)
     assert np.allclose(feet.state[4:6], rotation_z(0.2 - 1.0)[:2, :2] @ [0.7, 0.06])
 

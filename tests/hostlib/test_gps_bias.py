@@ -17,7 +17,7 @@ from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion.feet import FOOT_SIDES, TwoFeetTracker
 from hostlib.fusion.gps_bias import GpsBias
 from hostlib.fusion.module_errors import ModuleErrors
-from hostlib.fusion.tracker import AidIndices, FusionSettings, FusionTracker
+from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.track.steps import StepTracker, rotation_z
 
 from .covariance_checks import assert_symmetric_psd, walk_two_feet_at_random
@@ -74,7 +74,7 @@ def _pinned_gps_walks() -> bytes:
             reading = _reading(0.6, math.radians(7.7 + 3 * rng.standard_normal()))
             feet.foot(side).add_step(dx, DP, counter[side], 0.4, reading=reading, time_s=0.55 * (n + 1))
         body = feet.body
-        out += [feet._s, feet._p, body.poses, body.covariances, feet.average.poses,
+        out += [feet.filter.x, feet.filter.P, body.poses, body.covariances, feet.average.poses,
                 [feet.fusion.gps_updates, feet.fusion.gps_skipped, feet.left.fusion.gps_updates]]
     return out
 
@@ -103,8 +103,8 @@ def test_not_held_there_is_no_bias_state_and_fixes_are_white_every_10_s():
     f = FusionTracker(s)
     assert f.gps_bias is None and f.gps_bias_sigma is None
     assert f.state_covariance.shape == (5, 5)
-    assert AidIndices.of(s) == AidIndices(-1, None, None) and AidIndices.of(s).count == 1
-    assert TwoFeetTracker(aids=s)._p.shape == (9, 9)
+    assert list(f.filter.blocks) == ["pose", "declination"]
+    assert TwoFeetTracker(aids=s).filter.P.shape == (9, 9)
 
 
 # -- the model ------------------------------------------------------------------------------
@@ -139,16 +139,16 @@ def test_the_defaults_are_the_receivers_specification_and_the_process_is_markov_
 @pytest.mark.parametrize("deviation", [None, OUTDOORS], ids=["", "deviation"])
 def test_the_bias_sits_before_the_deviation_and_the_declination_last(errors, deviation):
     """[x, y, z, χ, [s, c, k,] b_n, b_e, [d,] D] for one foot, [L, R, b_n, b_e, [d,] D] for two:
-    the priors where :class:`AidIndices` says, read back by the filter's properties."""
+    the priors in those blocks, read back by the filter's properties."""
     bias = GpsBias(sigma_m=2.0)
     s = FusionSettings(compass=True, gps=True, gps_bias=bias, compass_deviation=deviation,
                        module_errors=errors, declination_rad=0.1, declination_sigma_rad=0.2)
-    idx = AidIndices.of(s)
-    assert idx.declination == -1 and idx.count == 3 + (deviation is not None)
-    assert idx.deviation == (-2 if deviation is not None else None)
-    assert idx.gps_bias == ((-4, -3) if deviation is not None else (-3, -2))
     f = FusionTracker(s)
-    n = 4 + (3 if errors is not None else 0) + idx.count
+    aid_blocks = ["gps_bias"] + (["deviation"] if deviation is not None else []) + ["declination"]
+    assert list(f.filter.blocks) == ["pose"] + (["errors"] if errors is not None else []) + aid_blocks
+    aid_states = 3 + (deviation is not None)
+    assert f.filter.index("declination") == len(f.filter) - 1
+    n = 4 + (3 if errors is not None else 0) + aid_states
     p = f.state_covariance
     assert p.shape == (n, n)
     b = 4 + (3 if errors is not None else 0)
@@ -157,8 +157,8 @@ def test_the_bias_sits_before_the_deviation_and_the_declination_last(errors, dev
     if deviation is not None:
         assert p[b + 2, b + 2] == deviation.variance and f.deviation_sigma == deviation.sigma_rad
     feet = TwoFeetTracker(aids=replace(s, module_errors=None))
-    assert feet._p.shape == (8 + idx.count, 8 + idx.count)
-    assert feet._p[8, 8] == feet._p[9, 9] == 4.0 and feet._s[-1] == 0.1
+    assert feet.filter.P.shape == (8 + aid_states, 8 + aid_states)
+    assert feet.filter.P[8, 8] == feet.filter.P[9, 9] == 4.0 and feet.filter.x[-1] == 0.1
     assert feet.gps_bias_sigma[0] == 2.0 and feet.declination_sigma == 0.2
 
 
@@ -174,9 +174,8 @@ def test_without_fixes_the_bias_relaxes_to_its_stationary_variance(sigma, tau, v
     times = np.cumsum([0.0, *gaps])
     f.add_step([0.6, 0.8, 0.0, 0.0], DP, 1, time_s=0.0)  # b's clock starts
     plain.add_step([0.6, 0.8, 0.0, 0.0], DP, 1)
-    x, p = f._aid_state()
+    x, p = f.filter.x, f.filter.P
     x[[-3, -2]], p[-3, -3], p[-2, -2] = (b0, -b0), v0 * bias.variance, v0 * bias.variance
-    f._aid_set_state(x, p)
     for k, t in enumerate(times[1:]):
         f.add_step([0.6, 0.8, 0.01, 0.0], DP, k + 2, time_s=float(t))
         plain.add_step([0.6, 0.8, 0.01, 0.0], DP, k + 2)
@@ -351,15 +350,16 @@ def test_two_feet_hold_one_bias_for_the_body():
     position is correlated −σ_b² with b, as the body's is; each foot's own tracker holds its own."""
     bias = GpsBias()
     feet = TwoFeetTracker(aids=FusionSettings(gps=True, compass=True, gps_bias=bias, compass_sigma_rad=0.01))
-    assert feet._p.shape == (11, 11)
+    assert feet.filter.P.shape == (11, 11)
     feet.add_fixes([0.0, 300.0], [[0.0, 0.0], [400.0, 0.0]])
     feet.right.add_step([0.5 * STRIDE, 0.0, 0.0, 0.0], DP, 1, 0.4, reading=_reading(0.0), time_s=0.55)
     phi, _ = bias.transition(0.55)
     for foot in (0, 4):
-        np.testing.assert_allclose(feet._p[foot: foot + 2, 8:10], -phi * bias.variance * np.eye(2),
+        np.testing.assert_allclose(feet.filter.P[foot: foot + 2, 8:10], -phi * bias.variance * np.eye(2),
                                    rtol=1e-12)
     body = feet.body.final_covariance
-    assert body[0, 0] == pytest.approx(feet._p[0, 0] / 4 + feet._p[4, 4] / 4 + feet._p[0, 4] / 2)
+    p = feet.filter.P
+    assert body[0, 0] == pytest.approx(p[0, 0] / 4 + p[4, 4] / 4 + p[0, 4] / 2)
     assert body[0, 0] > bias.variance + bias.white_sigma_m ** 2
     assert all(np.array_equal(feet.foot(side).gps_bias_sigma, [bias.sigma_m] * 2) for side in FOOT_SIDES)
 

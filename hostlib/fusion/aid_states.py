@@ -1,0 +1,74 @@
+"""The aid states a tracker's filter holds, registered by name, each with its prior.
+
+Every tracker of :mod:`hostlib.fusion` appends, after its poses and its modules' errors, the aid
+states its :class:`~hostlib.fusion.settings.FusionSettings` hold, in the order of
+:data:`AID_STATES`:
+
+* ``"gps_bias"`` — the receiver's correlated error ``[b_n, b_e]`` (:mod:`hostlib.fusion.gps_bias`),
+  held with :attr:`~hostlib.fusion.settings.FusionSettings.gps_bias`; prior 0 with the
+  stationary variance on each axis;
+* ``"deviation"`` — the compass's local deviation ``d`` (:mod:`hostlib.fusion.deviation`), held
+  with :attr:`~hostlib.fusion.settings.FusionSettings.compass_deviation`; prior 0 with σ_d²;
+* ``"declination"`` — the declination ``D``, always held, last: prior the settings' D₀, with
+  σ_D² while both the compass and GPS make it observable, else 0 (a constant).
+
+An aid with a state of its own adds one :class:`AidState` here (its name, whether the settings hold
+it, its prior) and uses the block by its name in the filter (:class:`~hostlib.fusion.core.StateFilter`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .core import StateFilter
+
+if TYPE_CHECKING:
+    from .settings import FusionSettings
+
+__all__ = ["AID_STATES", "AidState", "add_aid_states"]
+
+
+@dataclass(frozen=True)
+class AidState:
+    """One aid's state block: its *name* in the filter and its prior under some settings
+    (None: the settings do not hold it)."""
+
+    name: str
+    prior: Callable[[FusionSettings], tuple[np.ndarray, np.ndarray] | None]
+
+
+def _gps_bias_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
+    if s.gps_bias is None:
+        return None
+    return np.zeros(2), s.gps_bias.variance * np.eye(2)
+
+
+def _deviation_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
+    if s.compass_deviation is None:
+        return None
+    return np.zeros(1), np.array([[s.compass_deviation.variance]])
+
+
+def _declination_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray]:
+    variance = s.declination_sigma_rad ** 2 if (s.gps and s.compass) else 0.0
+    return np.array([float(s.declination_rad)]), np.array([[variance]])
+
+
+#: The aid states in the order a filter holds them, after the poses and the modules' errors.
+AID_STATES: tuple[AidState, ...] = (
+    AidState("gps_bias", _gps_bias_prior),
+    AidState("deviation", _deviation_prior),
+    AidState("declination", _declination_prior),
+)
+
+
+def add_aid_states(core: StateFilter, settings: FusionSettings) -> None:
+    """Append to *core* every aid state *settings* hold, with its prior."""
+    for state in AID_STATES:
+        prior = state.prior(settings)
+        if prior is not None:
+            core.add_block(state.name, *prior)

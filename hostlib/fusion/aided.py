@@ -1,0 +1,350 @@
+"""The heading aids on a tracker's filter: the per-step compass, GPS fixes, the declination, and the
+aid states' process noise.
+
+:class:`AidedFilter` applies the aids of :class:`~hostlib.fusion.settings.FusionSettings` to a
+:class:`~hostlib.fusion.core.StateFilter` whose blocks are one or more feet's poses (``pose``, or
+``left`` and ``right``), each module's errors (``errors``, or ``errors.left`` and ``errors.right``)
+and the aid states of :mod:`hostlib.fusion.aid_states` (``gps_bias``, ``deviation``,
+``declination``). It addresses them by name only: :attr:`AidedFilter.pose_blocks` says which blocks
+are poses, and a tracker gives what only it knows — the point a GPS fix measures
+(:meth:`~AidedFilter._gps_rows`), how to turn its kept history with the frame
+(:meth:`~AidedFilter._rotate_frame`) and how far the measured point has travelled
+(:meth:`~AidedFilter._travelled`).
+
+For each step a tracker calls, with the local deviation held, :meth:`~AidedFilter._walk_deviation`
+with the distance walked, then :meth:`~AidedFilter._compass_step` with the step's compass heading,
+and :meth:`~AidedFilter._gps_until` with the step's module time (which also carries the receiver's
+bias, if held, on to it).
+
+**Aligning two headings.** The first compass reading (or the GPS course) gives one heading χ_k;
+every pose turns with it about the start. Another heading χ_j was known relative to χ_k only: it
+becomes χ_k + (χ_j − χ_k), with the variance of the reading plus that of the difference. With one
+heading this is the single-foot rule: χ takes the reading's variance. The headings' covariances
+with the other states are dropped, but for D and d (which the reading measures against) and the
+modules' errors (χ_j's covariance with them is that of χ_j − χ_k, which the reading leaves; with
+one heading that difference is 0).
+"""
+
+from __future__ import annotations
+
+import math
+from abc import ABC, abstractmethod
+from collections.abc import Iterable
+
+import numpy as np
+
+from ..aids.compass import wrap_angle
+from .core import StateFilter
+from .settings import FusionSettings, FusionStats
+
+__all__ = ["AidedFilter"]
+
+
+class AidedFilter(ABC):
+    """The aids (module docstring) on the filter :attr:`filter` of a tracker whose poses are the
+    blocks :attr:`pose_blocks` and whose modules' errors are :attr:`error_blocks`."""
+
+    filter: StateFilter
+    aid_settings: FusionSettings
+    pose_blocks: tuple[str, ...]
+    error_blocks: tuple[str, ...] = ()
+    #: 1σ [rad] of the heading the first compass reading aligns (None: the compass's own σ_c)
+    _align_sigma_rad: float | None = None
+
+    def _init_aids(self) -> None:
+        s = self.aid_settings
+        self.fusion = FusionStats()
+        self._aligned = not (s.compass or s.gps)
+        self._fix_times: list[float] = []
+        self._fixes: list[np.ndarray] = []
+        self._next_fix = 0
+        self._origin_set = False
+        self._first_fix = np.zeros(2)
+        self._last_gps_update = -math.inf
+        self._bias_time: float | None = None  # the module time b was carried to (None: not yet)
+
+    # -- what a tracker gives -----------------------------------------------------------
+
+    @abstractmethod
+    def _gps_rows(self) -> np.ndarray:
+        """The (2, n) rows of the point a fix measures (north, east)."""
+
+    @abstractmethod
+    def _rotate_frame(self, turn: float) -> None:
+        """Turn every pose, and the history kept of them, about the start by *turn* [rad]."""
+
+    @abstractmethod
+    def _travelled(self) -> np.ndarray:
+        """The horizontal displacement of the measured point since the start."""
+
+    @abstractmethod
+    def __len__(self) -> int:
+        """The steps fused."""
+
+    # -- where the aids look ------------------------------------------------------------
+
+    def _heading_indices(self) -> list[int]:
+        return [self.filter.index(pose, 3) for pose in self.pose_blocks]
+
+    def _origin_rows(self) -> np.ndarray:
+        """The rows of a shift of the whole frame: every pose's north and east."""
+        return np.stack([self.filter.row({(pose, axis): 1.0 for pose in self.pose_blocks})
+                         for axis in (0, 1)])
+
+    def _gps_bias_rows(self) -> np.ndarray:
+        """The (2, n) rows of the receiver's bias [b_n, b_e] (held)."""
+        return np.stack([self.filter.row({("gps_bias", axis): 1.0}) for axis in (0, 1)])
+
+    # -- state ------------------------------------------------------------------------
+
+    @property
+    def declination(self) -> float:
+        """The declination estimate D [rad], east positive."""
+        return float(self.filter.x[self.filter.index("declination")])
+
+    @property
+    def declination_sigma(self) -> float:
+        return self.filter.sigma("declination")
+
+    @property
+    def deviation(self) -> float | None:
+        """The estimate of the local compass deviation d [rad] where the last step ended, east
+        positive as D (None: not held, :attr:`FusionSettings.compass_deviation`)."""
+        return float(self.filter.mean("deviation")[0]) if "deviation" in self.filter else None
+
+    @property
+    def deviation_sigma(self) -> float | None:
+        """The 1σ of :attr:`deviation` [rad] (None: not held)."""
+        return self.filter.sigma("deviation") if "deviation" in self.filter else None
+
+    @property
+    def gps_bias(self) -> np.ndarray | None:
+        """The estimate of the receiver's bias [north, east] [m] at the last step's time (None: not
+        held, :attr:`FusionSettings.gps_bias`): a fix is the position plus it."""
+        return self.filter.mean("gps_bias") if "gps_bias" in self.filter else None
+
+    @property
+    def gps_bias_sigma(self) -> np.ndarray | None:
+        """The 1σ [m] of :attr:`gps_bias`, north and east (None: not held)."""
+        if "gps_bias" not in self.filter:
+            return None
+        return np.sqrt(np.clip(np.diagonal(self.filter.covariance("gps_bias")), 0.0, None))
+
+    @property
+    def heading_aligned(self) -> bool:
+        """Whether χ is a true heading (an aid aligned it) rather than the module's initial frame."""
+        return self._aligned
+
+    # -- input ------------------------------------------------------------------------
+
+    def add_fixes(self, times_s: Iterable[float], north_east: Iterable[Iterable[float]]) -> None:
+        """Queue GPS fixes: times [s] on the receiver's clock and positions (n, ≥2) [m] north, east
+        of the first fix. Each is applied when the first step at or after its time arrives."""
+        for t, p in zip(times_s, north_east, strict=True):
+            self.add_fix(float(t), p)
+
+    def add_fix(self, time_s: float, north_east: Iterable[float]) -> None:
+        """Queue one fix (see :meth:`add_fixes`); fixes must come in time order."""
+        t = float(time_s) + self.aid_settings.gps_offset_s
+        if self._fix_times and t < self._fix_times[-1]:
+            raise ValueError(f"fix at {time_s} s is older than the one before ({self._fix_times[-1]} s)")
+        pos = np.asarray(list(north_east), dtype=np.float64)[:2]
+        if pos.shape != (2,) or not np.isfinite(pos).all():
+            raise ValueError(f"a fix needs finite north and east, got {pos}")
+        self._fix_times.append(t)
+        self._fixes.append(pos)
+
+    def pending_fixes(self) -> int:
+        """Fixes queued whose time no step has reached yet."""
+        return len(self._fix_times) - self._next_fix
+
+    # -- the aid states' process noise --------------------------------------------------
+
+    def _walk_deviation(self, distance_m: float) -> None:
+        """The local deviation d (held) after a walk of *distance_m* [m]: d ← φ d, its variance
+        φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs."""
+        phi, q = self.aid_settings.compass_deviation.transition(distance_m)
+        self.filter.decay("deviation", phi, q)
+
+    def _drift_gps_bias(self, now: float) -> None:
+        """The receiver's bias b (held) carried on to module time *now* [s]: over Δt, b ← φ b, each
+        axis's variance φ² var + (1 − φ²) σ_b², its covariances with the rest φ times theirs.
+        The first call only starts b's clock: b is still its stationary prior."""
+        if self._bias_time is None:
+            self._bias_time = now
+            return
+        dt = now - self._bias_time
+        if not dt > 0.0:
+            return  # a fix that came late: b is already past its time, within a step
+        self._bias_time = now
+        self.filter.decay("gps_bias", *self.aid_settings.gps_bias.transition(dt))
+
+    # -- the compass --------------------------------------------------------------------
+
+    def _compass_step(self, psi: float | None, pose: str, moved: bool) -> None:
+        """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
+        heading of block *pose* minus D (minus d, held); *moved*: the step moved the foot."""
+        s = self.aid_settings
+        if psi is None:
+            self.fusion.compass_skipped += 1
+            return
+        if self._aligned and s.compass_mode == "step" and not moved:
+            self.fusion.compass_skipped += 1
+            return
+        if not self._aligned:
+            self._align_by_compass(psi, pose)
+            return
+        f = self.filter
+        x = f.x
+        k, dec = f.index(pose, 3), f.index("declination")
+        weights = {(pose, 3): 1.0, "declination": -1.0}
+        if "deviation" in f:
+            weights["deviation"] = -1.0
+            innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
+        else:
+            innovation = wrap_angle(psi - (x[k] - x[dec]))
+        f.update(f.row(weights), innovation, s.compass_sigma_rad ** 2)
+        self.fusion.compass_updates += 1
+        self.fusion.compass_innovations.append((len(self), innovation))
+
+    def _align_by_compass(self, psi: float, pose: str) -> None:
+        """The first reading aligns heading *pose*: χ ← ψ + D (+ d, held), with the reading's
+        variance and D's (and d's) uncertainty and covariance."""
+        f = self.filter
+        x, p = f.x, f.P
+        dec = f.index("declination")
+        var_d = float(p[dec, dec])
+        sigma = self._align_sigma_rad
+        if sigma is None:
+            sigma = self.aid_settings.compass_sigma_rad
+        k = f.index(pose, 3)
+        if "deviation" in f:
+            dev = f.index("deviation")
+            var_dev, cov = float(p[dev, dev]), float(p[dev, dec])
+            self._align(k, psi + float(x[dec]) + float(x[dev]), sigma ** 2 + var_d + var_dev + 2.0 * cov,
+                        cov_with_d=var_d + cov, cov_with_deviation=var_dev + cov)
+        else:
+            self._align(k, psi + float(x[dec]), sigma ** 2 + var_d, cov_with_d=var_d)
+        self.fusion.heading_aligned_by = "compass"
+
+    # -- GPS ----------------------------------------------------------------------------
+
+    def _gps_until(self, now: float) -> None:
+        """Apply the queued fixes whose time module time *now* [s] has reached (the receiver's
+        bias, held, carried to each fix's time, then to *now*)."""
+        bias = self.aid_settings.gps_bias
+        while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
+            t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
+            self._next_fix += 1
+            if bias is not None:
+                self._drift_gps_bias(t)
+            self._gps_fix(t, pos)
+        if bias is not None:
+            self._drift_gps_bias(now)
+
+    def _gps_fix(self, t: float, pos: np.ndarray) -> None:
+        """One fix at module time *t*: the origin, the course's alignment, or an update of the
+        measured point (plus the bias, held)."""
+        s = self.aid_settings
+        if not self._origin_set:
+            self._origin_set = True
+            self._place_origin()
+            self._first_fix = pos
+            return
+        if not self._aligned and not self._align_by_course(pos):
+            self.fusion.gps_before_alignment += 1
+            return
+        if t - self._last_gps_update < s.gps_update_interval_s:
+            self.fusion.gps_skipped += 1
+            return
+        self._last_gps_update = t
+        rows = self._gps_rows()
+        if s.gps_bias is None:
+            sigma = s.gps_sigma_m
+        else:
+            rows, sigma = rows + self._gps_bias_rows(), s.gps_bias.white_sigma_m
+        for axis, h in enumerate(rows):
+            self.filter.update(h, float(pos[axis] - h @ self.filter.x), sigma ** 2)
+        self.fusion.gps_updates += 1
+
+    def _place_origin(self) -> None:
+        """The first fix is the origin, and the start lies at it less the fix's error (the track's
+        estimate stays: it starts at 0). Without the bias held, that error is white of the
+        receiver's σ: every position's variance grows by σ². With it held the error is b₀ + w₀,
+        b₀ the bias now: every pose moves by the translation −(b₀ + w₀), x ← x − Oᵀ (b + w) (O the
+        rows of :meth:`_origin_rows`; b's estimate is still 0, so the track's stays), and
+        P ← T P Tᵀ + σ_w² Oᵀ O with T = I − Oᵀ B (B: b's rows): each position's variance grows
+        by var b₀ + σ_w² and its covariance with b is −var b₀. A later fix, whose b is still
+        mostly b₀, then measures the walk since the first fix far better than either fix
+        measures a position."""
+        s = self.aid_settings
+        f = self.filter
+        if s.gps_bias is None:
+            p = f.P.copy()
+            for row in self._origin_rows():
+                p += s.gps_receiver_sigma_m ** 2 * np.outer(row, row)
+            f.P = p
+        else:
+            o = self._origin_rows()
+            t = np.eye(len(f)) - o.T @ self._gps_bias_rows()
+            x = t @ f.x
+            p = t @ f.P @ t.T + s.gps_bias.white_sigma_m ** 2 * (o.T @ o)
+            f.x, f.P = x, 0.5 * (p + p.T)
+
+    def _align_by_course(self, fix: np.ndarray) -> bool:
+        """Turn the track onto the GPS course once the receiver moved far enough (no compass)."""
+        s = self.aid_settings
+        gps = fix - self._first_fix
+        dr = self._travelled()
+        distance = float(np.hypot(*gps))
+        if distance < s.gps_align_distance_m or float(np.hypot(*dr)) < 0.5 * s.gps_align_distance_m:
+            return False
+        turn = math.atan2(gps[1], gps[0]) - math.atan2(dr[1], dr[0])
+        sigma = math.sqrt(2.0) * s.gps_receiver_sigma_m / distance
+        k = self._heading_indices()[0]
+        self._align(k, float(self.filter.x[k]) + turn, sigma ** 2, cov_with_d=0.0,
+                    cov_with_deviation=None if s.compass_deviation is None else 0.0)
+        self.fusion.heading_aligned_by = "gps"
+        return True
+
+    # -- alignment ----------------------------------------------------------------------
+
+    def _align(self, k: int, chi: float, var_chi: float, *, cov_with_d: float,
+               cov_with_deviation: float | None = None) -> None:
+        """Turn every pose about the start so that heading index *k* is *chi*, with variance
+        *var_chi* and covariance *cov_with_d* with D and *cov_with_deviation* with the local
+        deviation d (None: not held) (module docstring: the other headings follow it). The
+        receiver's bias, held, is north and east and its covariance with the poses is the origin's
+        translation, which turning the frame about the start does not turn: it stays as it was."""
+        f = self.filter
+        before = f.P.copy()
+        self._rotate_frame(wrap_angle(chi - float(f.x[k])))
+        p = f.P.copy()
+        if "gps_bias" in f:
+            bias = f.indices("gps_bias")
+            p[bias, :] = before[bias, :]
+            p[:, bias] = before[:, bias]
+        dec = f.index("declination")
+        hs = self._heading_indices()
+        ones = np.ones(len(hs))
+        b = np.eye(len(hs))
+        b[:, hs.index(k)] -= 1.0  # χ_j' = χ_k' + (χ_j − χ_k)
+        hh = b @ p[np.ix_(hs, hs)] @ b.T + var_chi * np.outer(ones, ones)
+        hd = b @ p[hs, dec] + ones * cov_with_d
+        if cov_with_deviation is not None:
+            dev = f.index("deviation")
+            hdev = b @ p[hs, dev] + ones * cov_with_deviation
+        carried = f.indices(*self.error_blocks) if len(hs) > 1 else []
+        hc = b @ p[np.ix_(hs, carried)]
+        p[hs, :] = 0.0
+        p[:, hs] = 0.0
+        p[np.ix_(hs, hs)] = hh
+        p[np.ix_(hs, carried)] = hc
+        p[np.ix_(carried, hs)] = hc.T
+        p[hs, dec] = hd
+        p[dec, hs] = hd
+        if cov_with_deviation is not None:
+            p[hs, dev] = hdev
+            p[dev, hs] = hdev
+        f.P = p
+        self._aligned = True

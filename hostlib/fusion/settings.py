@@ -1,0 +1,95 @@
+"""What the host's fusion filter applies and how much it trusts it (:class:`FusionSettings`), and what
+the aids did (:class:`FusionStats`)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+from ..calibration.magcal import MagCalibration
+from .deviation import CompassDeviation
+from .gps_bias import GpsBias
+from .module_errors import ModuleErrors
+
+__all__ = ["FusionSettings", "FusionStats"]
+
+
+@dataclass(frozen=True)
+class FusionSettings:
+    """Which aids the :class:`FusionTracker` applies, and how much it trusts them."""
+
+    #: per-step compass updates on
+    compass: bool = False
+    #: 1σ of one compass reading [rad]: the local deviation. Our default is indoor: the emulator's
+    #: building deviation (5 µT RMS per axis against a 15.5 µT horizontal field) is ≈ 18°. With
+    #: :attr:`compass_deviation` held, only the reading's own white error beyond the deviation (the
+    #: chips' noise, the attitude): about 1.5° (:data:`hostlib.fusion.deviation.WHITE_SIGMA_RAD`)
+    compass_sigma_rad: float = math.radians(20.0)
+    #: "step": one update per step that moved the foot (NavShoe); "every-reset": at every reset,
+    #: standing ones too (the continuous compass NavShoe warns against, kept for comparison)
+    compass_mode: str = "step"
+    #: the shoe's hard and soft iron, removed before the heading is taken
+    mag_calibration: MagCalibration | None = None
+    #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`add_fix`)
+    gps: bool = False
+    #: 1σ [m] of the receiver's horizontal error as specified (the emulator's: 3 m RMS)
+    gps_receiver_sigma_m: float = 3.0
+    #: 1σ [m] of a horizontal fix as a filter measurement: the receiver's σ inflated for the
+    #: correlation of its errors (τ = 120 s: fixes an update interval apart are far from
+    #: independent). 3 m · √(2τ / 10 s) ≈ 15 m (NavShoe: 20 m for a 6 m receiver). Not used with
+    #: :attr:`gps_bias` held: a fix's σ is then its white part
+    gps_sigma_m: float = 15.0
+    #: seconds between GPS updates (fixes in between are skipped, counted); None: 10 s, what the
+    #: inflated σ assumes, or with :attr:`gps_bias` held every fix (:attr:`gps_update_interval_s`)
+    gps_interval_s: float | None = None
+    #: added to every fix time [s] to put it on the module's clock
+    gps_offset_s: float = 0.0
+    #: without a compass, the GPS course aligns the heading after this distance [m] from the first fix
+    gps_align_distance_m: float = 50.0
+    #: the declination prior D₀ [rad] (east positive) and its 1σ while GPS is used
+    declination_rad: float = 0.0
+    declination_sigma_rad: float = math.radians(15.0)
+    #: the module's step-length scale, climb and turn scale (and, with its prior, heading drift rate)
+    #: as states (:mod:`hostlib.fusion.module_errors`; None: not held, and the covariance is the steps' own)
+    module_errors: ModuleErrors | None = None
+    #: the local compass deviation d as a state, correlated over the distance walked
+    #: (:mod:`hostlib.fusion.deviation`: :data:`~hostlib.fusion.deviation.OUTDOORS`,
+    #: :data:`~hostlib.fusion.deviation.INDOORS`;
+    #: None: not held, each reading's deviation is in σ_c as white noise)
+    compass_deviation: CompassDeviation | None = None
+    #: the receiver's correlated error b as states, a Gauss–Markov process in time
+    #: (:mod:`hostlib.fusion.gps_bias`; None: not held, a fix's error is white, of σ :attr:`gps_sigma_m`)
+    gps_bias: GpsBias | None = None
+
+    @property
+    def gps_update_interval_s(self) -> float:
+        """The seconds between GPS updates: :attr:`gps_interval_s` if given; else 10 s with the
+        white model (the interval its inflated σ is worked out for) and 0 with :attr:`gps_bias`
+        held: every fix, since the filter knows what fixes a second apart share, and each still
+        brings its white part and the bias's news (two scalar updates a fix)."""
+        if self.gps_interval_s is not None:
+            return self.gps_interval_s
+        return 10.0 if self.gps_bias is None else 0.0
+
+    def __post_init__(self) -> None:
+        if self.compass_mode not in ("step", "every-reset"):
+            raise ValueError(f"compass_mode must be 'step' or 'every-reset', not {self.compass_mode!r}")
+        for name in ("compass_sigma_rad", "gps_sigma_m", "gps_receiver_sigma_m", "gps_align_distance_m"):
+            if not getattr(self, name) > 0:
+                raise ValueError(f"{name} must be positive")
+        if self.gps_interval_s is not None and not self.gps_interval_s >= 0:
+            raise ValueError(f"gps_interval_s must be ≥ 0 s (or None), not {self.gps_interval_s}")
+
+
+@dataclass
+class FusionStats:
+    """What the aids did."""
+
+    compass_updates: int = 0
+    compass_skipped: int = 0  #: readings not used (standing resets; no reading in the packet)
+    gps_updates: int = 0
+    gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
+    gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned
+    heading_aligned_by: str = ""  #: "compass", "gps" or "" (not aligned: the module's frame)
+    #: (step index, innovation [rad]) of every compass update, for consistency checks
+    compass_innovations: list[tuple[int, float]] = field(default_factory=list)
