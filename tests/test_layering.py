@@ -11,10 +11,18 @@ Every import counts: at module level, inside functions, and under
   transports or the applications;
 * link models never import transports or the applications, and transports
   never import the applications;
+* inside the host SDK the sub-packages stack one way, each importing only those below it: the
+  shared ``errors`` and ``events``; ``track`` (the step sum); ``link`` (ports, session, device) and
+  ``aids`` (what the aids measure); ``calibration``; ``fusion`` (the filter core and its
+  trackers); ``files`` (export, plot, capture replay); ``run`` (carrying out a walk); ``cli``.
+  The link knows nothing of the fusion, and the fusion does no I/O;
 * the host SDK's data path (``hostlib`` but its plot and command line) uses only
   the standard library, ``protocol``, pyserial, numpy, and the maintained libraries
   for what it reads and converts: pynmea2 (NMEA), pymap3d (geodesy) and
   pygeomag (the World Magnetic Model);
+* nothing the package ships (``protocol``, ``firmware_sim``, ``hostlib``, ``tools``) imports the
+  lab (``lab``: the benchmarks and the papers' experiments, run from a clone, not installed); the
+  lab may import all of them;
 * no two project modules import each other, directly or round a longer cycle;
 * no project module is named like a standard-library module.
 """
@@ -30,7 +38,7 @@ from pathlib import Path
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
-PACKAGES = ("protocol", "firmware_sim", "hostlib", "tools")
+PACKAGES = ("protocol", "firmware_sim", "hostlib", "tools", "lab")
 #: Modules whose use means I/O (files, sockets, devices, processes, threads).
 IO_MODULES = {"io", "os", "socket", "serial", "select", "selectors", "subprocess", "threading", "pty", "tty",
               "termios", "fcntl", "shutil", "tempfile", "pathlib", "sys", "asyncio", "signal"}
@@ -90,7 +98,7 @@ def violations(layer: str, forbidden: tuple[str, ...]) -> list[str]:
 
 
 def test_protocol_declares_and_imports_no_other_layer():
-    assert violations("protocol", ("firmware_sim", "hostlib", "tools")) == []
+    assert violations("protocol", ("firmware_sim", "hostlib", "tools", "lab")) == []
 
 
 def test_protocol_does_no_io():
@@ -121,6 +129,43 @@ def test_protocol_does_no_io():
 ])
 def test_a_layer_never_imports_the_layers_above_it(layer, forbidden):
     assert violations(layer, forbidden) == []
+
+
+@pytest.mark.parametrize("layer", ["protocol", "firmware_sim", "hostlib", "tools"])
+def test_nothing_the_package_ships_imports_the_lab(layer):
+    assert violations(layer, ("lab",)) == []
+
+
+#: hostlib's sub-packages from the bottom up: each may import only those before it.
+HOST_LAYERS = ("hostlib.track", "hostlib.link", "hostlib.aids", "hostlib.calibration", "hostlib.fusion",
+               "hostlib.files", "hostlib.run", "hostlib.cli")
+
+
+@pytest.mark.parametrize("layer", HOST_LAYERS)
+def test_a_host_sub_package_imports_only_the_ones_below_it(layer):
+    above = HOST_LAYERS[HOST_LAYERS.index(layer) + 1:]
+    assert violations(layer, above) == []
+
+
+def test_the_link_knows_nothing_of_the_aids_and_the_aids_nothing_of_the_link():
+    assert violations("hostlib.link", ("hostlib.aids",)) + violations("hostlib.aids", ("hostlib.link",)) == []
+
+
+def test_the_fusion_does_no_io():
+    """The filter and its trackers compute; they read no file, port or clock. (A lock is no I/O: two
+    feet's devices hand their steps from two reader threads.)"""
+    found = []
+    for mod in project_modules():
+        if not under(mod, "hostlib.fusion", "hostlib.track"):
+            continue
+        for name, line in imports_of(mod):
+            top = name.split(".")[0]
+            if top in IO_MODULES - {"threading"} or top == "time":
+                found.append(f"{mod}:{line} imports {name}")
+        tree = ast.parse(project_modules()[mod].read_text())
+        found += [f"{mod}:{n.lineno} calls {n.func.id}()" for n in ast.walk(tree)
+                  if isinstance(n, ast.Call) and isinstance(n.func, ast.Name) and n.func.id in IO_CALLS]
+    assert found == []
 
 
 def test_the_host_sdk_data_path_uses_only_protocol_pyserial_numpy_and_its_format_libraries():
