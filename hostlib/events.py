@@ -46,6 +46,14 @@ class StepOutcome(Enum):
     SUMMED = "summed"  #: the next step, summed
     SUMMED_AFTER_GAP = "summed after gap"  #: summed, but steps before it were lost
     DUPLICATE = "duplicate"  #: a resend of a step already summed (or older): ignored
+    #: a step whose numbers are not finite or whose covariance is no covariance: counted, left out
+    #: (:func:`hostlib.track.steps.step_problem` says why)
+    REJECTED = "rejected"
+
+    @property
+    def summed(self) -> bool:
+        """Whether the step went into the track."""
+        return self in (StepOutcome.SUMMED, StepOutcome.SUMMED_AFTER_GAP)
 
 
 @dataclass(frozen=True)

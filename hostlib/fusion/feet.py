@@ -194,7 +194,7 @@ class FootTracker(FusionTracker):
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *,
                  reading: StanceReading | None = None, time_s: float = math.nan) -> StepOutcome:
         outcome = super().add_step(dx, dp, counter, swing_time, reading=reading, time_s=time_s)
-        if outcome is not StepOutcome.DUPLICATE and self.on_step is not None:
+        if outcome.summed and self.on_step is not None:
             self.on_step(FootStep(self.side, self.track.last_step, np.asarray(dp, dtype=np.float64), time_s,
                                   outcome is StepOutcome.SUMMED_AFTER_GAP, float(swing_time),
                                   self.compass_heading(reading)))

@@ -202,7 +202,7 @@ class FusionTracker(AidedFilter, StepTracker):
         and module time *time_s* [s], and apply the aids."""
         self._step_time = time_s
         outcome = StepTracker.add_step(self, dx, dp, counter, swing_time)
-        if outcome is StepOutcome.DUPLICATE:
+        if not outcome.summed:
             return outcome
         dxa = self.track.last_step
         if self.settings.compass_deviation is not None:

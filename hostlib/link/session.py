@@ -73,6 +73,7 @@ class SessionStats:
     acks_sent: int = 0  #: packet acks produced
     undecoded_packets: int = 0  #: payloads that no unique set of requested states fits
     steps: int = 0  #: steps summed
+    rejected_steps: int = 0  #: steps left out: numbers not finite, or dP no covariance (an event each)
     duplicate_steps: int = 0  #: steps whose counter was already summed
     gaps: int = 0  #: step-counter gaps
     missing_steps: int = 0  #: steps lost in those gaps
@@ -243,7 +244,10 @@ class HostSession:
         if outcome is StepOutcome.DUPLICATE:
             self.stats.duplicate_steps += 1
             return
-        self.stats.steps += 1
+        if outcome is StepOutcome.REJECTED:
+            self.stats.rejected_steps += 1
+        else:
+            self.stats.steps += 1
         for gap in self.tracker.gaps[n_gaps:]:
             self.stats.gaps += 1
             self.stats.missing_steps += gap.missing

@@ -52,10 +52,12 @@ __all__ = [
     "StepTracker",
     "Track",
     "counter_delta",
+    "heading_deg",
     "is_motion_step",
     "propagate",
     "rotation_z",
     "step_jacobian",
+    "step_problem",
 ]
 
 #: The step counter is a uint16 on the module (state 0x32).
@@ -80,6 +82,13 @@ def rotation_z(chi: float) -> np.ndarray:
     """The 3×3 rotation about the z axis by heading *chi* [rad] (x north, y east, z down)."""
     c, s = math.cos(chi), math.sin(chi)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def heading_deg(chi: float) -> float:
+    """A heading χ [rad] as a host shows it: degrees in [0, 360), rounded to 0.1° first so that
+    −0.0 and 359.96° both read 0.0, never 360.0. (χ itself is kept unwrapped: the track's
+    headings turn on through whole circles.)"""
+    return (round(math.degrees(chi), 1) % 360.0) + 0.0
 
 
 def step_jacobian(chi: float, dx: np.ndarray) -> np.ndarray:
@@ -134,6 +143,28 @@ def is_motion_step(dx: Iterable[float]) -> bool:
     rather than being one of the module's resets while the wearer stands still."""
     d = np.asarray(list(dx), dtype=np.float64)
     return bool(np.linalg.norm(d[:3]) >= MOTION_MIN_LENGTH_M or abs(d[3]) >= MOTION_MIN_HEADING_RAD)
+
+
+#: How far below zero a step covariance's smallest eigenvalue may lie, as a share of its largest:
+#: the module computes dP in float32 (ε 6e-8) and sends its upper triangle, so a real dP is
+#: symmetric and positive semi-definite to a few ε; a sign error or a corrupted number is far out.
+COVARIANCE_TOLERANCE = 1e-5
+
+
+def step_problem(dx: np.ndarray, dp: np.ndarray) -> str | None:
+    """What makes a step *dx* (4,) with covariance *dp* (4×4) impossible to sum, or None: a number
+    that is not finite (a NaN poisons every later pose), or a *dp* that is not symmetric positive
+    semi-definite (a negative variance)."""
+    if not np.isfinite(dx).all():
+        return f"dx {np.array2string(dx, precision=4)} is not finite"
+    if not np.isfinite(dp).all():
+        return "dP holds a number that is not finite"
+    if not np.allclose(dp, dp.T, rtol=COVARIANCE_TOLERANCE, atol=0.0):
+        return "dP is not symmetric"
+    eig = np.linalg.eigvalsh(0.5 * (dp + dp.T))
+    if eig[0] < -COVARIANCE_TOLERANCE * max(abs(eig[-1]), abs(eig[0])):
+        return f"dP is not positive semi-definite (eigenvalue {eig[0]:.3g})"
+    return None
 
 
 def counter_delta(previous: int, counter: int) -> int:
@@ -360,7 +391,7 @@ class Track:
         x, y, z, chi = self._poses[-1]
         return (
             f"Track({len(self)} steps, {self.distance:.2f} m, end=({x:.2f}, {y:.2f}, {z:.2f}) m "
-            f"χ={math.degrees(chi):.1f}°, gaps={len(self.gaps)}, missing={self.missing})"
+            f"χ={heading_deg(chi):.1f}°, gaps={len(self.gaps)}, missing={self.missing})"
         )
 
 
@@ -399,6 +430,8 @@ class StepTracker:
         self.track = Track(pose0, cov0, None if last_counter is None else int(last_counter))
         self._last: int | None = None if last_counter is None else int(last_counter)
         self.duplicates = 0  #: steps ignored because their counter was already summed
+        #: steps left out because their numbers are impossible (:func:`step_problem`): (counter, why)
+        self.rejections: list[tuple[int, str]] = []
 
     # -- state ---------------------------------------------------------------
 
@@ -454,7 +487,9 @@ class StepTracker:
     def add_step(self, dx: Iterable[float], dp: np.ndarray, counter: int,
                  swing_time: float = math.nan) -> StepOutcome:
         """Sum one step given as arrays: *dx* (4,), *dp* (4×4), *counter* (uint16), and its
-        *swing_time* [s] (NaN: none)."""
+        *swing_time* [s] (NaN: none). A resend is counted and ignored; a step whose numbers are
+        impossible (:func:`step_problem`) is counted in :attr:`rejections` and left out, its counter
+        taken as seen (its displacement is lost, as a gap's)."""
         counter = int(counter)
         if not 0 <= counter < COUNTER_MODULUS:
             raise ValueError(f"step counter {counter} is not a uint16")
@@ -463,9 +498,14 @@ class StepTracker:
         if dxa.shape != (4,) or dpa.shape != (4, 4):
             raise ValueError(f"a step needs dx (4,) and dp (4, 4); got {dxa.shape} and {dpa.shape}")
         outcome = self._admit(counter)
-        if outcome is not StepOutcome.DUPLICATE:
-            self._sum(dxa, dpa, counter, swing_time)
-            self._last = counter
+        if outcome is StepOutcome.DUPLICATE:
+            return outcome
+        self._last = counter
+        problem = step_problem(dxa, dpa)
+        if problem is not None:
+            self.rejections.append((counter, problem))
+            return StepOutcome.REJECTED
+        self._sum(dxa, dpa, counter, swing_time)
         return outcome
 
     def _admit(self, counter: int) -> StepOutcome:
@@ -497,5 +537,10 @@ class StepTracker:
         """Forget the step counter (e.g. after sending 0x34 again): the pose keeps going."""
         self._last = None if last_counter is None else int(last_counter) % COUNTER_MODULUS
 
+    @property
+    def rejected(self) -> int:
+        """How many steps were left out because their numbers are impossible."""
+        return len(self.rejections)
+
     def __repr__(self) -> str:
-        return f"StepTracker({self.track!r}, duplicates={self.duplicates})"
+        return f"StepTracker({self.track!r}, duplicates={self.duplicates}, rejected={self.rejected})"

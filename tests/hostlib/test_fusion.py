@@ -143,3 +143,16 @@ def test_a_resent_step_is_neither_summed_nor_aided_twice():
     before = f.track.poses.copy()
     f.add_step([0.7, 0, 0, 0], DP, 2, reading=_reading(0.5, 0.0))
     assert np.array_equal(before, f.track.poses) and f.duplicates == 1 and f.fusion.compass_updates == 1
+
+
+def test_the_filter_core_refuses_a_non_finite_update_and_keeps_its_state():
+    from hostlib.fusion.core import NonFiniteUpdate, StateFilter
+
+    f = StateFilter()
+    f.add_block("pose", [0.0, 0.0, 0.0, 0.0], np.eye(4))
+    f.add_block("declination", [0.1], [[0.01]])
+    x, p = f.snapshot()
+    with pytest.raises(NonFiniteUpdate, match="not finite"):
+        f.update(f.row({("pose", 3): 1.0, "declination": -1.0}), math.nan, 0.01)
+    assert np.array_equal(f.x, x) and np.array_equal(f.P, p)
+    assert f.index("declination") == 4 and list(f.others("pose")) == [4]

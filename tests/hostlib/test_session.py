@@ -10,7 +10,7 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from hostlib.errors import NotSupportedByCommandSet
-from hostlib.events import CommandAckEvent, GapEvent, PacketEvent, StepEvent
+from hostlib.events import CommandAckEvent, GapEvent, PacketEvent, StepEvent, StepOutcome
 from hostlib.link.outputs import OutputPlan, match_layout
 from hostlib.link.session import HostSession
 from protocol.codec import Step, encode_states, encode_step
@@ -310,3 +310,20 @@ def test_replay_of_bytes_with_garbage_and_resends():
     track, stats = replay_bytes(data, chunk=5)
     assert len(track) == 2 and track.gaps == []  # counter before the capture is unknown
     assert stats.duplicate_packets == 1 and stats.garbage_bytes == 8 + 2
+
+
+def test_a_checksummed_step_with_a_nan_is_acked_reported_and_left_out_of_the_track():
+    """A step packet whose checksum is right but whose dx holds a NaN would turn every later pose
+    into NaN: the session acks it (the link is fine), reports it as a rejected step, counts it,
+    and the track goes on from the last good step."""
+    s = started()
+    s.feed(step_packet(1, 1))
+    events, out = s.feed(step_packet(2, 2, dx=(float("nan"), 0.0, 0.0, 0.0)))
+    assert out == build_packet_ack(2)
+    [rejected] = [e for e in events if isinstance(e, StepEvent)]
+    assert rejected.outcome is StepOutcome.REJECTED and "not finite" in s.tracker.rejections[0][1]
+    assert s.stats.rejected_steps == 1 and s.stats.steps == 1 and len(s.tracker) == 1
+    s.feed(step_packet(3, 3))
+    assert len(s.tracker) == 2 and s.stats.gaps == 0
+    assert np.isfinite(s.tracker.track.poses).all()
+    assert s.tracker.distance == pytest.approx(2 * np.hypot(0.5, 0.01))  # the two good steps only

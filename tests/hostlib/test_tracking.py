@@ -274,3 +274,42 @@ def test_a_reset_while_standing_is_not_a_step_with_motion():
     for k, dx in enumerate([[1.2, 0, 0, 0], [0.003, 0, 0, 0], [1.1, 0.1, 0, 0.2]], start=1):
         t.add(step(dx, k))
     assert len(t) == 3 and t.track.motion_steps == 2
+
+
+# -- impossible steps -----------------------------------------------------------------------
+
+
+@pytest.mark.parametrize(("dx", "dp", "why"), [
+    ([0.5, math.inf, 0.0, 0.0], np.eye(4) * 1e-4, "dx"),
+    ([0.5, 0.0, 0.0, 0.0], np.diag([1e-4, 1e-4, math.nan, 1e-5]), "not finite"),
+    ([0.5, 0.0, 0.0, 0.0], np.diag([1e-4, -1e-4, 1e-4, 1e-5]), "positive semi-definite"),
+    ([0.5, 0.0, 0.0, 0.0], np.array([[1e-4, 1e-3, 0, 0], [1e-3, 1e-4, 0, 0], [0, 0, 1e-4, 0],
+                                     [0, 0, 0, 1e-5]]), "positive semi-definite"),
+])
+def test_a_step_with_impossible_numbers_is_counted_and_never_summed(dx, dp, why):
+    t = StepTracker()
+    t.add_step([1.0, 0.0, 0.0, 0.0], np.eye(4) * 1e-4, 1)
+    before = (t.pose, t.covariance, t.distance)
+    assert t.add_step(dx, dp, 2) is StepOutcome.REJECTED
+    assert t.rejected == 1 and why in t.rejections[0][1] and t.rejections[0][0] == 2
+    assert np.array_equal(t.pose, before[0]) and np.array_equal(t.covariance, before[1])
+    assert t.distance == before[2] and len(t) == 1
+    assert t.add_step(dx, dp, 2) is StepOutcome.DUPLICATE  # its resend is a resend
+    assert t.add_step([1.0, 0.0, 0.0, 0.0], np.eye(4) * 1e-4, 3) is StepOutcome.SUMMED  # no gap: it was seen
+    assert t.pose[0] == 2.0 and not t.gaps
+
+
+def test_a_float32_covariance_rounded_below_zero_is_still_summed():
+    """The module's dP is float32: a direction known exactly can come out a few ε below zero."""
+    dp = np.diag([1e-4, 1e-4, 1e-4, 1e-5]).astype(np.float32)
+    dp[3, 3] = np.float32(-1e-12)
+    t = StepTracker()
+    assert t.add_step([0.5, 0.0, 0.0, 0.0], dp, 1) is StepOutcome.SUMMED and t.rejected == 0
+
+
+@given(chi=st.floats(-1e4, 1e4))
+def test_the_track_prints_its_heading_in_0_to_360_degrees_as_the_live_line_does(chi):
+    t = StepTracker(heading=chi)
+    shown = float(repr(t.track).split("χ=")[1].split("°")[0])
+    assert 0.0 <= shown < 360.0
+    assert shown == pytest.approx(math.degrees(chi) % 360.0, abs=0.051) or abs(shown) < 0.051 or shown > 359.9
