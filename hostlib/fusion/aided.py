@@ -188,6 +188,9 @@ class AidedFilter(ABC):
         if psi is None:
             self.fusion.compass_skipped += 1
             return
+        if not math.isfinite(psi):
+            self.fusion.compass_refused += 1
+            return
         if self._aligned and s.compass_mode == "step" and not moved:
             self.fusion.compass_skipped += 1
             return

@@ -87,6 +87,9 @@ class FusionStats:
 
     compass_updates: int = 0
     compass_skipped: int = 0  #: readings not used (standing resets; no reading in the packet)
+    #: readings refused: their heading is not a finite number (a packet's magnetometers or attitude
+    #: held a NaN or an infinity); the filter is left as it was
+    compass_refused: int = 0
     gps_updates: int = 0
     gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned

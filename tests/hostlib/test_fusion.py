@@ -156,3 +156,11 @@ def test_the_filter_core_refuses_a_non_finite_update_and_keeps_its_state():
         f.update(f.row({("pose", 3): 1.0, "declination": -1.0}), math.nan, 0.01)
     assert np.array_equal(f.x, x) and np.array_equal(f.P, p)
     assert f.index("declination") == 4 and list(f.others("pose")) == [4]
+
+
+def test_a_compass_reading_that_is_not_finite_is_refused_and_counted():
+    f = FusionTracker(FusionSettings(compass=True))
+    f.add_step([0.5, 0.0, 0.0, 0.0], np.eye(4) * 1e-4, 1)
+    f._compass_step(math.nan, "pose", True)  # what a packet's NaN magnetometer reading gives
+    assert f.fusion.compass_refused == 1 and not f.heading_aligned
+    assert np.isfinite(f.filter.x).all() and np.isfinite(f.filter.P).all()
