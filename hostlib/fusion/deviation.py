@@ -63,6 +63,24 @@ class CompassDeviation:
         """(φ, q) over a walk of *distance_m* [m]: d ← φ d, var d ← φ² var d + q."""
         return transition(distance_m, self.length_m, self.variance)
 
+    @classmethod
+    def parse(cls, text: str) -> CompassDeviation:
+        """The deviation a word or two numbers name: 'outdoors' (:data:`OUTDOORS`), 'indoors'
+        (:data:`INDOORS`) or ``SIGMA_DEG,LENGTH_M`` (numbers > 0). A ValueError says what is expected
+        otherwise."""
+        presets = {"outdoors": OUTDOORS, "indoors": INDOORS}
+        word = text.strip().lower()
+        if word in presets:
+            return presets[word]
+        try:
+            values = [float(v) for v in text.split(",")]
+            if len(values) != 2:
+                raise ValueError(f"{len(values)} numbers")
+            return cls(math.radians(values[0]), values[1])
+        except ValueError:
+            raise ValueError(f"expected 'outdoors', 'indoors' or SIGMA_DEG,LENGTH_M (numbers > 0, e.g. "
+                             f"3,50), got {text!r}") from None
+
     def describe(self) -> str:
         return f"σ {math.degrees(self.sigma_rad):g}° over {self.length_m:g} m"
 

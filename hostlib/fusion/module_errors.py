@@ -129,6 +129,34 @@ class ModuleErrors:
             sigmas.append(self.heading_warmup_sigma)
         return np.diag([sigma ** 2 for sigma in sigmas])
 
+    @classmethod
+    def parse(cls, text: str) -> ModuleErrors:
+        """The priors a word or a list of numbers names: 'emulated' or 'emulated-sway' (the emulated
+        module as it walks by default, on swaying stances: :data:`EMULATED_MODULE_SWAYING`),
+        'emulated-still' (on still stances: :data:`EMULATED_MODULE`), or
+        ``SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]]``: numbers ≥ 0 and τ > 0, the
+        heading drift rate's 1σ in °/h and the warm-up's in °/s (held as rad/s). A ValueError says
+        what is expected otherwise."""
+        presets = {"emulated": EMULATED_MODULE_SWAYING, "emulated-sway": EMULATED_MODULE_SWAYING,
+                   "emulated-still": EMULATED_MODULE}
+        word = text.strip().lower()
+        if word in presets:
+            return presets[word]
+        try:
+            sigmas = [float(v) for v in text.split(",")]
+            if not 2 <= len(sigmas) <= 6:
+                raise ValueError(f"{len(sigmas)} numbers")
+            if len(sigmas) >= 4:
+                sigmas[3] = math.radians(sigmas[3]) / 3600.0  # °/h → rad/s
+            if len(sigmas) >= 5:
+                sigmas[4] = math.radians(sigmas[4])  # °/s → rad/s
+            return cls(*sigmas)
+        except ValueError:
+            raise ValueError(
+                f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (1σ, numbers ≥ 0, "
+                f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'emulated', 'emulated-sway' or "
+                f"'emulated-still', got {text!r}") from None
+
     def clock(self) -> DriftClock:
         """A new :class:`DriftClock` for one module's steps, with this warm-up's τ."""
         return DriftClock(self.warmup_tau_s)
