@@ -1,12 +1,12 @@
 """A connected OpenShoe module: typed commands with acks, a reader thread, steps and packets.
 
-Why a thread and not asyncio: pyserial's reads block (and on a Bluetooth SPP
-port or a pty there is no portable non-blocking API), so one daemon reader
-thread per device does the reading with a short port timeout, runs the pure
-:class:`hostlib.link.session.HostSession` on every chunk, writes the packet acks it
-produces immediately (a lossless module waits for them), and hands events to
-bounded queues and callbacks. User calls (commands, iterators) run in the
-caller's thread and wait on condition variables with deadlines — never sleeps.
+Why a thread and not asyncio: pyserial's reads block (and on a Bluetooth SPP port or a pty there
+is no portable non-blocking API), so one daemon reader thread per device does the reading with a
+short port timeout, runs the pure :class:`hostlib.link.session.HostSession` on every chunk, writes
+the packet acks it produces immediately (a lossless module waits for them), and hands events to
+bounded queues and callbacks. User calls (commands, iterators) run in the caller's thread and wait
+on condition variables with deadlines — never sleeps. How it talks to the module (ack timeouts,
+reconnecting, queue sizes …) is a :class:`DeviceOptions`.
 
 Typical use::
 
@@ -25,6 +25,7 @@ import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass, replace
 from typing import Any, BinaryIO
 
 import serial
@@ -35,11 +36,12 @@ from ..errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
 from ..events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from ..track.steps import StepTracker, Track
 from .commands import CommandMethods
-from .connection import DEFAULT_BAUDRATE, PortFactory, port_factory, port_name
+from .connection import DEFAULT_BAUDRATE, PortFactory, port_name
+from .connection import port_factory as _port_factory
 from .outputs import OutputPlan
 from .session import HostSession
 
-__all__ = ["Device"]
+__all__ = ["Device", "DeviceOptions"]
 
 log = logging.getLogger(__name__)
 
@@ -48,10 +50,8 @@ _READ_ERRORS = (serial.SerialException, OSError, TypeError, AttributeError, Valu
 
 class _BoundedQueue:
     """A bounded FIFO of events; a full queue drops the new event, counts it and warns once per episode.
-
-    The bound applies to events only: the close marker always fits, so a reader
-    blocked on a full queue still learns that the device closed.
-    """
+    The bound applies to events only: the close marker always fits, so a reader blocked on a full
+    queue still learns that the device closed."""
 
     def __init__(self, name: str, maxsize: int):
         if maxsize < 1:
@@ -97,77 +97,89 @@ _now = time.monotonic
 _CLOSED = object()  # marker put in the queues on close to wake iterators
 
 
+@dataclass(frozen=True)
+class DeviceOptions:
+    """How a :class:`Device` talks to its module: the command numbering, how long it waits for
+    acks, what it does when the link drops, how much it queues and how it opens the port."""
+
+    #: ``"2015"`` (current) or ``"2014"`` numbering (protocol.md §10)
+    command_set: str = "2015"
+    #: seconds to wait for a command's ack, per attempt
+    ack_timeout: float = 1.0
+    #: extra attempts of each command after the first
+    retries: int = 2
+    #: which packets the session acknowledges (:class:`~hostlib.link.session.HostSession`)
+    ack_policy: str = "auto"
+    #: after a dropped link, keep re-opening it until :meth:`Device.close`
+    reconnect: bool = True
+    #: seconds between two attempts to re-open a dropped link
+    reconnect_interval: float = 0.5
+    #: bound of the packet queue and of the step queue
+    queue_size: int = 10000
+    #: UART baud rate (ignored by URLs and USB)
+    baudrate: int = DEFAULT_BAUDRATE
+    #: the port's read timeout [s]: how long the reader thread waits for bytes at a time
+    read_timeout: float = 0.05
+    #: let only the reader thread touch the port (writes are handed to it and go out between
+    #: reads). Needed by ports that are not thread-safe, such as the emulator's virtual-time
+    #: ``openshoe://`` port; None: on for those URLs, off otherwise (real serial ports read and
+    #: write concurrently)
+    serialize_io: bool | None = None
+
+
 class Device(CommandMethods):
     """One OpenShoe module over one serial link (USB CDC or Bluetooth SPP, real or emulated).
 
     *target*: a device path or pyserial URL (``/dev/rfcomm0``, ``socket://host:port``,
     ``loop://``, the emulator's ``openshoe://``), or an already-open pyserial port.
-    *command_set*: ``"2015"`` (current) or ``"2014"`` numbering (protocol.md §10).
-    *ack_timeout* seconds per attempt and *retries* extra attempts for each
-    command. *reconnect*: after a dropped link, keep re-opening it (every
-    *reconnect_interval* s) until :meth:`close`. *queue_size* bounds the packet
-    and step queues. *raw_log*: a binary file that receives every byte read.
+    *options*: how it talks to the module (:class:`DeviceOptions`: command numbering, ack
+    timeout and retries, reconnecting, queue sizes, baud rate …); any of their fields may also
+    be given as a keyword (``Device(url, ack_timeout=2.0)``), which wins over *options*.
     *tracker*: where steps are summed (default: origin, counting from 0x34).
+    *raw_log*: a binary file that receives every byte read.
     *port_factory*: overrides how the link is opened (tests, custom links).
     *start*: False leaves the reader thread off (bytes are then processed only
     by calling :meth:`feed`, e.g. to replay a capture).
-    *serialize_io*: let only the reader thread touch the port (writes are handed
-    to it and go out between reads). Needed by ports that are not thread-safe,
-    such as the emulator's virtual-time ``openshoe://`` port (the default for
-    those URLs); real serial ports read and write concurrently.
 
-    Callbacks: one method per kind of event — :meth:`on_packet`, :meth:`on_step`,
-    :meth:`on_gap`, :meth:`on_ack`, :meth:`on_link` — each taking *fn(event)*
-    (and returning it, so it also decorates); :meth:`remove_callback` undoes
-    them. One method per kind, not one keyed by a string: each signature names
-    the event the callback gets, and a misspelt kind fails where it is written
-    (AttributeError) instead of never firing. Callbacks run in the reader
-    thread, after the acks of the bytes that produced their event were sent;
-    keep them short, since the reader reads (and acks) nothing more until they
-    return. Their exceptions are logged and counted (``callback_errors``).
+    Callbacks: one method per kind of event — :meth:`on_packet`, :meth:`on_step`, :meth:`on_gap`,
+    :meth:`on_ack`, :meth:`on_link` — each taking *fn(event)* (and returning it, so it also
+    decorates); :meth:`remove_callback` undoes them. One method per kind, not one keyed by a string:
+    each signature names the event the callback gets, and a misspelt kind fails where it is written
+    (AttributeError) instead of never firing. Callbacks run in the reader thread, after the acks of
+    the bytes that produced their event were sent; keep them short, since the reader reads (and
+    acks) nothing more until they return. Their exceptions are logged and counted (``callback_errors``).
 
-    Reading: every kind of event that is queued has one pair of names.
-    ``recv_<kind>(timeout)`` returns the next one, or None when *timeout* s pass
-    (:meth:`recv_packet`, :meth:`recv_step`); ``<kind>s(timeout)`` iterates over
-    them until *timeout* s have passed in total (:meth:`packets`, :meth:`steps`).
-    Both take from the same bounded queue, so an event is read once, by either.
-    After :meth:`close` the queued events are still handed out; then ``recv_*``
-    raises :class:`DeviceClosed` and the iterators end.
+    Reading: every kind of event that is queued has one pair of names. ``recv_<kind>(timeout)``
+    returns the next one, or None when *timeout* s pass (:meth:`recv_packet`, :meth:`recv_step`);
+    ``<kind>s(timeout)`` iterates over them until *timeout* s have passed in total (:meth:`packets`,
+    :meth:`steps`). Both take from the same bounded queue, so an event is read once, by either.
+    After :meth:`close` the queued events are still handed out; then ``recv_*`` raises
+    :class:`DeviceClosed` and the iterators end.
     """
 
-    def __init__(
-        self,
-        target: Any = None,
-        *,
-        command_set: str = "2015",
-        ack_timeout: float = 1.0,
-        retries: int = 2,
-        ack_policy: str = "auto",
-        reconnect: bool = True,
-        reconnect_interval: float = 0.5,
-        queue_size: int = 10000,
-        baudrate: int = DEFAULT_BAUDRATE,
-        read_timeout: float = 0.05,
-        raw_log: BinaryIO | None = None,
-        tracker: StepTracker | None = None,
-        port_factory: PortFactory | None = None,
-        serialize_io: bool | None = None,
-        start: bool = True,
-    ):
+    def __init__(self, target: Any = None, options: DeviceOptions | None = None, *,
+                 tracker: StepTracker | None = None, raw_log: BinaryIO | None = None,
+                 port_factory: PortFactory | None = None, start: bool = True, **settings: Any):
+        options = replace(options or DeviceOptions(), **settings)
         if port_factory is None:
             if target is None:
                 raise ValueError("Device needs a port path/URL, a port object, or a port_factory")
-            port_factory = _default_factory(target, baudrate, read_timeout)
+            port_factory = _port_factory(target, baudrate=options.baudrate,
+                                         read_timeout=options.read_timeout)
         self._factory = port_factory
-        self.session = HostSession(command_set, ack_policy=ack_policy, tracker=tracker, plan=OutputPlan())
-        self.ack_timeout = float(ack_timeout)
-        self.retries = int(retries)
-        self.reconnect = reconnect
-        self.reconnect_interval = float(reconnect_interval)
+        #: how it talks to the module (:class:`DeviceOptions`, with the keywords given)
+        self.options = options
+        self.session = HostSession(options.command_set, ack_policy=options.ack_policy, tracker=tracker,
+                                   plan=OutputPlan())
+        self.ack_timeout = float(options.ack_timeout)
+        self.retries = int(options.retries)
+        self.reconnect = options.reconnect
+        self.reconnect_interval = float(options.reconnect_interval)
         self.raw_log = raw_log
 
         self._lock = threading.RLock()  # session state
         self._write_lock = threading.Lock()
+        serialize_io = options.serialize_io
         if serialize_io is None:
             serialize_io = isinstance(target, str) and target.lower().startswith("openshoe://")
         self.serialize_io = bool(serialize_io)
@@ -182,8 +194,8 @@ class Device(CommandMethods):
         self.reconnects = 0
         self.callback_errors = 0
         self.reader_errors = 0
-        self._packets = _BoundedQueue("packets", queue_size)
-        self._steps = _BoundedQueue("steps", queue_size)
+        self._packets = _BoundedQueue("packets", options.queue_size)
+        self._steps = _BoundedQueue("steps", options.queue_size)
         self._callbacks: dict[type, list[Callable[[Any], object]]] = {
             kind: [] for kind in (PacketEvent, StepEvent, GapEvent, CommandAckEvent, LinkEvent)
         }
@@ -585,7 +597,3 @@ class Device(CommandMethods):
             reader_errors=self.reader_errors,
         )
         return d
-
-
-def _default_factory(target: Any, baudrate: int, read_timeout: float) -> PortFactory:
-    return port_factory(target, baudrate=baudrate, read_timeout=read_timeout)

@@ -16,7 +16,7 @@ import serial
 
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
 from hostlib.events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent
-from hostlib.link.device import Device
+from hostlib.link.device import Device, DeviceOptions
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
@@ -100,6 +100,20 @@ def test_silent_module_times_out_after_bounded_retries():
             d.ping()
         assert info.value.attempts == 3
         assert fake.commands == [bytes.fromhex("03 00 03")] * 3
+
+
+def test_the_options_object_and_its_fields_as_keywords_set_a_device_up_alike():
+    options = DeviceOptions(command_set="2014", ack_timeout=0.05, retries=0, queue_size=3)
+    with Device(FakeModulePort(mute=True), options) as d:
+        assert (d.session.command_set.name, d.ack_timeout, d.retries) == ("2014", 0.05, 0)
+        with pytest.raises(AckTimeout) as info:
+            d.ping()
+        assert info.value.attempts == 1
+    with Device(FakeModulePort(LEGACY_2014), options, retries=4) as d:  # a keyword wins over the options
+        assert d.options == DeviceOptions(command_set="2014", ack_timeout=0.05, retries=4, queue_size=3)
+        assert d.ping() == CommandAckEvent(0x03)
+    with pytest.raises(TypeError, match="ack_timout"):
+        Device(FakeModulePort(), ack_timout=1.0)
 
 
 def test_retry_succeeds_when_the_first_command_is_lost(fake):
