@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -20,7 +21,7 @@ import numpy as np
 
 from ..track.steps import Track
 
-__all__ = ["along_track", "ellipse_params", "ellipse_scale", "plot_track"]
+__all__ = ["PlotOptions", "along_track", "ellipse_params", "ellipse_scale", "plot_track"]
 
 
 def _matplotlib() -> tuple[Any, Any, Any]:
@@ -74,67 +75,79 @@ def along_track(positions: np.ndarray) -> np.ndarray:
     return np.concatenate([[0.0], np.cumsum(steps)])
 
 
-def plot_track(
-    track: Track,
-    path: str | Path,
-    *,
-    every: int = 10,
-    n_sigma: float = 1.0,
-    title: str | None = None,
-    dpi: int = 120,
-    reference: np.ndarray | None = None,
-    reference_label: str = "ground truth",
-    scale: float | None = None,
-    height_profile: bool = True,
-    paths: Mapping[str, np.ndarray] | None = None,
-    label: str = "track",
-) -> Path:
-    """Draw *track* seen from above (east right, north up), and its height along the way.
+@dataclass(frozen=True)
+class PlotOptions:
+    """What :func:`plot_track` draws besides the track, and how."""
 
-    Every *every*-th step (and the last) gets its n-σ position ellipse, enlarged
-    *scale* times so that it can be seen at the plan's scale (None: chosen so the
-    largest spans about 4 % of the plot; the legend states the factor).
-    *reference*: optional known path to draw beneath the track, rows of
-    (north, east[, down]) metres in the track's frame (e.g. a simulation's ground
-    truth or surveyed points). *height_profile*: a panel under the plan with the
-    height (up) over the distance walked, the track's and the reference's.
-    *paths*: more paths to draw thin beside the track in the plan, label → rows of
-    (north, east[, down]) (e.g. each foot's beside a two-feet body track). *label*: the
-    track's name in the legends.
+    #: every *every*-th step (and the last) gets its position ellipse
+    every: int = 10
+    #: the ellipses' size in σ
+    n_sigma: float = 1.0
+    #: the plan's title (None: the track's steps, distance and closure)
+    title: str | None = None
+    #: the PNG's resolution [dots per inch]
+    dpi: int = 120
+    #: a known path drawn beneath the track, rows of (north, east[, down]) metres in the track's
+    #: frame (e.g. a simulation's ground truth or surveyed points)
+    reference: np.ndarray | None = None
+    #: the reference's name in the legends
+    reference_label: str = "ground truth"
+    #: how many times the ellipses are enlarged (None: so that the largest spans about 4 % of the
+    #: plot, :func:`ellipse_scale`; the legend states the factor)
+    scale: float | None = None
+    #: a panel under the plan with the height (up) over the distance walked, the track's and the
+    #: reference's
+    height_profile: bool = True
+    #: more paths drawn thin beside the track in the plan, label → rows of (north, east[, down])
+    #: (e.g. each foot's beside a two-feet body track)
+    paths: Mapping[str, np.ndarray] | None = None
+    #: the track's name in the legends
+    label: str = "track"
+
+
+def plot_track(track: Track, path: str | Path, options: PlotOptions | None = None, **settings: Any) -> Path:
+    """Draw *track* seen from above (east right, north up), and its height along the way, into the
+    PNG at *path*; returns the file.
+
+    Every *every*-th step (and the last) gets its n-σ position ellipse, enlarged so that it can be
+    seen at the plan's scale; a reference path, more paths beside the track and the height profile
+    as *options* say (:class:`PlotOptions`). Any of its fields may also be given as a keyword
+    (``plot_track(track, "t.png", every=5)``), which wins over *options*.
     """
-    if every < 1:
-        raise ValueError(f"every must be >= 1, got {every}")
+    o = replace(options or PlotOptions(), **settings)
+    if o.every < 1:
+        raise ValueError(f"every must be >= 1, got {o.every}")
     Figure, FigureCanvasAgg, _Ellipse = _matplotlib()
     pos = track.positions
-    ref = _reference_rows(reference)
-    fig = Figure(figsize=(7, 9.5) if height_profile else (7, 7))
+    ref = _reference_rows(o.reference)
+    fig = Figure(figsize=(7, 9.5) if o.height_profile else (7, 7))
     FigureCanvasAgg(fig)
-    if height_profile:
+    if o.height_profile:
         grid = fig.add_gridspec(2, 1, height_ratios=(3.2, 1))
         ax, axz = fig.add_subplot(grid[0]), fig.add_subplot(grid[1])
     else:
         ax, axz = fig.add_subplot(1, 1, 1), None
     if ref is not None:
-        ax.plot(ref[:, 1], ref[:, 0], "--", color="0.55", lw=1.0, label=reference_label)
-    for (name, rows), color in zip((paths or {}).items(), itertools.cycle(_PATH_COLORS)):
+        ax.plot(ref[:, 1], ref[:, 0], "--", color="0.55", lw=1.0, label=o.reference_label)
+    for (name, rows), color in zip((o.paths or {}).items(), itertools.cycle(_PATH_COLORS)):
         path_rows = _reference_rows(rows)
         ax.plot(path_rows[:, 1], path_rows[:, 0], "-", color=color, lw=0.7, alpha=0.8, label=name)
-    ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label=label)
+    ax.plot(pos[:, 1], pos[:, 0], "-", color="tab:blue", lw=1.2, label=o.label)
     ax.plot(pos[0, 1], pos[0, 0], "o", color="tab:green", label="start")
     ax.plot(pos[-1, 1], pos[-1, 0], "s", color="tab:red", label="end")
-    _draw_ellipses(ax, pos, track.covariances, every, n_sigma, scale)
+    _draw_ellipses(ax, pos, track.covariances, o.every, o.n_sigma, o.scale)
     ax.set_xlabel("east [m]")
     ax.set_ylabel("north [m]")
     ax.set_aspect("equal", adjustable="datalim")
     ax.grid(True, lw=0.3)
     ax.legend(loc="best", fontsize="small")
-    ax.set_title(title or f"{len(track)} steps, {track.distance:.1f} m, "
-                          f"closure {track.closure_error():.2f} m")
+    ax.set_title(o.title or f"{len(track)} steps, {track.distance:.1f} m, "
+                            f"closure {track.closure_error():.2f} m")
     if axz is not None:
-        _draw_height_profile(axz, pos, ref, reference_label, label)
+        _draw_height_profile(axz, pos, ref, o.reference_label, o.label)
     fig.tight_layout()
     out = Path(path)
-    fig.savefig(out, dpi=dpi, format="png")
+    fig.savefig(out, dpi=o.dpi, format="png")
     return out
 
 

@@ -17,7 +17,7 @@ from hostlib.files.export import (
     write_csv,
     write_geojson,
 )
-from hostlib.files.plot import along_track, ellipse_params, ellipse_scale, plot_track
+from hostlib.files.plot import PlotOptions, along_track, ellipse_params, ellipse_scale, plot_track
 from hostlib.track.steps import StepTracker
 
 
@@ -105,6 +105,18 @@ def test_png_is_written(tmp_path):
     assert data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) > 5000
     with pytest.raises(ValueError, match="every"):
         plot_track(walk(2).track, tmp_path / "u.png", every=0)
+
+
+def test_png_options_as_an_object_or_as_keywords_draw_the_same_picture(tmp_path):
+    pytest.importorskip("matplotlib")
+    track = walk(12).track
+    options = PlotOptions(every=3, title="a walk", height_profile=False, dpi=60)
+    by_object = plot_track(track, tmp_path / "a.png", options).read_bytes()
+    by_keywords = plot_track(track, tmp_path / "b.png", every=3, title="a walk", height_profile=False,
+                             dpi=60).read_bytes()
+    assert by_object == by_keywords
+    assert plot_track(track, tmp_path / "c.png", options, dpi=120).read_bytes() != by_object, \
+        "a keyword wins over the options"
 
 
 def test_png_can_draw_a_reference_path_and_refuses_a_malformed_one(tmp_path):
