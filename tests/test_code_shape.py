@@ -13,7 +13,7 @@ import re
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parent.parent
-PACKAGES = ("protocol", "firmware_sim", "hostlib", "tools")
+PACKAGES = ("protocol", "firmware_sim", "hostlib", "tools", "lab")
 MAX_FUNCTION_LINES = 120
 PLANNING_WORDS = re.compile(r"\bissue\s*#?\d+|\bmust[ _]show\b|\b(?:tracker|work) item", re.IGNORECASE)
 

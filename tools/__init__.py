@@ -1,1 +1,1 @@
-"""Tools beyond the packages: conformance suite, benchmarks, converters."""
+"""What ships beside the packages: the conformance suite (``openshoe-conformance``)."""

@@ -1,6 +1,6 @@
-"""`openshoe-bench`: the emulator's performance targets, measured as ratios in one run.
+"""`python -m lab.bench`: the emulator's performance targets, measured as ratios in one run.
 
-Targets (``openshoe-bench [TARGET …]``, all of them by default):
+Targets (``python -m lab.bench [TARGET …]``, all of them by default):
 
 * ``batch`` — the full firmware pipeline of step-wise dead reckoning (4 IMUs at 1 kHz:
   read, front end, detector, INS, step-wise reset, packet assembly, the host's acks)
@@ -12,9 +12,9 @@ Targets (``openshoe-bench [TARGET …]``, all of them by default):
 * ``latency`` — one module served in real time on a pty: time from a command written on
   the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 2 ms.
 * ``files`` — ``--walks`` (100) walk files through one ``openshoe-emu replay`` command, start-up
-  included: walks/s (target 22) and the time split (:mod:`tools.bench.files`).
+  included: walks/s (target 22) and the time split (:mod:`lab.bench.files`).
 * ``sweep`` — a sweep of ``--runs`` (64) runs on 1, then 2 local Dask workers: the speed-up
-  (target 1.7) and identical tables (:mod:`tools.bench.sweep`).
+  (target 1.7) and identical tables (:mod:`lab.bench.sweep`).
 * ``memory`` — a batch run of ``--cycles`` loop cycles (86.4 M = 24 h at 1 kHz) of a
   repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
 
@@ -85,7 +85,7 @@ def _say(msg: str) -> None:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="openshoe-bench", description=__doc__.split("\n\n")[0],
+    p = argparse.ArgumentParser(prog="python -m lab.bench", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("targets", nargs="*", metavar="TARGET",
                    help=f"targets to run: {', '.join(TARGETS)} (default: all)")

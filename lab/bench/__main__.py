@@ -1,7 +1,7 @@
-"""`python -m tools.bench` = `openshoe-bench`."""
+"""`python -m lab.bench`: the benchmarks (:func:`lab.bench.main`)."""
 
 import sys
 
-from tools.bench import main
+from lab.bench import main
 
 sys.exit(main())

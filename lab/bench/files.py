@@ -1,4 +1,4 @@
-"""The ``files`` target of `openshoe-bench`: a recording set through ``openshoe-emu replay``, end to end.
+"""The ``files`` target of `python -m lab.bench`: a recording set through ``openshoe-emu replay``, end to end.
 
 One command replays ``--walks`` (100) walk files — the six shared OpenShoe walks over and over —
 into a folder, in a subprocess, start-up included (the interpreter, the imports, loading the

@@ -1,4 +1,4 @@
-"""The ``sweep`` target of `openshoe-bench`: the speed-up of a sweep from one Dask worker to two.
+"""The ``sweep`` target of `python -m lab.bench`: the speed-up of a sweep from one Dask worker to two.
 
 The sweep: the ``rectangle`` scenario (a closed loop, 65 s at 1 kHz) × seeds × four detector
 thresholds, ``--runs`` (64) runs in all, run on a local cluster of one worker process and then

@@ -1,4 +1,4 @@
-"""The four benchmark targets of `openshoe-bench` (see :mod:`tools.bench`)."""
+"""The four benchmark targets of `python -m lab.bench` (see :mod:`lab.bench`)."""
 
 from __future__ import annotations
 

@@ -1,9 +1,9 @@
-"""`openshoe-spread`: where the end of a straight walk lands, walk after walk, module after module.
+"""`python -m lab.spread`: where the end of a straight walk lands, walk after walk, module after module.
 
 The module paper's experiment (OpenShoe / MIMU22BT): fifty 100 m straight walks; the track's
 end against the true end, as systematic length and height errors (up to 0.5 % of the distance)
 and a spread across the track of a couple of decimetres, plotted as a scatter with its 1σ
-ellipse. Here the walks are simulated: ``openshoe-spread`` walks ``--route`` (default ``walk``,
+ellipse. Here the walks are simulated: ``python -m lab.spread`` walks ``--route`` (default ``walk``,
 100 m straight; any scenario or recipe of ``openshoe-emu sweep``) once per seed of ``--seeds``
 (default ``1:51``), each walk a new module (its own systematic errors), or, with ``--module N``,
 module N every time (only the walk's noise changes).

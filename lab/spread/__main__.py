@@ -1,7 +1,7 @@
-"""`python -m tools.spread` = `openshoe-spread`."""
+"""`python -m lab.spread`: the spread of many walks' ends (:func:`lab.spread.main`)."""
 
 import sys
 
-from tools.spread import main
+from lab.spread import main
 
 sys.exit(main())

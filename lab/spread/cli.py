@@ -1,4 +1,4 @@
-"""The command line of `openshoe-spread` (:mod:`tools.spread`)."""
+"""The command line of `python -m lab.spread` (:mod:`lab.spread`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from typing import Any
 
 __all__ = ["build_parser", "main"]
 
-PROG = "openshoe-spread"
+PROG = "python -m lab.spread"
 
 
 def build_parser() -> argparse.ArgumentParser:

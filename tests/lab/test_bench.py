@@ -1,4 +1,4 @@
-"""`openshoe-bench`: the summary lines and the JSON file a reader of the benchmark relies on."""
+"""`python -m lab.bench`: the summary lines and the JSON file a reader of the benchmark relies on."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from tools.bench import Result, machine_info, main
-from tools.bench.targets import RepeatingWalk
+from lab.bench import Result, machine_info, main
+from lab.bench.targets import RepeatingWalk
 
 LINE = re.compile(r"^(\w+): ([\d.]+) (.+?) \(target ([\d.]+), ratio (\d+\.\d\d)\)")
 
@@ -25,12 +25,12 @@ def test_result_line_format_and_ratio() -> None:
 
 
 def test_the_targets_do_not_import_the_package_that_runs_them() -> None:
-    """``tools.bench`` runs ``tools.bench.targets``; both take Result from ``tools.bench.result``."""
+    """``lab.bench`` runs ``lab.bench.targets``; both take Result from ``lab.bench.result``."""
+    from lab.bench import result
     from tests.test_layering import project_imports
-    from tools.bench import result
 
-    assert "tools.bench" not in project_imports("tools.bench.targets")
-    assert "tools.bench" not in project_imports("tools.bench.result")
+    assert "lab.bench" not in project_imports("lab.bench.targets")
+    assert "lab.bench" not in project_imports("lab.bench.result")
     assert Result is result.Result
 
 
@@ -74,7 +74,7 @@ def test_batch_target_prints_its_line_and_json(tmp_path: Path, capsys: pytest.Ca
 
 
 def test_realtime_plan_spreads_the_modules_over_the_processes() -> None:
-    from tools.bench.targets import _realtime_plan
+    from lab.bench.targets import _realtime_plan
 
     plan = _realtime_plan(50, 2, 10.0, None)
     assert plan.per == [25, 25] and plan.frame_len == 4.0 and not plan.short
@@ -86,7 +86,7 @@ def test_realtime_plan_spreads_the_modules_over_the_processes() -> None:
 
 
 def test_realtime_figures_from_the_status_lines() -> None:
-    from tools.bench.targets import _realtime_details, _realtime_plan, _realtime_result, _ServeStatus
+    from lab.bench.targets import _realtime_details, _realtime_plan, _realtime_result, _ServeStatus
 
     status = _ServeStatus()
     for process, module, overruns in ((0, 0, 0), (0, 1, 2), (1, 0, 0)):

@@ -1,4 +1,4 @@
-"""The `files` and `sweep` targets of `openshoe-bench`: their inputs, and the line `files` prints."""
+"""The `files` and `sweep` targets of `python -m lab.bench`: their inputs, and the line `files` prints."""
 
 from __future__ import annotations
 
@@ -7,9 +7,9 @@ import re
 
 import pytest
 
-from tools.bench import main
-from tools.bench.files import _split
-from tools.bench.sweep import sweep_spec
+from lab.bench import main
+from lab.bench.files import _split
+from lab.bench.sweep import sweep_spec
 
 LINE = re.compile(r"^(\w+): ([\d.]+) (.+?) \(target ([\d.]+), ratio (\d+\.\d\d)\)")
 

@@ -1,4 +1,4 @@
-"""`openshoe-spread`: the spread of the end errors of many walks, its table, its files, and
+"""`python -m lab.spread`: the spread of the end errors of many walks, its table, its files, and
 what the simulated modules show walked 100 m straight (the module paper's experiment)."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import re
 
 import pytest
 
-from tools.spread import Spread, lines, main, walk_groups
-from tools.spread.figure import ellipse_axes
-from tools.spread.summary import MeanSd, horizontal_ratio
+from lab.spread import Spread, lines, main, walk_groups
+from lab.spread.figure import ellipse_axes
+from lab.spread.summary import MeanSd, horizontal_ratio
 
 SHORT = "stand:2+walk:5"
 
@@ -158,7 +158,7 @@ def test_comparing_a_module_with_the_fleet_prints_the_ratio_of_spreads(tmp_path,
 def test_bad_arguments_exit_2_with_the_reason(argv, message, tmp_path, capsys):
     assert main(["--workers", "0", "--out", str(tmp_path), *argv]) == 2  # a later --workers wins
     err = capsys.readouterr().err
-    assert err.startswith("openshoe-spread: ") and message in err
+    assert err.startswith("python -m lab.spread: ") and message in err
     assert not (tmp_path / "spread.csv").exists()
 
 

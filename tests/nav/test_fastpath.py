@@ -23,13 +23,13 @@ from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.replay import ReplaySource
+from lab.bench.driver import START_STEPWISE, run_session
 from protocol.frames import StatePacket, build_command, build_packet_ack
 from protocol.ids import Command, StateId
 from protocol.states import STATES
 from protocol.stream import StreamDecoder
 from tests.conftest import WALK_IDS, walk_path
 from tests.nav.helpers import run_stepwise_host
-from tools.bench.driver import START_STEPWISE, run_session
 
 REPO = Path(__file__).resolve().parents[2]
 
