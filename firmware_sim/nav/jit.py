@@ -32,8 +32,8 @@ import firmware_sim.mcu.memory
 import protocol.ids
 import protocol.states
 
-__all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compiled_reference", "kernel", "numba_version", "objmode",
-           "plain", "pure_requested"]
+__all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compilations", "compiled_reference", "kernel",
+           "numba_version", "objmode", "plain", "pure_requested"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -142,6 +142,13 @@ def compiled_reference(fn: F, **helpers: Callable[..., Any]) -> F:
 
 
 _KernelType: type | tuple[()] = _KernelDispatcher if numba is not None else ()
+
+
+def compilations() -> int:
+    """How many compiled versions the kernels of this process hold (compiled or loaded from the
+    cache, one per argument types a kernel was called with; 0 without numba). A count that grows
+    while a module's clock runs is a compile (or a cache load) that a host waited on."""
+    return sum(len(k.signatures) for k in _PLAIN)
 
 
 @functools.cache

@@ -49,7 +49,7 @@ from urllib.parse import parse_qs, urlsplit
 
 from firmware_sim.links.link import PROFILES, Link, LinkFaults, make_link
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
-from firmware_sim.mcu.imu_bus import SensorSource
+from firmware_sim.mcu.imu_bus import PreparedBandwidths, SensorSource
 from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
@@ -312,7 +312,9 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
-    so a host never meets silent sensors after a short scenario.
+    so a host never meets silent sensors after a short scenario. A host's SET_IMU_BANDWIDTH
+    recomputes the walk's registers; served in :class:`~firmware_sim.mcu.imu_bus.PreparedBandwidths`,
+    a real-time pacer has them computed for every setting before its clock starts.
     """
     try:
         if side is None:
@@ -322,7 +324,7 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
                                       walker_seed=walker_seed, stance_sway=stance_sway)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
-    return served_source(source)
+    return served_source(PreparedBandwidths(source))
 
 
 # --------------------------------------------------------------------------- endpoints

@@ -12,9 +12,16 @@ import pytest
 
 from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
-from firmware_sim.nav import fastpath, warmup
-from firmware_sim.nav.firmware import build_module
+from firmware_sim.nav import fastpath, jit, warmup
+from firmware_sim.nav.driver import TRACKING
+from firmware_sim.nav.fastpath import FastNav
+from firmware_sim.nav.firmware import OPENSHOE, build_module
 from firmware_sim.sensors.imu_array import make_source
+from firmware_sim.sensors.playback import served_source
+from protocol.commands import CURRENT
+from protocol.frames import build_command, checksum
+from protocol.ids import Command
+from protocol.states import STATES
 
 
 @pytest.fixture
@@ -88,3 +95,62 @@ def test_the_fallback_gives_the_same_bytes(fresh):
     fallen_back = run_replay(make_source("stand:3+walk:4+stand:1", seed=3), announce=None)
     assert not fallen_back.module.compiled
     assert bytes(fallen_back) == bytes(reference)
+
+
+# ----------------------------------------------------------------------------- no compile later
+
+_FLOAT_STATES = [s.id for s in STATES.values() if s.dtype.kind == "f"]
+_FILLS = (b"\x00", b"\xff", b"\x7f\x7f\xff\xff")  # zeros; NaN; the largest float32
+
+
+def _set_state_command(size: int) -> Command:
+    sizes = ((Command.SET_STATE_4, 4), (Command.SET_STATE_12, 12), (Command.SET_STATE_24, 24),
+             (Command.SET_STATE_254, 254))
+    return next(m for m, n in sizes if size <= n)
+
+
+def _extreme_frames() -> list[bytes]:
+    """Every command of the table with payloads of all zeros, all ones and the largest float; every
+    float state set to those; every processing function put in slots 0, 5 and 10; both modes."""
+    frames = []
+    for spec in CURRENT.values():
+        for fill in _FILLS:
+            body = bytes([spec.wire_id]) + (fill * spec.payload_len)[:spec.payload_len]
+            frames.append(body + checksum(body).to_bytes(2, "big"))
+    for sid in _FLOAT_STATES:
+        size = STATES[sid].size
+        meaning = _set_state_command(size)
+        for fill in _FILLS:
+            frames.append(build_command(meaning, state_id=sid, data=(fill * size)[:size]))
+    for pid in OPENSHOE.functions:
+        for slot in (0, 5, 10):
+            frames.append(build_command(Command.RUN_PROC, proc_id=pid, slot=slot))
+    frames += [build_command(Command.RESET_ZUPT_AIDED_INS), build_command(Command.STEPWISE_DEAD_RECKONING)]
+    return frames
+
+
+def test_no_command_compiles_a_kernel_once_the_compiled_path_is_prepared():
+    """After the preparation, a tracking module that receives any command with extreme payloads
+    runs on without a kernel compiling (or loading) — nothing a host sends makes it wait on numba.
+    Commands that keep the tracking sequence keep it compiled (no fall back to the pure path)."""
+    if not fastpath.available():
+        pytest.skip(f"compiled path unavailable here: {fastpath.reason_unavailable()}")
+    assert warmup.prepare_compiled_path(None).compiled
+    walk = make_source("stand:1+walk:2+stand:1", seed=5)
+    before = jit.compilations()
+    edits_sequence = {CURRENT.spec(m).wire_id for m in (
+        Command.SETUP_DEBUG_PROC, Command.RUN_PROC, Command.RUN_MULT_PROC, Command.ALL_PROC_OFF,
+        Command.MIMU_FRONTEND, Command.STORE_AND_EMPTY, Command.RESTORE_PROC_SEQU, Command.NORMAL_IMU,
+        Command.NORMAL_IMU_WITH_BIAS_EST, Command.RESET_ZUPT_AIDED_INS, Command.STEPWISE_DEAD_RECKONING,
+        Command.INPUT_IMU_RD)}
+    for frame in _extreme_frames():
+        module = build_module(ModuleConfig(compiled=True), served_source(walk))
+        module.usb.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
+        module.run(600)  # aligned: tracking
+        assert FastNav.kind(module) == TRACKING
+        module.usb.port.host_write(frame)
+        module.run(400)
+        module.usb.port.host_read()
+        assert jit.compilations() == before, f"a kernel compiled after {frame.hex(' ')}"
+        if frame[0] not in edits_sequence:
+            assert FastNav.kind(module) == TRACKING, f"{frame.hex(' ')} left the compiled path"
