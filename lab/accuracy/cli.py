@@ -1,4 +1,4 @@
-"""The command line of `openshoe-accuracy` (:mod:`tools.accuracy`)."""
+"""The command line of `python -m lab.accuracy` (:mod:`lab.accuracy`)."""
 
 from __future__ import annotations
 
@@ -13,7 +13,7 @@ import numpy as np
 
 __all__ = ["build_parser", "main"]
 
-PROG = "openshoe-accuracy"
+PROG = "python -m lab.accuracy"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -72,8 +72,13 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
     for q in (w, wc, s, v, n, hs, mc, f, lp, a, d, c, ef, h):
-        q.add_argument("--workers", type=int, default=2,
-                       help="local Dask worker processes (default 2; 0 = here, one after the other)")
+        where = q.add_mutually_exclusive_group()
+        where.add_argument("--workers", type=int, default=2,
+                           help="local Dask worker processes, 1 thread each (default 2; 0 = here, one after "
+                                "the other)")
+        where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                           help="run on this Dask cluster instead (its workers need the clone's lab/ on "
+                                "their path: lab/runner.py)")
         q.add_argument("--out", type=Path, default=Path("accuracy-out"), metavar="DIR",
                        help="write the table (CSV) and the height picture here (default accuracy-out)")
     return p
@@ -118,7 +123,7 @@ def _walks(args: argparse.Namespace, out) -> int:
 
     if _missing_recordings(args.files):
         return 2
-    results = walks.walk_results(args.files, workers=args.workers)
+    results = walks.walk_results(args.files, workers=args.workers, scheduler=args.scheduler)
     for line in walks.table_lines(results):
         print(line, file=out)
     first = results[0]
@@ -131,7 +136,7 @@ def _walks(args: argparse.Namespace, out) -> int:
 def _error_free(args: argparse.Namespace, out) -> int:
     from . import error_free
 
-    rows = error_free.error_free_rows(args.scenarios or None, args.workers)
+    rows = error_free.error_free_rows(args.scenarios or None, args.workers, args.scheduler)
     _report(out, error_free.table_lines(rows), _write_csv(args.out / "error-free.csv", rows))
     return 0
 
@@ -145,7 +150,7 @@ def _walks_compass(args: argparse.Namespace, out) -> int:
         print(f"{PROG}: walks-compass: each walk's calibration and compass σ come from the other walks: "
               f"give at least two recordings", file=sys.stderr)
         return 2
-    results = walks_compass.compass_walk_results(args.files, workers=args.workers)
+    results = walks_compass.compass_walk_results(args.files, workers=args.workers, scheduler=args.scheduler)
     csv = _write_csv(args.out / "walks-compass.csv", walks_compass.rows(results))
     _report(out, walks_compass.table_lines(results), csv)
     return 0
@@ -182,7 +187,7 @@ def _seeded_table(args: argparse.Namespace, out, rows_of: Any, summary_of: Any, 
     seeds = _seeds(args)
     if seeds is None:
         return 2
-    rows = rows_of(seeds, workers=args.workers)
+    rows = rows_of(seeds, workers=args.workers, scheduler=args.scheduler)
     lines = summary_of(rows)
     csv = _write_csv(args.out / name, rows)
     _report(out, lines, csv, *([picture(rows, seeds)] if picture is not None else []))
@@ -222,7 +227,7 @@ def _magcal(args: argparse.Namespace, out) -> int:
     if seeds is None:
         return 2
     code = _seeded_table(args, out, magcal.calibration_rows, magcal.summary_lines, "magcal.csv")
-    rows = magcal.tilt_rows(seeds, workers=args.workers)
+    rows = magcal.tilt_rows(seeds, workers=args.workers, scheduler=args.scheduler)
     _report(out, magcal.tilt_lines(rows), _write_csv(args.out / "magcal-tilt.csv", rows))
     return code
 
@@ -281,10 +286,10 @@ def _two_feet_heading(args: argparse.Namespace, out) -> int:
     if not 0 <= a < b:
         print(f"{PROG}: --drop: need 0 ≤ START < END, got {args.drop!r}", file=sys.stderr)
         return 2
-    from .runs import map_runs
+    from lab.runner import map_runs
 
-    plain, dropped = map_runs(lambda drop: two_feet.heading_run(args.seed, drop), [None, (a, b)],
-                              args.workers)
+    plain, dropped = map_runs(functools.partial(two_feet.heading_run, args.seed), [None, (a, b)],
+                              args.workers, args.scheduler)
     pngs = []
     for result, name in ((plain, "two-feet-heading.png"), (dropped, "two-feet-link-drop.png")):
         for line in two_feet.heading_summary(result):

@@ -52,7 +52,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .runs import map_runs
+from lab.runner import map_runs
 
 if TYPE_CHECKING:
     from hostlib.fusion.module_errors import ModuleErrors
@@ -134,9 +134,11 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
 
 
 def consistency_rows(seeds: Sequence[int], workers: int = 2, scenarios: Sequence[str] = SCENARIOS,
-                     stance_sway: bool | None = None) -> list[dict[str, Any]]:
-    """Every scenario × seed, in that order (*stance_sway* as in :func:`consistency_run`)."""
-    return map_runs(consistency_run, [(s, seed, stance_sway) for s in scenarios for seed in seeds], workers)
+                     stance_sway: bool | None = None, scheduler: str | None = None) -> list[dict[str, Any]]:
+    """Every scenario × seed, in that order (*stance_sway* as in :func:`consistency_run`;
+    :func:`lab.runner.map_runs`)."""
+    jobs = [(s, seed, stance_sway) for s in scenarios for seed in seeds]
+    return map_runs(consistency_run, jobs, workers, scheduler)
 
 
 def sigma_ratio(rows: Sequence[dict[str, Any]], what: str) -> float:

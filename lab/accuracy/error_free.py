@@ -12,7 +12,7 @@ packets and the true stances. What the navigation itself loses, with no sensor e
 real foot's swaying stances (the emulator's default walk, ``gait.StanceSway``): what the sway
 alone adds.
 
-``openshoe-accuracy error-free [SCENARIO...]`` prints the table as docs/accuracy.md has it.
+``python -m lab.accuracy error-free [SCENARIO...]`` prints the table as docs/accuracy.md has it.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ from typing import Any
 
 import numpy as np
 
-from .runs import map_runs
+from lab.runner import map_runs
 
 __all__ = ["RATE_HZ", "error_free_run", "error_free_rows", "table_lines"]
 
@@ -65,11 +65,13 @@ def error_free_run(scenario: str) -> dict[str, Any]:
             "swaying_height_m": end_errors(sway_track, truth)["end_height_m"]}
 
 
-def error_free_rows(scenarios: Sequence[str] | None = None, workers: int = 2) -> list[dict[str, Any]]:
-    """:func:`error_free_run` of every named scenario (or of *scenarios*), in that order."""
+def error_free_rows(scenarios: Sequence[str] | None = None, workers: int = 2, scheduler: str | None = None
+                    ) -> list[dict[str, Any]]:
+    """:func:`error_free_run` of every named scenario (or of *scenarios*), in that order
+    (:func:`lab.runner.map_runs`)."""
     from firmware_sim.sensors.scenarios import list_scenarios
 
-    return map_runs(error_free_run, list(scenarios or list_scenarios()), workers)
+    return map_runs(error_free_run, list(scenarios or list_scenarios()), workers, scheduler)
 
 
 def table_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -60,7 +60,6 @@ class ContinuousCompassTracker(FusionTracker):
     """
 
     def __init__(self, settings: FusionSettings, mag_rate_hz: float, **tracker_args):
-        self._this_stance = settings
         self._per_sample = settings
         self._mag_rate_hz = float(mag_rate_hz)
         self._last_reset_s = 0.0
@@ -68,20 +67,17 @@ class ContinuousCompassTracker(FusionTracker):
         self.stance_samples: list[int] = []
         super().__init__(settings, **tracker_args)
 
-    @property
-    def aid_settings(self) -> FusionSettings:
-        return self._this_stance
-
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *, reading=None,
                  time_s: float = math.nan):
         swing = swing_time if math.isfinite(swing_time) else 0.0
         stance_s = time_s - self._last_reset_s - swing
         samples = max(1, round(stance_s * self._mag_rate_hz)) if math.isfinite(stance_s) else 1
         sigma = self._per_sample.compass_sigma_rad / math.sqrt(samples)
-        self._this_stance = replace(self._per_sample, compass_sigma_rad=sigma)
+        # the aids this stance's update applies (the filter reads its aid_settings)
+        self.aid_settings = replace(self._per_sample, compass_sigma_rad=sigma)
         count = len(self)
         outcome = super().add_step(dx, dp, counter, swing_time, reading=reading, time_s=time_s)
-        self._this_stance = self._per_sample
+        self.aid_settings = self._per_sample
         if len(self) > count:
             self.stance_samples.append(samples)
             if math.isfinite(time_s):
@@ -145,11 +141,11 @@ def house_run(seed: int, scenario: str = SCENARIO) -> list[dict[str, Any]]:
     return rows
 
 
-def house_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
-    """Every seed's rows, seeds in order (on *workers* Dask processes)."""
-    from .runs import seeded_rows
+def house_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None) -> list[dict[str, Any]]:
+    """Every seed's rows, seeds in order (:func:`lab.runner.seeded_rows`)."""
+    from lab.runner import seeded_rows
 
-    return seeded_rows(house_run, seeds, workers)
+    return seeded_rows(house_run, seeds, workers, scheduler)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -173,11 +173,12 @@ def _attitude_row(wiggle: Any) -> dict[str, Any]:
             "rotation_refused": wiggle.rotation_refusal or ""}
 
 
-def calibration_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
-    """Every seed's rows, seeds in order (on *workers* Dask processes)."""
-    from .runs import seeded_rows
+def calibration_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None
+                     ) -> list[dict[str, Any]]:
+    """Every seed's rows, seeds in order (:func:`lab.runner.seeded_rows`)."""
+    from lab.runner import seeded_rows
 
-    return seeded_rows(calibration_run, seeds, workers)
+    return seeded_rows(calibration_run, seeds, workers, scheduler)
 
 
 def _best_symmetric(true_soft: np.ndarray) -> np.ndarray:
@@ -248,11 +249,11 @@ def _worst_level_error_deg(calibration: Any, against: Any, magnetic: Any, field:
     return math.degrees(worst)
 
 
-def tilt_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+def tilt_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None) -> list[dict[str, Any]]:
     """Every seed's rows of the tilt study (module docstring), seeds in order."""
-    from .runs import seeded_rows
+    from lab.runner import seeded_rows
 
-    return seeded_rows(tilt_run, seeds, workers)
+    return seeded_rows(tilt_run, seeds, workers, scheduler)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

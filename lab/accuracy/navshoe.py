@@ -283,13 +283,13 @@ def simulated_warmup(source, first_step_s: float) -> float:
     return -vertical * tc.warmup_c * math.exp(-(first_step_s + tc.powered_s) / tc.warmup_tau_s)
 
 
-def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
-                ) -> list[dict[str, Any]]:
-    """Every seed's rows, seeds in order (on *workers* Dask processes; *stance_sway* as in
+def outage_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None,
+                scheduler: str | None = None) -> list[dict[str, Any]]:
+    """Every seed's rows, seeds in order (:func:`lab.runner.seeded_rows`; *stance_sway* as in
     :func:`outage_run`)."""
-    from .runs import seeded_rows
+    from lab.runner import seeded_rows
 
-    return seeded_rows(functools.partial(outage_run, stance_sway=stance_sway), seeds, workers)
+    return seeded_rows(functools.partial(outage_run, stance_sway=stance_sway), seeds, workers, scheduler)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -3,7 +3,8 @@
 :func:`replay_track` is the whole path a user runs: ``openshoe-emu replay --host fusion
 [--height-compensation]`` (:func:`firmware_sim.app.batch.run_replay`) into the capture bytes,
 then ``openshoe-host replay`` (:func:`hostlib.files.replay.replay_session`) into the track, the step
-swing times and the module's serial number.
+swing times and the module's serial number. The experiments run many of them through the
+project's runner (:mod:`lab.runner`).
 """
 
 from __future__ import annotations
@@ -14,8 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "map_runs", "seeded_rows",
-           "stance_words"]
+__all__ = ["Replayed", "fusion_capture", "replay_track", "height_profile", "stance_words"]
 
 
 @dataclass
@@ -48,22 +48,6 @@ def replay_track(source: Any, height_compensation: bool, module: int | None = No
 
     session = replay_session(fusion_capture(source, module, height_compensation))
     return Replayed(session.tracker.track, session.mcu_serial, truth)
-
-
-def map_runs(run: Any, jobs: list, workers: int) -> list:
-    """``[run(job) for job in jobs]``, here one after the other (*workers* 0) or on a local Dask
-    cluster of *workers* processes, in the jobs' order either way."""
-    if workers == 0 or len(jobs) == 1:
-        return [run(j) for j in jobs]
-    from firmware_sim.app import cluster
-
-    with cluster.open_client(workers) as client:
-        return client.gather(client.map(run, jobs, pure=False))
-
-
-def seeded_rows(run: Any, seeds: list[int], workers: int) -> list:
-    """The rows of every seed's *run* (a list of rows each), seeds in order (:func:`map_runs`)."""
-    return [row for rows in map_runs(run, list(seeds), workers) for row in rows]
 
 
 def height_profile(track: Any) -> tuple[np.ndarray, np.ndarray]:

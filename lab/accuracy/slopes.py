@@ -13,7 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from .runs import height_profile, map_runs, replay_track
+from lab.runner import map_runs
+
+from .runs import height_profile, replay_track
 
 __all__ = ["RAMPS", "FLAT", "slope_run", "slope_rows", "summary_lines"]
 
@@ -40,11 +42,11 @@ def slope_run(job: tuple[str, int, bool]) -> dict[str, Any]:
             "distance_m": float(run.track.distance), "profile": (d, h)}
 
 
-def slope_rows(seeds: Sequence[int], workers: int = 2, scenarios: Sequence[str] = (*RAMPS, FLAT)
-               ) -> list[dict[str, Any]]:
-    """Every scenario × seed × (off, on), in that order."""
+def slope_rows(seeds: Sequence[int], workers: int = 2, scenarios: Sequence[str] = (*RAMPS, FLAT),
+               scheduler: str | None = None) -> list[dict[str, Any]]:
+    """Every scenario × seed × (off, on), in that order (:func:`lab.runner.map_runs`)."""
     jobs = [(s, seed, hc) for s in scenarios for seed in seeds for hc in (False, True)]
-    return map_runs(slope_run, jobs, workers)
+    return map_runs(slope_run, jobs, workers, scheduler)
 
 
 def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:

@@ -166,7 +166,7 @@ def _ends(walk: FeetWalk) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]
 
 def straight_run(seed: int) -> list[dict[str, Any]]:
     """The rows of one walker's 100 m straight walk (one per estimate), the modules warm as in the
-    module paper's walks one after another (``openshoe-spread``'s)."""
+    module paper's walks one after another (``python -m lab.spread``'s)."""
     from firmware_sim.sensors.config import DEFAULT_CONFIG
 
     walk = feet_walk(STRAIGHT_SCENARIO, seed, config=DEFAULT_CONFIG.warm())
@@ -181,11 +181,12 @@ def straight_run(seed: int) -> list[dict[str, Any]]:
     return rows
 
 
-def straight_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
-    """Every walker's :func:`straight_run`, in order (on *workers* Dask processes)."""
-    from .runs import seeded_rows
+def straight_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None
+                  ) -> list[dict[str, Any]]:
+    """Every walker's :func:`straight_run`, in order (:func:`lab.runner.seeded_rows`)."""
+    from lab.runner import seeded_rows
 
-    return seeded_rows(straight_run, list(seeds), workers)
+    return seeded_rows(straight_run, list(seeds), workers, scheduler)
 
 
 def _per_estimate(rows: Sequence[dict[str, Any]]) -> tuple[int, list[tuple[str, list[dict[str, Any]]]]]:
@@ -233,11 +234,11 @@ def loop_run(seed: int) -> list[dict[str, Any]]:
     return _closures(seed, feet_walk(LOOP_SCENARIO, seed).tracker)
 
 
-def loop_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+def loop_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None) -> list[dict[str, Any]]:
     """Every walker's :func:`loop_run`, in order."""
-    from .runs import seeded_rows
+    from lab.runner import seeded_rows
 
-    return seeded_rows(loop_run, list(seeds), workers)
+    return seeded_rows(loop_run, list(seeds), workers, scheduler)
 
 
 def loop_summary(rows: Sequence[dict[str, Any]]) -> list[str]:
@@ -256,7 +257,7 @@ def drift_loop(seed: int) -> dict[str, bytes]:
     return feet_captures(LOOP_SCENARIO, seed, walker=DRIFT_WALKER)[1]
 
 
-def drift_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
+def drift_rows(seeds: Sequence[int], workers: int = 2, scheduler: str | None = None) -> list[dict[str, Any]]:
     """Every loop's closures without the drift correction and with it, leave-one-out (module
     docstring): each loop's modules calibrated on the other loops' uncorrected single tracks."""
     from firmware_sim.sensors.feet import SIDES, foot_module
@@ -264,13 +265,12 @@ def drift_rows(seeds: Sequence[int], workers: int = 2) -> list[dict[str, Any]]:
     from hostlib.calibration.drift import calibrate
     from hostlib.files.replay import replay_feet
     from hostlib.fusion.feet import TwoFeetTracker
-
-    from .runs import map_runs
+    from lab.runner import map_runs
 
     seeds = list(seeds)
     if len(seeds) < 2:
         raise ValueError("leave-one-out drift correction needs at least two loops")
-    captures = map_runs(drift_loop, seeds, workers)
+    captures = map_runs(drift_loop, seeds, workers, scheduler)
     plain = [replay_feet(c["left"], c["right"])[0] for c in captures]
     serials = {side: module_serial(foot_module(DRIFT_WALKER, side)) for side in SIDES}
     rows = []
@@ -370,12 +370,12 @@ def aids_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any]]
     return rows
 
 
-def aids_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None
-              ) -> list[dict[str, Any]]:
+def aids_rows(seeds: Sequence[int], workers: int = 2, stance_sway: bool | None = None,
+              scheduler: str | None = None) -> list[dict[str, Any]]:
     """Every walker's :func:`aids_run`, in order (*stance_sway* as there)."""
-    from .runs import seeded_rows
+    from lab.runner import seeded_rows
 
-    return seeded_rows(functools.partial(aids_run, stance_sway=stance_sway), list(seeds), workers)
+    return seeded_rows(functools.partial(aids_run, stance_sway=stance_sway), list(seeds), workers, scheduler)
 
 
 def aids_summary(rows: Sequence[dict[str, Any]]) -> list[str]:

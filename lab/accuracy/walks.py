@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from .runs import Replayed, map_runs, replay_track
+from lab.runner import map_runs
+
+from .runs import Replayed, replay_track
 
 __all__ = ["VARIANTS", "WalkResult", "replay_walk", "walk_results", "table_lines"]
 
@@ -43,14 +45,16 @@ class WalkResult:
     tracks: dict[str, Any]  #: variant → the (corrected) Track
 
 
-def walk_results(paths: Sequence[str | Path], workers: int = 2) -> list[WalkResult]:
-    """Replay every recording both ways and correct each with the others' drift calibration."""
+def walk_results(paths: Sequence[str | Path], workers: int = 2, scheduler: str | None = None
+                 ) -> list[WalkResult]:
+    """Replay every recording both ways (:func:`lab.runner.map_runs`) and correct each with the
+    others' drift calibration."""
     from hostlib.calibration.drift import calibrate
 
     if len(paths) < 2:
         raise ValueError("leave-one-out drift correction needs at least two walks")
     jobs = [(str(p), hc) for p in paths for hc in (False, True)]
-    replayed = dict(zip(jobs, map_runs(replay_walk, jobs, workers), strict=True))
+    replayed = dict(zip(jobs, map_runs(replay_walk, jobs, workers, scheduler), strict=True))
     out = []
     for i, path in enumerate(map(str, paths)):
         tracks: dict[str, Any] = {}

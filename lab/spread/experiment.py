@@ -2,8 +2,8 @@
 
 A walk is a run of :mod:`firmware_sim.app.runs` (:func:`~firmware_sim.app.runs.scenario_runs`,
 :func:`~firmware_sim.app.runs.run_one`); the runs go through
-:func:`firmware_sim.app.cluster.execute`, on a local Dask cluster or one after the other in this
-process, as ``openshoe-emu sweep`` runs them.
+:func:`firmware_sim.app.cluster.execute` (:func:`lab.runner.execute`), on a local Dask cluster, an
+existing one, or one after the other in this process, as ``openshoe-emu sweep`` runs them.
 """
 
 from __future__ import annotations
@@ -42,18 +42,13 @@ def walk_groups(route: str, groups: Sequence[Group], workers: int = 2, scheduler
     all on one cluster (*scheduler*'s, or a local one of *workers* processes), or here in turn
     when *workers* is 0 and there is no *scheduler*. Each module has been on for *powered_s*
     seconds when its walk starts (the setting ``sensors.temperature.powered_s``)."""
-    from firmware_sim.app import cluster
     from firmware_sim.app.runs import scenario_runs
+    from lab.runner import execute
 
     warm = (("sensors.temperature.powered_s", float(powered_s)),)
     specs = [scenario_runs([route], list(seeds), settings=warm, module=module) for seeds, module in groups]
-    flat = [spec for group in specs for spec in group]
-    if workers == 0 and scheduler is None:
-        cluster.prepare_process()
-        rows = cluster.execute(flat, quiet=quiet)
-    else:
-        with cluster.open_client(workers, scheduler) as client:
-            rows = cluster.execute(flat, client, quiet=quiet)
+    rows = execute([spec for group in specs for spec in group], workers=workers, scheduler=scheduler,
+                   quiet=quiet)
     out, start = [], 0
     for group in specs:
         out.append(rows[start:start + len(group)])

@@ -1,4 +1,4 @@
-"""`openshoe-accuracy`: what height compensation and drift correction gain, per walk and on slopes."""
+"""`python -m lab.accuracy`: what height compensation and drift correction gain, per walk and on slopes."""
 
 from __future__ import annotations
 
@@ -7,16 +7,32 @@ import math
 
 import pytest
 
+from lab.accuracy import main
+from lab.accuracy.slopes import slope_rows, summary_lines
+from lab.accuracy.speeds import (
+    RATES_HZ,
+    SPEEDS_KMH,
+    speed_recipe,
+    speed_run,
+    speed_spec,
+    table_row,
+    table_runs,
+)
+from lab.accuracy.walks import VARIANTS, table_lines, walk_results
 from tests.conftest import WALK_IDS, requires_walks, walk_path
-from tools.accuracy import main
-from tools.accuracy.slopes import slope_rows, summary_lines
-from tools.accuracy.speeds import SPEEDS_KMH, speed_run
-from tools.accuracy.walks import VARIANTS, table_lines, walk_results
 
 
 def run(argv: list[str]) -> tuple[int, str]:
     out = io.StringIO()
     return main(argv, out), out.getvalue()
+
+
+def _error_free_run(speed: float, rate: float):
+    """The speed table's run of the error-free module at *speed* [km/h] and *rate* [Hz]."""
+    (run,) = [r for r in table_runs(speed_spec([1])) if r.source == speed_recipe(speed)
+              and dict(r.settings) == {"scenario.rate_hz": rate, "sensors.model": "ideal",
+                                       "scenario.stance_sway": False, "sensors.temperature.powered_s": 600.0}]
+    return run
 
 
 def test_a_short_ramp_is_walked_with_and_without_compensation_and_summarised():
@@ -38,7 +54,8 @@ def test_leave_one_out_needs_two_walks():
 def test_an_error_free_module_walks_100_m_at_5_km_h_to_within_a_decimetre():
     """At its own 1 kHz, the length is right to 0.05 % and the height to 0.1 % (the mechanization's
     half-sample skew: docs/accuracy.md)."""
-    row = speed_run((5.0, 1000.0, None))
+    ideal = _error_free_run(5.0, 1000.0)
+    row = table_row(ideal, speed_run(ideal))
     assert row["seed"] == "ideal" and row["steps"] >= 60
     assert abs(row["along"]) < 0.05 and abs(row["across"]) < 0.05 and abs(row["height"]) < 0.1
 
@@ -57,7 +74,7 @@ def test_the_speed_table_has_a_row_per_speed_and_rate(tmp_path):
                                   ["slopes", "--workers", "-1"]])
 def test_bad_arguments_exit_2(argv, capsys):
     code, _ = run(argv)
-    assert code == 2 and "openshoe-accuracy:" in capsys.readouterr().err
+    assert code == 2 and "python -m lab.accuracy:" in capsys.readouterr().err
 
 
 @requires_walks
@@ -85,43 +102,39 @@ def test_the_walks_table_and_picture_are_written(tmp_path):
     assert (tmp_path / "height-walk.png").stat().st_size > 10_000
 
 
-def test_the_speed_tables_sweep_spec_is_the_tools_product_and_gives_its_row():
-    """``openshoe-emu sweep --spec tools/accuracy/speeds.toml`` runs the same recipes, rates and
-    sensor models as ``openshoe-accuracy speeds``, and a run of it gives the tool's figures."""
-    from pathlib import Path
-
-    from firmware_sim.app import runs
-    from firmware_sim.app.sweep import load_spec_file
-    from tools.accuracy.speeds import RATES_HZ, speed_recipe
-
-    spec = load_spec_file(Path(__file__).parents[2] / "tools" / "accuracy" / "speeds.toml")
-    spec.check()
-    assert spec.scenarios == tuple(speed_recipe(v) for v in SPEEDS_KMH)
+def test_the_speed_table_is_its_sweep_spec_and_reads_the_runs_it_needs():
+    """``python -m lab.accuracy speeds`` runs the runs of ``lab/accuracy/speeds.toml`` (the spec
+    ``openshoe-emu sweep --spec`` runs whole) that its table reads: the error-free module on still
+    stances, once, and every seed's module with errors on the simulation's own (swaying) stances."""
+    spec = speed_spec([1, 2, 3])
+    assert spec.scenarios == tuple(speed_recipe(v) for v in SPEEDS_KMH) and spec.seeds == (1, 2, 3)
     settings = dict(spec.settings)
     assert settings["scenario.rate_hz"] == RATES_HZ and set(settings["sensors.model"]) == {"ideal", "default"}
     assert settings["scenario.stance_sway"] == (False, True)
+    assert settings["sensors.temperature.powered_s"] == (600.0,)  # warm, as the spread's modules
     assert spec.group_by == ("source", "scenario.rate_hz", "sensors.model", "scenario.stance_sway")
-    (ideal_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 1
-                     and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "ideal",
-                                              "scenario.stance_sway": False,
-                                              "sensors.temperature.powered_s": 600.0}]
-    row = runs.run_one(ideal_5kmh)
-    tool = speed_run((5.0, 250.0, None))
-    for k in ("along", "across", "height"):
-        assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # metres on 100 m = % of it
-    (warm_5kmh,) = [r for r in spec.runs() if r.source == speed_recipe(5.0) and r.seed == 2
-                    and dict(r.settings) == {"scenario.rate_hz": 250.0, "sensors.model": "default",
-                                             "scenario.stance_sway": True,
-                                             "sensors.temperature.powered_s": 600.0}]
-    row, tool = runs.run_one(warm_5kmh), speed_run((5.0, 250.0, 2))
-    for k in ("along", "across", "height"):
-        assert row[f"end_{k}_m"] == pytest.approx(tool[k], abs=1e-9)  # the same warm, swaying module
+    read = table_runs(spec)
+    assert len(read) == len(SPEEDS_KMH) * len(RATES_HZ) * (1 + 3) and set(read) <= set(spec.runs())
+    for run in read:
+        s = dict(run.settings)
+        assert (s["sensors.model"], s["scenario.stance_sway"]) in (("ideal", False), ("default", True))
+        assert s["sensors.model"] == "default" or run.seed == 1
+
+
+def test_on_still_stances_the_error_free_module_walks_the_same_whatever_the_seed():
+    """Why the table's error-free module walks the first seed only."""
+    from dataclasses import replace
+
+    from firmware_sim.app import runs
+
+    ideal = _error_free_run(8.0, 250.0)
+    assert runs.run_one(ideal)["wire_sha256"] == runs.run_one(replace(ideal, seed=4))["wire_sha256"]
 
 
 def test_every_experiment_explains_itself(capsys):
-    """`openshoe-accuracy --help` and each experiment's --help print (argparse formats help with %,
+    """`python -m lab.accuracy --help` and each experiment's --help print (argparse formats help with %,
     so a stray percent sign would crash it)."""
-    from tools.accuracy.cli import build_parser
+    from lab.accuracy.cli import build_parser
 
     parser = build_parser()
     parser.format_help()

@@ -1,4 +1,4 @@
-"""openshoe-accuracy consistency: the normalised squared error of the end pose against the covariance
+"""``python -m lab.accuracy consistency``: the normalised squared error of the end pose against the covariance
 the host summed; its interval is χ²'s, a consistent set of errors reads 1, and a constant inflation
 estimated on the other routes is applied to the one left out."""
 
@@ -10,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from tools.accuracy import main
-from tools.accuracy.consistency import (
+from lab.accuracy import main
+from lab.accuracy.consistency import (
     DOF,
     consistency_run,
     module_error_priors,

@@ -1,4 +1,4 @@
-"""The error-free scenario table (``python -m tools.accuracy.error_free``): an error-free module at
+"""The error-free scenario table (``python -m lab.accuracy error-free``): an error-free module at
 1 kHz retraces the stairs, with still stances and with swaying ones, and its detector takes no
 stair swing for a stance."""
 
@@ -11,8 +11,8 @@ import numpy as np
 from firmware_sim.nav.config import TH_ZUPT_DEFAULT
 from firmware_sim.sensors.config import IDEAL_CONFIG
 from firmware_sim.sensors.imu_array import make_source
+from lab.accuracy.error_free import error_free_run, table_lines
 from tests.oracle.firmware_trace import align, trace_module
-from tools.accuracy.error_free import error_free_run, table_lines
 
 
 def test_an_error_free_module_retraces_the_stairs_up_and_down():
@@ -54,7 +54,7 @@ def test_the_table_leaves_out_what_has_no_path():
 def test_the_command_prints_the_table_and_writes_its_csv(tmp_path):
     import io
 
-    from tools.accuracy import main
+    from lab.accuracy import main
 
     out = io.StringIO()
     assert main(["error-free", "stand:3+walk:5+stand:2", "--workers", "0", "--out", str(tmp_path)], out) == 0

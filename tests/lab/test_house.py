@@ -1,4 +1,4 @@
-"""openshoe-accuracy navshoe-house: NavShoe's house walk — a closed loop of about 120 m over two
+"""``python -m lab.accuracy navshoe-house``: NavShoe's house walk — a closed loop of about 120 m over two
 storeys, indoors in a building's deviation — tracked with the compass per step, at every reset,
 continuously, and without it."""
 
@@ -17,8 +17,8 @@ from firmware_sim.sensors.scenarios import SCENARIOS, environment, trajectory
 from firmware_sim.sensors.truth import walked_distance
 from hostlib.files.replay import replay_session
 from hostlib.fusion.tracker import FusionSettings
-from tools.accuracy import house, main
-from tools.accuracy.runs import fusion_capture
+from lab.accuracy import house, main
+from lab.accuracy.runs import fusion_capture
 
 STOREY_M = 16 * 0.17  # the flight: 16 stairs of 0.17 m
 

@@ -1,4 +1,4 @@
-"""openshoe-accuracy magcal: one module's wiggle and walk through the module and the calibrating
+"""``python -m lab.accuracy magcal``: one module's wiggle and walk through the module and the calibrating
 host: the fitted iron close to the simulated one, its rotation included; the per-step compass with
 it as good as with the true iron, with the ellipsoid alone as good as the best ellipsoid's, and
 that better than none; and the wiggles of less tilt, the least tilted refused."""
@@ -10,7 +10,7 @@ import io
 
 import pytest
 
-from tools.accuracy import magcal, main
+from lab.accuracy import magcal, main
 
 
 @pytest.mark.slow

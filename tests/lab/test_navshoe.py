@@ -1,4 +1,4 @@
-"""openshoe-accuracy navshoe-outage: one seed of NavShoe's outage loop through the module and the
+"""``python -m lab.accuracy navshoe-outage``: one seed of NavShoe's outage loop through the module and the
 receiver's NMEA, tracked by every host; GPS trains the declination, the compass aligns the heading,
 and the oracle hosts put the truth into the compass readings."""
 
@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from tools.accuracy import main, navshoe
+from lab.accuracy import main, navshoe
 
 
 def test_one_seed_of_the_outage_loop_is_tracked_by_every_host(tmp_path):

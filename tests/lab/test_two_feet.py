@@ -1,7 +1,7 @@
-"""openshoe-accuracy's two-feet experiments: a walker's two modules through the emulated module and
-the host's two-foot fusion; a lost link on one foot is reported and the fused track goes on; the
-heading aids on both feet (NavShoe's outage loop) and each module's drift correction (leave-one-out
-over one walker's loops)."""
+"""The two-feet experiments of ``python -m lab.accuracy``: a walker's two modules through the
+emulated module and the host's two-foot fusion; a lost link on one foot is reported and the fused
+track goes on; the heading aids on both feet (NavShoe's outage loop) and each module's drift
+correction (leave-one-out over one walker's loops)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import io
 import numpy as np
 import pytest
 
-from tools.accuracy import main, two_feet
+from lab.accuracy import main, two_feet
 
 SHORT = "stand:3+walk:30+stand:3"
 
@@ -57,7 +57,7 @@ def test_heading_run_reports_both_trackers_and_the_gap(monkeypatch):
 
 @pytest.fixture(scope="module")
 def aided_rows(tmp_path_factory):
-    """Walker 1's walk of NavShoe's outage loop through ``openshoe-accuracy two-feet-aids``, on
+    """Walker 1's walk of NavShoe's outage loop through ``python -m lab.accuracy two-feet-aids``, on
     still stances: there the gyros' bias is re-learnt every stride and no host need hold the
     modules' warm-up (the swaying walk's test below holds it)."""
     path = tmp_path_factory.mktemp("two-feet-aids")

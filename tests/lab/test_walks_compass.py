@@ -1,4 +1,4 @@
-"""`openshoe-accuracy walks-compass`: the per-step compass on the six shared walks.
+"""`python -m lab.accuracy walks-compass`: the per-step compass on the six shared walks.
 
 These check what a user relies on — six walks, the compass updating on the steps, the
 magnetometers reaching the host as an Earth field, finite closures — not the closures' values.
@@ -12,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
+from lab.accuracy import main
+from lab.accuracy.walks_compass import VARIANTS, capture_walk, compass_walk_results, stance_log, table_lines
 from tests.conftest import WALK_IDS, requires_walks, walk_path
-from tools.accuracy import main
-from tools.accuracy.walks_compass import VARIANTS, capture_walk, compass_walk_results, stance_log, table_lines
 
 
 def run(argv: list[str]) -> tuple[int, str]:
