@@ -207,7 +207,7 @@ WIGGLE_LEVER_M = (0.05, 0.0, 0.08)
 #: nearly every side: at the emulator's inclination (72.5°, Stockholm) tilts of at most 65° keep it
 #: within 78° of the board's z axis, a cap on which the fit cannot pin the centre and extent along
 #: that axis (the fit's own heading error 3.4° on level ground, and hostlib.calibration.wiggle refuses it);
-#: 90° takes it to 102°, and the error to 0.1° (``openshoe-accuracy magcal``, docs/heading-aids.md).
+#: 90° takes it to 102°, and the error to 0.1° (``python -m lab.accuracy magcal``, docs/heading-aids.md).
 WIGGLE_TILT_DEG = 90.0
 #: The golden angle [rad]: successive tilt directions of a wiggle never repeat and fill the circle
 #: evenly.
@@ -323,7 +323,7 @@ _RAMP = _smoothstep(5)
 
 
 #: The environment variable that overrides :data:`STANCE_SWAY_DEFAULT` in a process and its
-#: workers: ``1`` swaying, ``0`` still stances (e.g. ``OPENSHOE_STANCE_SWAY=0 openshoe-accuracy
+#: workers: ``1`` swaying, ``0`` still stances (e.g. ``OPENSHOE_STANCE_SWAY=0 python -m lab.accuracy
 #: two-feet-straight`` reproduces a table measured before the sway became the default).
 STANCE_SWAY_ENV = "OPENSHOE_STANCE_SWAY"
 

@@ -1,6 +1,6 @@
 """Where an error-free module loses its way: a scenario traced loop by loop against its truth.
 
-The scenario is walked with ``SensorConfig.ideal()`` at 1 kHz (as ``openshoe-accuracy error-free``)
+The scenario is walked with ``SensorConfig.ideal()`` at 1 kHz (as ``python -m lab.accuracy error-free``)
 and the module traced loop by loop (:mod:`.firmware_trace`: the host's pose, the detector's T1 and
 ZUPT, the resets), its trace aligned on the sensors (:data:`~.firmware_trace.DESIGN_LAG`). Then:
 

@@ -21,7 +21,7 @@ of a second in from either end, in pieces of :data:`NFFT` samples). Per axis:
 (:class:`~firmware_sim.sensors.gait.StanceSway`) off and on, at 1 kHz, traced loop by loop as a
 lossless step-wise host: the fraction of walking-stance loops with ZARU (the truth's stances shorter
 than :data:`STAND_S`, the filter's loops GYRO_LAG later) and T2 there; the error-free scenarios'
-3-D end error in % of the path (as ``openshoe-accuracy error-free``: the host's end against the
+3-D end error in % of the path (as ``python -m lab.accuracy error-free``: the host's end against the
 truth's last stance in the start frame, over the 3-D path); and with every sensor error the
 straight walk's end heading and horizontal end error over modules 0–19 (seed = module), and, as
 before (:mod:`.gyro_bias_response`), with ZARU switched off after the start-up stand.
@@ -305,7 +305,7 @@ def sim_detector(source, run: DetectorRun | None = None) -> dict:
 
 def end_errors(source, run: DetectorRun) -> dict:
     """The host's end against the truth's last stance (start frame): 3-D [m] and in % of the 3-D
-    path (``openshoe-accuracy error-free``), horizontal [m], heading [deg]."""
+    path (``python -m lab.accuracy error-free``), horizontal [m], heading [deg]."""
     truth = source.truth
     error = run.position[-1] - truth.stances_in_start_frame()[-1]
     path = truth.distance_m()
