@@ -62,7 +62,7 @@ __all__ = ["MAX_INCLINATION_SCATTER_DEG", "STILL_TILT_DEG", "IronRotation", "fit
 #: 16 ms older than the magnetometers) is off by at most 0.2° from theirs.
 STILL_TILT_DEG = 0.2
 #: The largest RMS scatter [deg] of the readings' inclination about the fit. In simulation
-#: (``openshoe-accuracy magcal``, docs/heading-aids.md) a wiggle tilting the shoe by up to 90°
+#: (``python -m lab.accuracy magcal``, docs/heading-aids.md) a wiggle tilting the shoe by up to 90°
 #: leaves 0.4° (the chips' noise), 80° 0.6° and 70° 1.5°, where the ellipsoid's own error starts
 #: to show; 65° leaves 2.6° and 60° 4.4°, whose ellipsoids the calibration refuses and where
 #: turning them helps little or harms. An attitude that does not go with the field leaves tens

@@ -52,7 +52,7 @@ length, a closed loop's does not. An aid makes them observable (GPS the scale, t
 turns and the drift), and the steps after are corrected by the learned values.
 
 :data:`EMULATED_MODULE` holds the priors of the emulated MIMU22BT, estimated from simulated
-modules' end errors (``openshoe-accuracy consistency``, the method-of-moments estimate below);
+modules' end errors (``python -m lab.accuracy consistency``, the method-of-moments estimate below);
 another module has its own.
 """
 
@@ -281,7 +281,7 @@ def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.nda
 #: error along the displacement (scale), in height (climb) or in heading, P its summed 1σ² and d the
 #: displacement, path, or (for the heading, fitted together) the angle turned and the time walked:
 #: the rectangle's full turn teaches the turn scale, the straight walks' 67 s the drift rate
-#: (3.2e-5 rad/s, 6.6 °/h) (``openshoe-accuracy consistency`` prints them).
+#: (3.2e-5 rad/s, 6.6 °/h) (``python -m lab.accuracy consistency`` prints them).
 EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, turn_scale_sigma=0.00079,
                                heading_drift_sigma=3.2e-5)
 
@@ -292,7 +292,7 @@ EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, tu
 #: four dies (÷√4), and they warm by 8 °C with τ 120 s after power-on, so the vertical rate's bias
 #: settles 0.02/√3/2 × 8 = 0.046 °/s (8.06e-4 rad/s, 1σ) away from where it started. Beside it,
 #: the step-length scale, climb and turn scale are estimated as for :data:`EMULATED_MODULE`, on
-#: swaying modules (``openshoe-accuracy consistency --stance-sway``, 20 modules' walk and
+#: swaying modules (``python -m lab.accuracy consistency --stance-sway``, 20 modules' walk and
 #: rectangle): σ_s 0.00108, σ_c 0.00173 m/m, σ_k 0.00042; the constant drift rate's estimate is 0
 #: (the warm-up leaves it nothing), so it is not held.
 EMULATED_MODULE_SWAYING = ModuleErrors(step_scale_sigma=0.00108, climb_sigma=0.00173,
