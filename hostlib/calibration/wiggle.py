@@ -91,8 +91,8 @@ MAX_FIT_HEADING_SIGMA_DEG = HEADING_SIGMA_DEG / 3.0
 #: The least :func:`coverage_deg` [deg] of a calibration: the readings may end at most 30° short of
 #: the half of the sphere they reach least into. In simulation (30 s wiggles through the emulated
 #: module, twenty modules' iron, outdoors at Stockholm's 72.5° inclination; ``python -m
-#: lab.accuracy magcal``, docs/heading-aids.md) the fit's own worst level-heading error is 0.3° where the readings
-#: end 12° short, 1.5° at 26°, 3.4° at 35° and 8° at 48°: 30° is where it passes
+#: lab.accuracy magcal``, docs/heading-aids.md) the fit's own worst level-heading error is 0.3°
+#: where the readings end 12° short, 1.5° at 26°, 3.4° at 35° and 8° at 48°: 30° is where it passes
 #: :data:`MAX_FIT_HEADING_SIGMA_DEG`.
 MIN_COVERAGE_DEG = -30.0
 #: What a refusal asks the wearer to do.
