@@ -36,9 +36,10 @@ set-up the host starts the magnetometer stream (:data:`protocol.extensions.MAG_S
 stops it (:data:`~protocol.extensions.MAG_STREAM_STOP`) at the first step longer than 0.5 m, so
 that ``openshoe-host replay OUT --compass --calibrate-mag`` fits the calibration from the capture
 (walk the ``navshoe-calibration`` scenario, which starts with a wiggle). Each command goes
-out once the module acknowledged the one before; frames are built by the host session
-(:class:`hostlib.link.session.HostSession`). Without them the host sends ``34 00 34`` only, and
-the bytes are those of before. A module made with ``--module N`` has the MCU serial number
+out once the module acknowledged the one before. What is sent when is ``openshoe-host``'s own
+policy, the same code (:class:`hostlib.run.host_setup.HostSetup`), carried out over a host session
+without I/O (:class:`hostlib.run.host_setup.SessionSetup`). Without them the host sends ``34 00 34``
+only, and the bytes are those of before. A module made with ``--module N`` has the MCU serial number
 ``OSEMU-M`` + N in 8 digits (:func:`firmware_sim.transports.factory.module_serial`).
 
 ``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
@@ -57,10 +58,8 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from collections import deque
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
 
 from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.module import Module, ModuleConfig
@@ -69,7 +68,6 @@ from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import PROFILES, profile_for
 from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
 from firmware_sim.transports.factory import MAX_MODULE, module_serial
-from protocol.extensions import FUSION_SETUP, height_compensation_on
 from protocol.frames import StatePacket, build_packet_ack
 from protocol.ids import Command
 from protocol.stream import StreamDecoder
@@ -154,8 +152,11 @@ class _LosslessHost:
     """The host side of a batch replay: starts step-wise tracking over Bluetooth, keeps every
     byte the module sends and acknowledges each state packet, as a lossless host does.
 
-    With *fusion*, *height_compensation* or *calibrate_mag* it also sends the extensions' commands
-    (:class:`_HostSetup`)."""
+    With *fusion*, *height_compensation* or *calibrate_mag* it also sends the extensions' commands,
+    as ``openshoe-host`` does: :class:`hostlib.run.host_setup.HostSetup` says which and when, a
+    :class:`hostlib.run.host_setup.SessionSetup` builds their frames, follows the module's bytes
+    (acks, and packets split by what was asked for) and says which packets to acknowledge: every one
+    while the module is lossless, only the steps while the magnetometer stream has it lossy."""
 
     def __init__(self, module: Module, *, fusion: bool = False, height_compensation: bool = False,
                  calibrate_mag: bool = False):
@@ -165,8 +166,14 @@ class _LosslessHost:
         self.out = bytearray()
         self.packets = 0
         self.ticks = 0
-        self.setup = (_HostSetup(fusion, height_compensation, calibrate_mag)
-                      if fusion or height_compensation else None)
+        self.setup = None
+        if fusion or height_compensation:
+            from hostlib.calibration.wiggle import WiggleCalibration
+            from hostlib.run.host_setup import HostSetup, SessionSetup
+
+            wiggle = WiggleCalibration() if calibrate_mag else None
+            self.setup = SessionSetup(HostSetup(fusion=fusion, height_compensation=height_compensation,
+                                                wiggle=wiggle))
         self.port.host_write(START_STEPWISE if self.setup is None else self.setup.start())
 
     def loop_once(self, max_ticks: int = 1) -> int:
@@ -221,58 +228,6 @@ class _LosslessHost:
 def _step(module: Module) -> int:
     module.step()
     return 1
-
-
-class _HostSetup:
-    """The commands the replayed host sends besides its packet acks, one at a time: 0x34, then
-    (*fusion*) :data:`~protocol.extensions.FUSION_SETUP` once 0x34 is acked, and
-    (*height_compensation*) :func:`~protocol.extensions.height_compensation_on` once the first
-    step packet came; (*calibrate_mag*) the magnetometer stream's start after the fusion set-up and
-    its stop when the in-situ calibration (:class:`hostlib.calibration.wiggle.WiggleCalibration`) ends at the
-    first long step; each waits for the ack of the command before it.
-
-    A host session (:class:`hostlib.link.session.HostSession`) builds the frames, follows the module's
-    bytes (acks, and packets split by what was asked for) and says which packets to acknowledge:
-    every one while the module is lossless, only the steps while the magnetometer stream has it
-    lossy, as ``openshoe-host`` does."""
-
-    def __init__(self, fusion: bool, height_compensation: bool, calibrate_mag: bool = False):
-        from hostlib.calibration.wiggle import WiggleCalibration
-        from hostlib.link.session import HostSession
-
-        self.session = HostSession(ack_policy="auto")
-        self.wiggle = WiggleCalibration() if calibrate_mag else None
-        start = self.wiggle.START if self.wiggle is not None else ()
-        self.queue: deque[tuple[Command, Mapping[str, Any]]] = deque((*FUSION_SETUP, *start) if fusion
-                                                                      else ())
-        self.height_compensation = height_compensation
-        self.awaiting: int | None = None  #: wire id of the command sent and not yet acked
-
-    def start(self) -> bytes:
-        """The first frame: 0x34."""
-        return self._send(Command.STEPWISE_DEAD_RECKONING, {})
-
-    def _send(self, meaning: Command, fields: Mapping[str, Any]) -> bytes:
-        self.awaiting = self.session.wire_id(meaning)
-        return self.session.encode_command(meaning, **fields)
-
-    def received(self, data: bytes) -> tuple[bytes, bytes]:
-        """Follow the module's *data*: the packet acks to send, and the next command's frame when it
-        is due (else b"")."""
-        from hostlib.events import CommandAckEvent, StepEvent
-
-        events, acks = self.session.feed(data)
-        for event in events:
-            if isinstance(event, CommandAckEvent) and event.command_id == self.awaiting:
-                self.awaiting = None
-            elif isinstance(event, StepEvent) and self.height_compensation:
-                self.height_compensation = False
-                self.queue.append(height_compensation_on())
-        if self.wiggle is not None and self.wiggle.feed(events):
-            self.queue.extend(self.wiggle.STOP)
-        if self.awaiting is None and self.queue:
-            return acks, self._send(*self.queue.popleft())
-        return acks, b""
 
 
 # ---------------------------------------------------------------------------------------------
