@@ -1,13 +1,14 @@
 """Setting the host-side aids up from what a user has: a GPS log, a place and date, a calibration.
 
-:func:`prepare_aids` turns command-line facts into a ready :class:`~hostlib.fusion.tracker.FusionTracker`:
+:func:`prepare_aids` turns what a user has, an :class:`~hostlib.run.options.AidOptions`, into a ready
+:class:`~hostlib.fusion.tracker.FusionTracker`:
 
 * with a GPS log, the fixes are read (:mod:`hostlib.aids.gps`; garbled lines and missing fixes are
   skipped and counted), placed north/east of the first fix (pymap3d), and queued on the tracker;
   the first fix is also the geographic origin of the track and, with its date, where the World
   Magnetic Model gives the declination prior (:mod:`hostlib.aids.declination`);
-* without GPS, the declination comes from the WMM at *origin* (and *when*) if given, else 0 (the
-  compass then gives magnetic headings, and the summary says so);
+* without GPS, the declination comes from the WMM at the options' origin (and date) if given, else 0
+  (the compass then gives magnetic headings, and the summary says so);
 * with a receiver read live (:mod:`hostlib.run.gps_stream`), its first fix places the walk in the same
   way, and the later fixes are queued as they come;
 * a magnetometer calibration (:class:`hostlib.calibration.magcal.MagCalibration`) is applied to every
@@ -23,19 +24,19 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
-from pathlib import Path
+from typing import Any
 
 from ..aids.declination import declination_deg
 from ..aids.geodesy import parse_origin
 from ..aids.gps import GpsFix, NmeaStats, fix_place, local_positions, read_nmea, seconds_since
 from ..calibration.drift import DriftCalibration
-from ..calibration.magcal import MagCalibration
 from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from ..fusion.tracker import FusionSettings, FusionTracker
+from .options import AidOptions
 
-__all__ = ["AidSetup", "prepare_aids", "prepare_feet_aids"]
+__all__ = ["AidSetup", "feet_tracker", "prepare_aids", "prepare_feet_aids"]
 
 
 @dataclass
@@ -108,31 +109,32 @@ class _Plan:
         return AidSetup(tracker, self.place, self.declination_source, self.gps_stats)
 
 
-def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
-          origin: Sequence[float] | None, when: dt.date | None, settings: FusionSettings | None,
-          live_gps: bool = False, first_fix: GpsFix | None = None) -> _Plan:
-    base = settings or FusionSettings()
-    place = None if origin is None else parse_origin(origin)
+def _plan(options: AidOptions, first_fix: GpsFix | None = None) -> _Plan:
+    base = options.fusion_settings()
+    place = None if options.origin is None else parse_origin(options.origin)
+    when = options.date
     fixes, stats = [], None
-    if gps_path is not None:
-        fixes, stats = read_nmea(gps_path)
+    if options.gps_log is not None:
+        fixes, stats = read_nmea(options.gps_log)
         if not fixes:
-            raise ValueError(f"{gps_path}: no GPS fix in {stats.lines} lines ({stats.summary()})")
+            raise ValueError(f"{options.gps_log}: no GPS fix in {stats.lines} lines ({stats.summary()})")
         first_fix = fixes[0]
         when = when or next((f.date for f in fixes if f.date is not None), None)
     elif first_fix is not None:
         when = when or first_fix.date
     if first_fix is not None:
         place = fix_place(first_fix)
-    if declination is not None:
-        dec, source = float(declination), "given"
+    if options.declination_deg is not None:
+        dec, source = float(options.declination_deg), "given"
     elif place is not None:
         day = when or dt.date.today()
         dec = declination_deg(*place, day)
         source = f"WMM at {'the first fix' if first_fix is not None else 'the origin'}, {day.isoformat()}"
     else:
         dec, source = 0.0, "none: magnetic headings"
-    cfg = replace(base, compass=compass, gps=bool(fixes) or live_gps, declination_rad=math.radians(dec))
+    live_gps = options.gps_receiver is not None
+    cfg = replace(base, compass=options.compass, gps=bool(fixes) or live_gps,
+                  declination_rad=math.radians(dec))
     times, positions = [], []
     if fixes:
         assert stats is not None and stats.first_time is not None
@@ -141,35 +143,52 @@ def _plan(compass: bool, gps_path: str | Path | None, declination: float | None,
     return _Plan(cfg, times, positions, place, source, stats)
 
 
-def prepare_aids(*, compass: bool, gps_path: str | Path | None = None,
-                 mag_calibration: MagCalibration | None = None, declination: float | None = None,
-                 origin: Sequence[float] | None = None, when: dt.date | None = None,
-                 settings: FusionSettings | None = None, last_counter: int | None = None,
-                 heading: float = 0.0, live_gps: bool = False, first_fix: GpsFix | None = None) -> AidSetup:
-    """A :class:`FusionTracker` with the compass (if *compass*), the GPS log at *gps_path* and the
-    calibration; *declination* [deg] overrides the WMM; *origin* (lat, lon[, alt]) and *when*
-    place the walk when there is no GPS. *live_gps*: fixes come from a receiver as the walk goes
-    (:mod:`hostlib.run.gps_stream` queues them): GPS updates on, no fix queued now; its *first_fix*, if
-    one came already, places the walk as a log's first fix does. *heading* [rad]: the initial
-    heading. Raises OSError for an unreadable GPS log and ValueError when it holds no fix."""
-    plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
-    cfg = replace(plan.settings, mag_calibration=mag_calibration)
+def prepare_aids(options: AidOptions | None = None, *, last_counter: int | None = None, heading: float = 0.0,
+                 first_fix: GpsFix | None = None, **fields: Any) -> AidSetup:
+    """A :class:`FusionTracker` with the aids *options* ask for (:class:`~hostlib.run.options.AidOptions`;
+    any of its fields may also be given as a keyword, which wins over *options*): the compass, the
+    GPS log's fixes, the module's calibration (read first, when it is a file); the declination from
+    the options, else the World Magnetic Model at the first fix or at the origin. A receiver read
+    live (:attr:`~hostlib.run.options.AidOptions.gps_receiver`; :mod:`hostlib.run.gps_stream` queues its
+    fixes): GPS updates on, no fix queued now; its *first_fix*, if one came already, places the walk
+    as a log's first fix does. *heading* [rad]: the initial heading; *last_counter*: the step
+    counter before the first step (None: taken from the first). Raises OSError for an unreadable
+    GPS log and ValueError when it holds no fix."""
+    options = replace(options or AidOptions(), **fields)
+    calibration = options.loaded_calibration()
+    plan = _plan(options, first_fix)
+    cfg = replace(plan.settings, mag_calibration=calibration)
     return plan.setup(FusionTracker(cfg, last_counter=last_counter, heading=heading))
 
 
-def prepare_feet_aids(*, compass: bool, gps_path: str | Path | None = None,
-                      mag_calibrations: Mapping[str, MagCalibration] | None = None,
-                      declination: float | None = None, origin: Sequence[float] | None = None,
-                      when: dt.date | None = None, settings: FusionSettings | None = None,
-                      feet: FeetSettings | None = None, drift: Mapping[str, DriftCalibration] | None = None,
-                      last_counter: int | None = None, defer: bool = True, heading: float = 0.0,
-                      live_gps: bool = False, first_fix: GpsFix | None = None) -> AidSetup:
+def prepare_feet_aids(options: AidOptions | None = None, feet: FeetSettings | None = None, *,
+                      drift: Mapping[str, DriftCalibration] | None = None, last_counter: int | None = None,
+                      defer: bool = True, heading: float = 0.0, first_fix: GpsFix | None = None,
+                      **fields: Any) -> AidSetup:
     """:func:`prepare_aids` for a module on each foot: a :class:`TwoFeetTracker` (*feet*, *defer*,
-    *heading*, *last_counter*) with the aids on the joint filter and on each foot's tracker,
-    each foot's magnetometer calibration (side → calibration) and drift calibration; the GPS
-    log's fixes are the body's. *live_gps* and *first_fix*: a receiver read live, as for
-    :func:`prepare_aids` (:mod:`hostlib.run.gps_stream` queues its fixes for the body and each foot)."""
-    plan = _plan(compass, gps_path, declination, origin, when, settings, live_gps, first_fix)
+    *heading*, *last_counter*) with the aids on the joint filter and on each foot's tracker, each
+    foot's magnetometer calibration (:attr:`~hostlib.run.options.AidOptions.foot_mag_calibrations`)
+    and drift calibration (side → calibration); the GPS log's fixes are the body's. A receiver read
+    live and its *first_fix*, as for :func:`prepare_aids` (:mod:`hostlib.run.gps_stream` queues its
+    fixes for the body and each foot)."""
+    options = replace(options or AidOptions(), **fields)
+    calibrations = options.loaded_foot_calibrations()
+    plan = _plan(options, first_fix)
     tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading,
-                             aids=plan.settings, mag_calibrations=mag_calibrations, drift=drift)
+                             aids=plan.settings, mag_calibrations=calibrations, drift=drift)
     return plan.setup(tracker)
+
+
+def feet_tracker(options: AidOptions, feet: FeetSettings | None = None, *,
+                 drift: Mapping[str, DriftCalibration] | None = None, last_counter: int | None = None,
+                 defer: bool = True, heading: float = 0.0, first_fix: GpsFix | None = None
+                 ) -> tuple[TwoFeetTracker, AidSetup | None]:
+    """The two feet's tracker *options* ask for, with each module's *drift* calibration: with aids
+    (:attr:`~hostlib.run.options.AidOptions.uses_aids`) the one :func:`prepare_feet_aids` sets up, and
+    its :class:`AidSetup`; else a plain :class:`TwoFeetTracker`, and None."""
+    if not options.uses_aids:
+        tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading, drift=drift)
+        return tracker, None
+    aids = prepare_feet_aids(options, feet, drift=drift, last_counter=last_counter, defer=defer,
+                             heading=heading, first_fix=first_fix)
+    return aids.tracker, aids

@@ -18,7 +18,7 @@ from hostlib.files.export import read_csv, read_feet_csv
 from hostlib.files.replay import replay_feet
 from hostlib.fusion.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
 from hostlib.link.device import Device
-from tools.accuracy.two_feet import drop_packets
+from lab.accuracy.two_feet import drop_packets
 
 from . import protocol_fakeshoe
 from .test_feet_csv import upper

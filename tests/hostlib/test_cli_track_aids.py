@@ -59,10 +59,10 @@ def test_track_refuses_aids_it_cannot_use_before_opening_a_port(argv, message, c
 
 
 def test_two_urls_still_take_a_drift_calibration_per_foot():
-    from hostlib.cli import _usage_refusal
+    from hostlib.cli import usage_refusal
 
     args = build_parser().parse_args(["track", "/dev/a", "/dev/b", "--fusion", "--drift", "l.json", "r.json"])
-    assert _usage_refusal(args) is None
+    assert usage_refusal(args) is None
 
 
 def test_track_fuses_the_compass_and_a_live_receiver_that_is_then_pulled_out(tmp_path, capsys):

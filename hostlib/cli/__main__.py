@@ -1,0 +1,7 @@
+"""``python -m hostlib.cli``: the ``openshoe-host`` command line."""
+
+import sys
+
+from .app import main
+
+sys.exit(main())

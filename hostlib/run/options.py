@@ -1,0 +1,156 @@
+"""What a walk is carried out with, as two objects made once: the aids (:class:`AidOptions`) and how
+the modules are driven (:class:`RunOptions`).
+
+A program builds them from what its user said (``openshoe-host`` from its command line) and hands
+them on: :class:`AidOptions` to :func:`~hostlib.run.aid_setup.prepare_aids` /
+:func:`~hostlib.run.aid_setup.prepare_feet_aids` (a replay of captures) or to a
+:class:`~hostlib.run.tracking_run.TrackingRun` with :class:`RunOptions` (a walk with live modules).
+Both are frozen: change one with :func:`dataclasses.replace`.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from ..calibration.magcal import MagCalibration
+from ..fusion.deviation import WHITE_SIGMA_RAD, CompassDeviation
+from ..fusion.gps_bias import GpsBias
+from ..fusion.module_errors import ModuleErrors
+from ..fusion.settings import FusionSettings
+
+__all__ = ["AidOptions", "RunOptions"]
+
+
+@dataclass(frozen=True)
+class AidOptions:
+    """The heading and position aids of a walk, and the magnetometer calibrations their compass
+    uses (:mod:`hostlib.fusion.tracker`, :mod:`hostlib.fusion.feet`).
+
+    A calibration may be given as a :class:`~hostlib.calibration.magcal.MagCalibration` or as its
+    file, read when the aids are prepared.
+    """
+
+    #: one compass update per step, from the magnetometers and attitude at the end of each stance
+    compass: bool = False
+    #: 1σ of one compass reading [deg] (None: 20°, the indoor deviation; with
+    #: :attr:`compass_deviation`, the reading's own white error, 1.5°)
+    compass_sigma_deg: float | None = None
+    #: the local magnetic deviation held as a state (:meth:`CompassDeviation.parse
+    #: <hostlib.fusion.deviation.CompassDeviation.parse>`: "outdoors", "indoors"; None: not held)
+    compass_deviation: CompassDeviation | None = None
+    #: a file of a GPS receiver's NMEA sentences, fused as a log (its first fix places the walk)
+    gps_log: str | Path | None = None
+    #: a GPS receiver read as it talks (a device path or pyserial URL; :mod:`hostlib.run.gps_stream`)
+    gps_receiver: str | None = None
+    #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`; None: not held)
+    gps_bias: GpsBias | None = None
+    #: seconds between GPS updates (None: the filter's default, :attr:`FusionSettings.gps_interval_s
+    #: <hostlib.fusion.settings.FusionSettings.gps_interval_s>`)
+    gps_interval_s: float | None = None
+    #: the module's systematic errors held as states (:meth:`ModuleErrors.parse
+    #: <hostlib.fusion.module_errors.ModuleErrors.parse>`: "emulated", "emulated-still"; None: not held)
+    module_errors: ModuleErrors | None = None
+    #: the one module's magnetometer calibration (or its file)
+    mag_calibration: MagCalibration | str | Path | None = None
+    #: with a module on each foot: side → that foot's magnetometer calibration (or its file)
+    foot_mag_calibrations: Mapping[str, MagCalibration | str | Path] = field(default_factory=dict)
+    #: with the compass and no calibration given: take each module's saved one, if there is one
+    #: (:func:`hostlib.calibration.magcal.load_for_module`, once the module named itself)
+    saved_calibration: bool = False
+    #: calibrate the magnetometers in situ (one module: :mod:`hostlib.calibration.wiggle`); the
+    #: compass waits for the wiggle to end, and the calibration is saved for the module
+    calibrate_mag: bool = False
+    #: where each module's calibration is kept (None: :func:`hostlib.calibration.magcal.calibration_dir`)
+    mag_cal_dir: str | Path | None = None
+    #: the magnetic declination [deg], east positive (None: the World Magnetic Model at the first
+    #: fix or at :attr:`origin`, else 0)
+    declination_deg: float | None = None
+    #: where the walk starts (latitude, longitude[, altitude], or "LAT,LON[,ALT]"), without GPS
+    origin: Sequence[float] | str | None = None
+    #: the day of the walk, for the World Magnetic Model (None: the first fix's, else today)
+    date: dt.date | None = None
+    #: the filter's settings the options above are applied to (None: :class:`FusionSettings
+    #: <hostlib.fusion.settings.FusionSettings>`' own): anything they do not name, e.g. the
+    #: receiver's σ or its clock offset
+    settings: FusionSettings | None = None
+
+    def __post_init__(self) -> None:
+        if self.gps_log is not None and self.gps_receiver is not None:
+            raise ValueError("GPS fixes come from a log or from a receiver read live, not from both")
+
+    @property
+    def uses_aids(self) -> bool:
+        """Whether the tracker needs the fusion filter: a compass, GPS, or the module's errors held."""
+        return bool(self.compass or self.gps_log or self.gps_receiver or self.module_errors is not None)
+
+    @property
+    def wants_saved_calibration(self) -> bool:
+        """Whether each module's compass takes its saved calibration: asked for, with the compass,
+        no calibration given and none fitted in situ."""
+        return bool(self.saved_calibration and self.compass and not self.calibrate_mag
+                    and self.mag_calibration is None and not self.foot_mag_calibrations)
+
+    def fusion_settings(self) -> FusionSettings:
+        """The filter's settings the options change (the compass's σ, the deviation: σ is then only
+        the white part, 1.5° unless given; the receiver's bias and interval; the module's errors),
+        on :attr:`settings`; which aids are on and the declination are
+        :func:`~hostlib.run.aid_setup.prepare_aids`'s to set."""
+        changes: dict[str, object] = {}
+        if self.module_errors is not None:
+            changes["module_errors"] = self.module_errors
+        if self.gps_bias is not None:
+            changes["gps_bias"] = self.gps_bias
+        if self.gps_interval_s is not None:
+            changes["gps_interval_s"] = self.gps_interval_s
+        if self.compass_sigma_deg is not None or self.compass_deviation is not None:
+            sigma = self.compass_sigma_deg
+            changes.update(compass_sigma_rad=WHITE_SIGMA_RAD if sigma is None else math.radians(sigma),
+                           compass_deviation=self.compass_deviation)
+        return replace(self.settings or FusionSettings(), **changes)
+
+    def loaded_calibration(self) -> MagCalibration | None:
+        """:attr:`mag_calibration`, read from its file if it is one."""
+        return _loaded(self.mag_calibration)
+
+    def loaded_foot_calibrations(self) -> dict[str, MagCalibration]:
+        """:attr:`foot_mag_calibrations`, each read from its file if it is one."""
+        return {side: _loaded(cal) for side, cal in self.foot_mag_calibrations.items()}
+
+
+def _loaded(calibration: MagCalibration | str | Path | None) -> MagCalibration | None:
+    if calibration is None or isinstance(calibration, MagCalibration):
+        return calibration
+    return MagCalibration.load(calibration)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How a :class:`~hostlib.run.tracking_run.TrackingRun` drives its modules, and when the walk
+    ends."""
+
+    #: send nothing to start: sum the steps of a module that is tracking already (no 0x34, and the
+    #: first step counter is taken as it comes)
+    attach: bool = False
+    #: after 0x34 also ask for each step's swing time and the module's serial number
+    #: (:data:`protocol.extensions.FUSION_SETUP`): needed by the compass, GPS, the drift correction
+    #: and the in-situ calibration
+    fusion: bool = False
+    #: turn the module's height compensation (function 0x25) on at the first step packet (an
+    #: emulator extension)
+    height_compensation: bool = False
+    #: the initial heading [deg] from north towards east
+    heading_deg: float = 0.0
+    #: seconds to track (None: until Ctrl-C)
+    duration_s: float | None = None
+    #: stop once this many step packets came (from each module; None: no limit)
+    steps: int | None = None
+    #: leave the module's outputs on at the end (else they are switched off)
+    leave_running: bool = False
+
+    def __post_init__(self) -> None:
+        if self.steps is not None and self.steps < 1:
+            raise ValueError(f"steps is a whole number ≥ 1 (or None), not {self.steps}")

@@ -1,0 +1,130 @@
+"""Carrying out a walk as a library does (hostlib.run): the options objects, the host set-up policy
+without I/O (the one ``openshoe-host`` and the emulator's replayed host share), and a
+:class:`~hostlib.run.tracking_run.TrackingRun` driven with :class:`~hostlib.link.device.Device`\\ s
+of scripted modules (tests/hostlib/protocol_fakeshoe.py), one module and a module on each foot."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import pytest
+import serial
+
+from hostlib.calibration.wiggle import WiggleCalibration
+from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
+from hostlib.fusion.feet import FeetSettings, TwoFeetTracker
+from hostlib.fusion.gps_bias import GpsBias
+from hostlib.fusion.module_errors import EMULATED_MODULE
+from hostlib.fusion.settings import FusionSettings
+from hostlib.link.device import Device
+from hostlib.run import AidOptions, HostSetup, Messages, RunOptions, SessionSetup, TrackingRun, prepare_aids
+from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP, height_compensation_on
+from protocol.frames import build_command, build_command_ack
+from protocol.ids import Command
+
+
+@pytest.fixture
+def fake_schemes():
+    serial.protocol_handler_packages.append("tests.hostlib")
+    yield
+    serial.protocol_handler_packages.remove("tests.hostlib")
+
+
+def test_the_aid_options_set_the_filter_up_as_the_command_line_did():
+    assert AidOptions().fusion_settings() == FusionSettings()
+    assert AidOptions(compass_deviation=OUTDOORS).fusion_settings() == FusionSettings(
+        compass_sigma_rad=WHITE_SIGMA_RAD, compass_deviation=OUTDOORS)
+    options = AidOptions(compass_sigma_deg=5.0, gps_bias=GpsBias(), module_errors=EMULATED_MODULE)
+    assert options.fusion_settings() == FusionSettings(compass_sigma_rad=math.radians(5.0),
+                                                       gps_bias=GpsBias(), module_errors=EMULATED_MODULE)
+    base = FusionSettings(gps_sigma_m=7.0)
+    assert AidOptions(gps_interval_s=2.0, settings=base).fusion_settings() == FusionSettings(
+        gps_sigma_m=7.0, gps_interval_s=2.0)
+    with pytest.raises(ValueError, match="not from both"):
+        AidOptions(gps_log="walk.nmea", gps_receiver="/dev/ttyACM0")
+    assert not AidOptions(declination_deg=3.0).uses_aids and AidOptions(gps_receiver="x").uses_aids
+
+
+def test_a_saved_calibration_is_wanted_with_the_compass_and_no_other_calibration():
+    assert AidOptions(compass=True, saved_calibration=True).wants_saved_calibration
+    for other in ({"compass": False}, {"calibrate_mag": True}, {"mag_calibration": "c.json"},
+                  {"foot_mag_calibrations": {"left": "c.json"}}):
+        assert not AidOptions(**{"compass": True, "saved_calibration": True, **other}).wants_saved_calibration
+
+
+def test_prepare_aids_takes_the_options_or_their_fields_as_keywords():
+    settings = FusionSettings(gps_sigma_m=9.0)
+    by_object = prepare_aids(AidOptions(compass=True, declination_deg=4.0, settings=settings))
+    by_keywords = prepare_aids(compass=True, declination_deg=4.0, settings=settings)
+    assert by_object.tracker.settings == by_keywords.tracker.settings
+    assert by_object.tracker.settings.declination_rad == pytest.approx(math.radians(4.0))
+    assert by_object.declination_source == "given"
+    overridden = prepare_aids(AidOptions(compass=True), compass=False)
+    assert not overridden.tracker.settings.compass, "a keyword wins over the options"
+
+
+def test_run_options_refuse_no_steps():
+    with pytest.raises(ValueError, match="steps"):
+        RunOptions(steps=0)
+
+
+def test_the_host_set_up_sends_each_command_when_it_is_due_and_once():
+    wiggle = WiggleCalibration()
+    setup = HostSetup(fusion=True, height_compensation=True, wiggle=wiggle)
+    assert setup.after_start() == [*FUSION_SETUP, *MAG_STREAM_START]
+    assert not setup.sent, "height compensation waits for the first step"
+    assert setup.stepped() == [height_compensation_on()] and setup.stepped() == []
+    assert setup.sent
+    assert setup.stop_stream() == list(MAG_STREAM_STOP) and setup.stop_stream() == []
+    assert HostSetup().after_start() == [] and HostSetup().stepped() == [] and HostSetup().stop_stream() == []
+
+
+def test_a_session_set_up_sends_the_next_command_once_the_one_before_was_acked():
+    host = SessionSetup(HostSetup(fusion=True))
+    assert host.start() == build_command(Command.STEPWISE_DEAD_RECKONING)
+    assert host.received(b"") == (b"", b"")
+    sent = [Command.STEPWISE_DEAD_RECKONING, *(meaning for meaning, _ in FUSION_SETUP)]
+    for meaning, (next_meaning, next_fields) in zip(sent, [*FUSION_SETUP, (None, None)], strict=True):
+        acks, command = host.received(build_command_ack(host.session.wire_id(meaning)))
+        assert acks == b""
+        assert command == (b"" if next_meaning is None else build_command(next_meaning, **next_fields))
+    assert host.awaiting is None and not host.queue
+
+
+def test_a_library_drives_one_module_through_a_tracking_run(fake_schemes):
+    said = io.StringIO()
+    run = TrackingRun(RunOptions(fusion=True, height_compensation=True, steps=5, duration_s=30.0),
+                      AidOptions(compass=True), messages=Messages("walk", said))
+    with run, Device("fakeshoe://5/fusion", tracker=run.tracker_for(None)) as dev:
+        assert run.tracker is run.aids.tracker and dev.tracker is run.tracker
+        modules = run.start(dev)
+        assert [m.side for m in modules] == [None]
+        run.follow()
+        text, key = run.status()
+    assert len(dev.track) == 5 and key == 5
+    assert text.startswith("packets     5 | steps     5 |") and text.endswith("| compass 4 | GPS 0 updates")
+    assert run.aids.tracker.fusion.compass_updates == 4, "the first step aligns, the four after update"
+    assert said.getvalue() == "tracking on fakeshoe://5/fusion (2015 commands); Ctrl-C to stop\n"
+    assert modules[0].setup.sent, "height compensation went out at the first step"
+
+
+def test_a_library_drives_a_module_on_each_foot_through_a_tracking_run(fake_schemes):
+    run = TrackingRun(RunOptions(steps=3, duration_s=30.0), feet=FeetSettings(),
+                      messages=Messages(stream=io.StringIO()))
+    with run:
+        assert run.sides == ("left", "right") and isinstance(run.tracker, TwoFeetTracker)
+        with Device("fakeshoe://3", tracker=run.tracker_for("left")) as left, \
+                Device("fakeshoe://3", tracker=run.tracker_for("right")) as right:
+            with pytest.raises(ValueError, match="a device for each"):
+                run.start({"left": left})
+            run.start({"left": left, "right": right})
+            run.follow()
+            text, (steps, links, failed) = run.status()
+    assert len(run.tracker) == 6 and steps == 6 and links == (True, True) and failed == ()
+    assert text.startswith("left    3/   3 steps    3.00 m gaps 0 (missing 0) | right    3/   3 steps")
+
+
+def test_the_in_situ_calibration_goes_with_one_module_only():
+    with pytest.raises(ValueError, match="one module"):
+        TrackingRun(aids=AidOptions(compass=True, calibrate_mag=True), feet=FeetSettings())
