@@ -7,7 +7,8 @@ order (callbacks); when the first long step ends it, the fit goes at once to the
 compass waits for it, :meth:`~hostlib.fusion.tracker.FusionTracker.hold_compass`), under the
 device's session lock. The thread that drives the walk then sees the end
 (:meth:`InSituCalibration.ended`), has the stream stopped (:class:`~hostlib.run.host_setup.HostSetup`)
-and :meth:`~InSituCalibration.report`\\ s: the calibration saved, the summary said.
+and reports it (:meth:`InSituCalibration.report`): the calibration saved for the module, its summary
+said.
 """
 
 from __future__ import annotations

@@ -4,11 +4,12 @@ module (:func:`summary_line`) or of two feet (:func:`feet_summary_line`), with w
 
 from __future__ import annotations
 
-import math
 import sys
 import time
 from collections.abc import Mapping, Sequence
 from typing import TYPE_CHECKING, Any, TextIO
+
+from ..track.steps import heading_deg
 
 if TYPE_CHECKING:
     from ..calibration.drift import DriftCalibration
@@ -37,12 +38,6 @@ class Messages:
     def note(self, text: str) -> None:
         """A line about something that happened, after the prefix."""
         self.say(f"{self.prefix}: {text}" if self.prefix else text)
-
-
-def heading_deg(chi: float) -> float:
-    """A heading [rad] as shown: degrees in [0, 360), rounded to 0.1° first so that −0.0 and
-    359.96° both read 0.0, never 360.0."""
-    return (round(math.degrees(chi), 1) % 360.0) + 0.0
 
 
 def pose_text(pose: Sequence[float], sigma: float, note: str = "") -> str:
