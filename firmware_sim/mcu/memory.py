@@ -121,6 +121,14 @@ class StateMemory:
         self.sizes: list[int] = [(s.size if s is not None else 0) for s in self._specs] + [0] * (
             256 - STATE_ID_LIMIT
         )
+        # every float32 element of the float states, for nonfinite_states()
+        floats = [(sid, offsets[sid], spec.size // 4) for sid, spec in STATES.items()
+                  if spec.dtype.kind == "f"]
+        assert all(spec.dtype.itemsize == 4 for spec in STATES.values() if spec.dtype.kind == "f")
+        assert all(off % 4 == 0 for _sid, off, _n in floats), "float states are 4-byte aligned in the arena"
+        self._float_words = np.frombuffer(self.arena, dtype=np.float32, count=len(self.arena) // 4)
+        self._float_index = np.concatenate([np.arange(off // 4, off // 4 + n) for _sid, off, n in floats])
+        self._float_owner = np.concatenate([np.full(n, sid) for sid, _off, n in floats])
         self.set_mcu_serial(mcu_serial)
 
     # ------------------------------------------------------------------ access
@@ -177,6 +185,15 @@ class StateMemory:
         a = self._arrays[state_id] if 0 <= state_id < STATE_ID_LIMIT else None
         if a is not None:
             a.reshape(-1).view(np.uint8)[0] = 0
+
+    def nonfinite_states(self) -> tuple[int, ...]:
+        """The float states (the navigation numbers: U_K, DT, POSITION, VELOCITY, QUATERNION, P,
+        DX, DP, …) that hold an inf or a NaN now, ascending; () when every one is finite. A few µs."""
+        values = self._float_words[self._float_index]
+        bad = ~np.isfinite(values)
+        if not bad.any():
+            return ()
+        return tuple(sorted({int(sid) for sid in self._float_owner[bad]}))
 
     # ------------------------------------------------------------- conveniences
     def set_mcu_serial(self, serial: bytes) -> None:

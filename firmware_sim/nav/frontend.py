@@ -328,6 +328,9 @@ def frontend_convcomp(module: Module) -> None:
 
 @processing_function(ProcId.FRONTEND_CONV16, cycles=250)
 def frontend_conv16(module: Module) -> None:
-    """0x15: U_INT16_K, the filter input in int16 register units."""
+    """0x15: U_INT16_K, the filter input in int16 register units. A U_K that is not finite (a
+    host's SET_STATE of it, with this function run without CONVCOMP before it) is converted as
+    numpy converts it, without numpy's warning (C leaves that conversion undefined)."""
     mem = module.memory
-    conv16(mem[StateId.U_K], mem[StateId.U_INT16_K])
+    with np.errstate(all="ignore"):
+        conv16(mem[StateId.U_K], mem[StateId.U_INT16_K])

@@ -26,6 +26,13 @@ numpy's float32 functions, as it always did). The array-level functions are
 plain functions over arrays and scalars; their compiled counterparts, of the same names
 and arguments, are in :mod:`firmware_sim.nav.ins_kernels` (which compiles some of them, and
 the scalar helpers :func:`rot_rows`, :func:`quat_product`, :func:`inv3_sym_upper`, as written).
+
+Numbers a host set (SET_STATE of DT, U_K, P, the quaternion…) can make this arithmetic divide
+by zero or overflow. The µC's FPU then gives inf or NaN and goes on, and so does the emulator,
+bit for bit in both paths; numpy's warnings about it are switched off around exactly these
+computations (the processing functions below, and :func:`alignment_quaternion`, which the
+compiled path calls from object mode). Which commands and values do it:
+docs/protocol-extensions.md, "Numbers that go non-finite".
 """
 
 from __future__ import annotations
@@ -270,13 +277,15 @@ def _skew(v: np.ndarray) -> np.ndarray:
 
 
 def alignment_quaternion(f_mean: np.ndarray) -> np.ndarray:
-    """Roll = atan2(−f̄y, −f̄z), pitch = atan2(f̄x, √(f̄y²+f̄z²)), yaw = 0 → q (float32)."""
-    roll = np.arctan2(-f_mean[1], -f_mean[2])
-    pitch = np.arctan2(f_mean[0], np.sqrt(f_mean[1] * f_mean[1] + f_mean[2] * f_mean[2]))
-    cr, sr = np.cos(roll * _HALF), np.sin(roll * _HALF)
-    cp, sp = np.cos(pitch * _HALF), np.sin(pitch * _HALF)
-    # q = q_z(0) ⊗ q_y(pitch) ⊗ q_x(roll)
-    return np.array([sr * cp, cr * sp, -sr * sp, cr * cp], dtype=np.float32)
+    """Roll = atan2(−f̄y, −f̄z), pitch = atan2(f̄x, √(f̄y²+f̄z²)), yaw = 0 → q (float32); an
+    f̄ that is not finite gives what IEEE arithmetic gives, without numpy's warnings."""
+    with np.errstate(all="ignore"):
+        roll = np.arctan2(-f_mean[1], -f_mean[2])
+        pitch = np.arctan2(f_mean[0], np.sqrt(f_mean[1] * f_mean[1] + f_mean[2] * f_mean[2]))
+        cr, sr = np.cos(roll * _HALF), np.sin(roll * _HALF)
+        cp, sp = np.cos(pitch * _HALF), np.sin(pitch * _HALF)
+        # q = q_z(0) ⊗ q_y(pitch) ⊗ q_x(roll)
+        return np.array([sr * cp, cr * sp, -sr * sp, cr * cp], dtype=np.float32)
 
 
 def foot_angles(f: np.ndarray) -> tuple:
@@ -560,12 +569,13 @@ def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork
 @processing_function(ProcId.FRONTEND_INITIAL_ALIGNMENT, cycles=900)
 def frontend_initial_alignment(module: Module) -> None:
     """0x23: initial alignment over consecutive stationary samples; sets INIT_DONE."""
-    mem = module.memory
-    if initial_alignment(mem[StateId.U_K][0:3], bool(mem[StateId.ZUPT]), ins_work(module),
-                         mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION],
-                         mem[StateId.P], mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND]):
-        mem[StateId.INIT_DONE][...] = True
-        clear_stance(height_work(module))
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        if initial_alignment(mem[StateId.U_K][0:3], bool(mem[StateId.ZUPT]), ins_work(module),
+                             mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION],
+                             mem[StateId.P], mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND]):
+            mem[StateId.INIT_DONE][...] = True
+            clear_stance(height_work(module))
 
 
 def clear_stance(w: HeightWork) -> None:
@@ -589,47 +599,52 @@ def start_stance(w: HeightWork) -> None:
 @processing_function(ProcId.MECHANIZATION, cycles=7000)
 def ins_mechanization(module: Module) -> None:
     """0x20: strapdown mechanization of position, velocity and attitude."""
-    mem = module.memory
-    mechanization(mem[StateId.U_K], mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.POSITION],
-                  mem[StateId.VELOCITY], mem[StateId.QUATERNION], ins_work(module).f_n)
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        mechanization(mem[StateId.U_K], mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.POSITION],
+                      mem[StateId.VELOCITY], mem[StateId.QUATERNION], ins_work(module).f_n)
 
 
 @processing_function(ProcId.TIME_UPDATE, cycles=26000)
 def ins_time_update(module: Module) -> None:
     """0x21: covariance propagation."""
-    mem = module.memory
-    w = ins_work(module)
-    time_update(w.f_n, mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.P], w.p_full, w.noise)
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        w = ins_work(module)
+        time_update(w.f_n, mem[StateId.DT][()], bool(mem[StateId.ZARU]), mem[StateId.P], w.p_full, w.noise)
 
 
 @processing_function(ProcId.ZUPT_UPDATE, cycles=15000)
 def ins_zupt_update(module: Module) -> None:
     """0x22: zero-velocity measurement update while ZUPT."""
-    mem = module.memory
-    if bool(mem[StateId.ZUPT]):
-        w = ins_work(module)
-        zupt_update(mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
-                    w.p_full, mem[StateId.DT][()], w.noise)
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        if bool(mem[StateId.ZUPT]):
+            w = ins_work(module)
+            zupt_update(mem[StateId.POSITION], mem[StateId.VELOCITY], mem[StateId.QUATERNION], mem[StateId.P],
+                        w.p_full, mem[StateId.DT][()], w.noise)
 
 
 @processing_function(ProcId.STEPWISE_SYSTEM_RESET, cycles=2500)
 def ins_stepwise_system_reset(module: Module) -> None:
     """0x24: end a step: hand DX/DP to the host, reset position and heading."""
-    mem = module.memory
-    flag = stepwise_reset(bool(mem[StateId.ZUPT]), mem[StateId.DT][()], ins_work(module),
-                          mem[StateId.POSITION], mem[StateId.QUATERNION], mem[StateId.P],
-                          mem[StateId.DX], mem[StateId.DP], mem[StateId.SWING_TIME].reshape(1))
-    mem[StateId.FILTER_RESET_FLAG][...] = flag
-    if flag:
-        mem[StateId.STEP_COUNTER][...] = (int(mem[StateId.STEP_COUNTER]) + 1) & 0xFFFF
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        flag = stepwise_reset(bool(mem[StateId.ZUPT]), mem[StateId.DT][()], ins_work(module),
+                              mem[StateId.POSITION], mem[StateId.QUATERNION], mem[StateId.P],
+                              mem[StateId.DX], mem[StateId.DP], mem[StateId.SWING_TIME].reshape(1))
+        mem[StateId.FILTER_RESET_FLAG][...] = flag
+        if flag:
+            mem[StateId.STEP_COUNTER][...] = (int(mem[StateId.STEP_COUNTER]) + 1) & 0xFFFF
 
 
 @processing_function(ProcId.HEIGHT_COMPENSATION, cycles=3000)
 def ins_height_compensation(module: Module) -> None:
     """0x25 (an emulator extension): the step's height from the ground's slope, a measurement in
     the INS's filter once per stance; learns the slope (THETA_GROUND) from the foot's angle."""
-    mem = module.memory
-    height_compensation(bool(mem[StateId.ZUPT]), mem[StateId.U_K][0:3], mem[StateId.DT][()],
-                        height_work(module), mem[StateId.POSITION], mem[StateId.VELOCITY],
-                        mem[StateId.QUATERNION], mem[StateId.P], ins_work(module).p_full,
-                        mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND])
+    with np.errstate(all="ignore"):  # IEEE results, as on the µC's FPU
+        mem = module.memory
+        height_compensation(bool(mem[StateId.ZUPT]), mem[StateId.U_K][0:3], mem[StateId.DT][()],
+                            height_work(module), mem[StateId.POSITION], mem[StateId.VELOCITY],
+                            mem[StateId.QUATERNION], mem[StateId.P], ins_work(module).p_full,
+                            mem[StateId.THETA_INIT], mem[StateId.THETA_GROUND])

@@ -11,6 +11,7 @@ from typing import Any, Protocol
 
 from firmware_sim.mcu.module import Module
 from firmware_sim.nav.warmup import Announce, to_stderr
+from protocol.states import state_spec
 
 from .endpoints import Endpoint, links_of
 from .status import LAG_BOUNDS_MS, LAG_LABELS, PacerStatus
@@ -67,6 +68,11 @@ class PacedModule:
         self.lookahead_s = 0.0  #: wall seconds the module runs ahead (set when its loop starts)
         self.overrun_limit_s = 0.0  #: wall seconds of lateness that count an overrun (likewise)
         self.error: BaseException | None = None  #: what stopped the loop, if this module raised it
+        #: Float states (navigation numbers) holding an inf or a NaN after the module's last frame.
+        self.nonfinite: tuple[int, ...] = ()
+        #: Frames after which some navigation number was not finite, and the module time [s] of the first.
+        self.nonfinite_frames = 0
+        self.nonfinite_first_s: float | None = None
         self.waits = TickWaits()  #: threads waiting on the module's ticks (the loop tests them)
         self._group: Loop | None = None  # set by the loop that takes the module
 
@@ -155,6 +161,18 @@ class PacedModule:
         self._lag_counts[b] += 1
         self._lag = late
 
+    def check_numbers(self) -> None:
+        """After a frame: note whether the module's navigation numbers (its float states) are all
+        finite. A host's SET_STATE can make the firmware's arithmetic give inf or NaN, as the
+        µC's would (docs/protocol-extensions.md); the status shows it."""
+        bad = self.module.memory.nonfinite_states()
+        self.nonfinite = bad
+        if bad:
+            self.nonfinite_frames += 1
+            if self.nonfinite_first_s is None:
+                clock = self.module.clock
+                self.nonfinite_first_s = clock.now_cycles / clock.cpu_hz
+
     def count_busy(self, dt: float) -> None:
         """One run of ticks took *dt* wall seconds."""
         self._busy += dt
@@ -193,6 +211,9 @@ class PacedModule:
             overrun_limit_ms=self.overrun_limit_s * ms_per_s,
             late_bytes=sum(c.late for c in late),
             late_max_ms=max((c.late_max_cycles for c in late), default=0) * 1e3 / m.clock.cpu_hz,
+            nonfinite=[state_spec(sid).name for sid in self.nonfinite],
+            nonfinite_frames=self.nonfinite_frames,
+            nonfinite_first_s=self.nonfinite_first_s,
             packets={i.name: i.packets_assembled for i in m.interface_list},
             queue={i.name: len(i.queue) for i in m.interface_list},
             endpoints=eps,

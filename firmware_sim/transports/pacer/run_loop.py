@@ -249,6 +249,7 @@ class RunLoop:
             self.done[k] = d
         dt = self.perf() - s
         p.count_busy(dt)
+        p.check_numbers()
         p.waits.check()
         return dt
 

@@ -33,6 +33,10 @@ class PacerStatus:
     late_max_ms: float = 0.0  #: the largest such lateness (deliveries within one frame are on time)
     #: frames by how late they started, e.g. {"<1ms": 9000, "<2ms": 40, …, ">=50ms": 0}
     lag_frames: dict[str, int] = field(default_factory=dict)
+    #: float states (navigation numbers) holding an inf or a NaN after the last frame, e.g. ["P"]
+    nonfinite: list[str] = field(default_factory=list)
+    nonfinite_frames: int = 0  #: frames after which some navigation number was not finite
+    nonfinite_first_s: float | None = None  #: module time [s] of the first such frame (None: never)
     packets: dict[str, int] = field(default_factory=dict)  #: packets assembled per interface
     queue: dict[str, int] = field(default_factory=dict)  #: frames in each interface's queue
     endpoints: list[dict[str, Any]] = field(default_factory=list)
@@ -47,7 +51,16 @@ class PacerStatus:
                 f"loop {self.loop_us_mean:6.1f}/{self.loop_us_max:6.1f} us "
                 f"overruns {self.overruns} lag {self.lag_ms:5.1f}/{self.lag_max_ms:5.1f} ms "
                 f"late {self.late_bytes} B "
-                f"| packets {pk} | queue {q} | {hosts}")
+                f"| packets {pk} | queue {q} | {hosts}{self.nonfinite_note()}")
+
+    def nonfinite_note(self) -> str:
+        """The status line's end once the navigation numbers were not all finite after a frame,
+        e.g. ``| non-finite P QUATERNION (120 frames since t=12.345s)`` ("none now" when they are
+        finite again); empty while they always were."""
+        if not self.nonfinite_frames:
+            return ""
+        now = " ".join(self.nonfinite) or "none now"
+        return f" | non-finite {now} ({self.nonfinite_frames} frames since t={self.nonfinite_first_s:.3f}s)"
 
     def as_dict(self) -> dict[str, Any]:
         return asdict(self)
