@@ -278,3 +278,71 @@ def test_cli_lists_the_extension_group(capsys):
     assert main(["--list"]) == 0
     out = capsys.readouterr().out
     assert "(extensions) emulator extension function 0x25 HEIGHT_COMPENSATION" in out
+
+
+# --------------------------------------------------------------------------- resynchronisation
+
+
+def test_the_garbage_resync_check_passes_in_both_numberings_within_its_deadline():
+    from tools.conformance.checks import RESYNC_DEADLINE_TICKS
+
+    for cs in ("2015", "2014"):
+        report = run(_driver(build_module(ModuleConfig(command_set=cs)), cs), ["garbage-resync"])
+        result = report.results[0]
+        assert result.status is Status.PASS, result.message
+        ticks = [int(part.split(", ")[1].split()[0]) for part in result.message.split("; ")]
+        assert len(ticks) == 2 and all(t <= RESYNC_DEADLINE_TICKS for t in ticks)
+
+
+def test_the_check_garbage_holds_frames_that_close_inside_it():
+    """The check's random garbage holds command ids whose frames all close, with wrong checksums,
+    before its end: a parser following §7 is between frames after it."""
+    from protocol.commands import command_set as numbering
+    from protocol.frames import checksum
+    from tools.conformance.checks import closed_garbage
+
+    for cs in (numbering("2015"), numbering("2014")):
+        garbage = closed_garbage(cs, 1024)
+        i = frames = 0
+        while i < len(garbage):
+            if cs.is_command(garbage[i]):
+                frame = garbage[i:i + cs[garbage[i]].payload_len + 3]
+                assert checksum(frame[:-2]) != int.from_bytes(frame[-2:], "big")
+                frames += 1
+                i += len(frame)
+            else:
+                i += 1
+        assert i == len(garbage) and frames > 20
+
+
+def test_a_parser_that_searches_a_dropped_frame_again_is_caught():
+    """A device that, on a wrong checksum, drops only the frame's first byte and looks for a header
+    in the rest (not what §7 says) passes the short garbage checks but not garbage-resync: a header
+    inside the dropped bytes opens a frame that swallows the PING."""
+    from protocol.frames import checksum
+
+    module = build_module()
+    iface = module.usb
+    pending = bytearray()
+
+    def rescanning(data: bytes) -> None:
+        pending.extend(data)
+        while pending:
+            spec = iface._by_id[pending[0]]
+            if spec is None:
+                del pending[0]
+                continue
+            n = spec.payload_len + 3
+            if len(pending) < n:
+                return
+            frame = bytes(pending[:n])
+            if checksum(frame[:-2]) == int.from_bytes(frame[-2:], "big"):
+                del pending[:n]
+                iface._execute(spec, frame)
+            else:
+                del pending[0]
+
+    iface._parse = rescanning
+    v = _verdicts(_driver(module), ["ping", "garbage", "bad-checksum", "garbage-resync"])
+    assert v == {"ping": Status.PASS, "garbage": Status.PASS, "bad-checksum": Status.PASS,
+                 "garbage-resync": Status.FAIL}

@@ -162,8 +162,8 @@ def test_2014_set_has_its_own_header_bytes():
 
 @pytest.mark.slow
 # Random streams execute random SET_STATEs: garbage floats in the INS overflow to inf/nan, as they
-# would on the µC's FPU (IEEE, no trap). That is faithful, so numpy's warnings about it are noise here.
-@pytest.mark.filterwarnings("ignore::RuntimeWarning")
+# would on the µC's FPU (IEEE, no trap), and quietly: a numpy warning fails the test.
+@pytest.mark.filterwarnings("error::RuntimeWarning")
 def test_1e5_random_streams_through_one_parser():
     """10^5 random streams (raw bytes, valid frames, corrupted frames), then a PING each time."""
     rng = np.random.default_rng(20150115)
@@ -215,3 +215,100 @@ def test_same_random_inputs_twice_give_identical_bytes_and_traces(parts, chunk):
         return bytes(out), list(m.trace)
 
     assert run() == run()
+
+
+# ------------------------------------------------------------- resynchronisation, byte by byte
+# The rule (docs/protocol-extensions.md, "Garbage on the line"): between frames a byte that is not a
+# command id of the numbering is discarded; a command id opens a frame that takes the next
+# payload + 2 bytes whatever they are; the complete frame runs if its checksum is right and is
+# dropped whole otherwise, its bytes never looked at again; a partial frame is dropped after
+# 2·10^8 cycles without a byte (or when the link goes down). Each vector: the chunks the host
+# sends (hex, then the loops run before the next chunk), the commands acknowledged (in order),
+# the frames dropped for their checksum, the bytes discarded between frames, the partial frame left.
+
+OFF = "22 00 22"  # OUTPUT_ALL_OFF
+RESYNC_VECTORS = [
+    # name, numbering, [(hex, loops)], acked ids, bad checksums, discarded, partial frame left
+    ("non-command bytes are skipped", "2015", [("00 02 50 A0 AA FF 7F 03 00 03", 1)], [0x03], 0, 7, ""),
+    ("an ack echoed back: A0 and AA are skipped, its 03 opens a frame", "2015",
+     [("A0 03 00 A3 AA 03 00 03", 1)], [0x03], 1, 2, ""),
+    ("a command id opens a frame that swallows the PING after it", "2015",
+     [("13 03 00 03 00 00 12 34", 1)], [], 1, 0, ""),
+    ("the swallowed bytes are not searched again", "2015",
+     [("13 03 00 03 00 00 12 34 03 00 03", 1)], [0x03], 1, 0, ""),
+    ("a stray byte knocks out the commands that follow it, one after another", "2015",
+     [("03 " + OFF + " 03 00 03 03 00 03", 1)], [], 3, 0, "03"),
+    ("... until the bytes sent happen to close the open frame", "2015",
+     [("03 " + OFF + " 03 00 03 03 00 03 00 00 " + OFF, 1)], [0x22], 4, 0, ""),
+    ("a right checksum runs whatever came before it", "2015", [("FF FF 00 " + OFF, 1)], [0x22], 0, 3, ""),
+    ("a frame may span many loops", "2015", [("13 19 00", 5), ("01 86", 5), ("A0 01 53", 1)], [0x13], 0, 0,
+     ""),
+    ("SET_STATE_254 swallows the next 257 bytes", "2015",
+     [("17" + " 03 00 03" * 85 + " 03 00", 2), ("03 00 03", 1)], [0x03], 1, 0, ""),
+    ("zeros complete an open frame and are then skipped", "2015",
+     [("17 05", 1), ("00" * 300, 1), ("03 00 03", 1)], [0x03], 1, 300 - 256, ""),
+    ("ACK 0x01 runs but is not acknowledged", "2015", [("01 00 05 00 06 03 00 03", 1)], [0x03], 0, 0, ""),
+    ("2015 ids are garbage in the 2014 numbering", "2014", [("22 00 22 13 32 03 00 03", 1)], [0x03], 0, 5,
+     ""),
+    ("14 00 14 is a whole frame in the 2014 numbering", "2014", [("14 00 14", 1)], [0x14], 0, 0, ""),
+    ("14 00 14 waits for 13 more bytes in the 2015 numbering", "2015", [("14 00 14", 1)], [], 0, 0,
+     "14 00 14"),
+]
+
+
+def _acked(out: bytes) -> list[int]:
+    return [out[i + 1] for i in range(0, len(out), 4)] if out else []
+
+
+@pytest.mark.parametrize(("name", "numbering", "chunks", "acked", "bad", "discarded", "partial"),
+                         RESYNC_VECTORS, ids=[v[0] for v in RESYNC_VECTORS])
+def test_the_parser_resynchronises_by_the_written_rule(name, numbering, chunks, acked, bad, discarded,
+                                                       partial):
+    h = Host(command_set=numbering)
+    out = b""
+    for data, loops in chunks:
+        h.send(bytes.fromhex(data))
+        out += h.step(loops)
+    assert _acked(out) == acked
+    assert h.iface.bad_checksums == bad
+    assert h.iface.bytes_discarded == discarded
+    assert h.iface.partial_frame == bytes.fromhex(partial)
+
+
+TIMEOUT_TICKS = RX_TIMEOUT_CYCLES // 64_000  # 3125 loops at 1 kHz
+
+
+@pytest.mark.parametrize(("silence", "dropped"), [(TIMEOUT_TICKS - 2, False), (TIMEOUT_TICKS + 2, True)])
+def test_a_partial_frame_is_dropped_after_3_125_s_without_a_byte(silence, dropped):
+    h = Host()
+    h.send(bytes.fromhex("03"))  # a PING's header alone
+    h.step(silence)
+    h.send(PING)
+    out = h.step(2)
+    # dropped: the new PING is a frame of its own; kept: 03 | 03 00 (bad), then 03 waits
+    assert out == (PING_ACK if dropped else b"")
+    assert h.iface.partial_timeouts == (1 if dropped else 0)
+
+
+def test_any_byte_restarts_the_timeout_even_one_that_completes_nothing():
+    h = Host()
+    h.send(bytes.fromhex("17"))  # SET_STATE_254: 257 bytes to come
+    for _ in range(3):
+        h.step(TIMEOUT_TICKS - 100)
+        h.send(b"\x00")
+    h.step(TIMEOUT_TICKS - 100)
+    assert h.iface.partial_frame == bytes.fromhex("17 00 00 00") and h.iface.partial_timeouts == 0
+    h.step(200)
+    assert h.iface.partial_frame == b"" and h.iface.partial_timeouts == 1
+
+
+def test_a_link_that_goes_down_drops_the_partial_frame():
+    h = Host()
+    h.send(bytes.fromhex("13 19"))
+    h.step()
+    h.port.disconnect()
+    h.step()
+    h.port.connect()
+    h.send(PING)
+    assert h.step() == PING_ACK
+    assert h.iface.partial_disconnects == 1

@@ -17,6 +17,7 @@ wrong → FAIL, absent → ABSENT, which is no failure (a real module has none o
 
 from __future__ import annotations
 
+import random
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -27,7 +28,7 @@ import numpy as np
 from protocol.codec import decode_step
 from protocol.commands import CommandSet
 from protocol.extensions import EXTENSION_STATES, HEIGHT_COMPENSATION_SLOT, height_compensation_on
-from protocol.frames import build_command, hexdump
+from protocol.frames import build_command, checksum, hexdump
 from protocol.ids import Command, OutputMode, StateId, ps_dt_id
 from protocol.states import state_spec
 
@@ -259,6 +260,86 @@ def check_parser_timeout(ctx: Context) -> str:
         ctx.fail(f"the partial frame was not discarded: expected {hexdump(PING_ACK)}, got "
                  f"{hexdump(got) or 'nothing'}")
     return "stale partial frame dropped"
+
+
+#: Check "garbage-resync": the garbage bytes before its PING, and the most device ticks (1 kHz) from
+#: the tick count read before the garbage to the PING's execution. A module following protocol.md §7
+#: needs a few ticks to parse it (400 bytes per loop); the rest is the link: the count's way back to the
+#: host, the garbage's way to the module (1 kB over Bluetooth's 115200 baud: 90 ms) and the latency
+#: (20–40 ms each way): about 0.2 s, within 0.5 s.
+RESYNC_GARBAGE_BYTES = 1024
+RESYNC_DEADLINE_TICKS = 500
+#: The seed of the check's random garbage (the same bytes on every run).
+RESYNC_SEED = 20150115
+
+
+def closed_garbage(cs: CommandSet, n: int, seed: int = RESYNC_SEED) -> bytes:
+    """At least *n* random bytes in which, by protocol.md §7, every frame a command id opens also
+    closes (it takes the next payload + 2 bytes, whatever they are) with a wrong checksum: a parser
+    following §7 runs none of them and expects a command id right after the last. The last frame is
+    the numbering's longest, with that command id again as its last payload byte: a parser that
+    looked for a header inside a dropped frame would take the bytes after the garbage into a frame."""
+    rng = random.Random(seed)
+    longest = max(cs.values(), key=lambda spec: spec.payload_len)
+    out = bytearray()
+    frame = bytearray()
+    need = 0  # bytes the open frame still takes
+    while len(out) < n - longest.payload_len - 3 or need:
+        b = rng.randrange(256)
+        if not need:
+            if cs.is_command(b):
+                frame[:] = bytes([b])
+                need = cs[b].payload_len + 2
+        else:
+            frame.append(b)
+            need -= 1
+            if not need and checksum(bytes(frame[:-2])) == int.from_bytes(frame[-2:], "big"):
+                b ^= 0x01  # this one would run: spoil its checksum
+        out.append(b)
+    payload = bytes(rng.randrange(256) for _ in range(longest.payload_len - 1)) + bytes([longest.wire_id])
+    body = bytes([longest.wire_id]) + payload
+    wrong = (checksum(body) + 1) & 0xFFFF
+    return bytes(out) + body + wrong.to_bytes(2, "big")
+
+
+@check("garbage-resync", f"after {RESYNC_GARBAGE_BYTES} bytes of garbage a PING is answered within "
+       f"{RESYNC_DEADLINE_TICKS} ms of device time: garbage without a command id, then random garbage "
+       "whose every frame closes inside it with a wrong checksum (§7: after a frame, good or bad, the "
+       "next byte is a header; no garbage frame runs)")
+def check_garbage_resync(ctx: Context) -> str:
+    d = ctx.driver
+    junk = bytes(b for b in range(256) if not ctx.cs.is_command(b))
+    garbage = {"no command id": (junk * (RESYNC_GARBAGE_BYTES // len(junk) + 1))[:RESYNC_GARBAGE_BYTES],
+               "frames with wrong checksums": closed_garbage(ctx.cs, RESYNC_GARBAGE_BYTES)}
+    ping_id, pull_id = d.wire_id(Command.PING), d.wire_id(Command.OUTPUT_STATE)
+    pull = build_command(Command.OUTPUT_STATE, command_set=ctx.cs, state_id=StateId.INTERRUPT_COUNTER,
+                         mode=PULL)
+    took = []
+    for label, junk_bytes in garbage.items():
+        t0 = d.ticks()
+        first = d.mark()
+        # the pull after the PING tells when the PING ran (the same loop or the next)
+        sent = d.write(junk_bytes + PING + pull)
+        ping = d.expect(lambda r: r.is_ack and r.frame.command_id == ping_id, 2.0)
+        if ping is None:
+            ctx.fail(f"{label}: no ack of the PING after {len(junk_bytes)} bytes of garbage",
+                     sent[-16:], _raw(d.since(first)))
+        stray = [r for r in d.since(first) if r.is_ack and r.frame.command_id not in (ping_id, pull_id)]
+        if stray:
+            ctx.fail(f"{label}: a frame of the garbage ran (acks {hexdump(_raw(stray))})", sent[:32],
+                     _raw(stray))
+        d.expect(lambda r: r.is_ack and r.frame.command_id == pull_id, 1.0)
+        pkt = d.next_packet(1.0)
+        if pkt is None or len(pkt.frame.payload) != 4:
+            ctx.fail(f"{label}: no INTERRUPT_COUNTER after the PING", pull, _raw(d.since(first)))
+        ticks = (_counter(pkt) - t0) % U32
+        ctx.proof(f"{label}: {len(junk_bytes)} bytes, PING, pull INTERRUPT_COUNTER ({ticks} ticks)",
+                  sent[-(len(PING) + len(pull) + 8):], ping.raw + pkt.raw)
+        if ticks > RESYNC_DEADLINE_TICKS:
+            ctx.fail(f"{label}: the PING ran {ticks} ticks after the count before the garbage, "
+                     f"more than {RESYNC_DEADLINE_TICKS}")
+        took.append(f"{label}: {len(junk_bytes)} B, {ticks} ticks")
+    return "; ".join(took)
 
 
 # =========================================================================== commands
