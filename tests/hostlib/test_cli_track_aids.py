@@ -68,7 +68,7 @@ def test_two_urls_still_take_a_drift_calibration_per_foot():
 def test_track_fuses_the_compass_and_a_live_receiver_that_is_then_pulled_out(tmp_path, capsys):
     out, csv = io.StringIO(), tmp_path / "t.csv"
     argv = ["track", "fakeshoe://5/fusion", "--fusion", "--compass", "--gps", "fakegps://3",
-            "--csv", str(csv), "--duration", "1.5"]
+            "--csv", str(csv), "--steps", "5", "--duration", "30"]
     assert main(argv, out) == 0
     text, err = out.getvalue(), capsys.readouterr().err
     # the three fixes came before the first step: held, put before it, applied at the next step
