@@ -268,8 +268,9 @@ class TrackingRun:
         calibration or each module's saved one, then 0x34 (unless attaching) and the set-up."""
         if not isinstance(devices, Mapping):
             devices = {None: devices}
-        if tuple(devices) != self.sides:
+        if set(devices) != set(self.sides):
             raise ValueError(f"a device for each of {self.sides}, not {tuple(devices)}")
+        devices = {side: devices[side] for side in self.sides}  # the left foot's first
         if self.receiver is not None:
             self._feed_receiver(devices)
         if self.aid_options.calibrate_mag:

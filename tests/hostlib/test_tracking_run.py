@@ -118,7 +118,7 @@ def test_a_library_drives_a_module_on_each_foot_through_a_tracking_run(fake_sche
                 Device("fakeshoe://3", tracker=run.tracker_for("right")) as right:
             with pytest.raises(ValueError, match="a device for each"):
                 run.start({"left": left})
-            run.start({"left": left, "right": right})
+            run.start({"right": right, "left": left})  # in any order
             run.follow()
             text, (steps, links, failed) = run.status()
     assert len(run.tracker) == 6 and steps == 6 and links == (True, True) and failed == ()
