@@ -56,7 +56,6 @@ modules is a :class:`~hostlib.run.tracking_run.TrackingRun`.
 
 from ..run.status import feet_summary_line, heading_deg, summary_line
 from .app import build_parser, main
-from .options import module_errors_type as _module_errors  # noqa: F401 - its name before the split
 from .options import usage_refusal
 from .outputs import feet_summary
 

@@ -70,3 +70,12 @@ def test_the_events_module_source_imports_only_protocol_numpy_and_the_standard_l
             assert node.level == 0, "hostlib.events imports no other hostlib module"
             imported.add((node.module or "").split(".")[0])
     assert imported - set(sys.stdlib_module_names) <= {"numpy", "protocol"}
+
+
+def test_every_public_name_of_the_host_sdk_resolves_and_is_documented():
+    import hostlib
+
+    for name in hostlib.__all__:
+        obj = getattr(hostlib, name)
+        assert obj.__doc__, f"hostlib.{name} has no docstring"
+        assert name in hostlib.__doc__ or obj.__module__ in ("hostlib.events", "hostlib.errors"), name

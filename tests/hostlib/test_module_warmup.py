@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from hostlib.cli import _module_errors
+from hostlib.cli.options import module_errors_type as _module_errors
 from hostlib.fusion.module_errors import (
     EMULATED_MODULE,
     EMULATED_MODULE_SWAYING,
