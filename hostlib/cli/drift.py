@@ -4,6 +4,7 @@ calibration (hostlib.calibration.drift) from captures of closed loops walked wit
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 from typing import TextIO
 
 from ..calibration.drift import DriftError, calibrate, loop_closure, serial_text
@@ -13,9 +14,15 @@ __all__ = ["cmd_drift"]
 
 def cmd_drift(args: argparse.Namespace, out: TextIO) -> int:
     """``drift calibrate CAPTURE... -o CAL.json``: each capture one closed loop of one module."""
-    from ..files.replay import replay_capture_session
+    from ..files.capture_check import check_capture
+    from ..files.replay import replay_session
+    from .replay import warn
 
-    sessions = [replay_capture_session(path, command_set=args.command_set) for path in args.captures]
+    sessions = []
+    for path in args.captures:
+        data = Path(path).read_bytes()
+        sessions.append(replay_session(data, command_set=args.command_set))
+        warn(check_capture(path, data, sessions[-1]))
     serials = {s.mcu_serial for s in sessions}
     if len(serials) > 1:
         which = "; ".join(f"{path}: {serial_text(s.mcu_serial)}" for path, s in zip(args.captures, sessions,

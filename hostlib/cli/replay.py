@@ -4,6 +4,7 @@ aids and calibrations the options ask for, or fuse the captures of a module on e
 from __future__ import annotations
 
 import argparse
+import sys
 from dataclasses import replace
 from pathlib import Path
 from typing import TextIO
@@ -11,6 +12,7 @@ from typing import TextIO
 from protocol.board import FOOT_SIDES
 
 from ..calibration.drift import DriftCalibration
+from ..files.capture_check import check_capture
 from ..run.aid_setup import feet_tracker, prepare_aids
 from ..run.calibrations import check_feet_modules, check_mag_module, saved_calibration, use_saved_calibrations
 from ..run.in_situ import keep_in_situ
@@ -18,7 +20,13 @@ from ..run.status import Messages
 from .options import aid_options, feet_settings, per_foot
 from .outputs import aids_summary, finish_feet, stats_line, write_outputs
 
-__all__ = ["cmd_replay"]
+__all__ = ["cmd_replay", "warn"]
+
+
+def warn(warnings: list[str]) -> None:
+    """Say each warning about an input on stderr, the command's name first."""
+    for text in warnings:
+        print(f"openshoe-host: warning: {text}", file=sys.stderr)
 
 
 def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
@@ -50,6 +58,7 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
     else:
         session = replay_session(data, command_set=args.command_set,
                                  tracker=None if aids is None else aids.tracker)
+    warn(check_capture(args.capture, data, session))
     track, stats = session.tracker.track, session.stats
     if aids is not None:
         cal = aids.tracker.settings.mag_calibration
@@ -88,6 +97,8 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
                    for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
         use_saved_calibrations(options, aids, serials)
     sessions = decode_feet(left, right, tracker, command_set=args.command_set)
+    for side, data in zip(FOOT_SIDES, (left, right), strict=True):
+        warn(check_capture(paths[side], data, sessions[side]))
     check_feet_modules(tracker, {side: sessions[side].mcu_serial for side in FOOT_SIDES}, paths)
     tracker.fuse_in_time_order()
     if aids is not None:

@@ -77,6 +77,8 @@ class SessionStats:
     duplicate_steps: int = 0  #: steps whose counter was already summed
     gaps: int = 0  #: step-counter gaps
     missing_steps: int = 0  #: steps lost in those gaps
+    #: bytes of a frame the stream ended inside (a capture cut short), dropped by :meth:`finish`
+    unfinished_bytes: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 
     def as_dict(self) -> dict[str, int]:
@@ -168,8 +170,12 @@ class HostSession:
         return self._frames(self.decoder.flush())
 
     def finish(self) -> tuple[list[StreamEvent], bytes]:
-        """The stream ended (end of a capture): decode what is complete, drop the rest (counted)."""
-        return self._frames(self.decoder.finish())
+        """The stream ended (end of a capture): decode what is complete, drop the rest (counted,
+        and the bytes of an unfinished frame at the end in :attr:`SessionStats.unfinished_bytes`)."""
+        pending, framed = self.decoder.pending, self.decoder.frame_bytes
+        done = self._frames(self.decoder.finish())
+        self.stats.unfinished_bytes += pending - (self.decoder.frame_bytes - framed)
+        return done
 
     def link_reset(self) -> None:
         """The link was re-opened: a partial frame from before is gone (counted as garbage).
