@@ -57,7 +57,7 @@ def write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float
         from ..files.export import write_csv, write_feet_csv
 
         if feet is not None:
-            write_feet_csv(feet, args.csv)
+            write_feet_csv(feet, args.csv, origin if geographic_csv else None)
         else:
             write_csv(track, args.csv, origin if geographic_csv else None)
     if args.geojson:
@@ -114,7 +114,8 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
 def finish_feet(args: argparse.Namespace, tracker: TwoFeetTracker,
                 streams: Mapping[str, tuple[str, SessionStats]], origin: Sequence[float] | None,
                 out: TextIO) -> None:
-    """A two-feet walk's output files and summary (:func:`feet_summary`)."""
-    write_outputs(args, tracker.body, origin, feet=tracker)
+    """A two-feet walk's output files and summary (:func:`feet_summary`); with GPS its CSV places
+    the body on the globe too, as one foot's does."""
+    write_outputs(args, tracker.body, origin, geographic_csv=bool(args.gps), feet=tracker)
     for line in feet_summary(tracker, streams):
         print(line, file=out)

@@ -105,10 +105,9 @@ def read_csv(path: str | Path) -> Track:
     return _read_track_rows(path)[0]
 
 
-def _read_track_rows(path: str | Path, extra_columns: tuple[str, ...] | None = None
-                     ) -> tuple[Track, list[Any]]:
+def _read_track_rows(path: str | Path, *extra_columns: tuple[str, ...]) -> tuple[Track, list[Any]]:
     """The track in :data:`CSV_COLUMNS` of a track CSV whose further columns are those of
-    :data:`_EXTRA_COLUMNS` (with *extra_columns*, exactly those), and each row's further fields
+    :data:`_EXTRA_COLUMNS` (with *extra_columns*, exactly one of those), and each row's further fields
     parsed by their parser there (row 0: the initial pose)."""
     poses, covs, steps, counters, extras = [], [], [], [], []
     start: int | None = None
@@ -120,8 +119,8 @@ def _read_track_rows(path: str | Path, extra_columns: tuple[str, ...] | None = N
             raise ValueError(
                 f"{path}: line 1: not an OpenShoe track CSV (expected columns {CSV_COLUMNS[:6]}…)"
             )
-        if extra_columns is not None and tuple(header[n:]) != extra_columns:
-            raise ValueError(f"{path}: line 1: no columns {extra_columns[:3]}… (expected after "
+        if extra_columns and tuple(header[n:]) not in extra_columns:
+            raise ValueError(f"{path}: line 1: no columns {extra_columns[0][:3]}… (expected after "
                              f"{CSV_COLUMNS[-1]!r})")
         width = len(header)
         parse_extra = _EXTRA_COLUMNS[tuple(header[n:])]
@@ -177,21 +176,26 @@ class FeetTrack:
                    {side: tracker.fused_foot_sigmas(side) for side in FOOT_SIDES})
 
 
-def write_feet_csv(feet: Any, path: str | Path) -> None:
+def write_feet_csv(feet: Any, path: str | Path, origin: Sequence[float] | None = None) -> None:
     """Write the body track of *feet* (a :class:`hostlib.fusion.feet.TwoFeetTracker` or a
-    :class:`FeetTrack`) in :data:`CSV_COLUMNS`, each row followed by :data:`FEET_COLUMNS`."""
+    :class:`FeetTrack`) in :data:`CSV_COLUMNS`, each row followed by :data:`FEET_COLUMNS`; with
+    *origin* (lat, lon[, alt] of the frame's origin, e.g. the first GPS fix) then by
+    :data:`GEO_COLUMNS`, the body on the WGS84 ellipsoid, as :func:`write_csv` places one foot's."""
     ft = feet if isinstance(feet, FeetTrack) else FeetTrack.of(feet)
+    geo = None if origin is None else enu_to_geodetic(ned_to_enu(ft.body.positions), origin)
     rows = ([("" if k == 0 else ft.sides[k - 1]),
-             *(_f(v) for side in FOOT_SIDES for v in (*ft.feet[side][k], *ft.sigmas[side][k]))]
+             *(_f(v) for side in FOOT_SIDES for v in (*ft.feet[side][k], *ft.sigmas[side][k])),
+             *(() if geo is None else (_f(geo[k][1]), _f(geo[k][0]), _f(geo[k][2])))]
             for k in range(len(ft.body) + 1))
-    _write_track_rows(ft.body, path, FEET_COLUMNS, rows)
+    _write_track_rows(ft.body, path, FEET_COLUMNS + (() if geo is None else GEO_COLUMNS), rows)
 
 
 def read_feet_csv(path: str | Path) -> FeetTrack:
-    """Read what :func:`write_feet_csv` wrote; a bad line is refused with its line number."""
-    body, rows = _read_track_rows(path, FEET_COLUMNS)
+    """Read what :func:`write_feet_csv` wrote (its geographic columns, if any, are the body's
+    position again and are not kept); a bad line is refused with its line number."""
+    body, rows = _read_track_rows(path, FEET_COLUMNS, FEET_COLUMNS + GEO_COLUMNS)
     sides = tuple(side for side, _ in rows[1:])
-    values = np.array([v for _, v in rows]).reshape(len(rows), 2, 2, 4)  # row, foot, pose/σ, value
+    values = np.array([v[:16] for _, v in rows]).reshape(len(rows), 2, 2, 4)  # row, foot, pose/σ, value
     return FeetTrack(body, sides, {side: values[:, i, 0] for i, side in enumerate(FOOT_SIDES)},
                      {side: values[:, i, 1] for i, side in enumerate(FOOT_SIDES)})
 
@@ -211,7 +215,8 @@ def _parse_floats(fields: list[str], row: int) -> list[float]:
 
 #: What may follow :data:`CSV_COLUMNS` in a track CSV, and how its fields are read.
 _EXTRA_COLUMNS: dict[tuple[str, ...], Callable[[list[str], int], Any]] = {
-    (): _parse_floats, GEO_COLUMNS: _parse_floats, FEET_COLUMNS: _parse_feet_fields}
+    (): _parse_floats, GEO_COLUMNS: _parse_floats, FEET_COLUMNS: _parse_feet_fields,
+    FEET_COLUMNS + GEO_COLUMNS: _parse_feet_fields}
 
 
 # -- GeoJSON -------------------------------------------------------------------------------

@@ -113,3 +113,22 @@ def test_a_short_line_and_a_one_module_csv_are_refused(tmp_path):
     with pytest.raises(ValueError, match="line 1: no columns"):
         read_feet_csv(single)
     assert len(read_csv(single)) == 1
+
+
+def test_with_an_origin_the_feet_csv_places_the_body_on_the_globe_as_one_feet_csv_does(tmp_path):
+    """With GPS the two-feet CSV gets lat_deg, lon_deg, alt_m, the body's, as :func:`write_csv`
+    places a one-module track; it still reads back as the feet and as the body's track."""
+    tracker = _walked([("right", 0, 0.7, 0.1, 0, 0), ("left", 0, 1.4, 0.2, -0.1, 0.1)])
+    origin = (58.3949, 15.5728, 90.0)
+    feet_path, body_path = tmp_path / "feet.csv", tmp_path / "body.csv"
+    write_feet_csv(tracker, feet_path, origin)
+    write_csv(tracker.body, body_path, origin)
+    with feet_path.open() as fh, body_path.open() as gh:
+        feet_rows, body_rows = list(csv.DictReader(fh)), list(csv.DictReader(gh))
+    assert list(feet_rows[0])[-3:] == ["lat_deg", "lon_deg", "alt_m"]
+    for f, b in zip(feet_rows, body_rows, strict=True):
+        assert (f["lat_deg"], f["lon_deg"], f["alt_m"]) == (b["lat_deg"], b["lon_deg"], b["alt_m"])
+    assert float(feet_rows[0]["lat_deg"]) == pytest.approx(origin[0])
+    back = read_feet_csv(feet_path)
+    np.testing.assert_array_equal(back.feet["left"], tracker.fused_foot("left"))
+    np.testing.assert_array_equal(read_csv(feet_path).poses, tracker.body.poses)
