@@ -45,8 +45,8 @@ def _add_track(sub: argparse._SubParsersAction) -> None:
                         "and the two are fused (hostlib.fusion.feet)")
     t.add_argument("--duration", type=float, default=None, help="seconds to track (default: until Ctrl-C)")
     t.add_argument("--steps", type=step_count, default=None, metavar="N",
-                   help="stop once N step packets came (from each module, with two); with --duration, "
-                        "whichever comes first")
+                   help="stop once N step packets came (from each module, with two: not from a foot whose "
+                        "link was lost and that sent none since); with --duration, whichever comes first")
     t.add_argument("--csv", help="write the track (poses + covariances) to this CSV file (two feet: the "
                                  "body's, and each foot's in more columns)")
     t.add_argument("--geojson", help="write the track as GeoJSON")

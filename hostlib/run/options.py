@@ -146,7 +146,8 @@ class RunOptions:
     heading_deg: float = 0.0
     #: seconds to track (None: until Ctrl-C)
     duration_s: float | None = None
-    #: stop once this many step packets came (from each module; None: no limit)
+    #: stop once this many step packets came (from each module, but a foot whose link was lost and
+    #: that sent none since; None: no limit)
     steps: int | None = None
     #: leave the module's outputs on at the end (else they are switched off)
     leave_running: bool = False

@@ -135,12 +135,19 @@ class DeviceSetup:
 @dataclass
 class TrackedModule:
     """One module being tracked: which foot it is on (None: the only module), its device and host
-    set-up, and the error that ended its walk (None while it goes on)."""
+    set-up, the error that ended its walk (None while it goes on), and, once its link was lost, how
+    many step packets it had then (None: its link was never lost)."""
 
     side: str | None
     dev: Device
     setup: DeviceSetup
     failure: HostError | None = None
+    steps_at_link_loss: int | None = None
+
+    @property
+    def quiet_since_link_loss(self) -> bool:
+        """Its link was lost and no step packet came since (it came back silent, or not yet)."""
+        return self.steps_at_link_loss is not None and self.dev.session.stats.steps <= self.steps_at_link_loss
 
     @property
     def label(self) -> str:
@@ -313,7 +320,10 @@ class TrackingRun:
                                {side: dev.session.mcu_serial for side, dev in devices.items()})
 
     def _report_link(self, m: TrackedModule, ev: LinkEvent) -> None:
-        """A foot's link went down or came back (the device reconnects by itself): say so."""
+        """A foot's link went down or came back (the device reconnects by itself): say so; a foot
+        whose link went down holds back the end of the walk no longer, until its next step packet."""
+        if not ev.up:
+            m.steps_at_link_loss = m.dev.session.stats.steps
         what = "link back" if ev.up else f"link lost ({ev.error}); the other foot goes on"
         self.messages.note(f"{m.label}: {what}")
 
@@ -403,10 +413,14 @@ class TrackingRun:
 
     def _enough_steps(self) -> bool:
         """Whether every module still going has had the step packets asked for and has nothing of
-        its set-up left to send (never without a number of steps)."""
+        its set-up left to send (never without a number of steps). A foot whose link was lost and
+        that sent no step packet since is not waited for, while another foot walks: the other foot
+        goes on and ends the walk at its count."""
         steps = self.options.steps
-        return steps is not None and all(m.dev.session.stats.steps >= steps and m.setup.sent
-                                          for m in self.modules if m.failure is None)
+        if steps is None:
+            return False
+        walking = [m for m in self.modules if m.failure is None and not m.quiet_since_link_loss]
+        return bool(walking) and all(m.dev.session.stats.steps >= steps and m.setup.sent for m in walking)
 
     def status(self) -> tuple[str, object]:
         """The status line (:func:`~hostlib.run.status.summary_line`, with two feet

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import io
 import math
+from types import SimpleNamespace
 
 import pytest
 import serial
@@ -19,6 +20,7 @@ from hostlib.fusion.module_errors import EMULATED_MODULE
 from hostlib.fusion.settings import FusionSettings
 from hostlib.link.device import Device
 from hostlib.run import AidOptions, HostSetup, Messages, RunOptions, SessionSetup, TrackingRun, prepare_aids
+from hostlib.run.tracking_run import TrackedModule
 from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP, height_compensation_on
 from protocol.frames import build_command, build_command_ack
 from protocol.ids import Command
@@ -123,6 +125,27 @@ def test_a_library_drives_a_module_on_each_foot_through_a_tracking_run(fake_sche
             text, (steps, links, failed) = run.status()
     assert len(run.tracker) == 6 and steps == 6 and links == (True, True) and failed == ()
     assert text.startswith("left    3/   3 steps    3.00 m gaps 0 (missing 0) | right    3/   3 steps")
+
+
+def test_a_foot_whose_link_was_lost_holds_the_end_back_again_once_it_steps():
+    """The step count's stop waits for no foot whose link was lost and that sent no step since, as
+    long as another foot walks; a foot back on its link that steps again is waited for again."""
+
+    def foot(side, steps):
+        dev = SimpleNamespace(session=SimpleNamespace(stats=SimpleNamespace(steps=steps)))
+        return TrackedModule(side, dev, SimpleNamespace(sent=True))
+
+    run = TrackingRun(RunOptions(steps=3), feet=FeetSettings(), messages=Messages(stream=io.StringIO()))
+    left, right = run.modules = [foot("left", 1), foot("right", 3)]
+    assert not left.quiet_since_link_loss and not run._enough_steps()
+    left.steps_at_link_loss = 1  # (what the link's going down records)
+    assert left.quiet_since_link_loss and run._enough_steps()
+    left.dev.session.stats.steps = 2  # back, and stepping again: waited for
+    assert not left.quiet_since_link_loss and not run._enough_steps()
+    left.dev.session.stats.steps = 3
+    assert run._enough_steps()
+    left.steps_at_link_loss = right.steps_at_link_loss = 3
+    assert not run._enough_steps(), "with every foot's link lost, no foot ends the walk"
 
 
 def test_the_in_situ_calibration_goes_with_one_module_only():
