@@ -109,6 +109,9 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="1σ of one compass reading (the local deviation; default 20, indoors; "
                         "outdoors about 5; with --compass-deviation only the reading's own white error, "
                         "default 1.5)")
+    g.add_argument("--no-compass-gate", dest="compass_gate", action="store_false",
+                   help="use every compass reading, however far it lies from what the filter expects "
+                        "(default: a reading beyond 3σ of its innovation is rejected and counted)")
     g.add_argument("--compass-deviation", type=compass_deviation_type, default=None,
                    metavar="outdoors|indoors|SIGMA_DEG,LENGTH_M",
                    help="hold the local magnetic deviation as a state of the filter "
@@ -286,6 +289,7 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
     live = args.cmd == "track" and bool(args.gps) and not Path(args.gps).is_file()
     return AidOptions(
         compass=args.compass, compass_sigma_deg=args.compass_sigma, compass_deviation=args.compass_deviation,
+        compass_gate=args.compass_gate,
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=GpsBias() if args.gps_bias else None, module_errors=args.module_errors,
         mag_calibration=args.mag_cal[0] if args.mag_cal and not two else None,

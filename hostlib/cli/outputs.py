@@ -36,7 +36,9 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
                 "set-up (--fusion); the track is the plain sum")
     aligned = f"heading aligned by {f.heading_aligned_by}" if f.heading_aligned_by else \
         "heading not aligned (the module's initial frame)"
-    return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped), "
+    return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped"
+            + (f", {f.compass_rejected} rejected by the innovation gate" if f.compass_rejected else "")
+            + (f", {f.compass_refused} not finite" if f.compass_refused else "") + "), "
             f"{f.gps_updates} GPS updates ({f.gps_skipped} fixes between updates, "
             f"{f.gps_before_alignment} before alignment); {aligned}; declination "
             f"{math.degrees(tracker.declination):+.2f}° ± {math.degrees(tracker.declination_sigma):.2f}°"

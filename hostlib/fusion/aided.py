@@ -206,7 +206,12 @@ class AidedFilter(ABC):
             innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
         else:
             innovation = wrap_angle(psi - (x[k] - x[dec]))
-        f.update(f.row(weights), innovation, s.compass_sigma_rad ** 2)
+        h, r = f.row(weights), s.compass_sigma_rad ** 2
+        gate = s.compass_gate_sigmas
+        if gate is not None and innovation ** 2 > gate ** 2 * (float(h @ f.P @ h) + r):
+            self.fusion.compass_rejected += 1
+            return
+        f.update(h, innovation, r)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
 

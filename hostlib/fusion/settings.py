@@ -28,6 +28,11 @@ class FusionSettings:
     #: "step": one update per step that moved the foot (NavShoe); "every-reset": at every reset,
     #: standing ones too (the continuous compass NavShoe warns against, kept for comparison)
     compass_mode: str = "step"
+    #: a compass reading is used only if its innovation ν lies within this many σ of what the filter
+    #: expects, |ν| ≤ g √(h P hᵀ + σ_c²): a reading that far out is a disturbance the model does not
+    #: hold (steel, a magnet, an uncalibrated shoe's iron turned with the foot), not a heading. 3σ
+    #: keeps 99.7 % of the readings the model describes. None: every reading is used
+    compass_gate_sigmas: float | None = 3.0
     #: the shoe's hard and soft iron, removed before the heading is taken
     mag_calibration: MagCalibration | None = None
     #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`add_fix`)
@@ -77,6 +82,8 @@ class FusionSettings:
         for name in ("compass_sigma_rad", "gps_sigma_m", "gps_receiver_sigma_m", "gps_align_distance_m"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive")
+        if self.compass_gate_sigmas is not None and not self.compass_gate_sigmas > 0:
+            raise ValueError(f"compass_gate_sigmas must be > 0 (or None), not {self.compass_gate_sigmas}")
         if self.gps_interval_s is not None and not self.gps_interval_s >= 0:
             raise ValueError(f"gps_interval_s must be ≥ 0 s (or None), not {self.gps_interval_s}")
 
@@ -90,6 +97,8 @@ class FusionStats:
     #: readings refused: their heading is not a finite number (a packet's magnetometers or attitude
     #: held a NaN or an infinity); the filter is left as it was
     compass_refused: int = 0
+    #: readings rejected by the innovation gate (:attr:`FusionSettings.compass_gate_sigmas`)
+    compass_rejected: int = 0
     gps_updates: int = 0
     gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned

@@ -60,6 +60,9 @@ class AidSetup:
                          f"({s.compass_deviation.describe()})" + self._calibrated())
         elif s.compass:
             parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step" + self._calibrated())
+        if s.compass:
+            parts.append("every reading used (no gate)" if s.compass_gate_sigmas is None else
+                         f"readings beyond {s.compass_gate_sigmas:g}σ of their innovation rejected")
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())

@@ -39,6 +39,8 @@ class AidOptions:
     #: 1σ of one compass reading [deg] (None: 20°, the indoor deviation; with
     #: :attr:`compass_deviation`, the reading's own white error, 1.5°)
     compass_sigma_deg: float | None = None
+    #: reject a compass reading beyond 3σ of its innovation (False: use every reading)
+    compass_gate: bool = True
     #: the local magnetic deviation held as a state (:meth:`CompassDeviation.parse
     #: <hostlib.fusion.deviation.CompassDeviation.parse>`: "outdoors", "indoors"; None: not held)
     compass_deviation: CompassDeviation | None = None
@@ -106,6 +108,8 @@ class AidOptions:
             changes["gps_bias"] = self.gps_bias
         if self.gps_interval_s is not None:
             changes["gps_interval_s"] = self.gps_interval_s
+        if not self.compass_gate:
+            changes["compass_gate_sigmas"] = None
         if self.compass_sigma_deg is not None or self.compass_deviation is not None:
             sigma = self.compass_sigma_deg
             changes.update(compass_sigma_rad=WHITE_SIGMA_RAD if sigma is None else math.radians(sigma),

@@ -133,6 +133,7 @@ def house_run(seed: int, scenario: str = SCENARIO) -> list[dict[str, Any]]:
             "true_declination_deg": mag.declination_deg, "wmm_declination_deg": math.degrees(wmm),
             "compass_updates": tracker.fusion.compass_updates,
             "compass_skipped": tracker.fusion.compass_skipped,
+            "compass_rejected": tracker.fusion.compass_rejected,
             "aligned_by": tracker.fusion.heading_aligned_by or "truth",
             "deviation_rms_deg": math.degrees(float(np.sqrt(np.mean(deviation ** 2)))),
             "deviation_mean_deg": math.degrees(float(np.mean(deviation))),

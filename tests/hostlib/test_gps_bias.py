@@ -50,7 +50,8 @@ def _pinned_gps_walks() -> bytes:
     fixes += rng.normal(0.0, 2.0, (times.size, 2))
     gps_alone = FusionSettings(gps=True)
     deviation = FusionSettings(gps=True, compass=True, compass_sigma_rad=WHITE_SIGMA_RAD,
-                               compass_deviation=OUTDOORS, declination_rad=math.radians(7.7))
+                               compass_deviation=OUTDOORS, declination_rad=math.radians(7.7),
+                               compass_gate_sigmas=None)  # pinned from before the gate
     for s, errors in ((gps_alone, None), (gps_alone, ModuleErrors(0.001, 0.0017, 0.001)), (deviation, None)):
         f = FusionTracker(replace(s, module_errors=errors))
         f.add_fixes(times, fixes)

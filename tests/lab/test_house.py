@@ -74,7 +74,8 @@ def test_a_continuous_compass_counts_each_stance_as_its_magnetometer_samples():
                 if not moved]
     assert len(walking) >= 4 and all(40 <= n <= 80 for n in walking)  # 0.55 s stances at 100 Hz
     assert standing and max(standing) >= 90  # a reset while standing comes about once a second
-    assert tracker.fusion.compass_updates == len(tracker) - 1  # every reset but the aligning one
+    # every reset but the aligning one is used, or rejected by the innovation gate
+    assert tracker.fusion.compass_updates + tracker.fusion.compass_rejected == len(tracker) - 1
 
 
 def test_one_house_walk_is_tracked_five_ways(tmp_path):
@@ -89,8 +90,11 @@ def test_one_house_walk_is_tracked_five_ways(tmp_path):
     wmm = rows["per step, WMM declination"]
     # per step: a reading per step that moved the foot; the resets while standing carry none
     assert int(step["compass_skipped"]) > 0 and int(every["compass_skipped"]) == 0
-    assert int(step["compass_updates"]) + int(step["compass_skipped"]) == int(every["compass_updates"])
-    assert continuous["compass_updates"] == every["compass_updates"]
+    def readings(row):  # used, or rejected by the innovation gate
+        return int(row["compass_updates"]) + int(row["compass_rejected"])
+
+    assert readings(step) + int(step["compass_skipped"]) == readings(every)
+    assert readings(continuous) == readings(every)
     assert plain["compass_updates"] == "0" and plain["aligned_by"] == "truth"
     assert {rows[r]["aligned_by"] for r in house.RUNS if r != "plain"} == {"compass"}
     # the declination enters the heading one for one; the compass leaves the height alone
