@@ -149,7 +149,8 @@ def test_two_captures_with_the_compass_turn_both_feet_onto_magnetic_north(captur
     out = io.StringIO()
     assert main(["replay", captures["left"], captures["right"], "--compass", "--declination", "6"], out) == 0
     text = out.getvalue()
-    assert "aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; declination +6.00° (given)" in text
+    assert ("aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; "
+            "declination +6.00° (given)") in text
     updates = int(re.search(r"fusion: (\d+) compass updates", text).group(1))
     assert updates > 60 and "heading aligned by compass" in text
     plain = _fused(captures["left"], captures["right"]).body.final_pose

@@ -221,7 +221,8 @@ def test_two_feet_fuse_each_foots_compass_and_a_live_receiver_that_is_then_pulle
     # feet) update it; the three fixes came before the first step: held, put before it, applied at
     # the next (the first places the origin, the second updates, the third is within the interval)
     assert fusion_counts(text) == (9, 1)
-    assert "aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; declination" in text
+    assert ("aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; "
+            "declination") in text
     assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"
     assert "3 fixes, 0 without a fix, 1 garbled (skipped)" in text
     assert err.count("the GPS receiver fakegps://3 is gone") == 1, err
