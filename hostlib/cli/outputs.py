@@ -10,7 +10,7 @@ from typing import TextIO
 
 from protocol.board import FOOT_SIDES
 
-from ..fusion.feet import TwoFeetTracker
+from ..fusion.feet import DISAGREEMENT_SIGMAS, TwoFeetTracker
 from ..fusion.tracker import FusionTracker
 from ..link.session import SessionStats
 from ..run.aid_setup import AidSetup
@@ -110,6 +110,11 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
         label = f"body ({what}):"
         lines.append(f"{label:16s}{pose_text(track.final_pose, track.closure_sigma())} "
                      f"| {track.distance:.2f} m")
+    apart, sigmas = tracker.disagreement()
+    if sigmas > DISAGREEMENT_SIGMAS:
+        lines.append(f"warning: the fused body and the average end {apart:.2f} m apart, {sigmas:.1f}σ of "
+                     "their covariances: the constraint moved the walker more than either allows (the "
+                     "modules' headings drift apart: hold each module's errors, --module-errors)")
     return lines
 
 

@@ -135,7 +135,13 @@ from .core import StateFilter
 from .settings import FusionSettings
 from .tracker import FusionTracker
 
-__all__ = ["FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep", "FootTracker", "TwoFeetTracker"]
+__all__ = ["DISAGREEMENT_SIGMAS", "FOOT_SIDES", "STALE_AFTER_STEPS", "FeetSettings", "FootStep",
+           "FootTracker", "TwoFeetTracker"]
+
+#: The fused body and the average of the two tracks part by more than their covariances allow
+#: beyond this many σ (:meth:`TwoFeetTracker.disagreement`): 3σ of a 2-D Gaussian is exceeded by
+#: 1.1 % of honest estimates.
+DISAGREEMENT_SIGMAS = 3.0
 
 #: A foot is stale — the body follows the other foot alone — once the other foot has summed this
 #: many steps since its last one (one more than a transition from standing to walking can make).
@@ -206,7 +212,7 @@ class FootTracker(FusionTracker):
 
 class TwoFeetTracker(AidedFilter):
     """Both feet in one filter (module docstring). ``tracker.left`` and ``tracker.right`` are the
-    feet's :class:`FootTracker`s — give each to its module's session. Steps may come from two
+    feet's trackers (:class:`FootTracker`) — give each to its module's session. Steps may come from two
     threads (one device each): the joint filter takes them one at a time, in arrival order.
 
     With *defer* the feet's steps are only collected; :meth:`fuse_in_time_order` then runs them
@@ -478,6 +484,18 @@ class TwoFeetTracker(AidedFilter):
                              for k in range(4)])
         return np.stack([pose_rows({"left": 0.5, "right": 0.5}), pose_rows({"right": 1.0}),
                          pose_rows({"left": 1.0})])
+
+    def disagreement(self) -> tuple[float, float]:
+        """How far the fused body's end lies from the average's: [m] horizontally, and in σ of the
+        two ends' covariances summed (as if independent: they share each foot's steps, so this
+        overstates the σ and understates the count). Beyond :data:`DISAGREEMENT_SIGMAS` the
+        constraint moved the walker further than either estimate allows: the feet's modules err in
+        ways the filter does not hold (their heading drifts: hold each module's errors)."""
+        fused, average = self.body, self.average
+        d = fused.final_pose[:2] - average.final_pose[:2]
+        c = fused.final_covariance[:2, :2] + average.final_covariance[:2, :2]
+        sigmas = float(np.sqrt(max(float(d @ np.linalg.pinv(c) @ d), 0.0)))
+        return float(np.hypot(*d)), sigmas
 
     def _single_poses(self, side: str) -> np.ndarray:
         """One foot's single-module track, drift-corrected with its calibration (steps without a
