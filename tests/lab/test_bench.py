@@ -8,7 +8,11 @@ from pathlib import Path
 
 import pytest
 
+from firmware_sim.app.batch import run_replay
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.sensors.imu_array import make_source
 from lab.bench import Result, machine_info, main
+from lab.bench.driver import run_session
 from lab.bench.targets import RepeatingWalk
 
 LINE = re.compile(r"^(\w+): ([\d.]+) (.+?) \(target ([\d.]+), ratio (\d+\.\d\d)\)")
@@ -32,6 +36,13 @@ def test_the_targets_do_not_import_the_package_that_runs_them() -> None:
     assert "lab.bench" not in project_imports("lab.bench.targets")
     assert "lab.bench" not in project_imports("lab.bench.result")
     assert Result is result.Result
+
+
+def test_session_driver_is_the_replay_session() -> None:
+    """The benchmark's driver sends and acknowledges exactly like firmware_sim.app.batch.run_replay."""
+    source = make_source("stand:2+walk:2", seed=5)
+    reference = run_replay(source, config=ModuleConfig(rate_hz=source.rate_hz, compiled=False))
+    assert run_session(source, compiled=False).wire == bytes(reference)
 
 
 def test_machine_is_noted() -> None:

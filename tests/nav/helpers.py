@@ -18,12 +18,40 @@ from protocol.ids import Command
 from protocol.stream import StreamDecoder, decode_all
 
 
-def reference_config(rate_hz: float) -> ModuleConfig:
-    """A module config running the pure-Python processing functions (the reference path)."""
+def reference_config(rate_hz: float, compiled: bool | None = False) -> ModuleConfig:
+    """A module config running the pure-Python processing functions (the reference path); with
+    *compiled* None the path the process has (compiled when numba is there: the same bytes)."""
     config = ModuleConfig(rate_hz=rate_hz)
     if any(f.name == "compiled" for f in dataclasses.fields(ModuleConfig)):
-        config = dataclasses.replace(config, compiled=False)
+        config = dataclasses.replace(config, compiled=compiled)
     return config
+
+
+@dataclasses.dataclass
+class Session:
+    """What a lossless Bluetooth host's batch session (:func:`run_session`) leaves: the bytes the
+    module sent, the state packets, the module, and how many loops ran compiled."""
+
+    wire: bytes
+    packets: int
+    module: Module
+    ticks_compiled: int
+
+    @property
+    def ticks(self) -> int:
+        return self.module.clock.ticks
+
+
+def run_session(source, *, compiled: bool | None) -> Session:
+    """:func:`firmware_sim.app.batch.run_replay` of *source* (``34 00 34`` at power-on, each state
+    packet acknowledged in the next loop, the sequence emptied when the source ends and the queue
+    drained) on the path asked for: the compiled one, the pure-Python reference, or (None) the one
+    the process has."""
+    replay = run_replay(source, config=ModuleConfig(rate_hz=float(source.rate_hz), compiled=compiled),
+                        announce=None)
+    fast = replay.module._fast
+    done = 0 if fast is None else fast.ticks_quiet + fast.ticks_single
+    return Session(bytes(replay), replay.packets, replay.module, done)
 
 
 def steps_from_wire(data: bytes) -> tuple[list[CommandAck], StepTracker]:
@@ -38,8 +66,12 @@ def steps_from_wire(data: bytes) -> tuple[list[CommandAck], StepTracker]:
     return acks, tracker
 
 
-def replay_track(source, rate_hz: float | None = None) -> tuple[bytes, StepTracker]:
-    data = run_replay(source, config=reference_config(rate_hz or float(source.rate_hz)))
+def replay_track(source, rate_hz: float | None = None,
+                 compiled: bool | None = False) -> tuple[bytes, StepTracker]:
+    """Replay *source* as a lossless host (:func:`run_replay`) on the reference path (*compiled*:
+    :func:`reference_config`) and sum the steps from the wire."""
+    data = run_replay(source, config=reference_config(rate_hz or float(source.rate_hz), compiled),
+                      announce=None)
     return data, steps_from_wire(data)[1]
 
 

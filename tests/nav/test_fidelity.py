@@ -14,7 +14,10 @@ noise figures, its rates bias-compensated) and the recording served time-centred
 (sensors/replay.py, Timing),
 with the module's own detector and thresholds. Ours must close
 within 0.55 % on average and 0.80 % on every walk, with one set of constants for
-all walks (no per-walk tuning). Measured (pure-Python reference path):
+all walks (no per-walk tuning). Measured (pure-Python reference path; the tests
+run on the compiled path when numba is there, whose bytes are the reference's:
+tests/nav/test_fastpath.py replays the six walks on both paths and holds them to
+the pinned bytes of tests/e2e/test_wire_golden.py):
 
     walk   ref %   ours %
     2      0.903   0.483
@@ -43,6 +46,10 @@ from tests.conftest import WALK_IDS, requires_walks, walk_path
 
 from .helpers import closure_percent, reference_config, replay_track
 
+#: The module's path: compiled when numba is there (the same bytes as the pure-Python reference),
+#: else the reference (and with OPENSHOE_PURE=1).
+PATH = None
+
 #: OpenShoe MATLAB reference closure errors [%] of the six shared walks.
 REFERENCE = {"2": 0.903, "3": 0.770, "30": 0.620, "31": 0.502, "32": 0.352, "33": 0.548}
 MAX_MEAN = 0.55
@@ -53,7 +60,7 @@ MAX_PER_WALK = 0.80
 def walk_results():
     out = {}
     for w in WALK_IDS:
-        _, tracker = replay_track(ReplaySource.from_file(walk_path(w)))
+        _, tracker = replay_track(ReplaySource.from_file(walk_path(w)), compiled=PATH)
         out[w] = (closure_percent(tracker), len(tracker), tracker.distance)
     table = "\n".join(f"  walk {w:>2}: ref {REFERENCE[w]:.3f} %  ours {e:.3f} %  ({n} steps, {d:.1f} m)"
                       for w, (e, n, d) in out.items())
@@ -83,7 +90,7 @@ def test_mean_closure_is_within_0_55_percent_and_no_worse_than_the_openshoe_refe
 @pytest.mark.slow
 def test_straight_100_m_walk_length_within_0_5_percent():
     src = make_source("walk", seed=1, rate_hz=1000.0)
-    _, tracker = replay_track(src)
+    _, tracker = replay_track(src, compiled=PATH)
     truth = src.truth.pos[-1] - src.truth.pos[0]
     length = float(np.hypot(*tracker.position[:2]))
     assert abs(length - np.hypot(*truth[:2])) <= 0.005 * 100.0
@@ -92,7 +99,7 @@ def test_straight_100_m_walk_length_within_0_5_percent():
 @pytest.mark.slow
 def test_closed_loop_closes_within_0_5_percent():
     src = make_source("rectangle", seed=1, rate_hz=250.0)
-    _, tracker = replay_track(src)
+    _, tracker = replay_track(src, compiled=PATH)
     truth = src.truth.pos[-1] - src.truth.pos[0]
     assert np.hypot(*truth[:2]) < 0.01  # the scenario is a closed loop
     assert closure_percent(tracker) <= 0.5
@@ -111,8 +118,8 @@ def test_stepwise_sum_reproduces_the_full_rate_ins(stance_sway, parting_m):
     ZUPTs correct a drifting heading differently with and without the reset's correlations: seeds
     1–4 part by 1.5–4.3 cm, well inside the fleet's 0.25 m across-track spread."""
     src = make_source("walk", seed=1, rate_hz=250.0, stance_sway=stance_sway)
-    _, tracker = replay_track(src)
-    full = build_module(reference_config(250.0), sensors=src)
+    _, tracker = replay_track(src, compiled=PATH)
+    full = build_module(reference_config(250.0, compiled=PATH), sensors=src)
     full.usb.port.host_write(bytes.fromhex("330033"))
     full.run(len(src))
     pos = full.memory[StateId.POSITION]
