@@ -136,6 +136,19 @@ def test_nothing_the_package_ships_imports_the_lab(layer):
     assert violations(layer, ("lab",)) == []
 
 
+def test_only_the_labs_own_tests_import_the_lab():
+    """The tests of what the package ships (all but tests/lab) hold up without the lab."""
+    found = []
+    for path in sorted((REPO / "tests").rglob("*.py")):
+        if path.is_relative_to(REPO / "tests" / "lab"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names = [a.name for a in node.names] if isinstance(node, ast.Import) else \
+                [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else []
+            found += [f"{path.relative_to(REPO)}:{node.lineno} imports {n}" for n in names if under(n, "lab")]
+    assert found == []
+
+
 #: hostlib's sub-packages from the bottom up: each may import only those before it.
 HOST_LAYERS = ("hostlib.track", "hostlib.link", "hostlib.aids", "hostlib.calibration", "hostlib.fusion",
                "hostlib.files", "hostlib.run", "hostlib.cli")

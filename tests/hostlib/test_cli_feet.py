@@ -19,9 +19,9 @@ from hostlib.files.export import read_csv, read_feet_csv
 from hostlib.files.replay import replay_feet
 from hostlib.fusion.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
 from hostlib.link.device import Device
-from lab.accuracy.two_feet import drop_packets
 
 from . import protocol_fakeshoe
+from .link_outage import drop_packets
 from .test_feet_csv import upper
 
 #: About 45 s: long enough to lose 30 s of one foot's packets in the middle.
