@@ -660,7 +660,8 @@ class GaitBuilder:
         self.t = 0.0
         self._segments: list[dict] = []
         self._stances: list[tuple[float, float, Pose]] = []
-        #: every swing so far, in time order (:mod:`.feet` derives a walker's two feet from them)
+        #: every swing so far, in time order (:mod:`~firmware_sim.sensors.feet` derives a walker's two
+        #: feet from them)
         self.swings: list[Swing] = []
 
     # -- primitives ------------------------------------------------------------------------------

@@ -6,42 +6,42 @@ A *recipe* is a ``+``-separated list of pieces, each ``name[:arg[:arg]]``::
 
 Pieces (arguments optional, defaults in brackets):
 
-=====================  ===========================================================
-``stand[:s=3]``        foot flat and still for s seconds
-``walk[:m=10[:deg=0]]`` straight walk of m metres (along the ground), on a slope of deg
-                       (uphill > 0): the foot lands flat, pitch = deg, roll 0
-``ramp[:m=50[:deg=6[:across=0]]]`` straight walk of m metres (along the ground) on a plane
-                       of slope deg whose uphill direction lies ``across`` degrees to
-                       the left of the walking direction (0: up the fall line, 90:
-                       along the contour with the ground falling to the right, 180:
-                       down). The foot lands flat on the plane: pitch θ = atan(tan deg
-                       · cos across), roll φ = atan(tan deg · sin across · cos θ)
-                       (right side down > 0); it rises tan deg · cos across per
-                       horizontal metre
-``run[:m=50]``         straight run (short stance, heel strikes clip at ±16 g)
-``arc[:r=2[:deg=90]]`` walk along an arc of radius r, turning deg (right > 0)
-``turn[:deg=90]``      turn on the spot (right > 0), the foot flat on the ground it
-                       stands on (on a slope, pitch and roll follow the plane)
-``stairs_up[:n=12]``   climb n stairs (rise 0.17 m, tread 0.28 m)
-``stairs_down[:n=12]`` descend n stairs
-``side[:n=4[:dir=1]]`` n side steps, to the right (dir 1) or left (dir −1)
-``back[:n=4]``         n steps backwards
-``rectangle[:l=30[:w=15[:r=1]]]`` once round a rounded rectangle, turning right
-``track400[:laps=1]``  laps of a 400 m running track (lane 1), turning left
-``pace[:v=1.55]``      from here on, walk at v m/s (stride length follows)
-``face[:deg=0]``       first piece only: the walker starts facing deg (east of north)
-``wiggle[:s=30[:deg=90]]`` about s seconds of turning the foot in place through many
-                       orientations (heading all round, pitch and roll up to ±deg),
-                       each turn held still for a moment, ending flat where it began:
-                       the in-situ magnetometer calibration (aids.md §3)
-=====================  ===========================================================
+==================================  ===========================================================
+``stand[:s=3]``                     foot flat and still for s seconds
+``walk[:m=10[:deg=0]]``             straight walk of m metres (along the ground), on a slope of deg
+                                    (uphill > 0): the foot lands flat, pitch = deg, roll 0
+``ramp[:m=50[:deg=6[:across=0]]]``  straight walk of m metres (along the ground) on a plane
+                                    of slope deg whose uphill direction lies ``across`` degrees to
+                                    the left of the walking direction (0: up the fall line, 90:
+                                    along the contour with the ground falling to the right, 180:
+                                    down). The foot lands flat on the plane: pitch θ = atan(tan deg
+                                    · cos across), roll φ = atan(tan deg · sin across · cos θ)
+                                    (right side down > 0); it rises tan deg · cos across per
+                                    horizontal metre
+``run[:m=50]``                      straight run (short stance, heel strikes clip at ±16 g)
+``arc[:r=2[:deg=90]]``              walk along an arc of radius r, turning deg (right > 0)
+``turn[:deg=90]``                   turn on the spot (right > 0), the foot flat on the ground it
+                                    stands on (on a slope, pitch and roll follow the plane)
+``stairs_up[:n=12]``                climb n stairs (rise 0.17 m, tread 0.28 m)
+``stairs_down[:n=12]``              descend n stairs
+``side[:n=4[:dir=1]]``              n side steps, to the right (dir 1) or left (dir −1)
+``back[:n=4]``                      n steps backwards
+``rectangle[:l=30[:w=15[:r=1]]]``   once round a rounded rectangle, turning right
+``track400[:laps=1]``               laps of a 400 m running track (lane 1), turning left
+``pace[:v=1.55]``                   from here on, walk at v m/s (stride length follows)
+``face[:deg=0]``                    first piece only: the walker starts facing deg (east of north)
+``wiggle[:s=30[:deg=90]]``          about s seconds of turning the foot in place through many
+                                    orientations (heading all round, pitch and roll up to ±deg),
+                                    each turn held still for a moment, ending flat where it began:
+                                    the in-situ magnetometer calibration (aids.md §3)
+==================================  ===========================================================
 
 Every scenario starts and ends at rest (a recipe that does not start with
 ``stand`` gets ``stand:3`` in front, so the firmware's initial alignment can
 complete; one that does not end with ``stand`` gets ``stand:2`` at the end).
 :data:`SCENARIOS` names the standard ones; :func:`trajectory` accepts a name
 or a recipe, :func:`feet` both feet of a walker walking it (the recipe is the body's path,
-:mod:`.feet`). :func:`environment` says where a named scenario is walked: indoors (a
+:mod:`~firmware_sim.sensors.feet`). :func:`environment` says where a named scenario is walked: indoors (a
 building's magnetic deviation, the default) or outdoors, and whether its GPS receiver
 loses the sky after some distance.
 """
@@ -200,8 +200,8 @@ def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
 
 
 def feet(name_or_recipe: str, params: GaitParams = WALKING, step_width: float = STEP_WIDTH_M) -> Feet:
-    """Both feet of a walker walking a named scenario or a recipe (:mod:`.feet`): the recipe is the
-    body's path."""
+    """Both feet of a walker walking a named scenario or a recipe
+    (:mod:`~firmware_sim.sensors.feet`): the recipe is the body's path."""
     return feet_from_body(_walked(name_or_recipe, params), step_width)
 
 

@@ -42,7 +42,7 @@ attitude at the end of its stance) and its receiver's NMEA sentences once throug
   what remains is the declination GPS taught and the INS between readings).
 
 The compass runs remove the shoe's hard and soft iron as simulated (the walk has no wiggle for the
-in-situ calibration; :mod:`.magcal` measures what that leaves). Per run: the horizontal position
+in-situ calibration; :mod:`~lab.accuracy.magcal` measures what that leaves). Per run: the horizontal position
 error and the heading error at the end of the walk (the end of the outage), the distance walked
 without GPS, and the learned declination against the simulated Earth field's. Positions of a GPS
 run are about its first fix; they are put back in the walk's frame with that fix's own position

@@ -98,7 +98,8 @@ def lines(spread: Spread, title: str = "") -> list[str]:
     """The spread as a small table: a title line, then one line per error, mean ± sd (1σ)::
 
         length error        −0.060 m ± 0.106 m   (−0.06 % ± 0.11 %)
-    """
+
+    and last the horizontal spread (√trace of the along/across covariance)."""
     s = spread
     head = f"{title}: " if title else ""
     out = [f"{head}{s.n} walks, mean tracked distance {_plain(s.distance_m, 2)} m; mean ± sd (1σ)"]

@@ -180,7 +180,7 @@ class DeviceDriver:
 
     def collect(self, timeout: float,
                 until: Callable[[list[Received]], bool] | None = None) -> list[Received]:
-        """Frames arriving from now on, until *until*(frames) holds or the deadline passes."""
+        """Frames arriving from now on, until ``until(frames)`` holds or the deadline passes."""
         first = len(self.frames)
         deadline = self.clock() + timeout * self.time_scale
         while self.clock() < deadline:
