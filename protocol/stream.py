@@ -33,7 +33,7 @@ incomplete candidate **only if a valid frame follows it** in the buffer (a
 partly received real frame at the end of the buffer is kept). Call it after a
 pause in reception, not after every read: while it scans past an incomplete
 candidate it could, with odds of about 2^-16 per header byte, accept a false
-frame inside a real frame still arriving. :meth:`finish`
+frame inside a real frame still arriving. :meth:`StreamDecoder.finish`
 (end of a recording, port closed) gives up on everything incomplete. A host that
 never asks for payloads over 255 bytes can pass ``max_payload=255`` and never
 waits on the long candidate.

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:  # pragma: no cover
     from .served_module import ServedModule
 
+#: What the control channel answers to ``help``: its commands, one per line.
 CONTROL_HELP = """\
 commands (one per line; prefix with @I to address module I only, e.g. "@1 disconnect"):
   disconnect       the link goes down (bytes in flight are lost); the host stays attached

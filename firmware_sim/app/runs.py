@@ -43,6 +43,7 @@ __all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "
 #: The columns every row has, after the run's identity and its settings.
 METRICS = ("samples", "filled_samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct",
            "end_along_m", "end_across_m", "end_height_m", "end_heading_deg", "wire_bytes", "wire_sha256")
+#: The timing columns of a run [s]: parsing, navigation, writing and all of it.
 TIMINGS = ("parse_s", "nav_s", "write_s", "time_s")
 #: A scenario whose true path ends this close [m] to its start is a closed loop.
 CLOSED_LOOP_M = 0.05

@@ -8,21 +8,21 @@ acks). Rules, as the module's package queue implements them:
   whole and counted in :attr:`PackageQueue.dropped` (a full queue is reported,
   never silent). Frames carry a *single-transmit* flag: command acks always,
   and data packets queued while the interface was lossy.
-* **Lossy** (:meth:`push_lossy`): push as many queued bytes as the link's
+* **Lossy** (:meth:`PackageQueue.push_lossy`): push as many queued bytes as the link's
   transmit ring takes; fully sent frames are removed, a partly sent frame keeps
   its unsent rest at the head and is finished later.
-* **Lossless** (:meth:`send_lossless`, once per loop cycle): only the oldest
+* **Lossless** (:meth:`PackageQueue.send_lossless`, once per loop cycle): only the oldest
   frame is sent, whole (it waits while the transmit ring cannot take all of
   it). A resend delay counter runs 0..127: a frame goes out when it is 0 (or
   the frame is single-transmit), and every call otherwise advances it, so an
   unacknowledged packet is sent again every 128 loop cycles. A single-transmit
   frame (a command ack) is removed once sent, so it waits behind unacknowledged
   data but is never resent.
-* **ACK** (:meth:`ack`): removes the oldest frame only, and only if its number
+* **ACK** (:meth:`PackageQueue.ack`): removes the oldest frame only, and only if its number
   matches; any other number is ignored. Removing a frame resets the delay
   counter, so the next frame goes out at the next transmission — in the same
   loop cycle as the ACK, since commands are received before data is transmitted.
-* :meth:`clear` (OUTPUT_ALL_OFF) empties the queue.
+* :meth:`PackageQueue.clear` (OUTPUT_ALL_OFF) empties the queue.
 """
 
 from __future__ import annotations

@@ -51,6 +51,8 @@ from .records import STATE_RECORD
 __all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "TRACKING", "TRACKING_HEIGHT",
            "run_loops"]
 
+#: The sequences the compiled loop runs: step-wise tracking (0x34), the initial alignment, the
+#: full-rate INS (0x33), and tracking with HEIGHT_COMPENSATION.
 TRACKING, ALIGNMENT, FULL_RATE_INS, TRACKING_HEIGHT = 1, 2, 3, 4
 #: Not a sequence: HEIGHT_COMPENSATION alone, of the loop of TRACKING_HEIGHT in which a step ended
 #: (the caller runs it after that loop's STATE_OUTPUT_IF).

@@ -245,4 +245,5 @@ class SensorConfig:
 
 
 DEFAULT_CONFIG = SensorConfig()
+#: Every error off (:meth:`SensorConfig.ideal`).
 IDEAL_CONFIG = SensorConfig.ideal()

@@ -183,6 +183,7 @@ RUNNING = GaitParams(
 STAIRS_UP = GaitParams(stride_length=0.56, stance_s=0.6, swing_s=0.5, clearance=0.12,
                        toe_off_pitch_deg=-20.0, heel_strike_pitch_deg=-10.0, impact_g=2.0,
                        swing_roll_deg=7.0, swing_yaw_deg=11.0)
+#: The stair gait going down: toe-off and heel strike pitched the other way.
 STAIRS_DOWN = replace(STAIRS_UP, toe_off_pitch_deg=-15.0, heel_strike_pitch_deg=-25.0)
 SHUFFLE = GaitParams(stride_length=0.4, stance_s=0.5, swing_s=0.4, clearance=0.04,
                      toe_off_pitch_deg=-5.0, heel_strike_pitch_deg=3.0, impact_g=1.0)

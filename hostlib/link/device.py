@@ -253,7 +253,7 @@ class Device(CommandMethods):
                 **fields: Any) -> CommandAckEvent:
         """Send a command in the device's numbering and wait for its ack ``A0 cmd ck ck``; returns the ack.
 
-        Each attempt waits *timeout* s (default :attr:`ack_timeout`); while a
+        Each attempt waits *timeout* s (default :attr:`DeviceOptions.ack_timeout`); while a
         lossless module keeps delivering data (the ack waits behind it) the wait
         is extended, up to 10 × *timeout*. After *retries* extra attempts
         :class:`AckTimeout`. ACK (0x01) gets no ack: send it with :meth:`ack_packet`.

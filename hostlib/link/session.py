@@ -77,7 +77,7 @@ class SessionStats:
     duplicate_steps: int = 0  #: steps whose counter was already summed
     gaps: int = 0  #: step-counter gaps
     missing_steps: int = 0  #: steps lost in those gaps
-    #: bytes of a frame the stream ended inside (a capture cut short), dropped by :meth:`finish`
+    #: bytes of a frame the stream ended inside (a capture cut short), dropped by :meth:`HostSession.finish`
     unfinished_bytes: int = 0
     extra: dict[str, Any] = field(default_factory=dict)
 

@@ -21,6 +21,7 @@ __all__ = ["SWEEP_TARGET", "bench_sweep", "sweep_spec"]
 #: Speed-up from 1 to 2 workers on the 2-core reference machine.
 SWEEP_TARGET = 1.7
 SCENARIO = "rectangle"
+#: The ZUPT thresholds the benchmark sweep runs over.
 THRESHOLDS = (12000, 16000, 20000, 24000)
 
 

@@ -1,8 +1,8 @@
 """Real-time pacing: run modules' ticks against the wall clock and pump transports.
 
 One loop (in one thread) owns the modules and every endpoint, so nothing needs
-a lock except the control queues (:meth:`Pacer.call`), the waits on ticks
-(:meth:`Pacer.wait_ticks`, below) and the status snapshots.
+a lock except the control queues (:meth:`~.single.Pacer.call`), the waits on ticks
+(:meth:`~.single.Pacer.wait_ticks`, below) and the status snapshots.
 A :class:`Pacer` is one module with its endpoints; run alone it has a loop of
 its own, and a :class:`MultiPacer` runs many of them — every module of a
 ``serve`` process — in one loop and one thread (one thread per module would
@@ -66,7 +66,7 @@ core from the other processes, and measured end to end it did not win. A lone
 pacer always sleeps.
 
 Another thread waits on a running module's ticks, not on the clock:
-:meth:`Pacer.wait_ticks` (*n* more ticks ran) and :meth:`Pacer.wait_until` (a
+:meth:`~.single.Pacer.wait_ticks` (*n* more ticks ran) and :meth:`~.single.Pacer.wait_until` (a
 predicate of the module, tested in the loop's thread after each run of its
 ticks) block on a condition the loop notifies, and return False on timeout or
 once the loop stopped (:class:`MultiPacer` offers both per module index).
