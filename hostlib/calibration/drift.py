@@ -46,6 +46,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HostError
+from ..inputs import InputFileError, load_json
 from ..track.steps import Track, rotation_z
 
 __all__ = ["FORMAT", "VERSION", "DriftCalibration", "DriftError", "LoopClosure", "calibrate", "loop_closure",
@@ -196,13 +197,9 @@ class DriftCalibration:
     def load(cls, path: str | Path) -> DriftCalibration:
         """Read a calibration written by :meth:`save`; a bad file is refused with :class:`DriftError`."""
         try:
-            text = Path(path).read_text()
-        except (OSError, UnicodeDecodeError) as exc:
-            raise DriftError(f"{path}: cannot read the drift calibration: {exc}") from None
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise DriftError(f"{path}: not a drift calibration: invalid JSON ({exc})") from None
+            doc = load_json(path, "drift calibration")
+        except InputFileError as exc:
+            raise DriftError(str(exc)) from None
         try:
             return cls.from_json(doc)
         except ValueError as exc:
@@ -239,7 +236,13 @@ class DriftCalibration:
 
 
 def _is_finite(v: Any) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+    """Whether *v* is a finite JSON number (not true/false, nor an integer too large for a float)."""
+    if not isinstance(v, (int, float)) or isinstance(v, bool):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
 
 
 def _serial(value: Any) -> bytes | None:

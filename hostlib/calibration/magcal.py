@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import HostError
+from ..inputs import InputFileError, load_json
 
 __all__ = ["MAGCAL_DIR_ENV", "MagCalibration", "MagCalibrationError", "QuadricFit", "calibration_dir",
            "fit_ellipsoid", "fit_quadric", "load_for_module", "module_file", "save_for_module"]
@@ -89,26 +90,70 @@ class MagCalibration:
 
     @classmethod
     def load(cls, path: str | Path) -> MagCalibration:
-        """Read a file :meth:`save` wrote; :class:`MagCalibrationError` naming the file otherwise."""
+        """Read a file :meth:`save` wrote; :class:`MagCalibrationError` naming the file and what is
+        wrong with it otherwise (:func:`hostlib.inputs.load_json`, :meth:`from_json`)."""
         try:
-            doc = json.loads(Path(path).read_text())
-            if doc.get("kind") != "openshoe-mag-calibration":
-                raise ValueError("not a magnetometer calibration (kind)")
-            hard = np.asarray(doc["hard_iron_ut"], dtype=np.float64)
-            soft = np.asarray(doc["soft_iron"], dtype=np.float64)
-            if hard.shape != (3,) or soft.shape != (3, 3) or not (np.isfinite(hard).all()
-                                                                  and np.isfinite(soft).all()):
-                raise ValueError("hard_iron_ut must be 3 and soft_iron 3×3 finite numbers")
-            return cls(hard, soft, str(doc.get("module_serial", "")), float(doc.get("field_ut", "nan")),
-                       float(doc.get("rms_residual_ut", "nan")), float(doc.get("rotation_deg", "nan")))
-        except (OSError, ValueError, KeyError, TypeError, AttributeError) as exc:
-            raise MagCalibrationError(f"{path}: {exc}") from exc
+            doc = load_json(path, "magnetometer calibration")
+        except InputFileError as exc:
+            raise MagCalibrationError(str(exc)) from None
+        try:
+            return cls.from_json(doc)
+        except ValueError as exc:
+            raise MagCalibrationError(f"{path}: not a magnetometer calibration: {exc}") from None
+
+    @classmethod
+    def from_json(cls, doc: Any) -> MagCalibration:
+        """The calibration in a parsed file (:meth:`to_json`); ValueError says what is wrong."""
+        if not isinstance(doc, dict):
+            raise ValueError(f"expected a JSON object, got {type(doc).__name__}")
+        if doc.get("kind") != "openshoe-mag-calibration":
+            raise ValueError(f"'kind' is {_shown(doc.get('kind'))}, expected 'openshoe-mag-calibration'")
+        hard = _numbers(doc, "hard_iron_ut", (3,), "3 finite numbers [µT]")
+        soft = _numbers(doc, "soft_iron", (3, 3), "3×3 finite numbers (3 rows of 3)")
+        serial = doc.get("module_serial", "")
+        if not isinstance(serial, str):
+            raise ValueError(f"'module_serial' must be text, got {_shown(serial)}")
+        figures = []
+        for key in ("field_ut", "rms_residual_ut", "rotation_deg"):
+            value = doc.get(key)
+            if value is not None and not (isinstance(value, (int, float)) and not isinstance(value, bool)):
+                raise ValueError(f"{key!r} must be a number or null, got {_shown(value)}")
+            figures.append(math.nan if value is None else float(value))
+        return cls(hard, soft, serial, *figures)
 
     def check_module(self, module_serial: str) -> None:
         """Refuse to apply a calibration fitted on another module (the iron is the shoe's)."""
         if self.module_serial and module_serial and self.module_serial != module_serial:
             raise MagCalibrationError(f"this magnetometer calibration belongs to module "
                                       f"{self.module_serial}, not {module_serial}")
+
+
+def _shown(value: Any) -> str:
+    """*value* as a message shows it: its repr, cut short."""
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def _numbers(doc: dict[str, Any], key: str, shape: tuple[int, ...], what: str) -> np.ndarray:
+    """The array *doc[key]*, nested lists of *shape* holding finite numbers; ValueError otherwise."""
+    if key not in doc:
+        raise ValueError(f"missing {key!r}")
+    if not _is_array(doc[key], shape):
+        raise ValueError(f"{key!r} must be {what}, got {_shown(doc[key])}")
+    return np.asarray(doc[key], dtype=np.float64)
+
+
+def _is_array(value: Any, shape: tuple[int, ...]) -> bool:
+    """Whether *value* is nested lists of *shape* holding finite numbers (no text, no true/false)."""
+    if shape:
+        return isinstance(value, list) and len(value) == shape[0] and all(_is_array(v, shape[1:])
+                                                                           for v in value)
+    if not isinstance(value, (int, float)) or isinstance(value, bool):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer too large for a float
+        return False
 
 
 _NOT_AN_ELLIPSOID = "the readings do not span an ellipsoid (turn the shoe more)"

@@ -1,0 +1,114 @@
+"""The files a user names on a command line: read, or refused in one line that names the file.
+
+Every loader of a user's file (a capture, a GPS log, a calibration, an emulator's walk or sweep
+spec) goes through these, so that what is not a readable file is refused the same way everywhere,
+before anything is run, with an :class:`InputFileError` (a :class:`~hostlib.errors.HostError` and a
+``ValueError``) saying the file and what is wrong with it:
+
+* no such file, a directory, a file the process may not read, an I/O error: its reason in words;
+* a device (``/dev/zero``, a serial port): refused, since reading one as a file never ends (a GPS
+  receiver or a module is read live, by its URL); a pipe is read (``<(…)`` in a shell);
+* text that is not UTF-8: the line and the byte;
+* JSON that does not parse: the line and column (:func:`load_json`).
+
+The messages read ``FILE: cannot read the WHAT: reason`` and ``FILE: not a WHAT: reason``.
+
+:func:`output_refusal` says, before a run, why an output file could not be written (a directory, a
+folder that does not exist), so that a walk is never lost for a misspelt ``--csv``.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+from pathlib import Path
+from typing import Any
+
+from .errors import HostError
+
+__all__ = ["InputFileError", "check_input", "load_json", "output_refusal", "read_input", "read_text"]
+
+
+class InputFileError(HostError, ValueError):
+    """A file named as an input that cannot be read as one; the message names the file."""
+
+
+def _reason(exc: OSError) -> str:
+    """An OS error in words, without its errno and path: ``No such file or directory``."""
+    return exc.strerror or str(exc) or type(exc).__name__
+
+
+def check_input(path: str | os.PathLike[str], what: str = "file") -> Path:
+    """*path* as a :class:`~pathlib.Path`, once it is a file that can be opened for reading (a regular
+    file or a pipe); :class:`InputFileError` naming it and *what* it was to be otherwise."""
+    name = os.fspath(path)
+    if not name:
+        raise InputFileError(f"an empty name was given for the {what}")
+    p = Path(name)
+    try:
+        mode = p.stat().st_mode
+    except OSError as exc:
+        raise InputFileError(f"{name}: cannot read the {what}: {_reason(exc)}") from None
+    if stat.S_ISDIR(mode):
+        raise InputFileError(f"{name}: cannot read the {what}: it is a directory")
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        raise InputFileError(f"{name}: cannot read the {what}: it is a device, not a file")
+    if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
+        raise InputFileError(f"{name}: cannot read the {what}: it is not a file")
+    return p
+
+
+def read_input(path: str | os.PathLike[str], what: str = "file") -> bytes:
+    """The bytes of the file *path* (:func:`check_input`; an error while reading refused the same way)."""
+    p = check_input(path, what)
+    try:
+        return p.read_bytes()
+    except OSError as exc:
+        raise InputFileError(f"{os.fspath(path)}: cannot read the {what}: {_reason(exc)}") from None
+
+
+def read_text(path: str | os.PathLike[str], what: str = "file") -> str:
+    """The text of the file *path*, UTF-8 (:func:`read_input`); a byte that is not text is refused
+    with its line."""
+    data = read_input(path, what)
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[:exc.start].count(b"\n") + 1
+        raise InputFileError(f"{os.fspath(path)}: not a {what}: not text (line {line} has the byte "
+                             f"0x{data[exc.start]:02x})") from None
+
+
+def load_json(path: str | os.PathLike[str], what: str = "file") -> Any:
+    """The JSON document in the file *path* (:func:`read_text`); JSON that does not parse is
+    refused with its line and column, and so is an empty file."""
+    text = read_text(path, what)
+    if not text.strip():
+        raise InputFileError(f"{os.fspath(path)}: not a {what}: the file is empty")
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as exc:  # its text ends "line L column C (char N)"
+        raise InputFileError(f"{os.fspath(path)}: not a {what}: invalid JSON ({exc})") from None
+    except RecursionError:
+        raise InputFileError(f"{os.fspath(path)}: not a {what}: JSON nested too deep") from None
+
+
+def output_refusal(path: str | os.PathLike[str] | None, option: str) -> str | None:
+    """Why the output file *path* of *option* (``--csv``) could not be written, or None (also for
+    no *path*): an empty name, a directory, a folder that does not exist or is no folder. Checked
+    before a run, so that nothing is walked or computed for a file that cannot be written."""
+    if path is None:
+        return None
+    name = os.fspath(path)
+    if not name:
+        return f"{option} needs a file name"
+    p = Path(name)
+    if p.is_dir():
+        return f"{option} {name} is a directory: name a file in it"
+    parent = p.parent
+    if not parent.exists():
+        return f"{option} {name}: the folder {parent} does not exist"
+    if not parent.is_dir():
+        return f"{option} {name}: {parent} is not a folder"
+    return None
