@@ -13,7 +13,8 @@ position. Nothing it meets stops it, and nothing is lost without being counted
 
 A receiver read live, as its sentences come, is :mod:`hostlib.run.gps_stream`.
 
-:func:`read_nmea` reads a whole file; :func:`local_positions` turns fixes into north, east, down
+:func:`read_nmea` reads a whole file (:func:`fixes_of_log` refuses one without a fix:
+:class:`GpsLogError`); :func:`local_positions` turns fixes into north, east, down
 metres about an origin (the first fix's position unless given), the frame a host fuses them in.
 """
 
@@ -27,10 +28,17 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["GpsFix", "NmeaStats", "NmeaReader", "fix_place", "read_nmea", "local_positions", "seconds_since"]
+from ..inputs import InputFileError, check_input
+
+__all__ = ["GpsFix", "GpsLogError", "NmeaStats", "NmeaReader", "fix_place", "fixes_of_log", "read_nmea",
+           "local_positions", "seconds_since"]
 
 #: Garbled lines kept (with their numbers) for the report; the rest are only counted.
 KEEP_GARBLED = 10
+
+
+class GpsLogError(InputFileError):
+    """A GPS log that cannot be read, or that holds no fix; the message names the file."""
 
 
 @dataclass(frozen=True)
@@ -114,7 +122,8 @@ class NmeaReader:
             return None
         kind = getattr(msg, "sentence_type", "")
         if kind == "RMC":
-            self._date = getattr(msg, "datestamp", None) or self._date
+            date = _field(msg, "datestamp")
+            self._date = date if isinstance(date, dt.date) else self._date
             self.stats.other += 1
             return None
         if kind != "GGA":
@@ -123,7 +132,7 @@ class NmeaReader:
         return self._gga(msg)
 
     def _gga(self, msg) -> GpsFix | None:
-        stamp = getattr(msg, "timestamp", None)
+        stamp = _field(msg, "timestamp")
         if self.stats.first_time is None and isinstance(stamp, dt.time):
             self.stats.first_time = stamp.replace(tzinfo=None)
         try:
@@ -135,18 +144,27 @@ class NmeaReader:
             alt = float(msg.altitude) if msg.altitude not in (None, "") else math.nan
             sats = int(msg.num_sats or 0)
             hdop = float(msg.horizontal_dil) if msg.horizontal_dil else math.nan
-            when = msg.timestamp
-            if when is None or not (math.isfinite(lat) and math.isfinite(lon)):
-                raise ValueError
-        except (TypeError, ValueError, AttributeError):
+            if not (isinstance(stamp, dt.time) and msg.lat_dir in ("N", "S") and msg.lon_dir in ("E", "W")
+                    and abs(lat) <= 90.0 and abs(lon) <= 180.0 and not math.isinf(alt)):
+                raise ValueError("no time, no hemisphere, or a place off the globe")
+        except (TypeError, ValueError, AttributeError, OverflowError):
             self._garbled("GGA fields out of form")
             return None
         self.stats.fixes += 1
-        return GpsFix(self.stats.lines, when.replace(tzinfo=None), self._date, lat, lon, alt, quality, sats,
+        return GpsFix(self.stats.lines, stamp.replace(tzinfo=None), self._date, lat, lon, alt, quality, sats,
                       hdop)
 
     def feed_all(self, lines: Iterable[str | bytes]) -> list[GpsFix]:
         return [fix for fix in map(self.feed, lines) if fix is not None]
+
+
+def _field(msg: object, name: str) -> object:
+    """A field of a parsed sentence, or None when it is not there or out of form (pynmea2 parses a
+    field when it is read, and a bad one raises, or comes back as its text)."""
+    try:
+        return getattr(msg, name, None)
+    except (TypeError, ValueError, IndexError, OverflowError):
+        return None
 
 
 def seconds_since(start: dt.time, fixes: Sequence[GpsFix]) -> np.ndarray:
@@ -166,11 +184,27 @@ def fix_place(fix: GpsFix) -> tuple[float, float, float]:
 
 
 def read_nmea(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:
-    """Every fix in a file of NMEA sentences, and what the reader met."""
+    """Every fix in a file of NMEA sentences, and what the reader met. A file that cannot be read
+    (no such file, a directory, a device: a receiver is read live, :mod:`hostlib.run.gps_stream`) is
+    refused with a :class:`GpsLogError` naming it; what it holds is never refused, only counted."""
     reader = NmeaReader()
-    with Path(path).open("rb") as f:
-        fixes = reader.feed_all(f)
+    try:
+        with check_input(path, "GPS log").open("rb") as f:
+            fixes = reader.feed_all(f)
+    except InputFileError as exc:
+        raise GpsLogError(str(exc)) from None
+    except OSError as exc:
+        raise GpsLogError(f"{path}: cannot read the GPS log: {exc.strerror or exc}") from None
     return fixes, reader.stats
+
+
+def fixes_of_log(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:
+    """:func:`read_nmea`, refusing a log without a fix (:class:`GpsLogError`, saying what its
+    lines were and the first garbled ones with their line numbers)."""
+    fixes, stats = read_nmea(path)
+    if not fixes:
+        raise GpsLogError(f"{path}: no GPS fix in {stats.lines} lines ({stats.summary()})")
+    return fixes, stats
 
 
 def local_positions(fixes: Sequence[GpsFix], origin: Sequence[float] | None = None) -> np.ndarray:

@@ -30,7 +30,7 @@ from typing import Any
 
 from ..aids.declination import declination_deg
 from ..aids.geodesy import parse_origin
-from ..aids.gps import GpsFix, NmeaStats, fix_place, local_positions, read_nmea, seconds_since
+from ..aids.gps import GpsFix, NmeaStats, fix_place, fixes_of_log, local_positions, seconds_since
 from ..calibration.drift import DriftCalibration
 from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from ..fusion.tracker import FusionSettings, FusionTracker
@@ -118,9 +118,7 @@ def _plan(options: AidOptions, first_fix: GpsFix | None = None) -> _Plan:
     when = options.date
     fixes, stats = [], None
     if options.gps_log is not None:
-        fixes, stats = read_nmea(options.gps_log)
-        if not fixes:
-            raise ValueError(f"{options.gps_log}: no GPS fix in {stats.lines} lines ({stats.summary()})")
+        fixes, stats = fixes_of_log(options.gps_log)
         first_fix = fixes[0]
         when = when or next((f.date for f in fixes if f.date is not None), None)
     elif first_fix is not None:
@@ -155,8 +153,9 @@ def prepare_aids(options: AidOptions | None = None, *, last_counter: int | None 
     live (:attr:`~hostlib.run.options.AidOptions.gps_receiver`; :mod:`hostlib.run.gps_stream` queues its
     fixes): GPS updates on, no fix queued now; its *first_fix*, if one came already, places the walk
     as a log's first fix does. *heading* [rad]: the initial heading; *last_counter*: the step
-    counter before the first step (None: taken from the first). Raises OSError for an unreadable
-    GPS log and ValueError when it holds no fix."""
+    counter before the first step (None: taken from the first). Raises
+    :class:`~hostlib.aids.gps.GpsLogError` (a ValueError) for a GPS log that cannot be read or
+    holds no fix."""
     options = replace(options or AidOptions(), **fields)
     calibration = options.loaded_calibration()
     plan = _plan(options, first_fix)
