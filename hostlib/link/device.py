@@ -20,12 +20,13 @@ Typical use::
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import threading
 import time
 import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any, BinaryIO
 
 import serial
@@ -91,6 +92,13 @@ class _BoundedQueue:
             return None
 
 
+def _as_bytes(data: Any, method: str) -> bytes:
+    """*data* as bytes (bytes, a bytearray or a memoryview); TypeError for text or anything else."""
+    if isinstance(data, str) or not isinstance(data, (bytes, bytearray, memoryview)):
+        raise TypeError(f"{method} takes bytes, got {type(data).__name__}")
+    return bytes(data)
+
+
 #: The clock of ack deadlines (a module attribute so tests can drive it).
 _now = time.monotonic
 
@@ -126,6 +134,39 @@ class DeviceOptions:
     #: write concurrently)
     serialize_io: bool | None = None
 
+    def __post_init__(self) -> None:
+        """Refuse a value the device could not work with, naming the option (ValueError; TypeError
+        for one of the wrong kind): a wait that is not a number of seconds > 0, a negative count."""
+        for name in ("ack_timeout", "reconnect_interval", "read_timeout"):
+            _check_number(name, getattr(self, name), "a number of seconds > 0", lambda v: v > 0)
+        _check_number("retries", self.retries, "a whole number >= 0", lambda v: v >= 0, whole=True)
+        _check_number("queue_size", self.queue_size, "a whole number >= 1", lambda v: v >= 1, whole=True)
+        _check_number("baudrate", self.baudrate, "a whole number of bits per second > 0", lambda v: v > 0,
+                      whole=True)
+
+
+def _check_number(name: str, value: Any, what: str, ok: Callable[[float], bool], whole: bool = False) -> None:
+    """Refuse *value* of the option *name* unless it is a finite number (*whole*: an integer) *ok*
+    takes."""
+    kinds = (int,) if whole else (int, float)
+    if not isinstance(value, kinds) or isinstance(value, bool):
+        raise TypeError(f"{name} must be {what}, got {value!r}")
+    if not (math.isfinite(value) and ok(value)):
+        raise ValueError(f"{name} must be {what}, got {value!r}")
+
+
+def _options(options: DeviceOptions | None, settings: dict[str, Any]) -> DeviceOptions:
+    """*options* with the keywords *settings* given to :class:`Device`; a keyword that is no option
+    is refused naming the options there are."""
+    if options is not None and not isinstance(options, DeviceOptions):
+        raise TypeError(f"options must be a DeviceOptions, got {type(options).__name__}")
+    known = {f.name for f in fields(DeviceOptions)}
+    unknown = sorted(set(settings) - known)
+    if unknown:
+        raise TypeError(f"Device has no option {', '.join(map(repr, unknown))} (DeviceOptions: "
+                        f"{', '.join(sorted(known))})")
+    return replace(options or DeviceOptions(), **settings)
+
 
 class Device(CommandMethods):
     """One OpenShoe module over one serial link (USB CDC or Bluetooth SPP, real or emulated).
@@ -160,7 +201,11 @@ class Device(CommandMethods):
     def __init__(self, target: Any = None, options: DeviceOptions | None = None, *,
                  tracker: StepTracker | None = None, raw_log: BinaryIO | None = None,
                  port_factory: PortFactory | None = None, start: bool = True, **settings: Any):
-        options = replace(options or DeviceOptions(), **settings)
+        options = _options(options, settings)
+        if raw_log is not None and not callable(getattr(raw_log, "write", None)):
+            raise TypeError(f"raw_log must be a binary file open for writing, got {raw_log!r}")
+        if tracker is not None and not callable(getattr(tracker, "add", None)):
+            raise TypeError(f"tracker must be a StepTracker (or of its kind), got {type(tracker).__name__}")
         if port_factory is None:
             if target is None:
                 raise ValueError("Device needs a port path/URL, a port object, or a port_factory")
@@ -212,6 +257,8 @@ class Device(CommandMethods):
     # -- lifecycle ------------------------------------------------------------------
 
     def __enter__(self) -> Device:
+        if self._closed:
+            raise DeviceClosed(f"{self.name} is closed: open a new Device")
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -264,6 +311,9 @@ class Device(CommandMethods):
             raise DeviceClosed(f"{self.name} is closed")
         timeout = self.ack_timeout if timeout is None else float(timeout)
         retries = self.retries if retries is None else int(retries)
+        if not (math.isfinite(timeout) and timeout > 0) or retries < 0:
+            raise ValueError(f"a command waits a timeout > 0 s and retries >= 0 times, not {timeout:g} s and "
+                             f"{retries}")
         frame, wire_id = self._encode(meaning, fields)
         for _attempt in range(retries + 1):
             with self._cond:
@@ -313,7 +363,7 @@ class Device(CommandMethods):
 
     def send_raw(self, data: bytes) -> None:
         """Write bytes as they are (no framing, no ack wait): for tests and old host apps."""
-        self._write(bytes(data))
+        self._write(_as_bytes(data, "send_raw"))
 
     def _write(self, data: bytes) -> None:
         if self._closed:
@@ -371,6 +421,7 @@ class Device(CommandMethods):
 
     def feed(self, data: bytes) -> list[StreamEvent]:
         """Process received bytes as the reader thread does (public for tests and replays)."""
+        data = _as_bytes(data, "feed")
         if self.raw_log is not None:
             self.raw_log.write(data)
         return self._deliver(*self._locked(self.session.feed, data))
@@ -448,9 +499,11 @@ class Device(CommandMethods):
         self._steps.close()
 
     def wait_link(self, up: bool = True, timeout: float | None = None) -> bool:
-        """Wait until the link is up (or down); False on timeout."""
+        """Wait until the link is up (or down); False on timeout. A closed device's link is down."""
         deadline = None if timeout is None else time.monotonic() + timeout
         with self._cond:
+            if self._closed:
+                return not up
             while self._link_up != up:
                 if self._closed:
                     return False

@@ -10,15 +10,42 @@ module does), 1 when any fails, 2 on bad usage or an unopenable URL.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from collections.abc import Sequence
 
 import serial
 
+from hostlib.link.connection import open_port
 from protocol.commands import command_set
 
 from .checks import CHECKS, run, select
 from .driver import DeviceDriver, device_clock
+
+#: The largest --time-scale: every wait a thousand times as long is a link no check could run on.
+MAX_TIME_SCALE = 1000.0
+
+
+def _time_scale(text: str) -> float:
+    """The argparse type of ``--time-scale``: a factor > 0 (0 would wait for nothing, and never end)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not 0.0 < value <= MAX_TIME_SCALE:
+        raise argparse.ArgumentTypeError(f"a factor > 0 and <= {MAX_TIME_SCALE:g}, not {text!r}")
+    return value
+
+
+def _baud_rate(text: str) -> int:
+    """The argparse type of ``--baudrate``: a whole number of bits per second > 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"a whole number of bits per second > 0, not {text!r}")
+    return value
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,9 +59,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="command numbering the device speaks (default 2015)")
     p.add_argument("--only", nargs="+", metavar="NAME", help="run only these checks (see --list)")
     p.add_argument("--list", action="store_true", help="list the checks and exit")
-    p.add_argument("--baudrate", type=int, default=115200, help="for real serial ports (default 115200)")
-    p.add_argument("--time-scale", type=float, default=1.0,
-                   help="multiply every wait (for slow links or loaded hosts; default 1)")
+    p.add_argument("--baudrate", type=_baud_rate, default=115200,
+                   help="for real serial ports (default 115200)")
+    p.add_argument("--time-scale", type=_time_scale, default=1.0,
+                   help="multiply every wait (for slow links or loaded hosts; a number > 0, at most "
+                        f"{MAX_TIME_SCALE:g}; default 1)")
     p.add_argument("-q", "--quiet", action="store_true", help="print the bytes only for failures")
     return p
 
@@ -56,10 +85,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     except ValueError as exc:
         print(f"openshoe-conformance: {exc}", file=sys.stderr)
         return 2
-    if args.url.lower().startswith("openshoe://"):
-        import firmware_sim.transports  # noqa: F401  (registers the in-process emulator's URL scheme)
     try:
-        port = serial.serial_for_url(args.url, baudrate=args.baudrate, timeout=0.005)
+        port = open_port(args.url, baudrate=args.baudrate, read_timeout=0.005)
     except (serial.SerialException, ValueError, OSError) as exc:
         print(f"openshoe-conformance: cannot open {args.url}: {exc}", file=sys.stderr)
         return 2
