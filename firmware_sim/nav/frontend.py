@@ -255,7 +255,7 @@ def statdet(u_new: np.ndarray, ts: int, buf32: np.ndarray, buf16: np.ndarray, no
 
 
 def biasest(u_int_k: np.ndarray, zaru: bool, gyro_bias: np.ndarray, p: np.ndarray, q: np.ndarray) -> None:
-    """BIASEST: P += Q (``q[0]``); while ZARU: K = P/(P+R), b += K(ω − b), P *= 1 − K (float32)."""
+    """BIASEST: P += Q (``q[0]``); while ZARU: K = P/(P+R), b += K(ω − b), ``P *= 1 − K`` (float32)."""
     p[0] = p[0] + q[0]
     if zaru:
         omega = u_int_k[3:6].astype(np.float32) * cfg.GYRO_SCALE
