@@ -39,7 +39,7 @@ pytestmark = [
 WALK_M = 20.0
 RECIPE = f"stand:4+walk:{WALK_M:g}+stand:3"
 SEED = 2
-SPEED = "4"  # module seconds per wall second
+SPEED = "8"  # module seconds per wall second
 
 
 def control(address: str, line: str) -> str:

@@ -27,7 +27,7 @@ from hostlib.files.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="ptys are tested on Linux")
 
 RECIPE = "stand:3+walk:40+stand:3"
-SPEED = "4"  # module seconds per wall second
+SPEED = "8"  # module seconds per wall second
 
 
 def _virtual_s(address: str) -> float:
@@ -87,7 +87,7 @@ def test_track_fuses_the_compass_and_the_served_receiver_on_the_module_clock(tmp
                "--speed", SPEED, "--status-interval", "0") as srv:
         out = io.StringIO()
         argv = ["track", srv.ready["bt-pty"], "--fusion", "--compass", "--gps", srv.ready["gps-pty"],
-                "--csv", str(csv), "--duration", "8"]
+                "--csv", str(csv), "--duration", "5"]
         assert main(argv, out) == 0
     text = out.getvalue()
     found = re.search(r"fusion: (\d+) compass updates .*?, (\d+) GPS updates", text)
@@ -110,7 +110,7 @@ def test_track_with_two_feet_fuses_both_compasses_and_the_served_receiver_on_the
                str(tmp_path / "gps"), "--speed", SPEED, "--status-interval", "0") as srv:
         out = io.StringIO()
         argv = ["track", srv.ready["left.bt-pty"], srv.ready["right.bt-pty"], "--fusion", "--compass",
-                "--gps", srv.ready["gps-pty"], "--geojson", str(tmp_path / "body.geojson"), "--duration", "8"]
+                "--gps", srv.ready["gps-pty"], "--geojson", str(tmp_path / "body.geojson"), "--duration", "5"]
         assert main(argv, out) == 0
     text = out.getvalue()
     found = re.search(r"fusion: (\d+) compass updates .*?, (\d+) GPS updates", text)
