@@ -34,7 +34,9 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..aids.compass import wrap_angle
+from .aid_events import AidEvent, AidObserver
 from .core import StateFilter
+from .hard_iron import iron_heading
 from .settings import FusionSettings, FusionStats
 
 __all__ = ["AidedFilter"]
@@ -62,6 +64,7 @@ class AidedFilter(ABC):
         self._first_fix = np.zeros(2)
         self._last_gps_update = -math.inf
         self._bias_time: float | None = None  # the module time b was carried to (None: not yet)
+        self._aid_observers: list[AidObserver] = []
 
     # -- what a tracker gives -----------------------------------------------------------
 
@@ -154,6 +157,37 @@ class AidedFilter(ABC):
         self._fix_times.append(t)
         self._fixes.append(pos)
 
+    def observe_aids(self, fn: AidObserver) -> AidObserver:
+        """Call *fn(event)* for every compass reading and GPS fix the filter takes, with what became
+        of it (:class:`~hostlib.fusion.aid_events.AidEvent`; called under the tracker's lock, in the
+        thread that sums the step); returns *fn*."""
+        if not callable(fn):
+            raise TypeError(f"an aid observer must be callable, got {fn!r}")
+        self._aid_observers.append(fn)
+        return fn
+
+    def _tell(self, aid: str, outcome: str, pose: str, reading=None, innovation: float = math.nan,
+              time_s: float = math.nan, at: np.ndarray | None = None) -> None:
+        """An :class:`~hostlib.fusion.aid_events.AidEvent` to the observers (none: nothing to do); *at*
+        defaults to where block *pose* is."""
+        if not self._aid_observers:
+            return
+        if at is None:
+            k = self.filter.index(pose, 0)
+            at = self.filter.x[k:k + 2]
+        event = AidEvent(aid, outcome, len(self), pose, (float(at[0]), float(at[1])), reading,
+                         float(innovation), self.declination, time_s)
+        for fn in list(self._aid_observers):
+            fn(event)
+
+    def _tell_fix(self, outcome: str, fix: tuple[float, float], t: float) -> None:
+        """A GPS fix to the observers, with where the filter has the point it measures (its
+        innovation: how far apart the two are)."""
+        if self._aid_observers:
+            at = self._gps_rows() @ self.filter.x
+            self._tell("gps", outcome, self.pose_blocks[0], fix, math.hypot(fix[0] - at[0], fix[1] - at[1]),
+                       t, at)
+
     def pending_fixes(self) -> int:
         """Fixes queued whose time no step has reached yet."""
         return len(self._fix_times) - self._next_fix
@@ -181,26 +215,39 @@ class AidedFilter(ABC):
 
     # -- the compass --------------------------------------------------------------------
 
-    def _compass_step(self, psi: float | None, pose: str, moved: bool) -> None:
+    def _compass_step(self, psi: float | None, pose: str, moved: bool,
+                      reading: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
-        heading of block *pose* minus D (minus d, held); *moved*: the step moved the foot."""
+        heading of block *pose* minus D (minus d, held); *moved*: the step moved the foot. With the
+        shoe's hard iron held, *reading* (the calibrated board-frame field [µT] and the board →
+        navigation rotation) gives the heading less the iron's estimate, and the reading measures
+        the iron too (:func:`hostlib.fusion.hard_iron.iron_heading`)."""
         s = self.aid_settings
+        g = None
+        if psi is not None and reading is not None and "hard_iron" in self.filter:
+            psi, g = iron_heading(*reading, self.filter.mean("hard_iron"))
         if psi is None:
             self.fusion.compass_skipped += 1
+            self._tell("compass", "skipped", pose)
             return
         if not math.isfinite(psi):
             self.fusion.compass_refused += 1
+            self._tell("compass", "refused", pose, psi)
             return
         if self._aligned and s.compass_mode == "step" and not moved:
             self.fusion.compass_skipped += 1
+            self._tell("compass", "skipped", pose, psi)
             return
         if not self._aligned:
-            self._align_by_compass(psi, pose)
+            self._tell("compass", "aligned", pose, psi)
+            self._align_by_compass(psi, pose, g)
             return
         f = self.filter
         x = f.x
         k, dec = f.index(pose, 3), f.index("declination")
         weights = {(pose, 3): 1.0, "declination": -1.0}
+        if g is not None:  # ψ̂ − g b̂ = χ − D − d − g b: the iron's columns are −g
+            weights.update({("hard_iron", axis): -float(g[axis]) for axis in range(3)})
         if "deviation" in f:
             weights["deviation"] = -1.0
             innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
@@ -210,14 +257,21 @@ class AidedFilter(ABC):
         gate = s.compass_gate_sigmas
         if gate is not None and innovation ** 2 > gate ** 2 * (float(h @ f.P @ h) + r):
             self.fusion.compass_rejected += 1
+            self._tell("compass", "rejected", pose, psi, innovation)
             return
+        self._tell("compass", "used", pose, psi, innovation)
         f.update(h, innovation, r)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
 
-    def _align_by_compass(self, psi: float, pose: str) -> None:
+    def _align_by_compass(self, psi: float, pose: str, g: np.ndarray | None = None) -> None:
         """The first reading aligns heading *pose*: χ ← ψ + D (+ d, held), with the reading's
-        variance and D's (and d's) uncertainty and covariance."""
+        variance and D's (and d's) uncertainty and covariance; with the hard iron held (*g*: the
+        reading's ∂ψ/∂b), χ ← ψ̂ + D + d + g (b − b̂), its uncertainty and covariances from all of
+        them."""
+        if g is not None:
+            self._align_by_iron_compass(psi, pose, g)
+            return
         f = self.filter
         x, p = f.x, f.P
         dec = f.index("declination")
@@ -233,6 +287,25 @@ class AidedFilter(ABC):
                         cov_with_d=var_d + cov, cov_with_deviation=var_dev + cov)
         else:
             self._align(k, psi + float(x[dec]), sigma ** 2 + var_d, cov_with_d=var_d)
+        self.fusion.heading_aligned_by = "compass"
+
+    def _align_by_iron_compass(self, psi: float, pose: str, g: np.ndarray) -> None:
+        """:meth:`_align_by_compass` with the hard iron held: χ ← ψ̂ + c·s, c the coefficients of
+        D, d (held) and b (g) over those states s (their estimate's part is in ψ̂ already)."""
+        f = self.filter
+        c = f.row({"declination": 1.0, **({"deviation": 1.0} if "deviation" in f else {}),
+                   **{("hard_iron", axis): float(g[axis]) for axis in range(3)}})
+        sigma = self._align_sigma_rad
+        if sigma is None:
+            sigma = self.aid_settings.compass_sigma_rad
+        pc = f.P @ c
+        x = f.x
+        dev = f.index("deviation") if "deviation" in f else None
+        chi = psi + float(x[f.index("declination")]) + (0.0 if dev is None else float(x[dev]))
+        iron = f.indices("hard_iron")
+        self._align(f.index(pose, 3), chi, sigma ** 2 + float(c @ pc),
+                    cov_with_d=float(pc[f.index("declination")]),
+                    cov_with_deviation=None if dev is None else float(pc[dev]), cov_with_iron=pc[iron])
         self.fusion.heading_aligned_by = "compass"
 
     # -- GPS ----------------------------------------------------------------------------
@@ -254,19 +327,24 @@ class AidedFilter(ABC):
         """One fix at module time *t*: the origin, the course's alignment, or an update of the
         measured point (plus the bias, held)."""
         s = self.aid_settings
+        fix = (float(pos[0]), float(pos[1]))
         if not self._origin_set:
+            self._tell_fix("origin", fix, t)
             self._origin_set = True
             self._place_origin()
             self._first_fix = pos
             return
         if not self._aligned and not self._align_by_course(pos):
             self.fusion.gps_before_alignment += 1
+            self._tell_fix("before alignment", fix, t)
             return
         if t - self._last_gps_update < s.gps_update_interval_s:
             self.fusion.gps_skipped += 1
+            self._tell_fix("skipped", fix, t)
             return
         self._last_gps_update = t
         rows = self._gps_rows()
+        self._tell_fix("used", fix, t)
         if s.gps_bias is None:
             sigma = s.gps_sigma_m
         else:
@@ -318,7 +396,7 @@ class AidedFilter(ABC):
     # -- alignment ----------------------------------------------------------------------
 
     def _align(self, k: int, chi: float, var_chi: float, *, cov_with_d: float,
-               cov_with_deviation: float | None = None) -> None:
+               cov_with_deviation: float | None = None, cov_with_iron: np.ndarray | None = None) -> None:
         """Turn every pose about the start so that heading index *k* is *chi*, with variance
         *var_chi* and covariance *cov_with_d* with D and *cov_with_deviation* with the local
         deviation d (None: not held) (module docstring: the other headings follow it). The
@@ -342,6 +420,10 @@ class AidedFilter(ABC):
         if cov_with_deviation is not None:
             dev = f.index("deviation")
             hdev = b @ p[hs, dev] + ones * cov_with_deviation
+        if "hard_iron" in f:  # the course's alignment knows nothing of the iron: 0
+            iron = f.indices("hard_iron")
+            hiron = b @ p[np.ix_(hs, iron)] + np.outer(ones, np.zeros(3) if cov_with_iron is None
+                                                       else cov_with_iron)
         carried = f.indices(*self.error_blocks) if len(hs) > 1 else []
         hc = b @ p[np.ix_(hs, carried)]
         p[hs, :] = 0.0
@@ -354,5 +436,8 @@ class AidedFilter(ABC):
         if cov_with_deviation is not None:
             p[hs, dev] = hdev
             p[dev, hs] = hdev
+        if "hard_iron" in f:
+            p[np.ix_(hs, iron)] = hiron
+            p[np.ix_(iron, hs)] = hiron.T
         f.P = p
         self._aligned = True
