@@ -17,6 +17,7 @@ from protocol.board import FOOT_SIDES
 from ..fusion.deviation import CompassDeviation
 from ..fusion.feet import FeetSettings
 from ..fusion.gps_bias import GpsBias
+from ..fusion.hard_iron import HardIron
 from ..fusion.module_errors import ModuleErrors
 from ..link.device import Device, DeviceOptions
 from ..run.options import AidOptions, RunOptions
@@ -65,6 +66,17 @@ def module_errors_type(text: str) -> ModuleErrors:
         return ModuleErrors.parse(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def hard_iron_type(text: str) -> str | HardIron:
+    """The argparse type of ``--hard-iron``: a prior σ [µT], or "auto" (by the calibration)."""
+    if text == "auto":
+        return text
+    try:
+        return HardIron(float(text))
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"--hard-iron takes the prior σ per axis in µT (> 0): {exc}"
+                                         ) from None
 
 
 def compass_deviation_type(text: str) -> CompassDeviation:
@@ -129,6 +141,12 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
         g.add_argument("--gps", metavar="FILE.nmea",
                        help="GPS fixes (NMEA GGA/RMC) to fuse; the track is then placed on the globe "
                             "and the CSV gets lat_deg, lon_deg, alt_m")
+    g.add_argument("--hard-iron", type=hard_iron_type, nargs="?", const="auto", default=None,
+                   metavar="SIGMA_UT",
+                   help="learn the shoe's hard iron as three states of the filter while walking "
+                        "(hostlib.fusion.hard_iron): GPS and the walk's turns make it observable, and "
+                        "until then the compass counts for as little as the iron's uncertainty says; "
+                        "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration)")
     g.add_argument("--gps-bias", action="store_true",
                    help="hold the receiver's correlated error as a state of the filter "
                         "(hostlib.fusion.gps_bias): "
@@ -289,7 +307,7 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
     live = args.cmd == "track" and bool(args.gps) and not Path(args.gps).is_file()
     return AidOptions(
         compass=args.compass, compass_sigma_deg=args.compass_sigma, compass_deviation=args.compass_deviation,
-        compass_gate=args.compass_gate,
+        compass_gate=args.compass_gate, hard_iron=args.hard_iron,
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=GpsBias() if args.gps_bias else None, module_errors=args.module_errors,
         mag_calibration=args.mag_cal[0] if args.mag_cal and not two else None,

@@ -8,6 +8,8 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TextIO
 
+import numpy as np
+
 from protocol.board import FOOT_SIDES
 
 from ..fusion.feet import DISAGREEMENT_SIGMAS, TwoFeetTracker
@@ -45,6 +47,10 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
             + ("" if tracker.deviation is None else
                f"; local deviation at the end {math.degrees(tracker.deviation):+.2f}° ± "
                f"{math.degrees(tracker.deviation_sigma):.2f}°")
+            + ("" if "hard_iron" not in tracker.filter else
+               "; hard iron at the end [{:+.2f}, {:+.2f}, {:+.2f}] ± [{:.2f}, {:.2f}, {:.2f}] µT".format(
+                   *tracker.filter.mean("hard_iron"),
+                   *np.sqrt(np.clip(np.diagonal(tracker.filter.covariance("hard_iron")), 0.0, None))))
             + ("" if tracker.gps_bias is None else
                "; GPS bias at the end N {:+.2f} ± {:.2f} m, E {:+.2f} ± {:.2f} m".format(
                    *(float(v) for pair in zip(tracker.gps_bias, tracker.gps_bias_sigma, strict=True)
@@ -113,8 +119,9 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
     apart, sigmas = tracker.disagreement()
     if sigmas > DISAGREEMENT_SIGMAS:
         lines.append(f"warning: the fused body and the average end {apart:.2f} m apart, {sigmas:.1f}σ of "
-                     "their covariances: the constraint moved the walker more than either allows (the "
-                     "modules' headings drift apart: hold each module's errors, --module-errors)")
+                     "their covariances: the constraint moved the walker more than either allows (a bound "
+                     "too tight for the gait, or modules whose headings drift apart: hold each module's "
+                     "errors, --module-errors)")
     return lines
 
 

@@ -7,6 +7,9 @@ states its :class:`~hostlib.fusion.settings.FusionSettings` hold, in the order o
 * ``"gps_bias"`` — the receiver's correlated error ``[b_n, b_e]`` (:mod:`hostlib.fusion.gps_bias`),
   held with :attr:`~hostlib.fusion.settings.FusionSettings.gps_bias`; prior 0 with the
   stationary variance on each axis;
+* ``"hard_iron"`` — the shoe's hard iron ``[b_x, b_y, b_z]`` in the board's frame
+  (:mod:`hostlib.fusion.hard_iron`), held with
+  :attr:`~hostlib.fusion.settings.FusionSettings.hard_iron`; prior 0 with σ_b² on each axis;
 * ``"deviation"`` — the compass's local deviation ``d`` (:mod:`hostlib.fusion.deviation`), held
   with :attr:`~hostlib.fusion.settings.FusionSettings.compass_deviation`; prior 0 with σ_d²;
 * ``"declination"`` — the declination ``D``, always held, last: prior the settings' D₀, with
@@ -47,6 +50,12 @@ def _gps_bias_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
     return np.zeros(2), s.gps_bias.variance * np.eye(2)
 
 
+def _hard_iron_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
+    if s.hard_iron is None:
+        return None
+    return np.zeros(3), s.hard_iron.variance * np.eye(3)
+
+
 def _deviation_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
     if s.compass_deviation is None:
         return None
@@ -61,6 +70,7 @@ def _declination_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray]:
 #: The aid states in the order a filter holds them, after the poses and the modules' errors.
 AID_STATES: tuple[AidState, ...] = (
     AidState("gps_bias", _gps_bias_prior),
+    AidState("hard_iron", _hard_iron_prior),
     AidState("deviation", _deviation_prior),
     AidState("declination", _declination_prior),
 )

@@ -262,7 +262,9 @@ class TwoFeetTracker(AidedFilter):
             for side in FOOT_SIDES:
                 self.filter.add_block(f"errors.{side}", np.zeros(errors.states), errors.prior)
             self.error_blocks = tuple(f"errors.{side}" for side in FOOT_SIDES)
-        add_aid_states(self.filter, self.aids)
+        # the shoe's hard iron belongs to each foot's module: each foot's own tracker learns its own,
+        # and the heading it hands the joint filter has its estimate removed
+        add_aid_states(self.filter, replace(self.aids, hard_iron=None))
         self._frame_heading = float(heading)  # the walk's start frame, turned with the aids' alignment
         self._time = 0.0  # the latest module time of a fused step [s]
         self._since = {side: 0 for side in FOOT_SIDES}  # the other foot's steps since this one's last

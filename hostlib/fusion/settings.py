@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from ..calibration.magcal import MagCalibration
 from .deviation import CompassDeviation
 from .gps_bias import GpsBias
+from .hard_iron import HardIron
 from .module_errors import ModuleErrors
 
 __all__ = ["FusionSettings", "FusionStats"]
@@ -33,6 +34,10 @@ class FusionSettings:
     #: hold (steel, a magnet, an uncalibrated shoe's iron turned with the foot), not a heading. 3σ
     #: keeps 99.7 % of the readings the model describes. None: every reading is used
     compass_gate_sigmas: float | None = 3.0
+    #: the shoe's hard iron b [µT] as three states, learned while the module walks
+    #: (:mod:`hostlib.fusion.hard_iron`: :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`,
+    #: :data:`~hostlib.fusion.hard_iron.CALIBRATED`; None: not held, the iron is the calibration's)
+    hard_iron: HardIron | None = None
     #: the shoe's hard and soft iron, removed before the heading is taken
     mag_calibration: MagCalibration | None = None
     #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`add_fix`)

@@ -94,6 +94,7 @@ from ..track.steps import StepTracker, is_motion_step, rotation_z
 from .aid_states import add_aid_states
 from .aided import AidedFilter
 from .core import StateFilter
+from .hard_iron import iron_heading
 from .settings import FusionSettings, FusionStats
 
 __all__ = ["AidedFilter", "FusionSettings", "FusionStats", "FusionTracker"]
@@ -163,13 +164,24 @@ class FusionTracker(AidedFilter, StepTracker):
 
     def compass_heading(self, reading: StanceReading | None) -> float | None:
         """The heading from magnetic north [rad] of a stance *reading*, the shoe's iron removed
-        (:attr:`FusionSettings.mag_calibration`); None without a reading."""
+        (:attr:`FusionSettings.mag_calibration`, and with :attr:`FusionSettings.hard_iron` held
+        what the filter has learned of it so far); None without a reading."""
+        calibrated = self.calibrated_reading(reading)
+        if calibrated is None:
+            return None
+        if "hard_iron" in self.filter:
+            return iron_heading(*calibrated, self.filter.mean("hard_iron"))[0]
+        return compass_heading(*calibrated)
+
+    def calibrated_reading(self, reading: StanceReading | None) -> tuple[np.ndarray, np.ndarray] | None:
+        """A stance *reading*'s board-frame field [µT] with the calibration applied
+        (:attr:`FusionSettings.mag_calibration`), and its board → navigation rotation."""
         if reading is None:
             return None
         field_b = reading.field_board
         if self.settings.mag_calibration is not None:
             field_b = self.settings.mag_calibration.apply(field_b)
-        return compass_heading(field_b, reading.rotation)
+        return field_b, reading.rotation
 
     def hold_compass(self) -> None:
         """No compass update until :meth:`release_compass`: the shoe's iron is being calibrated
@@ -213,7 +225,8 @@ class FusionTracker(AidedFilter, StepTracker):
         if self.settings.compass and self._compass_held:
             self.fusion.compass_skipped += 1
         elif self.settings.compass:
-            self._compass_step(self.compass_heading(reading), "pose", is_motion_step(dxa))
+            iron = self.calibrated_reading(reading) if "hard_iron" in self.filter else None
+            self._compass_step(self.compass_heading(reading), "pose", is_motion_step(dxa), iron)
         if self.settings.gps:
             self._gps_until(self._time)
         self._write_track()

@@ -70,6 +70,8 @@ class AidSetup:
             every = s.gps_update_interval_s
             parts.append(f"GPS receiver's bias held ({s.gps_bias.describe()}; "
                          + ("every fix used)" if every == 0 else f"a fix every {every:g} s)"))
+        if s.compass and s.hard_iron is not None:
+            parts.append(f"the shoe's hard iron learned ({s.hard_iron.describe()})")
         if s.module_errors is not None:
             e = s.module_errors
             parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "

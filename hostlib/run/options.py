@@ -19,6 +19,7 @@ from pathlib import Path
 from ..calibration.magcal import MagCalibration
 from ..fusion.deviation import WHITE_SIGMA_RAD, CompassDeviation
 from ..fusion.gps_bias import GpsBias
+from ..fusion.hard_iron import CALIBRATED, UNCALIBRATED, HardIron
 from ..fusion.module_errors import ModuleErrors
 from ..fusion.settings import FusionSettings
 
@@ -48,6 +49,10 @@ class AidOptions:
     gps_log: str | Path | None = None
     #: a GPS receiver read as it talks (a device path or pyserial URL; :mod:`hostlib.run.gps_stream`)
     gps_receiver: str | None = None
+    #: the shoe's hard iron learned as states (:mod:`hostlib.fusion.hard_iron`): its prior, or "auto"
+    #: (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, :data:`~hostlib.fusion.hard_iron.CALIBRATED`
+    #: with a calibration); None: not held
+    hard_iron: HardIron | str | None = None
     #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`; None: not held)
     gps_bias: GpsBias | None = None
     #: seconds between GPS updates (None: the filter's default, :attr:`FusionSettings.gps_interval_s
@@ -110,6 +115,10 @@ class AidOptions:
             changes["gps_interval_s"] = self.gps_interval_s
         if not self.compass_gate:
             changes["compass_gate_sigmas"] = None
+        if self.hard_iron is not None:
+            calibrated = self.mag_calibration is not None or bool(self.foot_mag_calibrations)
+            changes["hard_iron"] = (self.hard_iron if isinstance(self.hard_iron, HardIron)
+                                    else CALIBRATED if calibrated else UNCALIBRATED)
         if self.compass_sigma_deg is not None or self.compass_deviation is not None:
             sigma = self.compass_sigma_deg
             changes.update(compass_sigma_rad=WHITE_SIGMA_RAD if sigma is None else math.radians(sigma),
