@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import TextIO
 
 from ..errors import HostError
+from .checks import value_refusal
 from .drift import cmd_drift
 from .info import cmd_info
 from .log import cmd_log
@@ -123,7 +124,8 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
     out = sys.stdout if out is None else out
-    check = {"track": usage_refusal, "replay": usage_refusal, "log": log_refusal}.get(args.cmd)
+    check = {"track": usage_refusal, "replay": usage_refusal, "log": log_refusal,
+             "drift": value_refusal}.get(args.cmd)
     refusal = None if check is None else check(args)
     if refusal is not None:
         print(f"openshoe-host {args.cmd}: {refusal}", file=sys.stderr)
@@ -133,8 +135,9 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     except HostError as exc:
         print(f"openshoe-host: {exc}", file=sys.stderr)
         return 1
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError) as exc:  # a port that would not open, or did not answer as one
         given = (getattr(args, name, None) for name in ("url", "url2", "capture", "capture2"))
-        what = " and ".join(name for name in given if name) or " ".join(args.captures)
-        print(f"openshoe-host: cannot use {what}: {exc}", file=sys.stderr)
+        what = " and ".join(name for name in given if name) or " ".join(getattr(args, "captures", ()))
+        print(f"openshoe-host: cannot use {what}: {exc}" if what else f"openshoe-host: {exc}",
+              file=sys.stderr)
         return 1

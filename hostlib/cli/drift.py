@@ -4,10 +4,10 @@ calibration (hostlib.calibration.drift) from captures of closed loops walked wit
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import TextIO
 
 from ..calibration.drift import DriftError, calibrate, loop_closure, serial_text
+from ..inputs import read_input
 
 __all__ = ["cmd_drift"]
 
@@ -20,7 +20,7 @@ def cmd_drift(args: argparse.Namespace, out: TextIO) -> int:
 
     sessions = []
     for path in args.captures:
-        data = Path(path).read_bytes()
+        data = read_input(path, "capture")
         sessions.append(replay_session(data, command_set=args.command_set))
         warn(check_capture(path, data, sessions[-1]))
     serials = {s.mcu_serial for s in sessions}

@@ -14,6 +14,7 @@ from typing import Any
 
 from protocol.board import FOOT_SIDES
 
+from ..errors import HostError
 from ..fusion.deviation import CompassDeviation
 from ..fusion.feet import FeetSettings
 from ..fusion.gps_bias import GpsBias
@@ -21,6 +22,7 @@ from ..fusion.hard_iron import HardIron
 from ..fusion.module_errors import ModuleErrors
 from ..link.device import Device, DeviceOptions
 from ..run.options import AidOptions, RunOptions
+from .checks import baud_rate, compass_sigma, declination, port_url, seconds, value_refusal
 
 __all__ = ["NO_FILE", "add_aid_options", "add_common", "add_feet_options", "add_log_calibration_options",
            "add_setup_options", "aid_options", "compass_deviation_type", "feet_settings", "log_refusal",
@@ -92,11 +94,13 @@ def compass_deviation_type(text: str) -> CompassDeviation:
 
 def add_common(p: argparse.ArgumentParser) -> None:
     """The module's URL and how to talk to it (``track``, ``log``, ``info``)."""
-    p.add_argument("url", help="serial device path or pyserial URL (socket://host:port, openshoe://...)")
+    p.add_argument("url", type=port_url,
+                   help="serial device path or pyserial URL (socket://host:port, openshoe://...)")
     p.add_argument("--command-set", choices=("2014", "2015"), default="2015",
                    help="command numbering of the module's firmware (default 2015)")
-    p.add_argument("--baudrate", type=int, default=115200, help="UART baud rate (ignored by URLs and USB)")
-    p.add_argument("--ack-timeout", type=float, default=1.0, help="seconds to wait for each command ack")
+    p.add_argument("--baudrate", type=baud_rate, default=115200,
+                   help="UART baud rate (ignored by URLs and USB)")
+    p.add_argument("--ack-timeout", type=seconds, default=1.0, help="seconds to wait for each command ack")
 
 
 def add_setup_options(p: argparse.ArgumentParser) -> None:
@@ -117,7 +121,7 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
     g.add_argument("--compass", action="store_true",
                    help="one compass update per step from the magnetometers and attitude at the end of "
                         "each stance")
-    g.add_argument("--compass-sigma", type=float, default=None, metavar="DEG",
+    g.add_argument("--compass-sigma", type=compass_sigma, default=None, metavar="DEG",
                    help="1σ of one compass reading (the local deviation; default 20, indoors; "
                         "outdoors about 5; with --compass-deviation only the reading's own white error, "
                         "default 1.5)")
@@ -180,7 +184,7 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                            " (a capture of the stream: log --calibrate-mag, or openshoe-emu replay --host "
                            "fusion --calibrate-mag)"))
     _mag_cal_dir_option(g)
-    g.add_argument("--declination", type=float, default=None, metavar="DEG",
+    g.add_argument("--declination", type=declination, default=None, metavar="DEG",
                    help="magnetic declination, east positive (default: the World Magnetic Model at the "
                         "first fix or at --origin)")
 
@@ -235,7 +239,10 @@ def _track_aid_refusal(args: argparse.Namespace) -> str | None:
 
 
 def usage_refusal(args: argparse.Namespace) -> str | None:
-    """Why the options of ``track`` or ``replay`` do not go together, or None."""
+    """Why the options of ``track`` or ``replay`` do not go together, or a value is refused
+    (:func:`~hostlib.cli.checks.value_refusal`), or None."""
+    if (refusal := value_refusal(args)) is not None:
+        return refusal
     what = "URL" if args.cmd == "track" else "capture"
     two = second(args) is not None
     if args.cmd == "track" and (refusal := _track_aid_refusal(args)) is not None:
@@ -285,7 +292,10 @@ def _calibration_refusal(args: argparse.Namespace, two: bool) -> str | None:
 
 def log_refusal(args: argparse.Namespace) -> str | None:
     """Why the options of ``log`` do not go together, or None (as ``track``: the calibration needs the
-    fusion set-up; without --start the module is taken to track already, as with ``track --attach``)."""
+    fusion set-up; without --start the module is taken to track already, as with ``track --attach``;
+    a value refused: :func:`~hostlib.cli.checks.value_refusal`)."""
+    if (refusal := value_refusal(args)) is not None:
+        return refusal
     if args.calibrate_mag and not args.fusion:
         return ("--calibrate-mag needs --fusion: the calibration is saved for the module under the serial "
                 "number the fusion set-up asks it for, and a replay of the capture with --compass takes "
@@ -331,6 +341,10 @@ def feet_settings(args: argparse.Namespace) -> FeetSettings:
 
 
 def open_device(args: argparse.Namespace, url: str, **kw: Any) -> Device:
-    """The device at *url*, talking as the link options say (*kw*: to :class:`Device`)."""
-    return Device(url, DeviceOptions(command_set=args.command_set, baudrate=args.baudrate,
-                                     ack_timeout=args.ack_timeout), **kw)
+    """The device at *url*, talking as the link options say (*kw*: to :class:`Device`); a port
+    that does not open is a :class:`~hostlib.errors.HostError` naming it (one of two feet's)."""
+    try:
+        return Device(url, DeviceOptions(command_set=args.command_set, baudrate=args.baudrate,
+                                         ack_timeout=args.ack_timeout), **kw)
+    except (OSError, ValueError) as exc:  # pyserial's SerialException is an OSError
+        raise HostError(f"cannot use {url}: {exc}") from None

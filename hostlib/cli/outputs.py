@@ -12,6 +12,7 @@ import numpy as np
 
 from protocol.board import FOOT_SIDES
 
+from ..errors import HostError
 from ..fusion.feet import DISAGREEMENT_SIGMAS, TwoFeetTracker
 from ..fusion.tracker import FusionTracker
 from ..link.session import SessionStats
@@ -60,7 +61,17 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
 def write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,
                   geographic_csv: bool = False, feet: TwoFeetTracker | None = None) -> None:
     """The files the options ask for: *track*'s, or with *feet* the body track's (its CSV with each
-    foot's columns, its plot with each fused foot's path)."""
+    foot's columns, its plot with each fused foot's path). A file that cannot be written (checked
+    before the walk, :func:`~hostlib.cli.checks.value_refusal`, but a disk may fill) is a
+    :class:`~hostlib.errors.HostError` naming it."""
+    try:
+        _write_outputs(args, track, origin, geographic_csv, feet)
+    except OSError as exc:
+        raise HostError(f"cannot write {exc.filename or 'an output file'}: {exc.strerror or exc}") from None
+
+
+def _write_outputs(args: argparse.Namespace, track: Track, origin: Sequence[float] | None,
+                   geographic_csv: bool, feet: TwoFeetTracker | None) -> None:
     if args.csv:
         from ..files.export import write_csv, write_feet_csv
 

@@ -6,13 +6,13 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-from pathlib import Path
 from typing import TextIO
 
 from protocol.board import FOOT_SIDES
 
 from ..calibration.drift import DriftCalibration
 from ..files.capture_check import check_capture
+from ..inputs import read_input
 from ..run.aid_setup import feet_tracker, prepare_aids
 from ..run.calibrations import check_feet_modules, check_mag_module, saved_calibration, use_saved_calibrations
 from ..run.in_situ import keep_in_situ
@@ -37,7 +37,7 @@ def cmd_replay(args: argparse.Namespace, out: TextIO) -> int:
         return _replay_feet(args, out)
     drift = DriftCalibration.load(args.drift[0]) if args.drift else None
     origin = parse_origin(args.origin) if args.origin else None
-    data = Path(args.capture).read_bytes()
+    data = read_input(args.capture, "capture")
     options = aid_options(args, origin)
     saved = None
     if options.wants_saved_calibration:  # the capture's module's own, if one was saved
@@ -88,7 +88,7 @@ def _replay_feet(args: argparse.Namespace, out: TextIO) -> int:
 
     origin = parse_origin(args.origin) if args.origin else None
     paths = dict(zip(FOOT_SIDES, (args.capture, args.capture2), strict=True))
-    left, right = (Path(paths[side]).read_bytes() for side in FOOT_SIDES)
+    left, right = (read_input(paths[side], "capture") for side in FOOT_SIDES)
     options = aid_options(args, origin)
     drift = {side: DriftCalibration.load(path) for side, path in per_foot(args.drift).items()}
     tracker, aids = feet_tracker(options, feet_settings(args), drift=drift, last_counter=None, defer=True)
