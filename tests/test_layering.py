@@ -14,9 +14,9 @@ Every import counts: at module level, inside functions, and under
 * inside the host SDK the sub-packages stack one way, each importing only those below it: the
   shared ``errors`` and ``events``; ``track`` (the step sum); ``link`` (ports, session, device) and
   ``aids`` (what the aids measure); ``calibration``; ``fusion`` (the filter core and its
-  trackers); ``files`` (export, plot, capture replay); ``run`` (carrying out a walk); ``cli``.
-  The link knows nothing of the fusion, and the fusion does no I/O;
-* the host SDK's data path (``hostlib`` but its plot and command line) uses only
+  trackers); ``files`` (export, plot, capture replay); ``run`` (carrying out a walk); ``web`` (a
+  walk's live page); ``cli``. The link knows nothing of the fusion, and the fusion does no I/O;
+* the host SDK's data path (``hostlib`` but its plot, its live page's server and command line) uses only
   the standard library, ``protocol``, pyserial, numpy, and the maintained libraries
   for what it reads and converts: pynmea2 (NMEA), pymap3d (geodesy) and
   pygeomag (the World Magnetic Model);
@@ -151,7 +151,7 @@ def test_only_the_labs_own_tests_import_the_lab():
 
 #: hostlib's sub-packages from the bottom up: each may import only those before it.
 HOST_LAYERS = ("hostlib.track", "hostlib.link", "hostlib.aids", "hostlib.calibration", "hostlib.fusion",
-               "hostlib.files", "hostlib.run", "hostlib.cli")
+               "hostlib.files", "hostlib.run", "hostlib.web", "hostlib.cli")
 
 
 @pytest.mark.parametrize("layer", HOST_LAYERS)
@@ -187,7 +187,7 @@ def test_the_host_sdk_data_path_uses_only_protocol_pyserial_numpy_and_its_format
     stdlib = set(sys.stdlib_module_names)
     found = []
     for mod in project_modules():
-        if not under(mod, "hostlib") or mod in ("hostlib.files.plot", "hostlib.cli"):
+        if not under(mod, "hostlib") or mod in ("hostlib.files.plot", "hostlib.cli", "hostlib.web.server"):
             continue
         for name, line in imports_of(mod):
             top = name.split(".")[0]

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import TextIO
 
 from ..errors import HostError
+from ..web.address import web_address
 from .checks import value_refusal
 from .drift import cmd_drift
 from .info import cmd_info
@@ -65,6 +66,10 @@ def _add_track(sub: argparse._SubParsersAction) -> None:
                    help="correct the track with this module's drift calibration (needs --fusion); with two "
                         "URLs, the left foot's module's then the right foot's (- for none)")
     add_feet_options(t, "URL")
+    t.add_argument("--web", metavar="[HOST:]PORT", type=web_address,
+                   help="serve a live page of the walk (plan view, height, heading, counters) on this "
+                        "port, on 127.0.0.1 unless HOST is given (0: a free port); its URL is said on stderr "
+                        "(needs aiohttp: the web extra)")
 
 
 def _add_log(sub: argparse._SubParsersAction) -> None:

@@ -13,6 +13,7 @@ from protocol.board import FOOT_SIDES
 from ..calibration.drift import DriftCalibration
 from ..run.status import LiveLine, Messages
 from ..run.tracking_run import TrackingRun
+from ..web.walk_page import following, walk_page
 from .options import aid_options, feet_settings, open_device, per_foot, run_options
 from .outputs import aids_summary, finish_feet, write_outputs
 
@@ -31,9 +32,11 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
         return _track_feet(args, run, origin, out)
     run = TrackingRun(run_options(args), aid_options(args, origin), drift=drift, messages=messages)
     with ExitStack() as stack:
+        page = stack.enter_context(walk_page(args.web, _title(args), messages))
         stack.enter_context(run)
         dev = stack.enter_context(open_device(args, args.url, tracker=run.tracker_for(None)))
         run.start(dev)
+        stack.enter_context(following(page, run))
         run.follow(LiveLine(out))
         track = dev.track_snapshot()
         if run.aids is not None:
@@ -58,14 +61,21 @@ def _track_feet(args: argparse.Namespace, run: TrackingRun, origin: tuple[float,
     body's, on each module's clock: hostlib.run.gps_stream), each foot's calibrations checked against
     the module on that foot once both named themselves."""
     with ExitStack() as stack:
+        page = stack.enter_context(walk_page(args.web, _title(args), run.messages))
         stack.enter_context(run)
         urls = dict(zip(FOOT_SIDES, (args.url, args.url2), strict=True))
         devices = {side: stack.enter_context(open_device(args, urls[side], tracker=run.tracker_for(side)))
                    for side in FOOT_SIDES}
         run.start(devices)
+        stack.enter_context(following(page, run))
         run.follow(LiveLine(out))
         streams = {m.side: (m.dev.name, m.dev.session.stats) for m in run.modules}
         if run.aids is not None:
             origin = aids_summary(run.aids, out) or origin  # with GPS, the first fix: on the globe
     finish_feet(args, run.tracker, streams, origin, out)
     return 0
+
+
+def _title(args: argparse.Namespace) -> str:
+    """The live page's title: the modules tracked."""
+    return "track " + " ".join(url for url in (args.url, args.url2) if url)
