@@ -36,6 +36,11 @@ protocol on TCP to drive faults at run time (:data:`~firmware_sim.app.control.CO
 SIGTERM stop the loop, close the endpoints (removing the pty symlinks) and
 exit with status 0.
 
+``--web [HOST:]PORT`` serves the modules' live panel in a browser (:mod:`.web.panel`: each module's
+state, loop and link, the walker's truth beside what the module sent), on 127.0.0.1 unless a HOST is
+given; its key is ``web``. ``--web-control`` turns its fault buttons on: they run the control
+channel's lines (one is opened on 127.0.0.1 if ``--control`` is not given).
+
 The options become :class:`ServeSettings` at the command line's edge
 (:func:`settings_from_args`; a refused value exits with status 2 and says which
 option); each module, its links and endpoints are built by
@@ -58,12 +63,14 @@ from typing import Any, TextIO
 
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
+from hostlib.web.address import web_address
 
 from .batch import MODULE_HELP, add_receiver_arguments, add_stance_sway_argument, module_number
 from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
 from .served_module import ServedModule
+from .web.panel import open_panel
 
 # --------------------------------------------------------------------------- options
 
@@ -145,6 +152,15 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                           "own: GGA and RMC at 1 Hz, as replay's --gps writes them, each when the module's "
                           "clock reaches it")
     add_receiver_arguments(gps)
+    w = p.add_argument_group("a live panel in a browser")
+    w.add_argument("--web", metavar="[HOST:]PORT", type=web_address,
+                   help="serve the modules' live panel (state, loop, link, the walker's truth beside what "
+                        "each module sent) on this port, on 127.0.0.1 unless HOST is given (0: a free port); "
+                        "READY names it (web=HOST:PORT); needs aiohttp (the web extra)")
+    w.add_argument("--web-control", action="store_true",
+                   help="turn the panel's fault buttons on (disconnect, reconnect, stall, corrupt, drop per "
+                        "module): they run the control channel's commands (without --control, one is opened "
+                        "on 127.0.0.1 and named in READY)")
     o = p.add_argument_group("running")
     o.add_argument("--duration", type=float, metavar="S", help="stop after S wall-clock seconds")
     o.add_argument("--status-interval", type=float, default=1.0, metavar="S",
@@ -183,6 +199,8 @@ class ServeSettings:
     frame_ms: float | None = None
     overrun_ms: float | None = None
     gps: GpsSettings | None = None  #: a GPS receiver on the walker (:mod:`.served_gps`)
+    web: Address | None = None  #: where the live panel listens (:mod:`.web.panel`; None: no panel)
+    web_control: bool = False  #: the panel's fault buttons on (through the control channel)
 
     def __post_init__(self) -> None:
         if not self.emulator.endpoint_requests():
@@ -193,6 +211,9 @@ class ServeSettings:
         if self.gps is not None and self.emulator.modules > 1:
             raise SettingsError("{} is on one walker: not with {} N (a walker's two feet: {} 2)", "gps_pty",
                                 "modules", "feet")
+        if self.web_control and self.web is None:
+            raise SettingsError("{} turns the buttons of the panel on: it goes with {} [HOST:]PORT",
+                                "web_control", "web")
         for name in ("frame_ms", "overrun_ms"):
             value = getattr(self, name)
             if value is not None and not value >= 0:
@@ -217,7 +238,8 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
         usb_pty=args.usb_pty or "", usb_tcp=args.usb_tcp, modules=args.modules, feet=args.feet)
     return ServeSettings(emulator, control=args.control, trace=args.trace or "", duration=args.duration,
                          status_interval=args.status_interval, frame_ms=args.frame_ms,
-                         overrun_ms=args.overrun_ms, gps=gps)
+                         overrun_ms=args.overrun_ms, gps=gps, web=getattr(args, "web", None),
+                         web_control=getattr(args, "web_control", False))
 
 
 def cli_option(name: str) -> str:
@@ -252,6 +274,7 @@ class _Served:
     trace: TraceWriter | None = None
     loop: MultiPacer | None = None
     gps: GpsPtyEndpoint | None = None
+    panel: Any = None  #: the live panel (:class:`.web.panel.EmulatorPanel`), with --web
     sel: selectors.BaseSelector = field(default_factory=selectors.DefaultSelector)
 
 
@@ -265,8 +288,8 @@ def _open(served: _Served, settings: ServeSettings) -> None:
         served.gps = open_gps_pty(settings.gps, [m.module for m in served.modules], emulator.scenario,
                                   emulator.seed)
         served.modules[0].pacer.endpoints.append(served.gps)
-    if settings.control:
-        served.control = ControlServer(served.modules, *settings.control)
+    if settings.control or settings.web_control:
+        served.control = ControlServer(served.modules, *(settings.control or ("127.0.0.1", 0)))
         served.control.register(served.sel)
     if settings.trace:
         served.trace = TraceWriter(settings.trace, served.modules)
@@ -287,11 +310,14 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
 
 
 def ready_line(modules: list[ServedModule], control: ControlServer | None,
-               gps: GpsPtyEndpoint | None = None) -> str:
-    """``READY key=value …``: every module's endpoints, the GPS receiver's, then the control channel."""
+               gps: GpsPtyEndpoint | None = None, web: str | None = None) -> str:
+    """``READY key=value …``: every module's endpoints, the GPS receiver's, the live panel's
+    (``web=HOST:PORT``), then the control channel."""
     fields = [f"{k}={v}" for m in modules for k, v in m.ready]
     if gps is not None:
         fields.append(f"gps-pty={gps.link_path}")
+    if web is not None:
+        fields.append(f"web={web}")
     if control is not None:
         fields.append(f"control={control.address[0]}:{control.address[1]}")
     return "READY " + " ".join(fields)
@@ -365,6 +391,8 @@ def _run(served: _Served, settings: ServeSettings, stop: threading.Event, err: T
 def _shut_down(served: _Served, err: TextIO) -> bool:
     """Stop the loop and close what *served* holds; False if the loop would not stop."""
     stopped = True
+    if served.panel is not None:
+        served.panel.close()
     if served.loop is not None:
         try:
             served.loop.stop()
@@ -411,7 +439,15 @@ def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.s
             print(f"openshoe-emu serve: {exc}", file=err)
             return 1
         _start_loop(served, settings, err)
-        print(ready_line(served.modules, served.control, served.gps), file=out, flush=True)
+        if settings.web is not None:
+            try:
+                served.panel = open_panel(served.modules, settings.web, served.control, served.gps,
+                                          settings.web_control, err)
+            except (OSError, RuntimeError) as exc:
+                print(f"openshoe-emu serve: cannot serve the panel: {exc}", file=err)
+                return 1
+        web = None if served.panel is None else served.panel.address
+        print(ready_line(served.modules, served.control, served.gps, web), file=out, flush=True)
         status = _run(served, settings, stop, err)
     finally:
         if not _shut_down(served, err):
