@@ -65,6 +65,14 @@ def test_the_page_and_its_scripts_come_from_the_package_and_nothing_else(served)
         assert _get(srv.url + "static/" + name)[0] == 404
 
 
+def test_the_pages_load_nothing_from_the_network():
+    for package in ("hostlib.web", "firmware_sim.app.web"):
+        for f in static_dir(package).iterdir():
+            text = f.read_text().replace("http://www.w3.org/2000/svg", "")  # a name, not an address
+            for address in ("http:", "https:", 'src="//', 'href="//', "url(", "@import"):
+                assert address not in text, f"{package}: {f.name} has {address}"
+
+
 def test_a_page_gets_the_whole_model_then_each_change(served):
     srv, model = served
     with urllib.request.urlopen(srv.url + "events", timeout=10) as stream:
