@@ -29,12 +29,11 @@ from pathlib import Path
 from typing import Any
 
 from docutils import nodes
-from docutils.parsers.rst import directives
-from docutils.statemachine import StringList
+from docutils.parsers.rst import Parser, directives
+from docutils.utils import new_document
 from sphinx.application import Sphinx
 from sphinx.util import logging
 from sphinx.util.docutils import SphinxDirective
-from sphinx.util.nodes import nested_parse_with_titles
 
 logger = logging.getLogger(__name__)
 
@@ -401,9 +400,15 @@ class ProtocolTable(SphinxDirective):
         return self.parse_rst(TABLES[which]())
 
     def parse_rst(self, lines: list[str]) -> list[nodes.Node]:
-        container = nodes.container()
-        nested_parse_with_titles(self.state, StringList(lines, source="protocol-table"), container)
-        return container.children
+        return parse_rst(self, lines)
+
+
+def parse_rst(directive: SphinxDirective, lines: list[str]) -> list[nodes.Node]:
+    """*lines* parsed as reStructuredText, whichever parser reads the page (MyST reads a Markdown
+    page, and would not know ``.. list-table::``)."""
+    document = new_document(directive.get_location(), directive.state.document.settings)
+    Parser().parse("\n".join(lines) + "\n", document)
+    return list(document.children)
 
 
 # -- file formats ------------------------------------------------------------------------------
@@ -442,10 +447,7 @@ class Columns(SphinxDirective):
                 logger.warning("columns %s: the table names %r, which the code no longer writes",
                                dotted, name, location=self.get_location())
         rows = [[f"``{name}``", meaning] for name, meaning in entries]
-        container = nodes.container()
-        nested_parse_with_titles(self.state, StringList(_list_table(["column", "meaning"], rows, "30 70"),
-                                                        source=dotted), container)
-        return container.children
+        return parse_rst(self, _list_table(["column", "meaning"], rows, "30 70"))
 
 
 # -- the commands' parsers, for sphinx-argparse ---------------------------------------------------
