@@ -6,17 +6,14 @@ instant. Sources: scripted values (tests), the simulated 4-IMU array on a
 walking foot, and replays of recordings (see the sibling modules).
 
 Nothing a host sends may make a source compute for long while a clock runs against
-the host. A source whose SET_IMU_BANDWIDTH recomputes its whole record of registers
-(the simulated array: a second or more for a few minutes of walking) is served inside
-:class:`PreparedBandwidths`, which computes every DLPF setting once, before the clock
-starts (:func:`prepare_sensors`, called by the real-time pacer); the command then only
-picks one of them.
+the host. A source whose registers depend on SET_IMU_BANDWIDTH (the simulated array)
+computes the new setting's as they are read, a bounded block at a time, never the
+whole record in ``set_dlpf``.
 """
 
 from __future__ import annotations
 
-import copy
-from typing import Any, NamedTuple, Protocol, runtime_checkable
+from typing import NamedTuple, Protocol, runtime_checkable
 
 import numpy as np
 
@@ -47,7 +44,9 @@ class SensorSource(Protocol):
         ...
 
     def set_dlpf(self, cfg: int) -> None:
-        """Apply MPU9150 DLPF_CFG 0..6 (SET_IMU_BANDWIDTH); sources may ignore it."""
+        """Apply MPU9150 DLPF_CFG 0..6 (SET_IMU_BANDWIDTH); sources may ignore it. Called by the
+        command's handler inside one main loop: it computes no more than a bounded block of
+        registers (nothing in proportion to the record's length)."""
         ...
 
 
@@ -118,92 +117,3 @@ def still_board(rate_hz: float = 1000.0) -> ScriptedSource:
 
 #: DLPF_CFG values of the MPU9150 (SET_IMU_BANDWIDTH; the firmware ignores 7 and above).
 DLPF_SETTINGS = range(7)
-
-
-class PreparedBandwidths:
-    """*source* with its registers at every DLPF setting computed ahead, once :meth:`prepare` ran.
-
-    *source* keeps its whole record of registers in an int16 (n, NR_IMUS, 6) array ``imu``
-    and recomputes it in ``set_dlpf`` (the simulated array: the same noise draws through
-    another filter). Before :meth:`prepare` this is *source* itself: ``set_dlpf`` recomputes
-    as it always did (in virtual time no host waits on it). :meth:`prepare` computes the
-    other six settings on a shallow copy of *source* (which it leaves as it is) and keeps
-    the seven arrays; from then on ``set_dlpf`` only picks one — the registers are those
-    *source* would give after the same ``set_dlpf``, bit for bit — and ``read`` hands out
-    the picked array's sample with *source*'s temperature and magnetometer. Everything else
-    is *source*'s (``truth``, ``chips``, …). Costs the memory of seven register arrays.
-    """
-
-    def __init__(self, source: Any):
-        self.source = source
-        self.rate_hz = source.rate_hz
-        self.sensor = getattr(source, "sensor", None)
-        #: The DLPF setting the registers are read at.
-        self.dlpf_cfg: int = getattr(source, "dlpf_cfg", 0)
-        self._registers: dict[int, np.ndarray] = {}
-
-    @property
-    def prepared(self) -> bool:
-        """Whether every DLPF setting's registers are ready (``set_dlpf`` computes nothing)."""
-        return bool(self._registers)
-
-    def prepare(self) -> None:
-        """Compute the registers of every DLPF setting now (once; before a clock starts)."""
-        if self._registers:
-            return
-        current = self.source.dlpf_cfg
-        registers = {current: self.source.imu}
-        scratch = copy.copy(self.source)  # set_dlpf rebinds the copy's arrays, never the source's
-        for cfg in DLPF_SETTINGS:
-            if cfg not in registers:
-                scratch.set_dlpf(cfg)
-                registers[cfg] = scratch.imu
-        self._registers = registers
-        self.dlpf_cfg = current
-
-    @property
-    def imu(self) -> np.ndarray:
-        """The registers at the current DLPF setting, int16 (n, NR_IMUS, 6)."""
-        return self._registers[self.dlpf_cfg] if self._registers else self.source.imu
-
-    def __len__(self) -> int:
-        return len(self.source)
-
-    def read(self, index: int) -> RawSample | None:
-        sample = self.source.read(index)
-        if sample is None or not self._registers:
-            return sample
-        return RawSample(self._registers[self.dlpf_cfg][index], sample.temp, sample.mag)
-
-    def set_dlpf(self, cfg: int) -> None:
-        """DLPF_CFG *cfg*: once prepared, a choice among the computed registers."""
-        if not self._registers:
-            self.source.set_dlpf(cfg)
-        elif cfg not in self._registers:
-            raise ValueError(f"DLPF_CFG must be 0..6, got {cfg}")
-        self.dlpf_cfg = cfg
-
-    def __getattr__(self, name: str) -> Any:
-        if name == "source":  # not set yet (a copy being made): no recursion
-            raise AttributeError(name)
-        return getattr(self.source, name)
-
-    def __repr__(self) -> str:
-        state = "prepared" if self._registers else "not prepared"
-        return f"PreparedBandwidths({self.source!r}, dlpf_cfg={self.dlpf_cfg}, {state})"
-
-
-def prepare_sensors(source: object) -> int:
-    """Call ``prepare()`` of *source* and of every source it wraps (its ``source``, and so
-    on): what a command could otherwise make a source compute is computed now, before a
-    clock starts. Returns how many sources prepared."""
-    prepared = 0
-    for _ in range(16):  # wrappers are a few deep
-        if source is None:
-            break
-        prepare = getattr(type(source), "prepare", None)
-        if callable(prepare):
-            prepare(source)
-            prepared += 1
-        source = getattr(source, "source", None)
-    return prepared

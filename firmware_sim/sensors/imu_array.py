@@ -15,8 +15,15 @@ registers of the four chips, all sampled at the same instant t_k = k / rate:
 5. the AK8975: Earth + building + shoe field (:mod:`.magnetic`) in the
    magnetometer's axes, new every 1/100 s and held in between, ±4095.
 
-Everything is computed once, in numpy, when the source is made (or when
-``set_dlpf`` changes the filter); ``read(index)`` hands out views.
+Everything is computed in numpy when the source is made; ``read(index)`` hands
+out views. A DLPF setting other than the one the walk was made at (``set_dlpf``:
+a host's SET_IMU_BANDWIDTH) costs nothing when it is set: its registers are
+computed when first read, a block of :data:`CHUNK_S` of samples at a time, from
+the filter's lead-in before the block (:func:`.mpu9150.dlpf_reach`) — bit for bit
+the registers the whole walk computed at that setting holds there, whichever
+sample the setting came at and whatever settings came before. So a module never
+waits on a whole walk's recomputation while a host waits on the module, and the
+walk holds one whole record of registers, not one per setting.
 
 Two generators, each drawn from in a fixed order:
 
@@ -35,6 +42,7 @@ returns None.
 
 from __future__ import annotations
 
+from collections import OrderedDict
 from dataclasses import replace
 
 import numpy as np
@@ -47,19 +55,27 @@ from .feet import SIDES, foot_module, foot_seed
 from .gait import WALKING, GaitParams, Trajectory, stance_sway_on
 from .impacts import ringing
 from .magnetic import MagneticWorld
-from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, gauss_markov, white_sigma
+from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, dlpf_reach, gauss_markov, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 from .replay import Recording
 from .scenarios import environment, feet, list_scenarios, trajectory
-from .truth import GroundTruth, Kinematics, cross, rotate
+from .truth import GroundTruth, cross, rotate, rotation
 
-__all__ = ["SimulatedSource", "make_feet_sources", "make_foot_source", "make_source", "list_scenarios",
-           "module_rng"]
+__all__ = ["CHUNK_S", "SimulatedSource", "make_feet_sources", "make_foot_source", "make_source",
+           "list_scenarios", "module_rng"]
 
 #: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
 _MODULE_STREAM = 0x4D4F44  # "MOD"
 #: Mixed into the seed of a shared building's generator (:class:`SimulatedSource`'s *building_seed*).
 _BUILDING_STREAM = 0x424C44  # "BLD"
+
+#: The span [s] of samples whose registers a walk computes at once at a DLPF setting other than
+#: the one it was made at (plus the filter's lead-in before them, at most 2047 samples at 1 kHz):
+#: a few ms of one main loop, once per block.
+CHUNK_S = 0.1
+#: Blocks of registers a walk keeps at other settings (the last read ones, 4.8 kB each at 1 kHz):
+#: a host that switches among the settings within a block finds them all computed.
+_CHUNKS_KEPT = 16
 
 
 def module_rng(module: int) -> np.random.Generator:
@@ -72,9 +88,16 @@ class SimulatedSource:
 
     Attributes: ``rate_hz``, ``seed`` (the walk's), ``module`` (the module's
     identity), ``truth`` (:class:`GroundTruth` at the sample times), ``imu``
-    int16 (n, 4, 6), ``temp`` int16 (n, 4), ``mag`` int16 (n, 4, 3), ``chips``
-    the module's :class:`ChipErrors`, ``clipped`` the number of saturated
-    accelerometer/gyro registers, ``magnetic`` the :class:`MagneticWorld`.
+    int16 (n, 4, 6) the whole record at the current DLPF setting, ``temp`` int16
+    (n, 4), ``mag`` int16 (n, 4, 3), ``chips`` the module's :class:`ChipErrors`,
+    ``clipped`` the number of saturated accelerometer/gyro registers in the whole
+    record last computed, ``magnetic`` the :class:`MagneticWorld`,
+    ``computed_samples`` how many samples' registers were computed so far (at any
+    setting, lead-ins included).
+
+    ``read`` and ``imu_block`` at a setting other than the whole record's compute
+    it by blocks (module docstring); ``imu`` computes the whole record at the
+    current setting when asked (it then replaces the one held).
 
     *building_seed* (None: the walk's own *seed*) draws the building's magnetic field instead,
     so that two walks share one building: both feet of a walker do.
@@ -101,6 +124,7 @@ class SimulatedSource:
         #: The simulated sensor, as a sensor profile's name: the module's own array.
         self.sensor = "mimu22bt"
         self.geometry = geometry
+        self._mounted = [rotation(m) for m in geometry.mounting.astype(float)]  # board → chip i's axes
         cfg = self.config
         self.truth: GroundTruth = self.trajectory.sample(self.rate_hz, gravity=cfg.gravity)
         n, chips = len(self.truth), geometry.mounting.shape[0]
@@ -156,6 +180,15 @@ class SimulatedSource:
         self._ringing = ringing(rng, t, self.truth.stance_start[1:], cfg)
 
         self.dlpf_cfg = cfg.dlpf.cfg
+        #: Samples of registers computed at once at another setting (CHUNK_S of them).
+        self.chunk_samples = max(1, int(round(CHUNK_S * self.rate_hz)))
+        self.computed_samples = 0
+        self._n = n
+        self._whole: tuple[int, np.ndarray] | None = None  # (setting, registers of every sample)
+        self._now: np.ndarray | None = None  # the whole record, if it is at the current setting
+        self._chunks: OrderedDict[tuple[int, int], np.ndarray] = OrderedDict()  # (setting, block)
+        # per setting, the unfiltered inputs before the end of its last block: setting → (end, acc, gyro)
+        self._leads: dict[int, tuple[int, np.ndarray, np.ndarray]] = {}
         self._build_imu()
 
     # -------------------------------------------------------------------------------------------
@@ -165,55 +198,140 @@ class SimulatedSource:
                 f"rate_hz={self.rate_hz:g}, samples={len(self)}, dlpf_cfg={self.dlpf_cfg})")
 
     def __len__(self) -> int:
-        return len(self.imu)
+        return self._n
 
-    def _kinematics(self, delay: float) -> Kinematics:
-        if delay == 0.0:
-            return self.truth.kinematics
-        return self.trajectory.evaluate(self.truth.t - delay, gravity=self.config.gravity)
+    def _kinematics(self, delays: tuple[float, ...], lo: int, hi: int
+                    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per delay [s], rate, angular acceleration and specific force (body frame) of samples
+        *lo*:*hi* evaluated that much earlier (every sample on its own: the trajectory is
+        evaluated once, at the times of every delay that is not 0)."""
+        k = self.truth.kinematics
+        now = (k.omega_b[lo:hi], k.alpha_b[lo:hi], k.f_b[lo:hi])
+        earlier = sorted({d for d in delays if d != 0.0})
+        if not earlier:
+            return [now for _ in delays]
+        t = self.truth.t[lo:hi]
+        e = self.trajectory.evaluate(np.concatenate([t - d for d in earlier]), gravity=self.config.gravity)
+        m = hi - lo
+        at = {d: (e.omega_b[j * m:(j + 1) * m], e.alpha_b[j * m:(j + 1) * m], e.f_b[j * m:(j + 1) * m])
+              for j, d in enumerate(earlier)}
+        return [at[d] if d != 0.0 else now for d in delays]
 
     def chip_motion(self, delay_acc: float = 0.0, delay_gyro: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Error-free chip signals: specific force [m/s²] and rate [rad/s], (n, chips, 3), chip axes.
 
         Includes each chip's lever-arm acceleration ω×(ω×r) + α×r.
         """
-        ka, kg = self._kinematics(delay_acc), self._kinematics(delay_gyro)
+        return self._chip_motion(delay_acc, delay_gyro, 0, self._n)
+
+    def _chip_motion(self, delay_acc: float, delay_gyro: float, lo: int, hi: int
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`chip_motion` of samples *lo*:*hi* (each sample's values do not depend on the others)."""
+        (omega, alpha, f_b), (omega_g, _, _) = self._kinematics((delay_acc, delay_gyro), lo, hi)
         r = self.geometry.lever_arms[None, :, :]  # (1, chips, 3)
-        w = ka.omega_b[:, None, :]
-        al = ka.alpha_b[:, None, :]
-        f = ka.f_b[:, None, :] + cross(w, cross(w, r)) + cross(al, r)
-        mount = self.geometry.mounting.astype(float)
-        f_chip = np.stack([rotate(m, f[:, k]) for k, m in enumerate(mount)], axis=1)
-        w_chip = np.stack([rotate(m, kg.omega_b) for m in mount], axis=1)
+        w = omega[:, None, :]
+        al = alpha[:, None, :]
+        f = f_b[:, None, :] + cross(w, cross(w, r)) + cross(al, r)
+        f_chip = np.stack([mount(f[:, k]) for k, mount in enumerate(self._mounted)], axis=1)
+        w_chip = np.stack([mount(omega_g) for mount in self._mounted], axis=1)
         return f_chip, w_chip
 
-    def _build_imu(self) -> None:
-        cfg = self.config
-        d_acc, d_gyro = dlpf_delays(cfg, self.dlpf_cfg, self.rate_hz)
-        f_chip, w_chip = self.chip_motion(d_acc, d_gyro)
+    def _unfiltered(self, cfg: int, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+        """Accelerometer [g] and gyro [rad/s] of samples *lo*:*hi* at DLPF setting *cfg*, errors
+        and noise in, before the low-pass: (hi − lo, chips, 3) each."""
+        c = self.config
+        d_acc, d_gyro = dlpf_delays(c, cfg, self.rate_hz)
+        f_chip, w_chip = self._chip_motion(d_acc, d_gyro, lo, hi)
         a_true = f_chip / G0
-        if cfg.impacts:
+        if c.impacts:
             ring_acc, ring_gyro = self._ringing
-            mount = self.geometry.mounting.astype(float)
-            for k, m in enumerate(mount):
-                a_true[:, k] += rotate(m, ring_acc)
-                w_chip[:, k] += rotate(m, ring_gyro)
-        dtemp = self.die_temp_c - cfg.temperature.reference_c
+            ring_acc, ring_gyro = ring_acc[lo:hi], ring_gyro[lo:hi]
+            for k, mount in enumerate(self._mounted):
+                a_true[:, k] += mount(ring_acc)
+                w_chip[:, k] += mount(ring_gyro)
+        dtemp = self.die_temp_c[lo:hi] - c.temperature.reference_c
         acc = np.empty_like(a_true)
         gyro = np.empty_like(w_chip)
         for k, chip in enumerate(self.chips):
             acc[:, k] = chip.apply_accel(a_true[:, k], dtemp[:, k])
             gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k], a_true[:, k])
-        acc += self._random_acc
-        gyro += self._random_gyro
-        if cfg.dlpf.enabled and not cfg.dlpf.delays_only:
-            acc = dlpf_filter(acc, cfg.dlpf.accel_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
-            gyro = dlpf_filter(gyro, cfg.dlpf.gyro_bandwidth_hz[self.dlpf_cfg], self.rate_hz)
+        acc += self._random_acc[lo:hi]
+        gyro += self._random_gyro[lo:hi]
+        self.computed_samples += hi - lo
+        return acc, gyro
+
+    def _registers(self, cfg: int, acc: np.ndarray, gyro: np.ndarray, from_rest: bool) -> np.ndarray:
+        """The registers of unfiltered inputs *acc*, *gyro* through the DLPF at *cfg* (started at
+        rest on the first input if *from_rest*, else the first inputs are its lead-in)."""
+        d = self.config.dlpf
+        if d.enabled and not d.delays_only:
+            acc = dlpf_filter(acc, d.accel_bandwidth_hz[cfg], self.rate_hz, from_rest)
+            gyro = dlpf_filter(gyro, d.gyro_bandwidth_hz[cfg], self.rate_hz, from_rest)
         imu = np.empty(acc.shape[:2] + (6,), dtype=np.int16)
-        imu[..., :3] = accel_to_lsb(acc, cfg)
-        imu[..., 3:] = gyro_to_lsb(gyro, cfg)
-        self.imu = imu
+        imu[..., :3] = accel_to_lsb(acc, self.config)
+        imu[..., 3:] = gyro_to_lsb(gyro, self.config)
+        return imu
+
+    def lead_in(self, cfg: int) -> int:
+        """How many samples before a block the DLPF at setting *cfg* needs to give that block's
+        registers as the whole record has them (:func:`.mpu9150.dlpf_reach`; 0 without a filter)."""
+        d = self.config.dlpf
+        if not d.enabled or d.delays_only:
+            return 0
+        return max(dlpf_reach(d.accel_bandwidth_hz[cfg], self.rate_hz),
+                   dlpf_reach(d.gyro_bandwidth_hz[cfg], self.rate_hz))
+
+    def _build_imu(self) -> None:
+        """Compute the whole record of registers at the current setting (and forget the blocks
+        computed before: the inputs may have changed)."""
+        cfg = self.dlpf_cfg
+        acc, gyro = self._unfiltered(cfg, 0, self._n)
+        imu = self._registers(cfg, acc, gyro, from_rest=True)
+        self._whole = (cfg, imu)
+        self._now = imu
+        self._chunks.clear()
+        self._leads.clear()
         self.clipped = int(np.count_nonzero((imu == INT16_MAX) | (imu == INT16_MIN)))
+
+    @property
+    def imu(self) -> np.ndarray:
+        """The whole record of registers at the current DLPF setting, int16 (n, chips, 6)
+        (computed now if the walk holds another setting's)."""
+        if self._now is None:
+            self._build_imu()
+        assert self._now is not None
+        return self._now
+
+    def _chunk(self, k: int) -> np.ndarray:
+        """Registers of block *k* (samples k·chunk_samples …) at the current setting, computed
+        from the DLPF's lead-in before it unless kept (the block before's inputs serve as the
+        lead-in when the blocks are read in order)."""
+        cfg = self.dlpf_cfg
+        key = (cfg, k)
+        chunks = self._chunks
+        imu = chunks.get(key)
+        if imu is not None:
+            chunks.move_to_end(key)
+            return imu
+        start = k * self.chunk_samples
+        stop = min(start + self.chunk_samples, self._n)
+        reach = self.lead_in(cfg)
+        lo = max(0, start - reach)
+        lead = self._leads.get(cfg)
+        if lead is not None and lead[0] == start:
+            _, lead_acc, lead_gyro = lead  # its last start − lo samples are lo … start − 1
+            new_acc, new_gyro = self._unfiltered(cfg, start, stop)
+            acc = np.concatenate([lead_acc[len(lead_acc) - (start - lo):], new_acc])
+            gyro = np.concatenate([lead_gyro[len(lead_gyro) - (start - lo):], new_gyro])
+        else:
+            acc, gyro = self._unfiltered(cfg, lo, stop)
+        imu = self._registers(cfg, acc, gyro, from_rest=lo == 0)[start - lo:]
+        keep = stop - max(0, stop - reach)  # the next block's lead-in
+        self._leads[cfg] = (stop, acc[len(acc) - keep:].copy(), gyro[len(gyro) - keep:].copy())
+        chunks[key] = imu
+        while len(chunks) > _CHUNKS_KEPT:
+            chunks.popitem(last=False)
+        return imu
 
     def to_recording(self) -> Recording:
         """The error-free board-centre signals as a :class:`Recording` (board frame, g, rad/s, gauss).
@@ -230,17 +348,34 @@ class SimulatedSource:
     def read(self, index: int) -> RawSample | None:
         if index < 0:
             raise IndexError(f"sample index must be ≥ 0, got {index}")
-        if index >= len(self.imu):
+        if index >= self._n:
             return None
-        return RawSample(self.imu[index], self.temp[index], self.mag[index])
+        now = self._now
+        if now is not None:
+            return RawSample(now[index], self.temp[index], self.mag[index])
+        k, i = divmod(index, self.chunk_samples)
+        return RawSample(self._chunk(k)[i], self.temp[index], self.mag[index])
+
+    def imu_block(self, start: int, n: int) -> np.ndarray | None:
+        """Registers of samples *start* … (at most *n*, at least one; to the end of a block at
+        another setting than the whole record's), as ``read`` gives them; None past the end."""
+        if start < 0 or start >= self._n or n < 1:
+            return None
+        now = self._now
+        if now is not None:
+            return now[start:start + n]
+        k, i = divmod(start, self.chunk_samples)
+        return self._chunk(k)[i:i + n]
 
     def set_dlpf(self, cfg: int) -> None:
-        """Apply DLPF_CFG 0..6: the registers are recomputed with that filter (same noise draws)."""
+        """Apply DLPF_CFG 0..6: from now on the registers are those of that filter (same noise
+        draws), computed block by block as they are read (the module docstring); nothing is
+        computed here."""
         if not 0 <= cfg <= 6:
             raise ValueError(f"DLPF_CFG must be 0..6, got {cfg}")
-        if cfg != self.dlpf_cfg:
-            self.dlpf_cfg = cfg
-            self._build_imu()
+        self.dlpf_cfg = cfg
+        whole = self._whole
+        self._now = whole[1] if whole is not None and whole[0] == cfg else None
 
 
 def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,

@@ -18,14 +18,15 @@ the firmware's float32 INS.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 __all__ = [
-    "Kinematics", "GroundTruth", "euler_to_matrix", "mul_transposed", "rotate", "cross", "euler_to_quat",
-    "quat_to_matrix", "strapdown_rk4", "walked_distance",
+    "Kinematics", "GroundTruth", "euler_to_matrix", "mul_transposed", "rotate", "rotation", "cross",
+    "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
 ]
 
 
@@ -69,12 +70,30 @@ def rotate(M: np.ndarray, v: np.ndarray) -> np.ndarray:
 
     A signed permutation (a chip mounting) is applied by indexing, exactly.
     """
-    M = np.asarray(M)
-    if is_signed_permutation(M):
-        cols = np.argmax(M != 0, axis=1)
-        signs = M[np.arange(3), cols]
-        return v[:, cols] * signs
-    return v[:, 0:1] * M[:, 0] + v[:, 1:2] * M[:, 1] + v[:, 2:3] * M[:, 2]
+    return rotation(M)(v)
+
+
+def rotation(M: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """:func:`rotate` by *M* as a function of the stack of vectors: the same numbers, *M* looked
+    at once (for one matrix applied to many stacks)."""
+    return _Rotation(np.asarray(M))
+
+
+class _Rotation:
+    """``rotate(M, v)`` of one *M* (a picklable function of *v*)."""
+
+    def __init__(self, M: np.ndarray):
+        self.permutes = is_signed_permutation(M)
+        if self.permutes:
+            self.cols = np.argmax(M != 0, axis=1)
+            self.signs = M[np.arange(3), self.cols]
+        else:
+            self.c0, self.c1, self.c2 = M[:, 0], M[:, 1], M[:, 2]
+
+    def __call__(self, v: np.ndarray) -> np.ndarray:
+        if self.permutes:
+            return v[:, self.cols] * self.signs
+        return v[:, 0:1] * self.c0 + v[:, 1:2] * self.c1 + v[:, 2:3] * self.c2
 
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:

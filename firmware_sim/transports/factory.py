@@ -49,7 +49,7 @@ from urllib.parse import parse_qs, urlsplit
 
 from firmware_sim.links.link import PROFILES, Link, LinkFaults, make_link
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
-from firmware_sim.mcu.imu_bus import PreparedBandwidths, SensorSource
+from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.mcu.port import IdealPort, Port
@@ -313,8 +313,8 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
     The scenario starts at the module's first sensor read and the wearer then
     stands still where it ended (:func:`~firmware_sim.sensors.playback.served_source`),
     so a host never meets silent sensors after a short scenario. A host's SET_IMU_BANDWIDTH
-    recomputes the walk's registers; served in :class:`~firmware_sim.mcu.imu_bus.PreparedBandwidths`,
-    a real-time pacer has them computed for every setting before its clock starts.
+    costs the module no more than a block of registers at a time: the walk computes the new
+    setting's as the module reads them (:mod:`~firmware_sim.sensors.imu_array`), nothing ahead.
     """
     try:
         if side is None:
@@ -324,7 +324,7 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
                                       walker_seed=walker_seed, stance_sway=stance_sway)
     except KeyError as e:  # an unknown scenario name, reported as a bad option
         raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
-    return served_source(PreparedBandwidths(source))
+    return served_source(source)
 
 
 # --------------------------------------------------------------------------- endpoints

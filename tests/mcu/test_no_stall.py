@@ -1,10 +1,10 @@
 """A module paced against a host computes nothing long while its clock runs, whatever the host sends.
 
-SET_IMU_BANDWIDTH changes the MPU9150s' low-pass filter; a simulated walk recomputes its
-whole record of registers for it (about a second for a few minutes of walking). A served
-walk has every bandwidth's registers computed before the clock starts, so the command only
-picks one: the test counts the recomputations (none once prepared) and checks the registers
-against the walk's own, in virtual time.
+SET_IMU_BANDWIDTH changes the MPU9150s' low-pass filter. A served walk computes nothing when
+the command runs: the new setting's registers are computed as the module reads them, one block
+and the filter's lead-in at a time, and nothing is computed ahead before the clock starts. The
+tests count the samples the walk computes (not wall time) and check every register the module
+read against the whole walk computed at that setting, bit for bit, in virtual time.
 """
 
 from __future__ import annotations
@@ -12,113 +12,139 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.mcu.imu_bus import DLPF_SETTINGS, PreparedBandwidths, prepare_sensors
+from firmware_sim.mcu.imu_bus import DLPF_SETTINGS
 from firmware_sim.nav.firmware import build_module
-from firmware_sim.sensors.imu_array import make_source
+from firmware_sim.sensors.imu_array import SimulatedSource, make_source
 from firmware_sim.transports.factory import make_sensors
 from firmware_sim.transports.pacer import Pacer
 from protocol.ids import Command
 
-from .emu import Host
+from .emu import Host, split_frames
 
-WALK = "stand:1+walk:3+stand:1"
+WALK = "stand:1+walk:8+stand:1"
 SEED = 3
+#: What a host sends, in order: every setting, then values the firmware ignores, then more.
+SETTINGS_SENT = (3, 0, 6, 7, 255, 1, 1, 5, 2, 4, 6, 0)
 
 
 def _served_walk():
-    """A served walk, and the PreparedBandwidths inside it."""
+    """A served walk (as ``serve`` makes it) and the simulated walk inside it."""
     served = make_sensors(WALK, SEED, 1000.0)
-    inner = served
-    while not isinstance(inner, PreparedBandwidths):
-        inner = inner.source
-    return served, inner
+    walk = served.source.source
+    assert isinstance(walk, SimulatedSource)
+    return served, walk
 
 
-def _count_recomputations(monkeypatch, walk) -> list[int]:
-    """The settings the simulated walk itself is asked to recompute its registers for."""
-    asked: list[int] = []
-    recompute = walk.set_dlpf
+def _record_reads(monkeypatch, walk) -> dict[int, tuple[int, np.ndarray]]:
+    """Every register sample the module reads from *walk*: walk index → (setting, registers)."""
+    seen: dict[int, tuple[int, np.ndarray]] = {}
+    read, block = walk.read, walk.imu_block
 
-    def counted(cfg: int) -> None:
-        asked.append(cfg)
-        recompute(cfg)
+    def recorded_read(index: int):
+        sample = read(index)
+        if sample is not None:
+            seen[index] = (walk.dlpf_cfg, sample.imu.copy())
+        return sample
 
-    monkeypatch.setattr(walk, "set_dlpf", counted)
-    return asked
+    def recorded_block(start: int, n: int):
+        imu = block(start, n)
+        if imu is not None:
+            for i, row in enumerate(imu):
+                seen[start + i] = (walk.dlpf_cfg, row.copy())
+        return imu
+
+    monkeypatch.setattr(walk, "read", recorded_read)
+    monkeypatch.setattr(walk, "imu_block", recorded_block)
+    return seen
 
 
 @pytest.fixture(scope="module")
 def registers_by_setting() -> dict[int, np.ndarray]:
-    """The walk's registers at every DLPF setting, as the simulated source computes them."""
-    walk = make_source(WALK, seed=SEED)
+    """The walk's whole record of registers at every DLPF setting, each computed in one go."""
     out = {}
     for cfg in DLPF_SETTINGS:
+        walk = make_source(WALK, seed=SEED)
         walk.set_dlpf(cfg)
         out[cfg] = walk.imu
     return out
 
 
-def test_a_prepared_walk_recomputes_nothing_for_any_bandwidth_a_host_sets(monkeypatch, registers_by_setting):
-    served, prepared = _served_walk()
-    assert prepare_sensors(served) == 1 and prepared.prepared
-    asked = _count_recomputations(monkeypatch, prepared.source)
+def test_a_bandwidth_change_costs_at_most_one_block_and_the_module_reads_the_walks_own_registers(
+        monkeypatch, registers_by_setting):
+    served, walk = _served_walk()
+    made = walk.computed_samples
+    assert made == len(walk), "made: the power-on setting's registers, nothing more"
+    seen = _record_reads(monkeypatch, walk)
+    set_dlpf = walk.set_dlpf
+    in_handler: list[int] = []
+
+    def counted(cfg: int) -> None:
+        before = walk.computed_samples
+        set_dlpf(cfg)
+        in_handler.append(walk.computed_samples - before)
+
+    monkeypatch.setattr(walk, "set_dlpf", counted)
     h = Host(build_module(sensors=served))
     h.command(Command.STEPWISE_DEAD_RECKONING)
     h.step(50)
-    for cfg in (3, 0, 6, 7, 255, 1, 1, 5, 2, 4):
+    block, worst = walk.chunk_samples, 0
+    for cfg in SETTINGS_SENT:
         h.command(Command.SET_IMU_BANDWIDTH, dlpf_cfg=cfg)
-        out = h.step()
-        assert bytes.fromhex("A0 29") in out, "answered in the loop that received it"
-        expected = cfg if cfg < 7 else h.module.dlpf_cfg
-        assert h.module.dlpf_cfg == expected and prepared.dlpf_cfg == expected
-        # the registers the module now reads are the walk's own at that setting
-        index = h.module.clock.sample_index - served.source.start
-        assert np.array_equal(prepared.read(index).imu, registers_by_setting[expected][index])
-        h.step(20)
-    assert asked == [], "the walk recomputed its registers while the clock ran"
-    assert np.array_equal(prepared.source.imu, registers_by_setting[0]), "the walk itself is left as it was"
+        for loop in range(300):  # loop by loop: what each main loop computed
+            before = walk.computed_samples
+            out = h.step()
+            computed = walk.computed_samples - before
+            worst = max(worst, computed)
+            assert computed <= block + walk.lead_in(walk.dlpf_cfg), f"a loop computed {computed} samples"
+            for frame in split_frames(out):
+                if frame[0] == 0xAA:  # a step packet: the host acknowledges it
+                    h.ack(int.from_bytes(frame[1:3], "big"))
+            if loop == 0:
+                assert bytes.fromhex("A0 29") in out, "answered in the loop that received it"
+                expected = cfg if cfg < 7 else h.module.dlpf_cfg
+                assert h.module.dlpf_cfg == expected and walk.dlpf_cfg == expected
+    assert in_handler == [0] * len([c for c in SETTINGS_SENT if c < 7]), "the command computed nothing"
+    assert 0 < worst <= block + 2047 < len(walk) // 2
+    # every register the module read is the whole walk's at the setting it was read at
+    assert len(seen) > 3000 and {cfg for cfg, _ in seen.values()} == set(DLPF_SETTINGS)
+    for index, (cfg, imu) in seen.items():
+        assert np.array_equal(imu, registers_by_setting[cfg][index]), (index, cfg)
+    # the whole run: no more than the blocks the module read, each with its lead-in at most
+    blocks_read = len({(cfg, i // block) for i, (cfg, _) in seen.items() if cfg != 0})
+    assert walk.computed_samples - made <= blocks_read * (block + 2047)
 
 
-def test_every_prepared_setting_is_the_walks_own_bit_for_bit(registers_by_setting):
-    served, prepared = _served_walk()
-    prepare_sensors(served)
-    for cfg in DLPF_SETTINGS:
-        prepared.set_dlpf(cfg)
-        assert np.array_equal(prepared.imu, registers_by_setting[cfg]), cfg
-        sample = prepared.read(1234)
-        assert np.array_equal(sample.imu, registers_by_setting[cfg][1234])
-        assert np.array_equal(sample.mag, prepared.source.mag[1234])
-    with pytest.raises(ValueError, match="0..6"):
-        prepared.set_dlpf(7)
-
-
-def test_unprepared_the_walk_recomputes_as_it_always_did(monkeypatch, registers_by_setting):
-    """In virtual time (nothing prepared) no host waits on the recomputation: it happens at once."""
-    served, prepared = _served_walk()
-    asked = _count_recomputations(monkeypatch, prepared.source)
-    h = Host(build_module(sensors=served))
-    h.command(Command.SET_IMU_BANDWIDTH, dlpf_cfg=6)
+def test_a_served_module_reads_in_blocks_on_the_compiled_path_too(monkeypatch, registers_by_setting):
+    """Many loops at a time (Module.advance: the quiet loops in one compiled call) end at a block's
+    end: a call never gets more registers than one block at a setting other than the walk's own."""
+    served, walk = _served_walk()
+    seen = _record_reads(monkeypatch, walk)
+    module = build_module(sensors=served)
+    h = Host(module)
+    h.command(Command.STEPWISE_DEAD_RECKONING)
+    h.step(50)
+    h.command(Command.SET_IMU_BANDWIDTH, dlpf_cfg=5)
     h.step()
-    assert asked == [6] and not prepared.prepared
-    assert np.array_equal(prepared.imu, registers_by_setting[6])
+    while module.clock.ticks < 6000:
+        before = walk.computed_samples
+        module.advance(2000)
+        assert walk.computed_samples - before <= walk.chunk_samples + walk.lead_in(5)
+    h.port.host_read()
+    for index, (cfg, imu) in seen.items():
+        assert np.array_equal(imu, registers_by_setting[cfg][index]), (index, cfg)
 
 
-def test_the_real_time_pacer_prepares_the_walk_before_its_clock_starts(monkeypatch):
-    served, prepared = _served_walk()
+def test_the_real_time_pacer_computes_no_registers_before_its_clock_starts():
+    served, walk = _served_walk()
     module = build_module(sensors=served)
     said: list[str] = []
-    monkeypatch.setattr("firmware_sim.transports.pacer.group.SENSORS_ANNOUNCED_AFTER_S", -1.0)
+    before = walk.computed_samples
     pacer = Pacer(module, [], speed=1.0)
     pacer.group.prepare(said.append)  # what start() does before the loop's thread runs
-    assert prepared.prepared and module.clock.ticks == 0
-    assert any("every bandwidth setting" in s for s in said)
-    before = len(said)
-    pacer.group.prepare(said.append)
-    assert len(said) == before, "prepared once per loop"
+    assert walk.computed_samples == before and module.clock.ticks == 0
+    assert not any("bandwidth" in s for s in said)
 
 
-def test_a_served_walk_is_still_the_walk_to_whoever_looks_inside():
-    served, prepared = _served_walk()
-    walk = prepared.source
-    assert prepared.truth is walk.truth and prepared.chips is walk.chips and prepared.seed == SEED
-    assert served.sensor == walk.sensor == "mimu22bt" and len(prepared) == len(walk)
+def test_a_served_walk_is_the_walk_itself_to_whoever_looks_inside():
+    served, walk = _served_walk()
+    assert served.sensor == walk.sensor == "mimu22bt" and walk.seed == SEED and len(walk.truth) == len(walk)

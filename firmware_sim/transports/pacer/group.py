@@ -4,12 +4,10 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections.abc import Callable, Iterable
 from concurrent.futures import Future
 from typing import Any
 
-from firmware_sim.mcu.imu_bus import prepare_sensors
 from firmware_sim.mcu.module import Module
 from firmware_sim.nav.warmup import Announce, prepare_module, to_stderr
 
@@ -17,9 +15,6 @@ from .endpoints import Endpoint
 from .member import PacedModule
 from .run_loop import RunLoop
 from .status import PacerStatus
-
-#: A preparation of the sensors that took longer than this [s] is announced.
-SENSORS_ANNOUNCED_AFTER_S = 1.0
 
 
 def _check_members(pacers: list[PacedModule], group: object) -> None:
@@ -135,17 +130,10 @@ class MultiPacer:
         return [p.status() for p in self.pacers]
 
     def prepare(self, announce: Announce | None = to_stderr) -> None:
-        """Before the clock starts (once per loop): compile or load the modules' kernels, and
-        compute what a host's command could make a sensor source compute while the clock runs
-        (:func:`~firmware_sim.mcu.imu_bus.prepare_sensors`: every bandwidth of a simulated walk)."""
+        """Compile or load the modules' kernels now, before the clock starts (once per loop)."""
         if not self._prepared:
             for p in self.pacers:
                 prepare_module(p.module, announce)
-            t0 = time.perf_counter()
-            sources = sum(prepare_sensors(p.module.sensors) for p in self.pacers)
-            seconds = time.perf_counter() - t0
-            if sources and announce is not None and seconds > SENSORS_ANNOUNCED_AFTER_S:
-                announce(f"sensor registers ready at every bandwidth setting ({seconds:.1f} s)")
             self._prepared = True
 
     def in_use(self) -> bool:
