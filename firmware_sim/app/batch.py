@@ -56,6 +56,7 @@ puts the receiver on the body.
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import time
 from collections.abc import Callable
@@ -77,7 +78,7 @@ from .truth_files import write_truth_files
 
 __all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
            "stance_note", "add_arguments", "add_receiver_arguments", "add_stance_sway_argument",
-           "check_arguments", "main", "module_number"]
+           "check_arguments", "error_text", "main", "module_number", "rate_hz", "seed_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -253,6 +254,40 @@ def module_number(text: str) -> int:
     return number
 
 
+#: The highest sample rate a simulated module takes [Hz] (its loop runs once per sample).
+MAX_RATE_HZ = 10000.0
+
+
+def rate_hz(text: str) -> float:
+    """The argparse type of ``--rate``: a simulated module's sample rate, > 0 and at most
+    :data:`MAX_RATE_HZ` [Hz] (0 divided by zero, a NaN or a huge one never ended)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and 0.0 < value <= MAX_RATE_HZ):
+        raise argparse.ArgumentTypeError(f"a sample rate in Hz > 0 and at most {MAX_RATE_HZ:g}, not {text!r}")
+    return value
+
+
+def seed_number(text: str) -> int:
+    """The argparse type of ``--seed``: a whole number >= 0 (what the random generators take)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"a whole number >= 0, not {text!r}")
+    return value
+
+
+def error_text(exc: BaseException) -> str:
+    """An error's message as one line: a KeyError's own text, not its repr in quotes."""
+    if isinstance(exc, KeyError) and len(exc.args) == 1 and isinstance(exc.args[0], str):
+        return exc.args[0]
+    return str(exc)
+
+
 #: The help of ``--stance-sway`` (replay, serve, the demo).
 STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (gait.StanceSway, measured on "
                     "the shared walks): the module's ZARU then seldom holds while walking and its "
@@ -301,13 +336,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     out.add_argument("--wire-dir", type=Path, metavar="DIR",
                      help="replay every FILE (or the scenario with every seed of --seeds) in this process, "
                           "writing DIR/<name>.bin each, and print a summary table")
-    p.add_argument("--seed", type=int, default=0, help="seed of the simulated scenario (default 0)")
+    p.add_argument("--seed", type=seed_number, default=0, help="seed of the simulated scenario (default 0)")
     p.add_argument("--module", type=module_number, metavar="N", default=None, help=MODULE_HELP)
     add_stance_sway_argument(p)
     p.add_argument("--seeds", metavar="A:B",
                    help="with --scenario and --wire-dir: seeds A … B-1 (also N or N,M,…)")
-    p.add_argument("--rate", type=float, default=1000.0,
-                   help="loop/sample rate of a simulated scenario [Hz] (default 1000)")
+    p.add_argument("--rate", type=rate_hz, default=1000.0,
+                   help=f"loop/sample rate of a simulated scenario [Hz] (default 1000; at most "
+                        f"{MAX_RATE_HZ:g})")
     p.add_argument("--host", choices=HOSTS, default="plain",
                    help="the replayed host: plain sends 0x34 only (default); fusion then asks for each "
                         "step's swing time and the module's serial number (protocol.extensions.FUSION_SETUP)")
@@ -369,6 +405,21 @@ def check_arguments(args: argparse.Namespace) -> str | None:
     if getattr(args, "calibrate_mag", False) and getattr(args, "feet", 1) == 2:
         return ("--calibrate-mag calibrates one module: the wiggle turns one shoe while you stand on the "
                 "other; replay each foot's wiggle alone")
+    return _output_refusal(args)
+
+
+def _output_refusal(args: argparse.Namespace) -> str | None:
+    """Why a file the replay writes could not be, or None: checked before anything runs, so that no
+    walk is replayed for a file it cannot write."""
+    from hostlib.inputs import output_refusal
+
+    for flag in ("wire", "gps", "table"):
+        refusal = output_refusal(getattr(args, flag, None), f"--{flag}")
+        if refusal is not None:
+            return refusal
+    wire_dir = getattr(args, "wire_dir", None)
+    if wire_dir is not None and wire_dir.exists() and not wire_dir.is_dir():
+        return f"--wire-dir {wire_dir} is a file, not a folder"
     return None
 
 
@@ -397,6 +448,7 @@ def _write_gps(args: argparse.Namespace, t, pos, vel, origin, errors) -> None:
 def main(args: argparse.Namespace) -> int:
     """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT`` (``--feet 2``: both feet)."""
     from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
+    from hostlib.inputs import check_input
 
     if getattr(args, "feet", 1) == 2:
         return _main_feet(args)
@@ -414,14 +466,14 @@ def main(args: argparse.Namespace) -> int:
             name = (f"scenario {args.scenario!r} ({module}seed {args.seed}, {args.rate:g} Hz"
                     f"{_stance_sway_note(source)})")
         else:
-            source = ReplaySource.from_file(args.files[0])
+            source = ReplaySource.from_file(check_input(args.files[0], "walk recording"))
             name = str(args.files[0])
             if source.filled_samples and not args.quiet:
                 print(f"{name}: {source.filled_samples} samples the recorder skipped (gaps in its sample "
                       f"numbers, the longest {source.longest_gap}) are served interpolated",
                       file=sys.stderr)
     except (OSError, RecordingFormatError, KeyError, ValueError) as e:
-        print(f"openshoe-emu replay: {e}", file=sys.stderr)
+        print(f"openshoe-emu replay: {error_text(e)}", file=sys.stderr)
         return 2
     _replay_to(args, source, name, args.module, args.wire)
     if truth is not None:
@@ -442,7 +494,7 @@ def _main_feet(args: argparse.Namespace) -> int:
         sources = make_feet_sources(args.scenario, seed=args.seed, rate_hz=args.rate, walker=args.module,
                                     stance_sway=getattr(args, "stance_sway", None))
     except (KeyError, ValueError) as e:
-        print(f"openshoe-emu replay: {e}", file=sys.stderr)
+        print(f"openshoe-emu replay: {error_text(e)}", file=sys.stderr)
         return 2
     for side in SIDES:
         source = sources[side]

@@ -4,6 +4,7 @@ disconnect, stall or corrupt the running modules' links on demand."""
 from __future__ import annotations
 
 import json
+import os
 import selectors
 import socket
 from typing import TYPE_CHECKING, Any
@@ -30,7 +31,11 @@ class ControlServer:
 
     def __init__(self, modules: list[ServedModule], host: str, port: int):
         self.modules = modules
-        self.server = socket.create_server((host, port), backlog=4)
+        try:
+            self.server = socket.create_server((host, port), backlog=4)
+        except OSError as exc:  # a port in use, an address not this machine's
+            reason = os.strerror(exc.errno) if exc.errno else str(exc)
+            raise OSError(f"--control {host}:{port}: {reason}") from None
         self.server.setblocking(False)
         self.address = self.server.getsockname()[:2]
         self.clients: dict[socket.socket, bytearray] = {}

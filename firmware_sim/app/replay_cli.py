@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from . import batch
+from .batch import error_text
 from .progress import progress_bar, say
 from .runs import RunSpec, file_runs, finish, load, parse_seeds, scenario_runs, summary_lines, write_csv
 
@@ -55,7 +56,9 @@ def main(args: argparse.Namespace) -> int:
 
 def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = None,
                 quiet: bool = False) -> int:
-    """Run every spec in order into *wire_dir*; print the summary; 2 when a run fails to start.
+    """Run every spec in order into *wire_dir*; print the summary; 2 when a run fails to start (a
+    recording that cannot be read, an unknown scenario: before it, nothing is written, not even
+    *wire_dir*).
 
     A reader thread loads the next run's recording while the current one runs (the compiled
     reader and the navigation kernels release the GIL), and the first while the compiled
@@ -64,7 +67,6 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import RecordingFormatError
 
-    wire_dir.mkdir(parents=True, exist_ok=True)
     rows: list[dict[str, Any]] = []
     with ThreadPoolExecutor(1, thread_name_prefix="openshoe-reader") as reader, \
             progress_bar(len(runs), "replay", "runs", quiet=quiet) as bar:
@@ -75,8 +77,11 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
             try:
                 loaded = pending.result()
             except (OSError, RecordingFormatError, KeyError, ValueError) as e:
-                print(f"openshoe-emu replay: {spec.source}: {e}", file=sys.stderr)
+                text = error_text(e)  # a recording's own error names it already
+                where = "" if text.startswith(spec.source) else f"{spec.source}: "
+                print(f"openshoe-emu replay: {where}{text}", file=sys.stderr)
                 return 2
+            wire_dir.mkdir(parents=True, exist_ok=True)  # once a run has something to write
             if i + 1 < len(runs):
                 pending = reader.submit(load, runs[i + 1])
             rows.append(finish(spec, loaded, wire_dir))

@@ -87,17 +87,29 @@ class RunSpec:
         return (self.kind, self.source, module, self.seed, *(v for _, v in self.settings))
 
 
+#: The most seeds one run list takes (a typo's 0:100000000000 ran out of memory).
+MAX_SEEDS = 100_000
+
+
 def parse_seeds(text: str) -> list[int]:
-    """``A:B`` (half-open: A … B−1), ``N``, or ``N,M,…``."""
+    """``A:B`` (half-open: A … B−1), ``N``, or ``N,M,…``: whole numbers >= 0, at most
+    :data:`MAX_SEEDS` of them."""
     try:
         if ":" in text:
             a, b = (int(x) for x in text.split(":"))
-            if b <= a:
+            if not 0 <= a < b:
                 raise ValueError
-            return list(range(a, b))
-        return [int(x) for x in text.split(",")]
+            seeds = range(a, b)
+        else:
+            seeds = [int(x) for x in text.split(",")]
+            if min(seeds) < 0:
+                raise ValueError
     except ValueError:
-        raise ValueError(f"seeds must be A:B (A < B), N or N,M,…; got {text!r}") from None
+        raise ValueError(f"seeds must be A:B (0 <= A < B), N or N,M,… (whole numbers >= 0); got {text!r}"
+                         ) from None
+    if len(seeds) > MAX_SEEDS:
+        raise ValueError(f"seeds {text!r} are {len(seeds)} seeds: at most {MAX_SEEDS} in one run")
+    return list(seeds)
 
 
 def _stem(text: str) -> str:
@@ -150,8 +162,9 @@ def load(spec: RunSpec) -> Loaded:
     applied = run_settings.apply(spec.settings)
     if spec.kind == "file":
         from firmware_sim.sensors.replay import ReplaySource
+        from hostlib.inputs import check_input
 
-        source, truth = ReplaySource.from_file(spec.source), None
+        source, truth = ReplaySource.from_file(check_input(spec.source, "walk recording")), None
     else:
         from firmware_sim.sensors.imu_array import make_source
 

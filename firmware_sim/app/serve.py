@@ -51,6 +51,7 @@ from __future__ import annotations
 
 import argparse
 import gc
+import math
 import os
 import selectors
 import signal
@@ -65,7 +66,7 @@ from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsE
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 from hostlib.web.address import web_address
 
-from .batch import MODULE_HELP, add_receiver_arguments, add_stance_sway_argument, module_number
+from .batch import MODULE_HELP, add_receiver_arguments, add_stance_sway_argument, module_number, seed_number
 from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
@@ -126,7 +127,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                      help="motion scenario or recipe (default: the built-in route 'default'); it starts "
                      "when the module first reads its sensors (a host starts tracking), then stands still")
     src.add_argument("--replay", metavar="FILE", help="replay a recording (OpenShoe text or CSV) instead")
-    m.add_argument("--seed", type=int, default=0, help="seed of the sensors and the link (default 0)")
+    m.add_argument("--seed", type=seed_number, default=0, help="seed of the sensors and the link (default 0)")
     m.add_argument("--module", type=module_number, metavar="N", default=None,
                    help=MODULE_HELP + "; with --modules K, module i is N + i")
     add_stance_sway_argument(m)
@@ -177,6 +178,32 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).
 MANY_MODULES_FRAME_MS = 4.0
+#: The most modules one ``serve`` runs (all in one loop and one thread; run more processes for more).
+MAX_MODULES = 64
+#: The longest frame a module runs per wake-up [ms] (--frame-ms).
+MAX_FRAME_MS = 1000.0
+
+
+def _path_refusal(args: argparse.Namespace) -> None:
+    """Refuse a pty's stable path that is a directory or a file of its own (the symlink made there
+    would replace it, and be removed at the end), and a trace file that could not be written
+    (SettingsError naming the option)."""
+    from hostlib.inputs import output_refusal
+
+    for name in ("pty", "usb_pty", "gps_pty"):
+        path = getattr(args, name, None)
+        if path and os.path.lexists(path) and not os.path.islink(path):
+            what = "a directory" if os.path.isdir(path) else "a file"
+            raise SettingsError("{} " + _braces(path) + f" is {what}: a pty's path is a symlink serve makes "
+                                "(and removes at the end); name a path where there is nothing", name)
+    refusal = output_refusal(getattr(args, "trace", None), "{}")
+    if refusal is not None:
+        raise SettingsError(_braces(refusal).replace("{{}}", "{}", 1), "trace")
+
+
+def _braces(text: str) -> str:
+    """*text* safe inside a SettingsError template."""
+    return str(text).replace("{", "{{").replace("}", "}}")
 
 
 # --------------------------------------------------------------------------- settings
@@ -218,10 +245,23 @@ class ServeSettings:
             value = getattr(self, name)
             if value is not None and not value >= 0:
                 raise SettingsError("{} must be >= 0", name, got=value)
+            if value is not None and not value <= (MAX_FRAME_MS if name == "frame_ms" else 1e9):
+                most = f", at most {MAX_FRAME_MS:g}" if name == "frame_ms" else ""
+                raise SettingsError("{} must be a finite number of milliseconds" + most, name, got=value)
+        if self.emulator.modules > MAX_MODULES:
+            raise SettingsError("{} must be <= " + f"{MAX_MODULES} (one process's loop paces them all; run "
+                                "more processes for more)", "modules", got=self.emulator.modules)
+        if self.duration is not None and not (math.isfinite(self.duration) and self.duration > 0):
+            raise SettingsError("{} is a number of seconds > 0 (without it: until SIGINT or SIGTERM)",
+                                "duration", got=self.duration)
+        if not (math.isfinite(self.status_interval) and self.status_interval >= 0):
+            raise SettingsError("{} is a number of seconds >= 0 (0: no status line)", "status_interval",
+                                got=self.status_interval)
 
 
 def settings_from_args(args: argparse.Namespace) -> ServeSettings:
     """The options of :func:`add_arguments` as settings; SettingsError for a refused value."""
+    _path_refusal(args)
     gps = None
     if args.gps_pty:
         if args.scenario is None and not args.replay:
@@ -281,6 +321,10 @@ class _Served:
 def _open(served: _Served, settings: ServeSettings) -> None:
     """Build every module, then open the control channel and the trace file, each into *served*."""
     emulator = replace(settings.emulator, trace=bool(settings.trace))
+    if emulator.replay:
+        from hostlib.inputs import check_input
+
+        check_input(emulator.replay, "walk recording")  # a device (/dev/zero) would never be read whole
     for i in range(emulator.module_count):
         served.modules.append(build_served_module(emulator, i))
     if settings.gps is not None:

@@ -60,6 +60,10 @@ SENSOR_MODELS = {"default": DEFAULT_CONFIG, "ideal": IDEAL_CONFIG}
 #: Settings whose values are words, and the words they take.
 WORDS = {"link.profile": LINK_PROFILES, "sensors.model": tuple(SENSOR_MODELS)}
 RATE = "scenario.rate_hz"
+#: The link faults that are a probability per byte.
+PROBABILITIES = ("link.byte_loss", "link.corrupt")
+#: The largest detector threshold (the module keeps them as 32-bit unsigned states).
+THRESHOLD_MAX = 2**32 - 1
 STANCE_SWAY = "scenario.stance_sway"
 _TRUE, _FALSE = ("true", "1", "yes", "on"), ("false", "0", "no", "off")
 
@@ -136,12 +140,13 @@ def parse_value(name: str, value: Any) -> Any:
             return text in _TRUE
         if kind is int:
             number = float(value) if isinstance(value, str) else value
-            if isinstance(number, bool) or number != int(number):
+            if isinstance(number, bool) or number != int(number) or (
+                    name in THRESHOLDS and not 0 <= int(number) <= THRESHOLD_MAX):
                 raise ValueError(value)
             return int(number)
         if kind is float:
             number = float(value)
-            if name == RATE and not (math.isfinite(number) and number > 0):
+            if isinstance(value, bool) or not _in_range(name, number):
                 raise ValueError(value)
             return number
         text = str(value).strip()
@@ -149,9 +154,38 @@ def parse_value(name: str, value: Any) -> Any:
             raise ValueError(value)
         return text
     except (TypeError, ValueError, OverflowError):
-        what = ("positive numbers" if name == RATE else f"one of {', '.join(WORDS[name])}" if name in WORDS
-                else f"{kind.__name__} values")
-        raise SettingError(f"setting {name!r} takes {what}, got {value!r}") from None
+        raise SettingError(f"setting {name!r} takes {_what(name, kind)}, got {value!r}") from None
+
+
+def _in_range(name: str, number: float) -> bool:
+    """Whether a number setting *name* can take *number*: finite; a rate > 0 (the scenario's) or >= 0
+    (a link fault's); a probability from 0 to 1."""
+    if not math.isfinite(number):
+        return False
+    if name == RATE:
+        return number > 0
+    if name in PROBABILITIES:
+        return 0.0 <= number <= 1.0
+    if name.startswith("link."):
+        return number >= 0
+    return True
+
+
+def _what(name: str, kind: type) -> str:
+    """What values setting *name* (of *kind*) takes, as its refusal says."""
+    if name == RATE:
+        return "positive numbers"
+    if name in WORDS:
+        return f"one of {', '.join(WORDS[name])}"
+    if name in PROBABILITIES:
+        return "probabilities from 0 to 1"
+    if name.startswith("link."):
+        return "rates >= 0 [Hz]"
+    if name in THRESHOLDS:
+        return f"int values from 0 to {THRESHOLD_MAX}"
+    if kind is bool:
+        return "bool values (true or false)"
+    return f"{kind.__name__} values" + (" (finite)" if kind is float else "")
 
 
 def check(names: Iterable[str], *, recordings: bool) -> None:

@@ -35,18 +35,23 @@ from __future__ import annotations
 import argparse
 import itertools
 import json
+import math
 import sys
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from . import settings as run_settings
+from .batch import MAX_RATE_HZ, rate_hz
 from .progress import say
 from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv, write_rows
 
-__all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "write_tables"]
+__all__ = ["SweepSpec", "add_arguments", "build_spec", "load_spec_file", "main", "run_sweep", "spec_from_doc",
+           "write_tables"]
 
 
+#: The most runs one sweep makes (its table is made whole in memory).
+MAX_RUNS = 1_000_000
 #: What a grouped table averages unless told otherwise: the end error against the truth.
 DEFAULT_GROUP_METRICS = ("end_along_m", "end_across_m", "end_height_m", "closure_pct")
 
@@ -71,7 +76,13 @@ class SweepSpec:
         return tuple(name for name, _ in self.settings)
 
     def check(self) -> None:
-        """Refuse an empty or ambiguous sweep, unknown settings, repeated values."""
+        """Refuse an empty or ambiguous sweep, unknown scenarios, recordings that cannot be read,
+        unknown settings, repeated values, more runs than :data:`MAX_RUNS`."""
+        from firmware_sim.sensors.scenarios import recipe
+        from hostlib.inputs import check_input
+
+        from .batch import error_text
+
         if bool(self.recordings) == bool(self.scenarios):
             raise ValueError("a sweep needs recording files or --scenario names (one of them)")
         run_settings.check(self.setting_names, recordings=bool(self.recordings))
@@ -87,6 +98,20 @@ class SweepSpec:
                                  f"(columns: {', '.join(columns(self.setting_names))})")
         if self.leave_one_out and not self.settings:
             raise ValueError("--leave-one-out needs a setting with several values to choose from (--set)")
+        for name in self.scenarios:
+            try:
+                recipe(name)
+            except KeyError as exc:
+                raise ValueError(error_text(exc)) from None
+        missing = [path for path in self.recordings if not Path(path).exists()]
+        if missing:
+            raise ValueError(f"no such recording: {', '.join(missing)}")
+        for path in self.recordings:
+            check_input(path, "walk recording")
+        runs = (len(self.recordings) + len(self.scenarios)) * len(self.seeds) * math.prod(
+            len(v) for _, v in self.settings)
+        if runs > MAX_RUNS:
+            raise ValueError(f"the sweep is {runs} runs: at most {MAX_RUNS} in one sweep")
 
     def runs(self) -> list[RunSpec]:
         """Every run, sorted by run key."""
@@ -113,32 +138,87 @@ def _values(name: str, values: Any) -> tuple[Any, ...]:
     return tuple(run_settings.parse_value(name, v) for v in items)
 
 
+#: The keys of a spec file.
+SPEC_KEYS = ("recordings", "scenarios", "seeds", "rate_hz", "settings", "leave_one_out", "group_by",
+             "group_metrics")
+
+
 def load_spec_file(path: Path) -> SweepSpec:
-    """A spec from a TOML (``.toml``) or JSON file (module docstring)."""
-    text = path.read_text()
+    """A spec from a TOML (``.toml``) or JSON file (module docstring); ValueError naming the file
+    and what is wrong with it (TOML's and JSON's errors say the line)."""
+    from hostlib.inputs import read_text
+
+    text = read_text(path, "sweep spec")
     if path.suffix == ".toml":
         try:
             import tomllib
         except ImportError:  # pragma: no cover - Python 3.10
             raise ValueError(f"{path}: TOML specs need Python ≥ 3.11; write the spec as JSON") from None
-        data = tomllib.loads(text)
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ValueError(f"{path}: not a sweep spec: invalid TOML ({exc})") from None
     else:
-        data = json.loads(text)
-    unknown = set(data) - {"recordings", "scenarios", "seeds", "rate_hz", "settings", "leave_one_out",
-                           "group_by", "group_metrics"}
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"{path}: not a sweep spec: invalid JSON ({exc})") from None
+        except RecursionError:
+            raise ValueError(f"{path}: not a sweep spec: JSON nested too deep") from None
+    try:
+        return spec_from_doc(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
+
+
+def spec_from_doc(data: Any) -> SweepSpec:
+    """The spec a parsed file holds (:data:`SPEC_KEYS`); ValueError saying which key is wrong."""
+    if not isinstance(data, dict):
+        raise ValueError(f"a spec is a table of keys ({', '.join(SPEC_KEYS)}), not a {type(data).__name__}")
+    unknown = set(data) - set(SPEC_KEYS)
     if unknown:
-        raise ValueError(f"{path}: unknown keys {sorted(unknown)}")
+        raise ValueError(f"unknown keys {sorted(map(str, unknown))}")
     seeds = data.get("seeds", [0])
+    if isinstance(seeds, str):
+        seeds = parse_seeds(seeds)
+    elif not all(_whole(s) and s >= 0 for s in _as_list(seeds)):
+        raise ValueError(f"'seeds' is \"A:B\", a whole number >= 0 or a list of them, not {seeds!r}")
+    rate = data.get("rate_hz", 1000.0)
+    if not (isinstance(rate, (int, float)) and not isinstance(rate, bool) and _finite(rate)
+            and 0 < rate <= MAX_RATE_HZ):
+        raise ValueError(f"'rate_hz' is a sample rate in Hz > 0 and at most {MAX_RATE_HZ:g}, not {rate!r}")
+    settings = data.get("settings", {})
+    if not isinstance(settings, dict):
+        raise ValueError(f"'settings' is a table of a setting's name and its values, not {settings!r}")
+    leave_one_out = data.get("leave_one_out")
+    if leave_one_out is not None and not isinstance(leave_one_out, str):
+        raise ValueError(f"'leave_one_out' is a column's name, not {leave_one_out!r}")
     return SweepSpec(
-        recordings=tuple(str(p) for p in data.get("recordings", ())),
-        scenarios=tuple(data.get("scenarios", ())),
-        seeds=tuple(parse_seeds(seeds) if isinstance(seeds, str) else [int(s) for s in _as_list(seeds)]),
-        rate_hz=float(data.get("rate_hz", 1000.0)),
-        settings=tuple((n, _values(n, v)) for n, v in data.get("settings", {}).items()),
-        leave_one_out=data.get("leave_one_out"),
-        group_by=tuple(_as_list(data.get("group_by", []))),
-        group_metrics=tuple(_as_list(data.get("group_metrics", list(DEFAULT_GROUP_METRICS)))),
+        recordings=_texts(data, "recordings"), scenarios=_texts(data, "scenarios"),
+        seeds=tuple(int(s) for s in _as_list(seeds)), rate_hz=float(rate),
+        settings=tuple((str(n), _values(str(n), v)) for n, v in settings.items()),
+        leave_one_out=leave_one_out, group_by=_texts(data, "group_by"),
+        group_metrics=_texts(data, "group_metrics", DEFAULT_GROUP_METRICS),
     )
+
+
+def _texts(data: dict[str, Any], key: str, default: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """*data[key]*: a name or a list of names (ValueError for anything else)."""
+    value = data.get(key, list(default))
+    if not all(isinstance(v, str) for v in _as_list(value)):
+        raise ValueError(f"{key!r} is a name or a list of names, not {value!r}")
+    return tuple(_as_list(value))
+
+
+def _whole(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _finite(value: float) -> bool:
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer too large for a float
+        return False
 
 
 def _as_list(value: Any) -> list[Any]:
@@ -217,7 +297,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a setting and its values (repeatable): frontend.zupt_threshold, "
                         "frontend.zaru_threshold, sensors.<field>, link.profile, link.byte_loss, …")
     p.add_argument("--spec", type=Path, metavar="FILE", help="a sweep spec (TOML or JSON)")
-    p.add_argument("--rate", type=float, help="sample rate of the scenarios [Hz] (default 1000)")
+    p.add_argument("--rate", type=rate_hz, help="sample rate of the scenarios [Hz] (default 1000)")
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="write runs.parquet, runs.csv and closure.png here")
     where = p.add_mutually_exclusive_group()
@@ -239,9 +319,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     try:
         spec = build_spec(args)
-        missing = [f for f in spec.recordings if not Path(f).is_file()]
-        if missing:
-            raise ValueError(f"no such recording: {', '.join(missing)}")
+        if args.out.exists() and not args.out.is_dir():
+            raise ValueError(f"--out {args.out} is a file: it names the folder the tables go to")
+        if args.scheduler is not None and not args.scheduler.rpartition(":")[2].isdigit():
+            raise ValueError(f"--scheduler is a Dask scheduler's tcp://HOST:PORT, not {args.scheduler!r}")
     except (OSError, ValueError) as e:
         print(f"openshoe-emu sweep: {e}", file=sys.stderr)
         return 2

@@ -230,6 +230,6 @@ def test_a_worker_killed_mid_sweep_loses_no_row_and_doubles_none(serial_table, l
 
 def test_a_run_that_fails_stops_the_sweep_with_its_reason(tmp_path, capsys):
     spec = tmp_path / "s.json"
-    spec.write_text(json.dumps({"scenarios": ["no_such_piece:3"], "rate_hz": 250.0}))
+    spec.write_text(json.dumps({"scenarios": ["walk:no_number"], "rate_hz": 250.0}))  # fails when walked
     assert cli.main(["sweep", "--spec", str(spec), "--out", str(tmp_path), "--workers", "0", "-q"]) == 1
-    assert "no_such_piece" in capsys.readouterr().err
+    assert "walk:no_number" in capsys.readouterr().err
