@@ -17,6 +17,12 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
   (target 1.7) and identical tables (:mod:`lab.bench.sweep`).
 * ``memory`` — a batch run of ``--cycles`` loop cycles (86.4 M = 24 h at 1 kHz) of a
   repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
+* ``hostile`` — ``--modules`` (10) served modules, each with a hostile client (random
+  well-formed commands of every kind, random bytes, leaving and coming back) for
+  ``--minutes`` (10), beside the same run with a well-behaved host on each module
+  (``--baseline``): overruns beyond the baseline's, the worst loop, late bytes, the serve
+  process's RSS over time, non-finite states; at the end every module must answer a clean
+  PING and track (:mod:`lab.bench.hostile`). A table per module and process.
 
 Last, one line per target: ``<name>: <figure> <unit> (target <t>, ratio <figure/t>)``; the same
 figures go to ``--json`` (default ``out/bench.json``) with the machine (cpu, cores, python,
@@ -40,7 +46,9 @@ from .result import Result
 
 __all__ = ["Result", "main", "machine_info"]
 
-TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep")
+TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep", "hostile")
+#: --modules when not given, by target.
+DEFAULT_MODULES = {"realtime": 50, "hostile": 10}
 #: 24 h at 1 kHz.
 FULL_CYCLES = 86_400_000
 
@@ -92,9 +100,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--json", type=Path, default=Path("out/bench.json"), help="write the figures here")
     p.add_argument("--walk-s", type=float, default=20.0,
                    help="batch: seconds of simulated walking after 3 s standing (default 20)")
-    p.add_argument("--modules", type=int, default=50, help="realtime: modules in total (default 50)")
+    p.add_argument("--modules", type=int,
+                   help="realtime: modules in total (default 50); hostile: modules in each run (default 10)")
     p.add_argument("--processes", type=int, default=2, help="realtime: serve processes (default 2)")
-    p.add_argument("--minutes", type=float, default=10.0, help="realtime: wall minutes (default 10)")
+    p.add_argument("--minutes", type=float, default=10.0,
+                   help="realtime, hostile: wall minutes of load (default 10)")
     p.add_argument("--frame-ms", type=float,
                    help="realtime: serve's --frame-ms (default: serve's own default for several modules)")
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
@@ -102,6 +112,16 @@ def main(argv: list[str] | None = None) -> int:
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
     p.add_argument("--walks", type=int, default=100, help="files: walk files replayed (default 100)")
     p.add_argument("--runs", type=int, default=64, help="sweep: runs in the sweep (default 64)")
+    p.add_argument("--baseline", choices=("side-by-side", "before"), default="side-by-side",
+                   help="hostile: the run without hostile clients runs beside the hostile one (default) "
+                        "or before it")
+    p.add_argument("--hostile-rate", type=float, default=10.0,
+                   help="hostile: actions per second of each hostile client (default 10)")
+    p.add_argument("--hostile-commands", metavar="NAME,…", default="",
+                   help="hostile: send only these commands (names of protocol/'s table, e.g. "
+                        "SET_IMU_BANDWIDTH,PING), to find which ones cost what (default: every command)")
+    p.add_argument("--seed", type=int, default=0,
+                   help="hostile: seed of the modules and the clients (default 0)")
     p.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
     args = p.parse_args(argv)
     targets = args.targets or list(TARGETS)
@@ -109,6 +129,18 @@ def main(argv: list[str] | None = None) -> int:
     if bad:
         p.error(f"unknown target(s) {', '.join(bad)}; choose from {', '.join(TARGETS)}")
     from . import targets as t
+
+    hostile = None
+    if "hostile" in targets:  # refused values before any target runs
+        from .hostile import hostile_plan
+
+        try:
+            modules = DEFAULT_MODULES["hostile"] if args.modules is None else args.modules
+            hostile = hostile_plan(modules, args.minutes, args.baseline,
+                                   args.seed, args.hostile_rate,
+                                   commands=tuple(c for c in args.hostile_commands.split(",") if c))
+        except ValueError as exc:
+            p.error(str(exc))
 
     machine = machine_info()
     _say(f"machine: {machine['cpu']}, {machine['cores']} cores, python {machine['python']}, "
@@ -118,11 +150,16 @@ def main(argv: list[str] | None = None) -> int:
     for name in targets:
         _say(f"--- {name}")
         t0 = time.monotonic()
+        modules = args.modules if args.modules is not None else DEFAULT_MODULES.get(name, 0)
         if name == "batch":
             r = t.bench_batch(args.walk_s, _say)
         elif name == "realtime":
-            r = t.bench_realtime(args.modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms,
+            r = t.bench_realtime(modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms,
                                  quiet=args.quiet)
+        elif name == "hostile":
+            from .hostile import bench_hostile
+
+            r = bench_hostile(hostile, _say, quiet=args.quiet)
         elif name == "latency":
             r = t.bench_latency(args.pings, _say, quiet=args.quiet)
         elif name == "files":
@@ -138,12 +175,16 @@ def main(argv: list[str] | None = None) -> int:
         r.details["wall_s"] = round(time.monotonic() - t0, 1)
         results.append(r)
     report = {"machine": machine, "time": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-              "results": [dict(asdict(r), ratio=r.ratio, line=r.line()) for r in results]}
+              "results": [{**{k: v for k, v in asdict(r).items() if k != "table"}, "ratio": r.ratio,
+                           "line": r.line()} for r in results]}
     args.json.parent.mkdir(parents=True, exist_ok=True)
     args.json.write_text(json.dumps(report, indent=2, default=str) + "\n")
     _say(f"figures written to {args.json}")
     print(f"machine: {machine['cpu']}, {machine['cores']} cores, python {machine['python']}, "
           f"numpy {machine['numpy']}, numba {machine['numba']}")
+    for r in results:
+        if r.table:
+            print(r.table)
     for r in results:
         print(r.line())
     return 0 if all(r.passed for r in results) else 1

@@ -22,6 +22,8 @@ class Result:
     details: dict[str, Any] = field(default_factory=dict)
 
     note: str = ""
+    #: a table to print above the summary lines (not in the JSON: its figures are in *details*)
+    table: str = ""
 
     @property
     def ratio(self) -> float:
