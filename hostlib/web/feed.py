@@ -25,9 +25,10 @@ kept, when each step packet in it arrived at the host (``transient.arrivals``, s
 epoch): a page tells how late it drew them.
 
 The feed hears of news from the devices' callbacks (a step, a gap, the link going down or up) and
-from the tracker's aid observer (:meth:`~hostlib.fusion.aided.AidedFilter.observe_aids`), each of
-which only notes it; its own thread then takes a snapshot under the devices' session locks and
-turns it into one message. The past of the track can change (an aid turns the whole walk when it
+notes the aids' readings from the tracker's aid observer
+(:meth:`~hostlib.fusion.aided.AidedFilter.observe_aids`: each is taken while a step is summed, and
+that step's callback follows); its own thread then takes a snapshot under the devices' session
+locks and turns it into one message. The past of the track can change (an aid turns the whole walk when it
 aligns the heading): the feed compares what the model holds with the tracker's track and replaces
 the series when they differ. An update costs the feed's thread about as much as copying the
 tracker's history; updates are at least :attr:`WalkFeed.min_interval_s` apart and at least four
@@ -106,7 +107,7 @@ class WalkFeed:
     (seconds of the epoch, as a browser's clock counts)."""
 
     #: Seconds between two updates at least (steps that come faster share one).
-    min_interval_s = 0.05
+    min_interval_s = 0.02
     #: Seconds between two updates at most, news or not (the links' counters move between steps).
     refresh_s = 0.5
 
@@ -141,10 +142,11 @@ class WalkFeed:
         self._news.set()
 
     def _aid(self, event: AidEvent) -> None:
+        # taken within a step's summing: the step's own callback, right after, brings the news (so
+        # the step's arrival is noted before the update that draws it)
         if event.aid == "gps" or event.outcome in ("aligned", "used", "rejected"):
             with self._lock:
                 self._events.append(event)
-            self._news.set()
 
     # -- running ------------------------------------------------------------------------
 

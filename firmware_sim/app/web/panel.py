@@ -172,6 +172,7 @@ def module_tables(served: ServedModule) -> dict[str, Any]:
     module = served.module
     outputs = [{"iface": i.name, "lossless": i.lossless, "packets": i.packets_assembled,
                 "queue": len(i.queue), "connected": bool(i.port.connected),
+                "served": any(i.port is link for link in served.links.values()),
                 "states": [[sid, _state_name(sid), d] for sid, d in i.periodic_outputs.items()]}
                for i in module.interface_list]
     links = []

@@ -89,7 +89,8 @@
       here: el("circle", {class: "truth-here"}, plan.layers),
     };
     const legend = document.getElementById("legend");
-    html("span", {}, legend).innerHTML = `<i style="background:${color}"></i>${label}: sent`;
+    if (!legend.childElementCount) html("span", {}, legend).innerHTML = `<i style="background:#c9ced6;height:7px"></i>the truth`;
+    html("span", {}, legend).innerHTML = `<i style="background:${color}"></i>${label}: its steps`;
     return box;
   }
 
@@ -118,10 +119,11 @@
       const cond = m.conditional && m.conditional.ifaces.includes(o.iface)
         ? [`on ${m.conditional.flag}: ${m.conditional.states.join(" ")}`] : [];
       const states = [...o.states.map(([, name, d]) => `${name}/${d}`), ...cond].join(" · ") || "none";
-      [o.iface, states, o.lossless ? "lossless" : "lossy", o.packets, o.queue, o.connected ? "up" : "down"]
+      const port = !o.served ? "not served" : o.connected ? "up" : "down";
+      [o.iface, states, o.lossless ? "lossless" : "lossy", o.packets, o.queue, port]
         .forEach((v, c) => text(row.cells[c], v));
       row.cells[1].style.whiteSpace = "normal";
-      row.cells[5].className = o.connected ? "up" : "down";
+      row.cells[5].className = !o.served ? "muted" : o.connected ? "up" : "down";
     });
     text(`tick-${i}`, `${fmt(m.loop_us_mean, 1)} / ${fmt(m.loop_us_max, 0)} µs`);
     const over = text(`overruns-${i}`, m.overruns);
