@@ -45,13 +45,13 @@ def written(fixture_files, command_bin, tmp_path_factory) -> Path:
     for name in ("walk.bin.truth.csv", "walk.bin.iron.json", "cal.json"):
         (d / name).write_bytes((fixture_files / name).read_bytes())
     subprocess.run([sys.executable, "-m", COMMANDS["openshoe-emu"], "replay", "--scenario", SHORT,
-                    "--seeds", "0:1", "--wire-dir", "wire", "--table", "wire/runs.csv", "-q"], cwd=d,
+                    "--seeds", "0:1", "--wire-dir", "wire", "--table", "runs.csv", "-q"], cwd=d,
                    check=True, env=example_env(command_bin, d), capture_output=True, timeout=600)
     return d
 
 
 def test_every_table_names_a_file():
-    assert set(TABLES) >= {"walk.bin.truth.csv", "walk.bin.iron.json", "cal.json", "wire/runs.csv"}
+    assert set(TABLES) >= {"walk.bin.truth.csv", "walk.bin.iron.json", "cal.json", "runs.csv"}
 
 
 @pytest.mark.parametrize("name", sorted(TABLES))
