@@ -1,6 +1,6 @@
-"""The float32 INS compiled: :mod:`~firmware_sim.nav.ins`'s array-level functions as kernels of the
-same names and arguments, with the same results bit for bit (NaN payloads and signed zeros
-included).
+"""The float32 INS compiled: :mod:`~firmware_sim.nav.ins`'s array-level functions (and
+:mod:`~firmware_sim.nav.ins_arithmetic`'s helpers) as kernels of the same names and arguments, with
+the same results bit for bit (NaN payloads and signed zeros included).
 
 Compiled as written (:func:`~firmware_sim.nav.jit.compiled_reference`), the helpers they call
 going to kernels: ``initial_alignment`` and ``stepwise_reset`` (a few arrays made per call, only
@@ -28,6 +28,7 @@ import math
 import numpy as np
 
 from . import ins
+from . import ins_arithmetic as arith
 from .jit import compiled_reference, kernel, objmode
 
 __all__ = ["clear_stance", "foot_angles", "height_compensation", "initial_alignment", "mechanization",
@@ -39,31 +40,31 @@ _1 = np.float32(1.0)
 _HALF = np.float32(0.5)
 _GRAVITY_N = ins._GRAVITY_N
 #: Row and column of each element of P's 45-element triangle, and each (row, column)'s element.
-_ROW = np.ascontiguousarray(ins.P_IU[0], dtype=np.int64)
-_COL = np.ascontiguousarray(ins.P_IU[1], dtype=np.int64)
+_ROW = np.ascontiguousarray(arith.P_IU[0], dtype=np.int64)
+_COL = np.ascontiguousarray(arith.P_IU[1], dtype=np.int64)
 _TRI = np.zeros((9, 9), dtype=np.int64)
 _TRI[_ROW, _COL] = _TRI[_COL, _ROW] = np.arange(45)
 _DIAG = np.ascontiguousarray(np.diag(_TRI))  # the diagonal's elements
 
-_double = compiled_reference(ins._double)
-_sinf = compiled_reference(ins._sinf, _double=_double)
-_cosf = compiled_reference(ins._cosf, _double=_double)
-_atan2f = compiled_reference(ins._atan2f, _double=_double)
-_tanf = compiled_reference(ins._tanf, _double=_double)
-_mv = compiled_reference(ins._mv)
-_mm = compiled_reference(ins._mm)
-_normalise = compiled_reference(ins._normalise)
-rot_rows = compiled_reference(ins.rot_rows)
-quat_product = compiled_reference(ins.quat_product)
-inv3_sym_upper = compiled_reference(ins.inv3_sym_upper)
-quat_to_rot = compiled_reference(ins.quat_to_rot, rot_rows=rot_rows)
-quat_mul = compiled_reference(ins.quat_mul, quat_product=quat_product)
-rot_to_yaw = compiled_reference(ins.rot_to_yaw, _atan2f=_atan2f)
+_double = compiled_reference(arith._double)
+_sinf = compiled_reference(arith._sinf, _double=_double)
+_cosf = compiled_reference(arith._cosf, _double=_double)
+_atan2f = compiled_reference(arith._atan2f, _double=_double)
+_tanf = compiled_reference(arith._tanf, _double=_double)
+_mv = compiled_reference(arith._mv)
+_mm = compiled_reference(arith._mm)
+_normalise = compiled_reference(arith._normalise)
+rot_rows = compiled_reference(arith.rot_rows)
+quat_product = compiled_reference(arith.quat_product)
+inv3_sym_upper = compiled_reference(arith.inv3_sym_upper)
+quat_to_rot = compiled_reference(arith.quat_to_rot, rot_rows=rot_rows)
+quat_mul = compiled_reference(arith.quat_mul, quat_product=quat_product)
+rot_to_yaw = compiled_reference(arith.rot_to_yaw, _atan2f=_atan2f)
 
 
 @kernel
 def _unit(q):
-    """q/‖q‖ of four float32 as a tuple (:func:`ins._normalise`'s arithmetic)."""
+    """q/‖q‖ of four float32 as a tuple (:func:`ins_arithmetic._normalise`'s arithmetic)."""
     n = np.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
     return q[0] / n, q[1] / n, q[2] / n, q[3] / n
 

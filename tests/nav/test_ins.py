@@ -9,6 +9,7 @@ import pytest
 
 from firmware_sim.nav import config as cfg
 from firmware_sim.nav import ins
+from firmware_sim.nav import ins_arithmetic as arith
 from protocol.states import DP_INDEX, P_INDEX
 
 F32 = np.float32
@@ -41,11 +42,11 @@ def test_kernels_keep_float32_throughout():
     rng = np.random.default_rng(0)
     q = ins.alignment_quaternion(np.array([0.5, -0.3, -9.7], F32))
     assert q.dtype == np.float32
-    assert ins.quat_to_rot(q).dtype == np.float32
-    assert ins.quat_mul(q, q).dtype == np.float32
-    assert ins.rot_to_yaw(ins.quat_to_rot(q)).dtype == np.float32
+    assert arith.quat_to_rot(q).dtype == np.float32
+    assert arith.quat_mul(q, q).dtype == np.float32
+    assert arith.rot_to_yaw(arith.quat_to_rot(q)).dtype == np.float32
     s = rng.normal(size=(3, 3)).astype(F32)
-    assert ins.inv3_sym(s @ s.T + np.eye(3, dtype=F32)).dtype == np.float32
+    assert arith.inv3_sym(s @ s.T + np.eye(3, dtype=F32)).dtype == np.float32
     pos, vel = np.zeros(3, F32), np.array([0.1, 0.2, 0.0], F32)
     f_n = np.zeros(3, F32)
     p45 = p45_diag([1e-4] * 9)
@@ -53,7 +54,7 @@ def test_kernels_keep_float32_throughout():
     u_k = np.array([0.3, 0.1, -9.8, 0.2, -0.1, 0.05], F32)
     # run every kernel on a private copy and check that the values equal a float32-only recomputation
     ins.mechanization(u_k, F32(0.001), False, pos, vel, q, f_n)
-    fn = ins.quat_to_rot(q) @ u_k[0:3]
+    fn = arith.quat_to_rot(q) @ u_k[0:3]
     assert fn.dtype == np.float32
     ins.time_update(f_n, F32(0.001), False, p45, pm, NOISE)
     ins.zupt_update(pos, vel, q, p45, pm, F32(0.001), NOISE)
@@ -63,7 +64,7 @@ def test_kernels_keep_float32_throughout():
     for zupt in (True, True, False):
         ins.height_compensation(zupt, u_k[0:3], F32(0.03), w, pos, vel, q, p45, pm, theta_init, theta_ground)
     assert all(type(a) is np.float32 for a in ins.foot_angles(u_k[0:3]))
-    assert type(ins._tanf(F32(0.1))) is np.float32
+    assert type(arith._tanf(F32(0.1))) is np.float32
     for a in (pos, vel, q, f_n, p45, pm, theta_ground):
         assert a.dtype == np.float32
 
@@ -90,7 +91,7 @@ def test_alignment_recovers_roll_and_pitch(roll, pitch):
     r = euler_to_matrix(np.array([roll]), np.array([pitch]), np.array([0.0]))[0]
     f_b = (r.T @ np.array([0, 0, -G])).astype(F32)
     q = ins.alignment_quaternion(f_b)
-    np.testing.assert_allclose(ins.quat_to_rot(q), r, atol=2e-6)
+    np.testing.assert_allclose(arith.quat_to_rot(q), r, atol=2e-6)
 
 
 def test_alignment_needs_256_consecutive_stationary_samples():
@@ -111,7 +112,7 @@ def test_alignment_needs_256_consecutive_stationary_samples():
     np.testing.assert_allclose(angles[0], [pitch, roll], atol=1e-6)  # THETA_INIT: the foot at rest
     assert not angles[1].any() and w.t_swing[0] == 0  # THETA_GROUND level, no swing
     pm = np.zeros((9, 9), F32)
-    ins.unpack_p(p45, pm)
+    arith.unpack_p(p45, pm)
     np.testing.assert_allclose(np.diag(pm), [1e-10] * 3 + [1e-4] * 3 + [0.00174**2] * 3, rtol=1e-5)
 
 
@@ -121,7 +122,7 @@ def test_mechanization_at_rest_stays_put_and_turns_with_the_gyro():
     for _ in range(1000):
         ins.mechanization(u, F32(0.001), False, pos, vel, q, f_n)
     assert np.abs(vel).max() < 1e-5 and np.abs(pos).max() < 1e-5
-    assert float(ins.rot_to_yaw(ins.quat_to_rot(q))) == pytest.approx(0.5, abs=1e-4)
+    assert float(arith.rot_to_yaw(arith.quat_to_rot(q))) == pytest.approx(0.5, abs=1e-4)
 
 
 def test_zaru_freezes_heading_and_position():
@@ -129,11 +130,11 @@ def test_zaru_freezes_heading_and_position():
     u = np.array([0, 0, -G, 0.0, 0.0, 0.5], F32)
     ins.mechanization(u, F32(0.01), True, pos, vel, q, f_n)
     assert not pos.any()
-    assert float(ins.rot_to_yaw(ins.quat_to_rot(q))) == 0.0
+    assert float(arith.rot_to_yaw(arith.quat_to_rot(q))) == 0.0
     p45 = p45_diag([1e-4] * 9)
     pm = np.zeros((9, 9), F32)
     ins.time_update(f_n, F32(0.01), True, p45, pm, NOISE)
-    ins.unpack_p(p45, pm)
+    arith.unpack_p(p45, pm)
     assert pm[0, 0] == F32(1e-4) and pm[8, 8] == F32(1e-4)
     assert pm[3, 3] > F32(1e-4) and pm[6, 6] > F32(1e-4)
 
@@ -142,7 +143,7 @@ def test_inv3_sym_inverts():
     rng = np.random.default_rng(1)
     a = rng.normal(size=(3, 3))
     s = (a @ a.T + np.eye(3)).astype(F32)
-    np.testing.assert_allclose(ins.inv3_sym(s) @ s, np.eye(3), atol=1e-5)
+    np.testing.assert_allclose(arith.inv3_sym(s) @ s, np.eye(3), atol=1e-5)
 
 
 def test_zupts_remove_a_tilt_error():
@@ -159,7 +160,7 @@ def test_zupts_remove_a_tilt_error():
         ins.mechanization(u, F32(0.001), False, pos, vel, q, f_n)
         ins.time_update(f_n, F32(0.001), False, p45, pm, NOISE)
         ins.zupt_update(pos, vel, q, p45, pm, F32(0.001), NOISE)
-    rr = ins.quat_to_rot(q)
+    rr = arith.quat_to_rot(q)
     assert math.atan2(rr[2, 1], rr[2, 2]) == pytest.approx(true_roll, abs=1e-3)
 
 
@@ -167,7 +168,7 @@ def _reset_state():
     w = ins.InsWork()
     pos = np.array([0.7, 0.1, -0.01], F32)
     yaw = 0.3
-    q = ins.quat_mul(np.array([0, 0, math.sin(yaw / 2), math.cos(yaw / 2)], F32),
+    q = arith.quat_mul(np.array([0, 0, math.sin(yaw / 2), math.cos(yaw / 2)], F32),
                      ins.alignment_quaternion(np.array([1.0, -0.5, -9.7], F32)))
     p45 = np.arange(1, 46, dtype=F32) * F32(1e-6)
     p45[ins.P24_INDEX] = F32(5e-5)
@@ -202,15 +203,15 @@ def test_no_reset_while_var_vx_is_above_the_threshold():
 def test_reset_hands_over_dx_dp_and_zeroes_position_yaw_and_their_covariance():
     w, pos, q, p45, dx, dp, swing = _reset_state()
     w.t_since_reset[0] = F32(1.0)
-    r0 = ins.quat_to_rot(q)
+    r0 = arith.quat_to_rot(q)
     roll0, pitch0 = math.atan2(r0[2, 1], r0[2, 2]), -math.asin(r0[2, 0])
     p_before = p45.copy()
     assert ins.stepwise_reset(False, F32(0.004), w, pos, q, p45, dx, dp, swing)
     np.testing.assert_allclose(dx, [0.7, 0.1, -0.01, 0.3], atol=1e-6)
     assert list(dp) == list(p_before[ins.POS_YAW_TRIANGLE])
     assert not pos.any()
-    r = ins.quat_to_rot(q)
-    assert abs(float(ins.rot_to_yaw(r))) < 1e-6
+    r = arith.quat_to_rot(q)
+    assert abs(float(arith.rot_to_yaw(r))) < 1e-6
     assert math.atan2(r[2, 1], r[2, 2]) == pytest.approx(roll0, abs=1e-5)
     assert -math.asin(r[2, 0]) == pytest.approx(pitch0, abs=1e-5)
     for k, (i, j) in enumerate(P_INDEX):
@@ -240,7 +241,7 @@ def test_slope_measurement_pulls_the_step_height_onto_the_slope():
     assert -rise < pos[2] < -0.03 - 0.8 * (rise - 0.03)
     assert np.hypot(*pos[:2]) == pytest.approx(1.4, abs=0.01)
     assert math.atan2(pos[1], pos[0]) == pytest.approx(math.atan2(before[1], before[0]), abs=1e-3)
-    ins.unpack_p(p45, pm)
+    arith.unpack_p(p45, pm)
     assert pm[2, 2] < 1e-4
 
 

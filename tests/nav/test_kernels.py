@@ -21,6 +21,7 @@ from firmware_sim.nav import config as cfg
 from firmware_sim.nav import frontend as fe
 from firmware_sim.nav import frontend_kernels as fk
 from firmware_sim.nav import ins, jit
+from firmware_sim.nav import ins_arithmetic as arith
 from firmware_sim.nav import ins_kernels as ik
 from firmware_sim.nav.config import MODULE_INS_NOISE
 from firmware_sim.nav.profiles import PROFILES
@@ -283,20 +284,20 @@ def test_convcomp_kernel_matches_the_reference_across_the_counter_wrap(compiled,
 @given(x=f32_scalar(-100, 100), y=f32_scalar(-100, 100))
 def test_trigonometry_matches_the_reference_on_signed_zeros_infinities_and_nan(compiled, x, y):
     for name in ("_sinf", "_cosf", "_tanf"):
-        assert_same_call(getattr(ins, name), form(getattr(ik, name), compiled), x)
-    assert_same_call(ins._atan2f, form(ik._atan2f, compiled), x, y)
+        assert_same_call(getattr(arith, name), form(getattr(ik, name), compiled), x)
+    assert_same_call(arith._atan2f, form(ik._atan2f, compiled), x, y)
 
 
 @pytest.mark.parametrize("compiled", FORMS)
 @kernel_settings
 @given(a=quaternions(), b=quaternions(), s=f32_arrays((3, 3), -2, 2))
 def test_rotation_and_quaternion_helpers_match_the_reference(compiled, a, b, s):
-    assert_same_call(ins.quat_to_rot, form(ik.quat_to_rot, compiled), a)
-    assert_same_call(ins.quat_mul, form(ik.quat_mul, compiled), a, b)
-    assert_same_call(ins.rot_to_yaw, form(ik.rot_to_yaw, compiled), ins.quat_to_rot(a))
-    assert_same_call(ins._normalise, form(ik._normalise, compiled), b)
+    assert_same_call(arith.quat_to_rot, form(ik.quat_to_rot, compiled), a)
+    assert_same_call(arith.quat_mul, form(ik.quat_mul, compiled), a, b)
+    assert_same_call(arith.rot_to_yaw, form(ik.rot_to_yaw, compiled), arith.quat_to_rot(a))
+    assert_same_call(arith._normalise, form(ik._normalise, compiled), b)
     s = s + s.T
-    assert_same_call(ins.inv3_sym_upper, form(ik.inv3_sym_upper, compiled), s[0, 0], s[0, 1], s[0, 2],
+    assert_same_call(arith.inv3_sym_upper, form(ik.inv3_sym_upper, compiled), s[0, 0], s[0, 1], s[0, 2],
                      s[1, 1], s[1, 2], s[2, 2])
 
 
@@ -305,8 +306,9 @@ def test_rotation_and_quaternion_helpers_match_the_reference(compiled, a, b, s):
 @given(p45=covariances())
 def test_covariance_triangle_unpacks_and_packs_as_the_reference(compiled, p45):
     pm = np.zeros((9, 9), np.float32)
-    assert_same_call(ins.unpack_p, form(ik.unpack_p, compiled), p45, pm)
-    assert_same_call(ins.pack_p, form(ik.pack_p, compiled), ins.unpack_p(p45, pm), np.zeros(45, np.float32))
+    assert_same_call(arith.unpack_p, form(ik.unpack_p, compiled), p45, pm)
+    assert_same_call(arith.pack_p, form(ik.pack_p, compiled), arith.unpack_p(p45, pm),
+                     np.zeros(45, np.float32))
 
 
 @pytest.mark.parametrize("compiled", FORMS)
@@ -515,9 +517,9 @@ def test_a_nan_keeps_its_sign_and_payload_as_in_the_reference(compiled, data, na
                      np.array([3], np.uint32), np.zeros(6, np.float32), np.zeros((), np.float32), **strict)
     x = np.array(nan, np.uint32).view(np.float32)[()]
     for name in ("_sinf", "_cosf", "_tanf"):
-        assert_same_call(getattr(ins, name), form(getattr(ik, name), compiled), x, **strict)
-    assert_same_call(ins._atan2f, form(ik._atan2f, compiled), x, dt, **strict)
-    assert_same_call(ins._atan2f, form(ik._atan2f, compiled), dt, x, **strict)
+        assert_same_call(getattr(arith, name), form(getattr(ik, name), compiled), x, **strict)
+    assert_same_call(arith._atan2f, form(ik._atan2f, compiled), x, dt, **strict)
+    assert_same_call(arith._atan2f, form(ik._atan2f, compiled), dt, x, **strict)
 
 
 @pytest.mark.skipif(not jit.COMPILING, reason=f"kernels are not compiled here: {jit.NUMBA_ERROR}")
