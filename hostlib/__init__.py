@@ -45,7 +45,8 @@ if TYPE_CHECKING:  # type checkers see the classes the lazy __getattr__ below ha
     from .fusion.feet import FeetSettings, TwoFeetTracker
     from .fusion.settings import FusionSettings
     from .fusion.tracker import FusionTracker
-    from .link.device import Device, DeviceOptions
+    from .link.device import Device
+    from .link.device_options import DeviceOptions
     from .link.session import HostSession
     from .run.aid_setup import prepare_aids
     from .run.options import AidOptions, RunOptions
@@ -54,7 +55,7 @@ if TYPE_CHECKING:  # type checkers see the classes the lazy __getattr__ below ha
 #: What the lazy names come from: importing ``hostlib`` stays light (the events and the step sum)
 #: for users who only sum steps; the link pulls in pyserial, the fusion pygeomag and pymap3d.
 _LAZY = {
-    "Device": ".link.device", "DeviceOptions": ".link.device", "HostSession": ".link.session",
+    "Device": ".link.device", "DeviceOptions": ".link.device_options", "HostSession": ".link.session",
     "StateFilter": ".fusion.core", "FusionSettings": ".fusion.settings", "FusionTracker": ".fusion.tracker",
     "FeetSettings": ".fusion.feet", "TwoFeetTracker": ".fusion.feet",
     "AidOptions": ".run.options", "RunOptions": ".run.options", "TrackingRun": ".run.tracking_run",

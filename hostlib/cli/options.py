@@ -1,8 +1,9 @@
 """The options the commands share, what they refuse together, and what they become: the argument
 groups (the link, the set-up, the heading aids, two feet), their types, the refusals checked before
-any port opens, and the objects the rest of the host takes — a :class:`~hostlib.link.device.DeviceOptions`,
-:class:`~hostlib.run.options.RunOptions`, :class:`~hostlib.run.options.AidOptions` and
-:class:`~hostlib.fusion.feet.FeetSettings`, each made once, here, from argparse's namespace."""
+any port opens, and the objects the rest of the host takes — a
+:class:`~hostlib.link.device_options.DeviceOptions`, :class:`~hostlib.run.options.RunOptions`,
+:class:`~hostlib.run.options.AidOptions` and :class:`~hostlib.fusion.feet.FeetSettings`, each made
+once, here, from argparse's namespace."""
 
 from __future__ import annotations
 
@@ -20,7 +21,8 @@ from ..fusion.feet import FeetSettings
 from ..fusion.gps_bias import GpsBias
 from ..fusion.hard_iron import HardIron
 from ..fusion.module_errors import ModuleErrors
-from ..link.device import Device, DeviceOptions
+from ..link.device import Device
+from ..link.device_options import DeviceOptions
 from ..run.options import AidOptions, RunOptions
 from .checks import baud_rate, compass_sigma, declination, port_url, seconds, value_refusal
 

@@ -21,75 +21,31 @@ from __future__ import annotations
 
 import logging
 import math
-import queue
 import threading
 import time
-import warnings
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, fields, replace
 from typing import Any, BinaryIO
 
 import serial
 
 from protocol.ids import Command
 
-from ..errors import AckTimeout, DeviceClosed, LinkLost, QueueFullWarning
+from ..errors import AckTimeout, DeviceClosed, LinkLost
 from ..events import CommandAckEvent, Event, GapEvent, LinkEvent, PacketEvent, StepEvent, StreamEvent
 from ..track.steps import StepTracker, Track
 from .commands import CommandMethods
-from .connection import DEFAULT_BAUDRATE, PortFactory, port_name
+from .connection import PortFactory, port_name
 from .connection import port_factory as _port_factory
+from .device_options import DeviceOptions, device_options
+from .event_queue import CLOSED, BoundedQueue
 from .outputs import OutputPlan
 from .session import HostSession
 
-__all__ = ["Device", "DeviceOptions"]
+__all__ = ["Device"]
 
 log = logging.getLogger(__name__)
 
 _READ_ERRORS = (serial.SerialException, OSError, TypeError, AttributeError, ValueError)
-
-
-class _BoundedQueue:
-    """A bounded FIFO of events; a full queue drops the new event, counts it and warns once per episode.
-    The bound applies to events only: the close marker always fits, so a reader blocked on a full
-    queue still learns that the device closed."""
-
-    def __init__(self, name: str, maxsize: int):
-        if maxsize < 1:
-            raise ValueError(f"queue_size must be >= 1, got {maxsize}")
-        self.name = name
-        self.maxsize = maxsize
-        self.q: queue.Queue = queue.Queue()  # bounded by hand in put()
-        self.dropped = 0
-        self._warned = False
-
-    def put(self, item: Any) -> None:
-        if self.q.qsize() >= self.maxsize:
-            self.dropped += 1
-            if not self._warned:
-                self._warned = True
-                warnings.warn(
-                    f"the {self.name} queue is full ({self.maxsize}); events are being dropped "
-                    f"(counted in dropped_{self.name}); read them faster or raise queue_size",
-                    QueueFullWarning,
-                    stacklevel=2,
-                )
-            return
-        self.q.put_nowait(item)
-        self._warned = False
-
-    def close(self) -> None:
-        self.q.put_nowait(_CLOSED)
-
-    def get(self, deadline: float | None) -> Any:
-        """The next item, or None when the deadline passes (None = wait forever)."""
-        if deadline is None:
-            return self.q.get()
-        remaining = deadline - time.monotonic()
-        try:
-            return self.q.get(timeout=remaining) if remaining > 0 else self.q.get_nowait()
-        except queue.Empty:
-            return None
 
 
 def _as_bytes(data: Any, method: str) -> bytes:
@@ -101,72 +57,6 @@ def _as_bytes(data: Any, method: str) -> bytes:
 
 #: The clock of ack deadlines (a module attribute so tests can drive it).
 _now = time.monotonic
-
-_CLOSED = object()  # marker put in the queues on close to wake iterators
-
-
-@dataclass(frozen=True)
-class DeviceOptions:
-    """How a :class:`Device` talks to its module: the command numbering, how long it waits for
-    acks, what it does when the link drops, how much it queues and how it opens the port."""
-
-    #: ``"2015"`` (current) or ``"2014"`` numbering (protocol.md §10)
-    command_set: str = "2015"
-    #: seconds to wait for a command's ack, per attempt
-    ack_timeout: float = 1.0
-    #: extra attempts of each command after the first
-    retries: int = 2
-    #: which packets the session acknowledges (:class:`~hostlib.link.session.HostSession`)
-    ack_policy: str = "auto"
-    #: after a dropped link, keep re-opening it until :meth:`Device.close`
-    reconnect: bool = True
-    #: seconds between two attempts to re-open a dropped link
-    reconnect_interval: float = 0.5
-    #: bound of the packet queue and of the step queue
-    queue_size: int = 10000
-    #: UART baud rate (ignored by URLs and USB)
-    baudrate: int = DEFAULT_BAUDRATE
-    #: the port's read timeout [s]: how long the reader thread waits for bytes at a time
-    read_timeout: float = 0.05
-    #: let only the reader thread touch the port (writes are handed to it and go out between
-    #: reads). Needed by ports that are not thread-safe, such as the emulator's virtual-time
-    #: ``openshoe://`` port; None: on for those URLs, off otherwise (real serial ports read and
-    #: write concurrently)
-    serialize_io: bool | None = None
-
-    def __post_init__(self) -> None:
-        """Refuse a value the device could not work with, naming the option (ValueError; TypeError
-        for one of the wrong kind): a wait that is not a number of seconds > 0, a negative count."""
-        for name in ("ack_timeout", "reconnect_interval", "read_timeout"):
-            _check_number(name, getattr(self, name), "a number of seconds > 0", lambda v: v > 0)
-        _check_number("retries", self.retries, "a whole number >= 0", lambda v: v >= 0, whole=True)
-        _check_number("queue_size", self.queue_size, "a whole number >= 1", lambda v: v >= 1, whole=True)
-        _check_number("baudrate", self.baudrate, "a whole number of bits per second > 0", lambda v: v > 0,
-                      whole=True)
-
-
-def _check_number(name: str, value: Any, what: str, ok: Callable[[float], bool], whole: bool = False) -> None:
-    """Refuse *value* of the option *name* unless it is a finite number (*whole*: an integer) *ok*
-    takes."""
-    kinds = (int,) if whole else (int, float)
-    if not isinstance(value, kinds) or isinstance(value, bool):
-        raise TypeError(f"{name} must be {what}, got {value!r}")
-    if not (math.isfinite(value) and ok(value)):
-        raise ValueError(f"{name} must be {what}, got {value!r}")
-
-
-def _options(options: DeviceOptions | None, settings: dict[str, Any]) -> DeviceOptions:
-    """*options* with the keywords *settings* given to :class:`Device`; a keyword that is no option
-    is refused naming the options there are."""
-    if options is not None and not isinstance(options, DeviceOptions):
-        raise TypeError(f"options must be a DeviceOptions, got {type(options).__name__}")
-    known = {f.name for f in fields(DeviceOptions)}
-    unknown = sorted(set(settings) - known)
-    if unknown:
-        raise TypeError(f"Device has no option {', '.join(map(repr, unknown))} (DeviceOptions: "
-                        f"{', '.join(sorted(known))})")
-    return replace(options or DeviceOptions(), **settings)
-
 
 class Device(CommandMethods):
     """One OpenShoe module over one serial link (USB CDC or Bluetooth SPP, real or emulated).
@@ -201,7 +91,7 @@ class Device(CommandMethods):
     def __init__(self, target: Any = None, options: DeviceOptions | None = None, *,
                  tracker: StepTracker | None = None, raw_log: BinaryIO | None = None,
                  port_factory: PortFactory | None = None, start: bool = True, **settings: Any):
-        options = _options(options, settings)
+        options = device_options(options, settings)
         if raw_log is not None and not callable(getattr(raw_log, "write", None)):
             raise TypeError(f"raw_log must be a binary file open for writing, got {raw_log!r}")
         if tracker is not None and not callable(getattr(tracker, "add", None)):
@@ -239,8 +129,8 @@ class Device(CommandMethods):
         self.reconnects = 0
         self.callback_errors = 0
         self.reader_errors = 0
-        self._packets = _BoundedQueue("packets", options.queue_size)
-        self._steps = _BoundedQueue("steps", options.queue_size)
+        self._packets = BoundedQueue("packets", options.queue_size)
+        self._steps = BoundedQueue("steps", options.queue_size)
         self._callbacks: dict[type, list[Callable[[Any], object]]] = {
             kind: [] for kind in (PacketEvent, StepEvent, GapEvent, CommandAckEvent, LinkEvent)
         }
@@ -578,11 +468,11 @@ class Device(CommandMethods):
         """
         return self._get(self._steps, timeout)
 
-    def _get(self, q: _BoundedQueue, timeout: float | None) -> Any:
+    def _get(self, q: BoundedQueue, timeout: float | None) -> Any:
         if self._closed and q.q.empty():
             raise DeviceClosed(f"{self.name} is closed")
         item = q.get(None if timeout is None else time.monotonic() + timeout)
-        if item is _CLOSED:
+        if item is CLOSED:
             q.close()  # wake the next reader too
             raise DeviceClosed(f"{self.name} is closed")
         return item
@@ -601,12 +491,12 @@ class Device(CommandMethods):
         """
         yield from self._iterate(self._steps, timeout)
 
-    def _iterate(self, q: _BoundedQueue, timeout: float | None) -> Iterator[Any]:
+    def _iterate(self, q: BoundedQueue, timeout: float | None) -> Iterator[Any]:
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             item = q.get(deadline)
-            if item is None or item is _CLOSED:
-                if item is _CLOSED:
+            if item is None or item is CLOSED:
+                if item is CLOSED:
                     q.close()
                 return
             yield item

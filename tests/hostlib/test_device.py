@@ -16,7 +16,8 @@ import serial
 
 from hostlib.errors import AckTimeout, DeviceClosed, NotSupportedByCommandSet
 from hostlib.events import CommandAckEvent, GapEvent, LinkEvent, PacketEvent, StepEvent
-from hostlib.link.device import Device, DeviceOptions
+from hostlib.link.device import Device
+from hostlib.link.device_options import DeviceOptions
 from protocol.codec import encode_step
 from protocol.commands import LEGACY_2014, command_set
 from protocol.frames import build_command_ack, build_packet_ack, build_state_packet, parse_command
