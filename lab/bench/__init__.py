@@ -132,7 +132,7 @@ def main(argv: list[str] | None = None) -> int:
 
     hostile = None
     if "hostile" in targets:  # refused values before any target runs
-        from .hostile import hostile_plan
+        from .hostile_plan import hostile_plan
 
         try:
             modules = DEFAULT_MODULES["hostile"] if args.modules is None else args.modules

@@ -14,17 +14,11 @@ from pathlib import Path
 import pytest
 
 from lab.bench import DEFAULT_MODULES, TARGETS, main
-from lab.bench.hostile import (
-    GROUPS,
-    ServedGroup,
-    hostile_details,
-    hostile_plan,
-    hostile_result,
-    hostile_table,
-    module_ends,
-    rss_trend,
-)
+from lab.bench.hostile import GROUPS
+from lab.bench.hostile_figures import hostile_details, hostile_result, hostile_table, rss_trend
 from lab.bench.hostile_load import CommandFuzzer, HostileClient, HostileConfig, LoadLoop
+from lab.bench.hostile_plan import hostile_plan
+from lab.bench.hostile_served import ServedGroup, module_ends
 from protocol.commands import CURRENT
 from protocol.frames import parse_command
 from protocol.states import STATES
@@ -38,6 +32,8 @@ def test_the_target_is_listed_with_its_own_module_count() -> None:
     assert "hostile" in TARGETS and DEFAULT_MODULES["hostile"] == 10
     assert "lab.bench" not in project_imports("lab.bench.hostile")
     assert "lab.bench" not in project_imports("lab.bench.hostile_load")
+    for part in ("hostile_plan", "hostile_served", "hostile_figures"):
+        assert "lab.bench" not in project_imports(f"lab.bench.{part}")
 
 
 @pytest.mark.parametrize("args, said", [(["--hostile-commands", "PING,NOPE"], "no command NOPE"),
