@@ -87,7 +87,8 @@ class Applied:
         """The Bluetooth link of the run (None: the ideal port, as a plain replay)."""
         if self.link_profile in (None, "ideal") and not self.link_faults:
             return None
-        from firmware_sim.links.link import LinkFaults, make_link
+        from firmware_sim.links.faults import LinkFaults
+        from firmware_sim.links.link import make_link
 
         faults = self.link_faults
         both = {k: faults[k] for k in ("byte_loss", "corrupt", "stall_rate_hz") if k in faults}

@@ -14,19 +14,8 @@ The two directions (protocol.md §8):
                     radio buffer / air (latency + jitter, in order, in chunks)
                     → host receive buffer → host_read
 
-Bluetooth (profile ``"bt"``): 115200 baud 8N1 UART = 11 520 B/s, a 1024-byte
-transmit ring and a 512-byte receive ring in the µC (bytes that do not fit the
-receive ring are lost and counted, as on the real module: the UART has no flow
-control), SPP one-way latency 20 ms plus 0–20 ms jitter. The jitter is redrawn
-every 20 ms of traffic (the radio's latency wanders; chunks are never
-reordered, a chunk behind a slower one arrives with it). Bytes waiting in the
-radio (between the UART and the host) are limited to ``radio_buffer``; during a
-stall that buffer fills and the overflow is lost. By default a Bluetooth link
-loses data only where the real one does: ring overflow, stalls and disconnects.
-
-USB (profile ``"usb"``): 1 ms latency, 1 MB/s, and flow control: a full receive
-ring holds bytes back instead of losing them, so USB is lossless unless faults
-are asked for. ``"ideal"``: no rate, no latency, unbounded buffers.
+Bluetooth (profile ``"bt"``), USB (``"usb"``) and ``"ideal"``: their rates, rings, latency
+and losses are in :mod:`firmware_sim.links.profiles`.
 
 In real time a pacer may run the module ahead of the wall clock, by less than
 the link's latency (:meth:`Link.lookahead_cycles`), and hands the link a *host
@@ -38,216 +27,42 @@ difference; a byte reaching the host after its arrival time is counted in
 ``late`` with the largest lateness in ``late_max_cycles``. Without a host clock
 (the default, virtual time) the host lives on the module's clock, as before.
 
-Fault injection (:class:`LinkFaults`, per direction) adds seeded byte loss,
-corruption, stalls and disconnects on top; runtime controls
-(:meth:`Link.disconnect`, :meth:`Link.reconnect`, :meth:`Link.stall`,
-:meth:`Link.corrupt_next`, :meth:`Link.drop_next`) let a control channel drive
-them. Every lost or corrupted byte is counted in :attr:`Link.counters`.
+Fault injection (:class:`~firmware_sim.links.faults.LinkFaults`, per direction) adds seeded
+byte loss, corruption, stalls and disconnects on top (:mod:`firmware_sim.links.faults`); runtime
+controls (:meth:`Link.disconnect`, :meth:`Link.reconnect`, :meth:`Link.stall`,
+:meth:`Link.corrupt_next`, :meth:`Link.drop_next`) let a control channel drive them. Every lost or
+corrupted byte is counted in :attr:`Link.counters` (:mod:`firmware_sim.links.counters`).
 """
 
 from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable, Iterator
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import replace
 from typing import Literal
 
 import numpy as np
 
 from protocol.states import TIMESTAMP_HZ
 
+from .air import Chunk, Stall
+from .counters import DirectionCounters, LinkCounters
+from .faults import DIRECTIONS, Direction, LinkFaults, random_byte_faults
+from .profiles import BLUETOOTH, PROFILES, USB, LinkProfile
+
 #: The µC's cycle counter rate (firmware.md §1).
 CLOCK_HZ = TIMESTAMP_HZ
-
-Direction = Literal["to_module", "to_host"]
-DIRECTIONS: tuple[Direction, Direction] = ("to_module", "to_host")
 
 
 def _cycles(seconds: float) -> int:
     return int(round(seconds * CLOCK_HZ))
 
 
-# --------------------------------------------------------------------------- configuration
-
-
-@dataclass(frozen=True)
-class DirectionFaults:
-    """Faults injected on one direction of a link (all off by default).
-
-    ``byte_loss`` and ``corrupt`` are per-byte probabilities (a corrupted byte is
-    XORed with a random non-zero value); ``stall_rate_hz`` is the mean number of
-    stalls per second of virtual time (Poisson), each lasting a uniform draw
-    from :attr:`LinkFaults.stall_s`.
-    """
-
-    byte_loss: float = 0.0
-    corrupt: float = 0.0
-    stall_rate_hz: float = 0.0
-
-    def __post_init__(self) -> None:
-        for name in ("byte_loss", "corrupt"):
-            p = getattr(self, name)
-            if not 0.0 <= p <= 1.0:
-                raise ValueError(f"{name} must be a probability in [0, 1], got {p}")
-        if self.stall_rate_hz < 0:
-            raise ValueError(f"stall_rate_hz must be >= 0, got {self.stall_rate_hz}")
-
-    @property
-    def any(self) -> bool:
-        return bool(self.byte_loss or self.corrupt or self.stall_rate_hz)
-
-
-@dataclass(frozen=True)
-class LinkFaults:
-    """Seeded fault injection for a link, per direction plus link-wide disconnects.
-
-    ``disconnect_rate_hz``: mean disconnects per second (Poisson); after one the
-    link reconnects by itself after a uniform draw from ``reconnect_s``
-    (``None``: it stays down until :meth:`Link.reconnect`).
-    """
-
-    to_module: DirectionFaults = field(default_factory=DirectionFaults)
-    to_host: DirectionFaults = field(default_factory=DirectionFaults)
-    stall_s: tuple[float, float] = (0.1, 2.0)
-    disconnect_rate_hz: float = 0.0
-    reconnect_s: tuple[float, float] | None = (0.5, 2.0)
-
-    def __post_init__(self) -> None:
-        lo, hi = self.stall_s
-        if not 0 <= lo <= hi:
-            raise ValueError(f"stall_s must be (min, max) with 0 <= min <= max, got {self.stall_s}")
-        if self.disconnect_rate_hz < 0:
-            raise ValueError(f"disconnect_rate_hz must be >= 0, got {self.disconnect_rate_hz}")
-        if self.reconnect_s is not None and not 0 <= self.reconnect_s[0] <= self.reconnect_s[1]:
-            raise ValueError(f"reconnect_s must be (min, max) or None, got {self.reconnect_s}")
-
-    @classmethod
-    def both(cls, byte_loss: float = 0.0, corrupt: float = 0.0, stall_rate_hz: float = 0.0,
-             **kw: object) -> LinkFaults:
-        """The same per-direction faults on both directions."""
-        d = DirectionFaults(byte_loss=byte_loss, corrupt=corrupt, stall_rate_hz=stall_rate_hz)
-        return cls(to_module=d, to_host=d, **kw)  # type: ignore[arg-type]
-
-    def direction(self, d: Direction) -> DirectionFaults:
-        return self.to_module if d == "to_module" else self.to_host
-
-
-@dataclass(frozen=True)
-class LinkProfile:
-    """The physical parameters of one kind of link.
-
-    ``rate_bps`` is the wire between the µC and the radio / USB engine in bytes
-    per second (``None``: unlimited). Ring and buffer sizes are in bytes
-    (``None``: unbounded).
-    """
-
-    name: str
-    rate_bps: int | None
-    tx_ring: int | None  #: the µC's transmit ring
-    rx_ring: int | None  #: the µC's receive ring
-    latency_s: float  #: one-way base latency
-    jitter_s: float  #: extra latency, uniform in [0, jitter_s)
-    jitter_period_s: float  #: a new jitter value is drawn this often (per direction)
-    flow_control: bool  #: True: a full receive ring holds bytes back; False: they are lost
-    radio_buffer: int | None  #: bytes in flight from the wire to the host before overflow
-    host_rx_buffer: int | None  #: the host's receive buffer (OS serial / socket buffer)
-    host_tx_buffer: int | None  #: bytes in flight host → module before host_write refuses more
-
-
-BLUETOOTH = LinkProfile(
-    name="bt", rate_bps=11_520, tx_ring=1024, rx_ring=512, latency_s=0.020, jitter_s=0.020,
-    jitter_period_s=0.020, flow_control=False, radio_buffer=1024, host_rx_buffer=1 << 20,
-    host_tx_buffer=64 * 1024,
-)
-USB = LinkProfile(
-    name="usb", rate_bps=1_000_000, tx_ring=4096, rx_ring=4096, latency_s=0.001, jitter_s=0.0,
-    jitter_period_s=0.001, flow_control=True, radio_buffer=None, host_rx_buffer=None,
-    host_tx_buffer=None,
-)
-IDEAL = LinkProfile(
-    name="ideal", rate_bps=None, tx_ring=None, rx_ring=None, latency_s=0.0, jitter_s=0.0,
-    jitter_period_s=1.0, flow_control=True, radio_buffer=None, host_rx_buffer=None,
-    host_tx_buffer=None,
-)
-PROFILES: dict[str, LinkProfile] = {"bt": BLUETOOTH, "bluetooth": BLUETOOTH, "usb": USB, "ideal": IDEAL}
-
 #: What ``tx_free`` reports for an unbounded transmit ring.
 UNLIMITED = 1 << 30
 
 
-# --------------------------------------------------------------------------- counters
-
-
-@dataclass
-class DirectionCounters:
-    """Byte counts of one direction. ``lost`` is the sum of every ``lost_*``."""
-
-    sent: int = 0  #: bytes that entered the link (host_write accepted / tx_write)
-    wire: int = 0  #: bytes that crossed the UART / USB wire
-    delivered: int = 0  #: bytes that reached the far end (read by the µC / in the host's buffer)
-    lost_overflow: int = 0  #: a buffer on the way was full (receive ring, radio, host buffer)
-    lost_refused: int = 0  #: host_write could not take them (disconnected or too much in flight)
-    lost_fault: int = 0  #: dropped by injected byte loss
-    lost_disconnect: int = 0  #: in flight when the link went down
-    corrupted: int = 0  #: delivered with injected corruption
-    #: real time only: bytes that reached the far end more than ``late_tolerance_cycles`` after
-    #: their arrival time, and the largest lateness seen [cycles] (0 in virtual time)
-    late: int = 0
-    late_max_cycles: int = 0
-
-    @property
-    def lost(self) -> int:
-        return self.lost_overflow + self.lost_refused + self.lost_fault + self.lost_disconnect
-
-
-@dataclass
-class LinkCounters:
-    """Everything a link counts: per direction, plus stalls and connection changes."""
-
-    to_module: DirectionCounters = field(default_factory=DirectionCounters)
-    to_host: DirectionCounters = field(default_factory=DirectionCounters)
-    stalls: int = 0
-    disconnects: int = 0
-    connects: int = 0
-
-    def direction(self, d: Direction) -> DirectionCounters:
-        return self.to_module if d == "to_module" else self.to_host
-
-    def as_dict(self) -> dict[str, object]:
-        out = asdict(self)
-        out["to_module"]["lost"] = self.to_module.lost
-        out["to_host"]["lost"] = self.to_host.lost
-        return out
-
-
 # --------------------------------------------------------------------------- the link
-
-
-class _Chunk:
-    """Bytes travelling together, with the cycle at which they arrive."""
-
-    __slots__ = ("at", "data")
-
-    def __init__(self, at: int, data: bytearray):
-        self.at = at
-        self.data = data
-
-    def __repr__(self) -> str:
-        return f"_Chunk(at={self.at}, {self.data.hex(' ')})"
-
-
-class _Stall:
-    """A window [start, end) of virtual time in which one direction delivers nothing."""
-
-    __slots__ = ("start", "end")
-
-    def __init__(self) -> None:
-        self.start = 0
-        self.end = 0
-
-    def hold(self, t: int) -> int:
-        """Arrival time of something due at *t*, pushed past the stall if it falls inside."""
-        return self.end if self.start <= t < self.end else t
 
 
 class Link:
@@ -287,23 +102,23 @@ class Link:
         self._jitter_value = {"to_module": 0, "to_host": 0}
         self._jitter_until = {"to_module": -1, "to_host": -1}
         self._last_at = {"to_module": 0, "to_host": 0}
-        self._stall = {"to_module": _Stall(), "to_host": _Stall()}
+        self._stall = {"to_module": Stall(), "to_host": Stall()}
         self._force_corrupt = {"to_module": 0, "to_host": 0}
         self._force_drop = {"to_module": 0, "to_host": 0}
         self._next_stall: dict[Direction, int | None] = {"to_module": None, "to_host": None}
         self._next_disconnect: int | None = None
         self._reconnect_at: int | None = None
         # host → module
-        self._air_m: deque[_Chunk] = deque()  # on the air, not yet at the radio
+        self._air_m: deque[Chunk] = deque()  # on the air, not yet at the radio
         self._air_m_bytes = 0
-        self._radio_m: deque[_Chunk] = deque()  # at the radio, waiting for the UART (at = arrival)
+        self._radio_m: deque[Chunk] = deque()  # at the radio, waiting for the UART (at = arrival)
         self._radio_m_bytes = 0
         self._rx = bytearray()  # the µC's receive ring
         self._rx_wire_u = 0  # wire free time, in cycles × rate
         # module → host
         self._tx = bytearray()  # the µC's transmit ring
         self._tx_wire_u = 0
-        self._air_h: deque[_Chunk] = deque()
+        self._air_h: deque[Chunk] = deque()
         self._air_h_bytes = 0
         self._host = bytearray()  # the host's receive buffer
 
@@ -384,7 +199,7 @@ class Link:
         # (if the module already ran past that moment — ahead of the host by more than the
         # latency — the bytes reach it at its next loop, late)
         self._note_lateness(c, now - at, n)
-        self._air_m.append(_Chunk(at, bytearray(data[:n])))
+        self._air_m.append(Chunk(at, bytearray(data[:n])))
         self._air_m_bytes += n
         if self.profile.latency_s == 0:
             self._pump_to_module(now)
@@ -605,21 +420,9 @@ class Link:
                 data[i] ^= int(rng.integers(1, 256))
             c.corrupted += k
         if (f.byte_loss or f.corrupt) and data:
-            rng = self._rng_fault[d]
-            n = len(data)
-            if f.corrupt:
-                hit = np.flatnonzero(rng.random(n) < f.corrupt)
-                if hit.size:
-                    flips = rng.integers(1, 256, size=hit.size)
-                    for i, x in zip(hit.tolist(), flips.tolist(), strict=True):
-                        data[i] ^= x
-                    c.corrupted += int(hit.size)
-            if f.byte_loss:
-                keep = rng.random(n) >= f.byte_loss
-                lost = n - int(keep.sum())
-                if lost:
-                    c.lost_fault += lost
-                    data = bytearray(np.frombuffer(bytes(data), dtype=np.uint8)[keep].tobytes())
+            data, corrupted, lost = random_byte_faults(data, f, self._rng_fault[d])
+            c.corrupted += corrupted
+            c.lost_fault += lost
         return data
 
     def _pump_to_host(self, now: int) -> None:
@@ -646,7 +449,7 @@ class Link:
                         c.lost_overflow += k - room
                         del chunk[room:]
                 if chunk:
-                    self._air_h.append(_Chunk(self._arrival("to_host", done), chunk))
+                    self._air_h.append(Chunk(self._arrival("to_host", done), chunk))
                     self._air_h_bytes += len(chunk)
         self._deliver_to_host(now)
 
@@ -657,7 +460,7 @@ class Link:
         if late > c.late_max_cycles:
             c.late_max_cycles = late
 
-    def _arrived(self, air: deque[_Chunk], direction: str, until: int) -> Iterator[tuple[int, _Chunk]]:
+    def _arrived(self, air: deque[Chunk], direction: str, until: int) -> Iterator[tuple[int, Chunk]]:
         """Take the chunks of *air* that arrived by *until*, in order, each with its arrival time
         (held back by a stall of *direction*); the first one still on its way keeps its held time."""
         stall = self._stall[direction]
@@ -702,7 +505,7 @@ class Link:
             self._air_m_bytes -= len(ch.data)
             data = self._apply_faults("to_module", ch.data)
             if data:
-                self._radio_m.append(_Chunk(at, data))
+                self._radio_m.append(Chunk(at, data))
                 self._radio_m_bytes += len(data)
         while self._radio_m:
             ch = self._radio_m[0]

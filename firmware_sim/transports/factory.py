@@ -17,7 +17,7 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
                  foot's do (firmware_sim.sensors.gait.StanceSway: ZARU then seldom holds while
                  walking, as on a real module); not with a replay; None (not given):
                  gait.STANCE_SWAY_DEFAULT (on), or OPENSHOE_STANCE_SWAY
-    link         "ideal", "bt" or "usb" (firmware_sim.links.link profiles), "ideal"
+    link         "ideal", "bt" or "usb" (firmware_sim.links.profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
     speed        0 = virtual time as the host waits; s > 0 = real time × s, 0
@@ -47,7 +47,9 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from firmware_sim.links.link import PROFILES, Link, LinkFaults, make_link
+from firmware_sim.links.faults import LinkFaults
+from firmware_sim.links.link import Link, make_link
+from firmware_sim.links.profiles import PROFILES
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
 from firmware_sim.mcu.imu_bus import SensorSource
 from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL

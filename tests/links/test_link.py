@@ -6,15 +6,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.links.link import (
-    CLOCK_HZ,
-    BluetoothLink,
-    DirectionFaults,
-    Link,
-    LinkFaults,
-    UsbLink,
-    make_link,
-)
+from firmware_sim.links.faults import DirectionFaults, LinkFaults
+from firmware_sim.links.link import CLOCK_HZ, BluetoothLink, Link, UsbLink, make_link
 from firmware_sim.mcu.port import Port
 
 TICK = CLOCK_HZ // 1000  # one 1 kHz module tick

@@ -27,7 +27,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.links.link import LinkFaults, make_link
+from firmware_sim.links.faults import LinkFaults
+from firmware_sim.links.link import make_link
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav.firmware import build_module
 from protocol.frames import CommandAck, StatePacket, build_command, build_packet_ack

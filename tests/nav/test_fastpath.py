@@ -17,7 +17,8 @@ import numpy as np
 import pytest
 
 from firmware_sim.app.batch import START_STEPWISE
-from firmware_sim.links.link import LinkFaults, make_link
+from firmware_sim.links.faults import LinkFaults
+from firmware_sim.links.link import make_link
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav import fastpath
 from firmware_sim.nav.firmware import build_module
