@@ -37,6 +37,7 @@ times their own cost, so a long walk never takes more than a fifth of a core for
 
 from __future__ import annotations
 
+import logging
 import math
 import threading
 import time
@@ -60,6 +61,8 @@ if TYPE_CHECKING:
     from ..run.tracking_run import TrackingRun
 
 __all__ = ["FIX_OUTCOMES", "SERIES_CAPS", "WalkFeed", "ellipse", "walk_model"]
+
+log = logging.getLogger(__name__)
 
 #: The most points each series of the walk's page holds (older ones are thinned past it).
 SERIES_CAPS = {"track": 2000, "left": 1000, "right": 1000, "fixes": 600, "compass": 600}
@@ -120,6 +123,7 @@ class WalkFeed:
         self.title = title
         self.clock = clock
         self.updates = 0  #: updates made
+        self.failed_updates = 0  #: updates that raised (the first is logged)
         self._news = threading.Event()
         self._stop = threading.Event()
         self._lock = threading.Lock()  # the notes below
@@ -177,7 +181,12 @@ class WalkFeed:
                 return
             self._news.clear()
             began = time.perf_counter()
-            self.update()
+            try:
+                self.update()
+            except Exception:  # noqa: BLE001 - the page must not end the walk; the next update tries again
+                self.failed_updates += 1
+                if self.failed_updates == 1:
+                    log.exception("the live page's update failed (the walk goes on)")
             self._stop.wait(max(self.min_interval_s, 4.0 * (time.perf_counter() - began)))
 
     def close(self) -> None:

@@ -26,11 +26,16 @@ async def take(host_png: Path, emu_png: Path) -> None:
         async with Browser() as browser:
             walk = await browser.page(host.url)
             panel = await browser.page(page(srv.ready["web"]))
-            await walk.wait(f"(liveMirror.values.body || {{}}).steps >= {STEPS}", 90)
-            await panel.wait("(liveMirror.values.modules || []).every(m => m.walker.steps > 10)", 30)
-            await walk.wait("liveMirror.renders > 0")
-            print("host page:", await walk.screenshot(host_png))
-            print("emulator panel:", await panel.screenshot(emu_png))
+            try:
+                await walk.wait(f"(liveMirror.values.body || {{}}).steps >= {STEPS}", 120)
+                await panel.wait("(liveMirror.values.modules || []).every(m => m.walker.steps > 10)", 30)
+            except asyncio.TimeoutError:
+                print("openshoe-host track said:", *host.said[-20:], sep="\n  ", file=sys.stderr)
+                raise
+            for tab, png, what in ((walk, host_png, "host page"), (panel, emu_png, "emulator panel")):
+                await tab.send("Page.bringToFront")
+                await tab.wait(f"liveMirror.renders > {await tab.evaluate('liveMirror.renders')}")
+                print(f"{what}:", await tab.screenshot(png))
 
 
 def main(argv: list[str]) -> int:

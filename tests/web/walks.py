@@ -57,7 +57,7 @@ class Tracking:
     def __init__(self, proc: subprocess.Popen, url: str, said: list[str]):
         self.proc = proc
         self.url = url
-        self.said = said  #: the lines it said on stderr before its page's URL
+        self.said = said  #: the last lines it said on stderr
 
     def stop(self, timeout: float = 30.0) -> int:
         """End the walk as Ctrl-C does (the outputs go off, the summary is written); the exit status."""
@@ -113,7 +113,7 @@ def _read_url(proc: subprocess.Popen, said: list[str], timeout: float) -> str:
                 found = re.search(r"live page at (http://\S+)", text)
                 if found:
                     os.set_blocking(fd, True)
-                    _drain(proc)
+                    _drain(proc, said)
                     return found.group(1)
             left = deadline - time.monotonic()
             if left <= 0 or proc.poll() is not None:
@@ -122,12 +122,14 @@ def _read_url(proc: subprocess.Popen, said: list[str], timeout: float) -> str:
                 buf += os.read(fd, 65536)
 
 
-def _drain(proc: subprocess.Popen) -> None:
-    """Read the rest of the host's stderr in a thread (its pipe must not fill up)."""
+def _drain(proc: subprocess.Popen, said: list[str]) -> None:
+    """Read the rest of the host's stderr in a thread (its pipe must not fill up), keeping its last
+    lines in *said*."""
     import threading
 
     def run() -> None:
-        for _ in proc.stderr:
-            pass
+        for line in proc.stderr:
+            said.append(line.decode(errors="replace").rstrip("\n"))
+            del said[:-50]
 
     threading.Thread(target=run, daemon=True).start()

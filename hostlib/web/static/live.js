@@ -118,6 +118,7 @@ const Live = (() => {
                     pendingArrivals: []};
     let scheduled = false;
     const draw = () => {
+      if (!scheduled) return;  // drawn already (by the frame or by the timer, whichever came first)
       scheduled = false;
       render(mirror);
       mirror.renders += 1;
@@ -130,9 +131,10 @@ const Live = (() => {
     const schedule = () => {
       if (scheduled) return;
       scheduled = true;
-      // a hidden page gets no animation frames: it draws on a timer (a background tab's: slowed)
-      if (document.visibilityState === "hidden") setTimeout(draw, 50);
-      else requestAnimationFrame(draw);
+      // a hidden or covered page gets no animation frames: a timer draws it then (a background tab's
+      // timers are slowed, never stopped)
+      if (document.visibilityState !== "hidden") requestAnimationFrame(draw);
+      setTimeout(draw, document.visibilityState === "hidden" ? 50 : 250);
     };
     const apply = (msg) => {
       if (msg.reset) {
