@@ -78,7 +78,7 @@ from .truth_files import write_truth_files
 
 __all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
            "stance_note", "add_arguments", "add_receiver_arguments", "add_stance_sway_argument",
-           "check_arguments", "error_text", "main", "module_number", "rate_hz", "seed_number"]
+           "check_arguments", "error_text", "load_walk", "main", "module_number", "rate_hz", "seed_number"]
 
 #: The host's first frame: STEPWISE_DEAD_RECKONING (0x34) with its checksum.
 START_STEPWISE = bytes([Command.STEPWISE_DEAD_RECKONING, 0x00, Command.STEPWISE_DEAD_RECKONING])
@@ -281,6 +281,20 @@ def seed_number(text: str) -> int:
     return value
 
 
+def load_walk(path: str | Path):
+    """The :class:`~firmware_sim.sensors.replay.ReplaySource` of the recording at *path*; a file
+    that cannot be read (no such file, a directory, a device, an I/O error) is an
+    :class:`~hostlib.inputs.InputFileError` naming it, a file that is no recording a
+    :class:`~firmware_sim.sensors.replay.RecordingFormatError` with its line."""
+    from firmware_sim.sensors.replay import ReplaySource
+    from hostlib.inputs import InputFileError, check_input
+
+    try:
+        return ReplaySource.from_file(check_input(path, "walk recording"))
+    except OSError as exc:
+        raise InputFileError(f"{path}: cannot read the walk recording: {exc.strerror or exc}") from None
+
+
 def error_text(exc: BaseException) -> str:
     """An error's message as one line: a KeyError's own text, not its repr in quotes."""
     if isinstance(exc, KeyError) and len(exc.args) == 1 and isinstance(exc.args[0], str):
@@ -447,8 +461,7 @@ def _write_gps(args: argparse.Namespace, t, pos, vel, origin, errors) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT`` (``--feet 2``: both feet)."""
-    from firmware_sim.sensors.replay import RecordingFormatError, ReplaySource
-    from hostlib.inputs import check_input
+    from firmware_sim.sensors.replay import RecordingFormatError
 
     if getattr(args, "feet", 1) == 2:
         return _main_feet(args)
@@ -466,7 +479,7 @@ def main(args: argparse.Namespace) -> int:
             name = (f"scenario {args.scenario!r} ({module}seed {args.seed}, {args.rate:g} Hz"
                     f"{_stance_sway_note(source)})")
         else:
-            source = ReplaySource.from_file(check_input(args.files[0], "walk recording"))
+            source = load_walk(args.files[0])
             name = str(args.files[0])
             if source.filled_samples and not args.quiet:
                 print(f"{name}: {source.filled_samples} samples the recorder skipped (gaps in its sample "

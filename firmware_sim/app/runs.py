@@ -161,10 +161,9 @@ def load(spec: RunSpec) -> Loaded:
     t0 = time.perf_counter()
     applied = run_settings.apply(spec.settings)
     if spec.kind == "file":
-        from firmware_sim.sensors.replay import ReplaySource
-        from hostlib.inputs import check_input
+        from .batch import load_walk
 
-        source, truth = ReplaySource.from_file(check_input(spec.source, "walk recording")), None
+        source, truth = load_walk(spec.source), None
     else:
         from firmware_sim.sensors.imu_array import make_source
 

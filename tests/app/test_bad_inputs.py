@@ -56,7 +56,9 @@ CASES = [
     ("replay /dev/zero --wire {out}/w.bin", 2, "/dev/zero: cannot read the walk recording: it is a device"),
     ("replay {garbage} --wire {out}/w.bin", 2, "{garbage}, line 1: not ASCII text (byte 0x80)"),
     ("replay {empty} --wire {out}/w.bin", 2, "{empty}: missing title line"),
+    ("replay /proc/self/mem --wire {out}/w.bin", 2, "/proc/self/mem: cannot read the walk recording: Input/"),
     ("replay {nope} --wire-dir {out}/d", 2, "{nope}: cannot read the walk recording"),
+    ("replay /proc/self/mem --wire-dir {out}/d", 2, "/proc/self/mem: cannot read the walk recording: Input/"),
     ("replay {garbage} --wire-dir {out}/d", 2, "openshoe-emu replay: {garbage}, line 1: not ASCII text"),
     # replay: the scenario and the numbers
     ("replay --scenario nope --wire {out}/w.bin", 2, "openshoe-emu replay: unknown scenario 'nope'; known:"),
