@@ -145,7 +145,7 @@ class _Route:
 
 def _simulate(args: argparse.Namespace, say: _Say) -> _Route:
     from firmware_sim.sensors import make_source
-    from firmware_sim.sensors.gait import stance_sway_on
+    from firmware_sim.sensors.stance_sway import stance_sway_on
 
     t0 = time.monotonic()
     module = "" if args.module is None else f"module {args.module}, "

@@ -23,8 +23,8 @@ pairs, applied on top of the defaults by :func:`apply`:
     1000 (the module's) against 250 (the recordings'). Scenarios only.
 ``scenario.stance_sway``
     whether the walking stances sway and vibrate as a real foot's do
-    (:class:`firmware_sim.sensors.gait.StanceSway`; default:
-    :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`), e.g. ``true,false`` to see what a
+    (:class:`firmware_sim.sensors.stance_sway.StanceSway`; default:
+    :data:`~firmware_sim.sensors.stance_sway.STANCE_SWAY_DEFAULT`), e.g. ``true,false`` to see what a
     real foot's stance changes. Scenarios only.
 ``link.profile``
     ``ideal`` (default), ``bt`` or ``usb``: the Bluetooth interface's link model;

@@ -19,7 +19,7 @@ _EXPORTS = {
     "SensorConfig": "config", "DEFAULT_CONFIG": "config", "IDEAL_CONFIG": "config",
     "make_source": "imu_array", "SimulatedSource": "imu_array",
     "list_scenarios": "scenarios", "trajectory": "scenarios", "SCENARIOS": "scenarios",
-    "GaitBuilder": "gait", "GaitParams": "gait", "GroundTruth": "truth",
+    "GaitBuilder": "gait_builder", "GaitParams": "gait", "GroundTruth": "truth",
     "Recording": "replay", "RecordingFormatError": "replay", "ReplaySource": "replay",
     "load_recording": "replay", "save_csv": "replay",
 }  # fmt: skip

@@ -1,7 +1,7 @@
 """One walker, two feet: both feet's trajectories from one body path.
 
 A scenario's recipe (:mod:`.scenarios`) builds a path of *body poses*: the
-:class:`~.gait.GaitBuilder` walks them as one foot on the walker's centre line,
+:class:`~.gait_builder.GaitBuilder` walks them as one foot on the walker's centre line,
 B₀, B₁, … one stride apart. The walker's feet are derived from it, step-through
 gait as people walk:
 
@@ -37,7 +37,8 @@ import numpy as np
 
 from protocol.board import FOOT_SIDES
 
-from .gait import WIGGLE, GaitBuilder, GaitParams, Pose, Swing, Trajectory
+from .gait import WIGGLE, GaitParams, Pose, Swing, Trajectory
+from .gait_builder import GaitBuilder
 from .truth import GroundTruth
 
 __all__ = ["SIDES", "STEP_WIDTH_M", "Feet", "body_truth", "feet_from_body", "foot_module", "foot_seed",
@@ -118,7 +119,7 @@ def _strides(swings: list[Swing]) -> list[list[Swing]]:
 
 def feet_from_body(body: GaitBuilder, step_width: float = STEP_WIDTH_M) -> Feet:
     """The two feet of a walker whose body path *body* built (module docstring). A wiggle (one
-    foot's calibration motion, :meth:`~.gait.GaitBuilder.wiggle`) is no step of the body: refused."""
+    foot's calibration motion, :meth:`~.gait_builder.GaitBuilder.wiggle`) is no step of the body: refused."""
     if any(s.params == WIGGLE for s in body.swings):
         raise ValueError("a wiggle is one foot's magnetometer calibration, not a walker's step: walk a "
                          "scenario with a wiggle with one module")

@@ -52,13 +52,14 @@ from firmware_sim.mcu.imu_bus import RawSample
 
 from .config import DEFAULT_CONFIG, G0, SensorConfig
 from .feet import SIDES, foot_module, foot_seed
-from .gait import WALKING, GaitParams, Trajectory, stance_sway_on
+from .gait import WALKING, GaitParams, Trajectory
 from .impacts import ringing
 from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, dlpf_reach, gauss_markov, white_sigma
 from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
 from .replay import Recording
 from .scenarios import environment, feet, list_scenarios, trajectory
+from .stance_sway import stance_sway_on
 from .truth import GroundTruth, cross, rotate, rotation
 
 __all__ = ["CHUNK_S", "SimulatedSource", "make_feet_sources", "make_foot_source", "make_source",
@@ -102,9 +103,9 @@ class SimulatedSource:
     *building_seed* (None: the walk's own *seed*) draws the building's magnetic field instead,
     so that two walks share one building: both feet of a walker do.
 
-    *stance_sway*: the foot turns a little in every walking stance (:class:`~.gait.StanceSway`,
+    *stance_sway*: the foot turns a little in every walking stance (:class:`~.stance_sway.StanceSway`,
     drawn from the walk's *seed* on its own stream; a trajectory that already sways keeps its own);
-    None: :data:`~.gait.STANCE_SWAY_DEFAULT`.
+    None: :data:`~.stance_sway.STANCE_SWAY_DEFAULT`.
     """
 
     def __init__(self, motion: Trajectory | str = "default", config: SensorConfig | None = None,
@@ -386,7 +387,7 @@ def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.
     *seed* draws the walk (noise, drift, ringing, the stance sway); *module* is the module's
     identity, which draws its own systematic errors (None: the seed's own, so
     each seed is a new module). *stance_sway*: the foot turns a little in every walking stance
-    (:class:`~.gait.StanceSway`; None: :data:`~.gait.STANCE_SWAY_DEFAULT`).
+    (:class:`~.stance_sway.StanceSway`; None: :data:`~.stance_sway.STANCE_SWAY_DEFAULT`).
     """
     return SimulatedSource(scenario, config=config, seed=seed, rate_hz=rate_hz, geometry=geometry,
                            module=module, stance_sway=stance_sway)

@@ -52,7 +52,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from .feet import STEP_WIDTH_M, Feet, feet_from_body
-from .gait import RUNNING, WALKING, WIGGLE_TILT_DEG, GaitBuilder, GaitParams, Trajectory
+from .gait import RUNNING, WALKING, WIGGLE_TILT_DEG, GaitParams, Trajectory
+from .gait_builder import GaitBuilder
 
 __all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "feet", "list_scenarios", "recipe",
            "trajectory"]

@@ -14,9 +14,9 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
                  (:func:`module_serial`); None: the seed's own errors, the default serial
                  (module i: module + i)
     stance_sway  1/0 (true/false, yes/no, on/off): the walking stances sway and vibrate as a real
-                 foot's do (firmware_sim.sensors.gait.StanceSway: ZARU then seldom holds while
+                 foot's do (firmware_sim.sensors.stance_sway.StanceSway: ZARU then seldom holds while
                  walking, as on a real module); not with a replay; None (not given):
-                 gait.STANCE_SWAY_DEFAULT (on), or OPENSHOE_STANCE_SWAY
+                 stance_sway.STANCE_SWAY_DEFAULT (on), or OPENSHOE_STANCE_SWAY
     link         "ideal", "bt" or "usb" (firmware_sim.links.profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
@@ -129,8 +129,8 @@ class EmulatorSettings:
     scenario: str = "default"
     seed: int = 0
     module: int | None = None  #: the simulated module's identity; None: the seed's own
-    #: the scenario's walking stances sway (:class:`~firmware_sim.sensors.gait.StanceSway`); None:
-    #: :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`
+    #: the scenario's walking stances sway (:class:`~firmware_sim.sensors.stance_sway.StanceSway`); None:
+    #: :data:`~firmware_sim.sensors.stance_sway.STANCE_SWAY_DEFAULT`
     stance_sway: bool | None = None
     link: str = "ideal"
     interface: str = ""

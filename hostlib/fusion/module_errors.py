@@ -41,7 +41,7 @@ holds each module's own), constant over a walk, zero-mean, with priors:
   over the step less its value where the module last stood (:class:`DriftClock`). Time is counted
   from the first step the host sees, so w is the part of the warm-up still to come then (a module
   switched on long before has less of it left). On a real foot's walking stance, where ZARU never
-  holds (:class:`firmware_sim.sensors.gait.StanceSway`), this, not a constant rate, is how the
+  holds (:class:`firmware_sim.sensors.stance_sway.StanceSway`), this, not a constant rate, is how the
   heading drifts: it grows with T − τ(1 − e^(−T/τ)), slowly at first (docs/accuracy.md).
 
 Without an aid the estimate does not change (the states stay 0) but the covariance grows by
@@ -285,7 +285,8 @@ def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.nda
 EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, turn_scale_sigma=0.00079,
                                heading_drift_sigma=3.2e-5)
 
-#: The emulated MIMU22BT on a real foot's walking stance (:class:`firmware_sim.sensors.gait.StanceSway`),
+#: The emulated MIMU22BT on a real foot's walking stance
+#: (:class:`firmware_sim.sensors.stance_sway.StanceSway`),
 #: where ZARU never holds while walking and the dies' warm-up turns the heading. The warm-up w is
 #: not estimated but follows from the sensors' physics (docs/sensor-errors.md): each MPU9150's gyro
 #: offset moves by up to ±0.02 °/s per °C on each axis (uniform: 1σ 0.02/√3), the module averages

@@ -9,7 +9,7 @@ truth's last stance (in the frame the track starts in) in % of the true 3-D path
 lines between the foot's rests), the height error (track minus truth, up positive), the step
 packets and the true stances. What the navigation itself loses, with no sensor error to blame
 (docs/accuracy.md, "Error-free scenarios at 1 kHz"). Beside it, the same error-free module on a
-real foot's swaying stances (the emulator's default walk, ``gait.StanceSway``): what the sway
+real foot's swaying stances (the emulator's default walk, ``stance_sway.StanceSway``): what the sway
 alone adds.
 
 ``python -m lab.accuracy error-free [SCENARIO...]`` prints the table as docs/accuracy.md has it.

@@ -167,8 +167,8 @@ class OracleCompassTracker(FusionTracker):
 def outage_run(seed: int, stance_sway: bool | None = None) -> list[dict[str, Any]]:
     """The hosts' rows of one seed (module docstring); a GPS host's also give its horizontal error
     where the receiver fell silent (``last_fix_error_m``: the error the outage starts with).
-    *stance_sway*: the walking stances sway as a real foot's (:class:`firmware_sim.sensors.gait.StanceSway`;
-    None: the simulation's default)."""
+    *stance_sway*: the walking stances sway as a real foot's
+    (:class:`firmware_sim.sensors.stance_sway.StanceSway`; None: the simulation's default)."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.aids.compass import wrap_angle
     from hostlib.files.replay import replay_session

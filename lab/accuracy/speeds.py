@@ -13,7 +13,7 @@ The experiment is a sweep spec, :data:`SPEC` (``lab/accuracy/speeds.toml``): ``o
 --spec lab/accuracy/speeds.toml`` runs all of it (each model on both stances); the table reads its
 runs of the error-free module on still stances (the first seed: on still stances an error-free
 module's walk is the same whatever the seed) and of the modules with errors on the simulation's
-own stances (:func:`firmware_sim.sensors.gait.stance_sway_on`: swaying, unless
+own stances (:func:`firmware_sim.sensors.stance_sway.stance_sway_on`: swaying, unless
 ``OPENSHOE_STANCE_SWAY=0``), and runs only those (:func:`table_runs`), as the sweep runs them.
 """
 
@@ -67,7 +67,7 @@ def speed_spec(seeds: Sequence[int] | None = None) -> SweepSpec:
 
 def table_runs(spec: SweepSpec) -> list[RunSpec]:
     """The runs of *spec* the table reads (module docstring), in the spec's order."""
-    from firmware_sim.sensors.gait import stance_sway_on
+    from firmware_sim.sensors.stance_sway import stance_sway_on
 
     sway = stance_sway_on(None)
 

@@ -394,7 +394,7 @@ def heading_run(seed: int = 1, drop_s: tuple[float, float] | None = None) -> dic
     their separation, with and without the constraint, and constrained with each module's errors
     held (the emulated module's priors, swaying or still as the walk's stances); and what the link
     drop did."""
-    from firmware_sim.sensors.gait import stance_sway_on
+    from firmware_sim.sensors.stance_sway import stance_sway_on
     from hostlib.fusion.module_errors import EMULATED_MODULE, EMULATED_MODULE_SWAYING
 
     priors = EMULATED_MODULE_SWAYING if stance_sway_on(None) else EMULATED_MODULE

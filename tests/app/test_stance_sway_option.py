@@ -1,4 +1,4 @@
-"""`--stance-sway`: the walking stances sway and vibrate as a real foot's do (gait.StanceSway), in
+"""`--stance-sway`: the walking stances sway and vibrate as a real foot's do (stance_sway.StanceSway), in
 ``openshoe-emu replay`` (one run, both feet, many), ``openshoe-emu serve`` and the demo. It is the
 default; ``--no-stance-sway`` gives every capture the bytes of the still stances of before."""
 

@@ -20,7 +20,7 @@ sensor errors) updates these figures in the same commit and says why:
   STAIRS_UP / STAIRS_DOWN): the default route climbs and descends four flights.
   Every scenario without stairs, and the recordings, kept their bytes;
 * the default scenario's bytes changed once more when its walking stances began to sway as
-  a real foot's do (``gait.STANCE_SWAY_DEFAULT``). Its still-stance bytes stay pinned
+  a real foot's do (``stance_sway.STANCE_SWAY_DEFAULT``). Its still-stance bytes stay pinned
   (``stance_sway=False``), and so does the error-free figure, for still stances: a swaying
   walk's sway is drawn from its seed, so only the still walk is the same for every seed.
 """

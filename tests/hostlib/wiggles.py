@@ -9,7 +9,7 @@ import math
 import numpy as np
 
 from firmware_sim.sensors.config import DEFAULT_CONFIG
-from firmware_sim.sensors.gait import GaitBuilder
+from firmware_sim.sensors.gait_builder import GaitBuilder
 from firmware_sim.sensors.magnetic import earth_field_ned
 from firmware_sim.sensors.truth import euler_to_quat
 from hostlib.calibration.iron_rotation import rotation_of_vector

@@ -22,7 +22,7 @@ step-wise host; against the same run without the bias:
   where ZARU never holds (docs/accuracy.md).
 
 The simulated stance studied here is perfectly still (``stance_sway=False``; a default walk's
-stances sway as a real foot's do since, ``gait.STANCE_SWAY_DEFAULT``), so
+stances sway as a real foot's do since, ``stance_sway.STANCE_SWAY_DEFAULT``), so
 T2 is the standing noise floor in every walking stance and ZARU holds there: BIASEST re-learns a
 vertical bias in every stance (a time constant of √(R/Q) ≈ 550 ZARU loops, about a second of
 walking) and the stances' vertical rate is dropped, so the heading keeps only the bias of the

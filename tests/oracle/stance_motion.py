@@ -18,7 +18,7 @@ of a second in from either end, in pieces of :data:`NFFT` samples). Per axis:
   is at its own 1 kHz, split into its specific-force and rate parts.
 
 **The simulated feet** (:func:`sim_detector`, :func:`end_errors`): the gait's stance sway
-(:class:`~firmware_sim.sensors.gait.StanceSway`) off and on, at 1 kHz, traced loop by loop as a
+(:class:`~firmware_sim.sensors.stance_sway.StanceSway`) off and on, at 1 kHz, traced loop by loop as a
 lossless step-wise host: the fraction of walking-stance loops with ZARU (the truth's stances shorter
 than :data:`STAND_S`, the filter's loops GYRO_LAG later) and T2 there; the error-free scenarios'
 3-D end error in % of the path (as ``python -m lab.accuracy error-free``: the host's end against the
@@ -168,7 +168,7 @@ def sway_through_estimator(lengths: np.ndarray, rate: float, sway=None, seed: in
     its rate and the sole's acceleration, untapered, in segments of the real stances' *lengths*
     [samples] at *rate*, each with its own draw; its std about each segment's mean (°/s, m/s²) and
     its spectra (:func:`psd`, segments of MIN_PSD_SAMPLES to NFFT samples)."""
-    from firmware_sim.sensors.gait import STANCE_SWAY
+    from firmware_sim.sensors.stance_sway import STANCE_SWAY
 
     sway = sway or STANCE_SWAY
     rng = np.random.default_rng(seed)
@@ -371,7 +371,7 @@ def _report_real() -> None:  # pragma: no cover - a report for a person
           f"mean frequency {axes(rate_f, '.1f')} Hz; the sway's {axes(sway_rms)} °/s, "
           f"{axes(sway_f, '.1f')} Hz; about each stance's mean the sway's std "
           f"{axes(model['rate_std_dps'])} °/s")
-    from firmware_sim.sensors.gait import STANCE_SWAY
+    from firmware_sim.sensors.stance_sway import STANCE_SWAY
 
     f1, f2, f3 = STANCE_SWAY.vibration_band_hz
     low, _ = band_figures(f, acc_excess, f1, f2)
@@ -398,8 +398,8 @@ def _report_real() -> None:  # pragma: no cover - a report for a person
 
 def _report_sim(modules: int) -> None:  # pragma: no cover - a report for a person
     from firmware_sim.sensors.config import DEFAULT_CONFIG, SensorConfig
-    from firmware_sim.sensors.gait import STANCE_SWAY
     from firmware_sim.sensors.imu_array import make_source
+    from firmware_sim.sensors.stance_sway import STANCE_SWAY
 
     print(f"simulated, 1 kHz, the stance sway {STANCE_SWAY}")
     for config, label in ((SensorConfig.ideal(), "error-free"), (DEFAULT_CONFIG, "all errors")):

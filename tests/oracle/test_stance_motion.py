@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.sensors import gait
+from firmware_sim.sensors import stance_sway as sway_model
 from firmware_sim.sensors.config import DEFAULT_CONFIG
 from firmware_sim.sensors.imu_array import make_feet_sources, make_source
 from tests.conftest import WALK_IDS, requires_walks, walk_path
@@ -32,7 +32,7 @@ def _registers(source) -> bytes:
 
 
 def test_off_the_registers_keep_their_bytes_and_one_switch_turns_it_on(monkeypatch):
-    monkeypatch.setattr(gait, "STANCE_SWAY_DEFAULT", False)
+    monkeypatch.setattr(sway_model, "STANCE_SWAY_DEFAULT", False)
     plain = make_source(SHORT, seed=3)
     assert _registers(make_source(SHORT, seed=3, stance_sway=False)) == _registers(plain)
     feet, plain_feet = make_feet_sources(SHORT, seed=3, stance_sway=False), make_feet_sources(SHORT, seed=3)
@@ -40,7 +40,7 @@ def test_off_the_registers_keep_their_bytes_and_one_switch_turns_it_on(monkeypat
     on = make_source(SHORT, seed=3, stance_sway=True)
     assert _registers(on) != _registers(plain)
     assert np.array_equal(on._random_gyro, plain._random_gyro)  # the walk's other draws are the same
-    monkeypatch.setattr(gait, "STANCE_SWAY_DEFAULT", True)
+    monkeypatch.setattr(sway_model, "STANCE_SWAY_DEFAULT", True)
     assert _registers(make_source(SHORT, seed=3)) == _registers(on)
     for source in make_feet_sources(SHORT, seed=3).values():
         walking = walking_stance_samples(source.truth)
@@ -48,17 +48,17 @@ def test_off_the_registers_keep_their_bytes_and_one_switch_turns_it_on(monkeypat
 
 
 def test_the_default_sways_and_the_environment_can_still_the_stances_of_every_walk(monkeypatch):
-    assert gait.STANCE_SWAY_DEFAULT is True
+    assert sway_model.STANCE_SWAY_DEFAULT is True
     assert make_source(SHORT, seed=3).trajectory.stance_sway is not None
-    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "0")
+    monkeypatch.setenv(sway_model.STANCE_SWAY_ENV, "0")
     still = make_source(SHORT, seed=3)
     assert still.trajectory.stance_sway is None
     assert _registers(still) == _registers(make_source(SHORT, seed=3, stance_sway=False))
     assert make_source(SHORT, seed=3, stance_sway=True).trajectory.stance_sway is not None  # asked wins
-    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "1")
-    monkeypatch.setattr(gait, "STANCE_SWAY_DEFAULT", False)
+    monkeypatch.setenv(sway_model.STANCE_SWAY_ENV, "1")
+    monkeypatch.setattr(sway_model, "STANCE_SWAY_DEFAULT", False)
     assert make_source(SHORT, seed=3).trajectory.stance_sway is not None
-    monkeypatch.setenv(gait.STANCE_SWAY_ENV, "yes")
+    monkeypatch.setenv(sway_model.STANCE_SWAY_ENV, "yes")
     with pytest.raises(ValueError, match="OPENSHOE_STANCE_SWAY='yes': give 1 .* or 0"):
         make_source(SHORT, seed=3)
 
@@ -95,12 +95,13 @@ def test_real_feet_move_in_their_walking_stances_as_the_sway_says():
     assert real_rms == pytest.approx([2.01, 1.51, 1.51], abs=0.01)
     assert sway_rms == pytest.approx(real_rms, abs=0.1) and sway_f == pytest.approx(real_f, abs=0.3)
     assert np.all(model["rate_std_dps"] < m["excess_std_dps"])  # the stances' ends move more
-    f1, f2, f3 = gait.STANCE_SWAY.vibration_band_hz
+    f1, f2, f3 = sway_model.STANCE_SWAY.vibration_band_hz
     acc_excess = m["acc_psd"] - m["acc_noise_psd"]
     vibration, _ = band_figures(m["f"], acc_excess, f1, f3)
     low, _ = band_figures(m["f"], acc_excess, f1, f2)
-    assert vibration == pytest.approx(gait.STANCE_SWAY.vibration_ms2, abs=0.003)
-    assert np.mean(low ** 2 / vibration ** 2) == pytest.approx(gait.STANCE_SWAY.vibration_low_share, abs=0.03)
+    assert vibration == pytest.approx(sway_model.STANCE_SWAY.vibration_ms2, abs=0.003)
+    low_share = sway_model.STANCE_SWAY.vibration_low_share
+    assert np.mean(low ** 2 / vibration ** 2) == pytest.approx(low_share, abs=0.03)
     assert band_figures(m["f"], model["acc_psd"], f1, f3)[0] == pytest.approx(vibration, abs=0.005)
     assert np.all(m["acc_rotation_std"] < 0.4 * m["acc_std"])  # the specific force is no rotation's
     zaru = np.concatenate([real_detector(walk_path(w), walk)["zaru_walking"]

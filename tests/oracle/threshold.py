@@ -22,7 +22,7 @@ at any threshold is then ``T1 < TH``, with no further run.
 
 **The module's own threshold** (:func:`simulated_sample`): the same statistics on the emulated
 MIMU22BT at its own 1 kHz, every sensor error on and a real foot's swaying stances (the gait's
-:class:`~firmware_sim.sensors.gait.StanceSway`), against the simulation's true stances: the middle
+:class:`~firmware_sim.sensors.stance_sway.StanceSway`), against the simulation's true stances: the middle
 80 % of each walking stance (the truth's stance begins at the heel's touch, the oracle's after the
 impact has rung out) and the middle 80 % of each swing, as above. On walking data the two do not
 overlap: every threshold between the largest stance T1 and the smallest mid-swing T1 makes neither

@@ -13,13 +13,13 @@ from firmware_sim.sensors.gait import (
     SHUFFLE,
     STAIRS_DOWN,
     STAIRS_UP,
-    STANCE_SWAY,
     WALKING,
     WIGGLE,
-    GaitBuilder,
     GaitParams,
 )
+from firmware_sim.sensors.gait_builder import GaitBuilder
 from firmware_sim.sensors.scenarios import SCENARIOS, list_scenarios, trajectory
+from firmware_sim.sensors.stance_sway import STANCE_SWAY
 from firmware_sim.sensors.truth import strapdown_rk4
 
 G = 9.81

@@ -16,7 +16,8 @@ import numpy as np
 import pytest
 
 from firmware_sim.sensors.config import DEFAULT_CONFIG, IDEAL_CONFIG
-from firmware_sim.sensors.gait import WALKING, GaitBuilder, Pose
+from firmware_sim.sensors.gait import WALKING, Pose
+from firmware_sim.sensors.gait_builder import GaitBuilder
 from firmware_sim.sensors.imu_array import SimulatedSource, make_source, module_rng
 from firmware_sim.sensors.mpu9150 import ChipErrors
 

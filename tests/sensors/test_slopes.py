@@ -12,7 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from firmware_sim.sensors.gait import GaitBuilder, flat_on, ramp_normal
+from firmware_sim.sensors.gait import flat_on, ramp_normal
+from firmware_sim.sensors.gait_builder import GaitBuilder
 from firmware_sim.sensors.scenarios import SCENARIOS, trajectory
 from firmware_sim.sensors.truth import euler_to_matrix, strapdown_rk4
 

@@ -11,7 +11,8 @@ import pytest
 
 from firmware_sim.app.batch import run_replay
 from firmware_sim.mcu.module import ModuleConfig
-from firmware_sim.sensors.gait import WIGGLE, WIGGLE_LEVER_M, GaitBuilder, Pose
+from firmware_sim.sensors.gait import WIGGLE, WIGGLE_LEVER_M, Pose
+from firmware_sim.sensors.gait_builder import GaitBuilder
 from firmware_sim.sensors.imu_array import make_source
 from firmware_sim.sensors.scenarios import environment, feet, trajectory
 from firmware_sim.sensors.truth import strapdown_rk4
