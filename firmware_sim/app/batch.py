@@ -22,7 +22,7 @@ host's magnetometer calibration of the module (``OUT.iron.json``, :mod:`.truth_f
 ``--module N`` makes it module N's walk
 (module N's own systematic errors, the walk's noise from ``--seed``; default: the seed's own module);
 its walking stances sway and vibrate as a real foot's do
-(:class:`firmware_sim.sensors.gait.StanceSway`; the default, ``--stance-sway``), or with
+(:class:`firmware_sim.sensors.stance_sway.StanceSway`; the default, ``--stance-sway``), or with
 ``--no-stance-sway`` stand perfectly still; the run's announcement says which.
 
 The replayed host may also use the emulator's extensions, as a host app would:
@@ -303,16 +303,16 @@ def error_text(exc: BaseException) -> str:
 
 
 #: The help of ``--stance-sway`` (replay, serve, the demo).
-STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (gait.StanceSway, measured on "
-                    "the shared walks): the module's ZARU then seldom holds while walking and its "
-                    "heading drifts, as on a real module; on by default (--no-stance-sway: every walking "
-                    "stance perfectly still, the ZARU re-learning the gyros' bias in each)")
+STANCE_SWAY_HELP = ("walking stances sway and vibrate as a real foot's do (stance_sway.StanceSway, "
+                    "measured on the shared walks): the module's ZARU then seldom holds while walking "
+                    "and its heading drifts, as on a real module; on by default (--no-stance-sway: every "
+                    "walking stance perfectly still, the ZARU re-learning the gyros' bias in each)")
 
 
 def add_stance_sway_argument(p: argparse.ArgumentParser | argparse._ArgumentGroup) -> None:
     """``--stance-sway`` / ``--no-stance-sway`` (replay, serve, the demo): ``args.stance_sway`` is True,
-    False or None (not given: :data:`firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`), as the sources'
-    *stance_sway* takes it."""
+    False or None (not given: :data:`firmware_sim.sensors.stance_sway.STANCE_SWAY_DEFAULT`), as the
+    sources' *stance_sway* takes it."""
     p.add_argument("--stance-sway", action=argparse.BooleanOptionalAction, default=None,
                    help=STANCE_SWAY_HELP)
 

@@ -67,9 +67,10 @@ class RunSpec:
     height_compensation: bool = False
     #: the replayed fusion host also runs the in-situ magnetometer calibration (the wiggle's stream)
     calibrate_mag: bool = False
-    #: a scenario's walking stances sway and vibrate (:class:`firmware_sim.sensors.gait.StanceSway`);
-    #: None: :data:`~firmware_sim.sensors.gait.STANCE_SWAY_DEFAULT`. It changes the wire bytes and the
-    #: truth, not the row's columns
+    #: a scenario's walking stances sway and vibrate
+    #: (:class:`firmware_sim.sensors.stance_sway.StanceSway`); None:
+    #: :data:`~firmware_sim.sensors.stance_sway.STANCE_SWAY_DEFAULT`. It changes the wire bytes and
+    #: the truth, not the row's columns
     stance_sway: bool | None = None
 
     @property
