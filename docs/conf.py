@@ -38,7 +38,7 @@ autodoc_default_options = {"members": True, "show-inheritance": True, "ignore-mo
                            "undoc-members": True}
 autodoc_member_order = "bysource"
 autodoc_typehints = "signature"
-autodoc_preserve_defaults = True
+autodoc_preserve_defaults = False  # True trips over some signatures ("pop from empty list")
 autoclass_content = "both"
 
 # The API pages document every module once, where it is defined; a name a package re-exports
