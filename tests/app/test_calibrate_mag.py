@@ -61,11 +61,15 @@ def test_the_stream_runs_from_the_fusion_set_up_to_the_first_long_step(capture):
         "stopped at the first step longer than 0.5 m"
 
 
-def test_the_stream_leaves_the_steps_as_they_were():
-    source = make_source(SCENARIO, seed=1, module=MODULE)
+@pytest.fixture(scope="module")
+def source():
+    """Module 4's walk (seed 1), made once for this file's replays (a replay leaves it as it was)."""
+    return make_source(SCENARIO, seed=1, module=MODULE)
+
+
+def test_the_stream_leaves_the_steps_as_they_were(source):
     config = ModuleConfig(rate_hz=1000.0, mcu_serial=module_serial(MODULE))
     plain = replay_session(bytes(run_replay(source, config=config, announce=None, host="fusion")))
-    source = make_source(SCENARIO, seed=1, module=MODULE)
     streamed = replay_session(bytes(run_replay(source, config=config, announce=None, host="fusion",
                                                calibrate_mag=True)))
     # the same steps, every one: only the two commands' execution shifts a sample's read by
@@ -77,7 +81,7 @@ def test_the_stream_leaves_the_steps_as_they_were():
     assert set(MAG_STREAM_STATES) <= streamed.plan.candidates
 
 
-def test_the_host_fits_the_shoes_iron_from_the_capture_and_tracks_with_it(capture, own_magcal_dir):
+def test_the_host_fits_the_shoes_iron_from_the_capture_and_tracks_with_it(capture, source, own_magcal_dir):
     out = io.StringIO()
     argv = ["replay", str(capture), "--compass", "--compass-sigma", "5", "--calibrate-mag"]
     assert host_cli.main(argv, out) == 0
@@ -86,7 +90,7 @@ def test_the_host_fits_the_shoes_iron_from_the_capture_and_tracks_with_it(captur
     assert f"calibrated: in situ, saved {saved}" in text and "heading aligned by compass" in text
     assert "magnetometers calibrated from" in text
     cal = MagCalibration.load(saved)
-    world = make_source(SCENARIO, seed=1, module=MODULE).magnetic
+    world = source.magnetic
     # the simulated iron: the offset within 1 µT (0.5 ± 0.2 µT over twenty modules,
     # docs/heading-aids.md), the distortion within 2 %, and its rotation, which the ellipsoid fit
     # cannot see (1.5° here) and the attitude can, within 0.5° (0.16 ± 0.06° over twenty modules)

@@ -104,8 +104,12 @@ def test_with_two_feet_the_receiver_is_on_the_body_and_follows_the_first_foot_to
         endpoint.close()
 
 
+#: A scenario the module is built with where the walk it plays does not matter (short: quick to make).
+STANDING = "stand:1"
+
+
 def test_a_module_playing_no_scenario_has_no_walk_to_follow(tmp_path):
-    module = build(EmulatorSettings()).module
+    module = build(EmulatorSettings(scenario=STANDING)).module
     module.sensors = ScriptedSource(np.zeros((1, 4, 6), np.int16))
     with pytest.raises(ValueError, match="follows a simulated walk"):
         open_gps_pty(GpsSettings(str(tmp_path / "gps")), [module], "default", 0)
@@ -173,7 +177,7 @@ def test_the_gps_options_become_settings_and_ready_and_status_name_the_receiver(
     endpoint = GpsPtyEndpoint(receiver, tmp_path / "gps")
     try:
         assert ready_line([], None, endpoint) == f"READY gps-pty={tmp_path / 'gps'}"
-        module = build_served_module(EmulatorSettings(pty=str(tmp_path / "shoe")), 0)
+        module = build_served_module(EmulatorSettings(scenario=STANDING, pty=str(tmp_path / "shoe")), 0)
         assert status_text([module], endpoint).endswith("|| gps off: 0 sentences, 0 dropped (epoch 0)")
         for ep in module.endpoints:
             ep.close()

@@ -61,11 +61,16 @@ def sha256_of_replay(source, compiled: bool) -> str:
     return hashlib.sha256(run_replay(source, config=config, announce=None)).hexdigest()
 
 
+@pytest.fixture(scope="module")
+def default_source():
+    """The default scenario (seed 0, 1000 Hz), made once for both paths (a replay leaves it as it was)."""
+    return make_source("default", seed=0, rate_hz=1000.0)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("compiled", PATHS)
-def test_default_scenario_replay_is_byte_identical(compiled):
-    source = make_source("default", seed=0, rate_hz=1000.0)
-    assert sha256_of_replay(source, compiled) == DEFAULT_SCENARIO_SHA256
+def test_default_scenario_replay_is_byte_identical(compiled, default_source):
+    assert sha256_of_replay(default_source, compiled) == DEFAULT_SCENARIO_SHA256
 
 
 @pytest.mark.slow
