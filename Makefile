@@ -1,11 +1,12 @@
 # The two commands a fresh clone needs:
 #   make demo   set up .venv and run the main job (emulated walk tracked through a pty)
-#   make test   set up .venv, lint with ruff, run every test, then the per-kernel
-#               equivalence tests again with OPENSHOE_PURE=1 (kernels as plain Python)
+#   make test   set up .venv, lint with ruff, run the per-kernel equivalence tests with
+#               OPENSHOE_PURE=1 (kernels as plain Python), then every test on two processes
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+FILL_KERNEL_CACHE := from firmware_sim.app.cluster import prepare_process; prepare_process()
 
 .PHONY: demo test lint setup clean
 
@@ -20,10 +21,14 @@ setup: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
+# test: the per-kernel tests as plain Python run on one core while the compiled kernels go into
+# numba's on-disk cache on the other (once, not in each worker); then every test on two workers.
 test: $(STAMP)
 	$(BIN)/ruff check .
-	$(BIN)/python -m pytest -q
-	OPENSHOE_PURE=1 $(BIN)/python -m pytest -q tests/nav/test_kernels.py
+	$(BIN)/python -c '$(FILL_KERNEL_CACHE)' & cache=$$!; \
+	  OPENSHOE_PURE=1 $(BIN)/python -m pytest -q tests/nav/test_kernels.py; pure=$$?; \
+	  wait $$cache && exit $$pure
+	$(BIN)/python -m pytest -q -n 2 --dist worksteal
 
 demo: $(STAMP)
 	$(BIN)/python -m firmware_sim.app.demo

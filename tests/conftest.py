@@ -1,9 +1,14 @@
 """Shared test fixtures: where the real walk recordings are, and skipping without them; every test
-keeps its magnetometer calibrations in a folder of its own (never the user's)."""
+keeps its magnetometer calibrations in a folder of its own (never the user's). For a run on several
+processes (pytest-xdist, ``make test``: ``-n 2 --dist worksteal``): the compiled kernels are put in
+numba's on-disk cache once before the workers start, and the long tests go first, spread over the
+workers."""
 
 from __future__ import annotations
 
 import os
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -49,3 +54,100 @@ def own_magcal_dir(tmp_path_factory, monkeypatch) -> Path:
     folder = tmp_path_factory.mktemp("magcal")
     monkeypatch.setenv("OPENSHOE_MAGCAL_DIR", str(folder))
     return folder
+
+
+# ---------------------------------------------------------------------------------------------
+# a run on several processes
+
+
+#: Compiles the tracking kernels and the walk reader into numba's on-disk cache (or loads them).
+FILL_KERNEL_CACHE = "from firmware_sim.app.cluster import prepare_process; prepare_process()"
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """On the controller of a distributed run, before its workers start: the kernels are compiled
+    into numba's cache once, in a process of its own (about 30 s with an empty cache, 1 s with a
+    full one), instead of in each worker at once, or in a ``serve`` a test starts before its READY
+    line. tests/e2e/test_first_run.py gives each of its processes an empty cache of its own."""
+    config = session.config
+    if hasattr(config, "workerinput") or not getattr(config.option, "numprocesses", None):
+        return
+    if os.environ.get("OPENSHOE_PURE"):
+        return
+    subprocess.run([sys.executable, "-c", FILL_KERNEL_CACHE], cwd=REPO, check=False,
+                   stdin=subprocess.DEVNULL)
+
+
+#: The long tests [CPU-s or wall-clock s, whichever is more, on a 2-core machine]: a test file
+#: (its tests stay together, sharing their module's fixtures) or one test (all its parameters).
+LONG_TESTS = {
+    "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[4]": 37,
+    "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[0]": 32,
+    "tests/e2e/test_first_run.py::test_demo_succeeds_on_the_first_try_with_an_empty_kernel_cache": 33,
+    "tests/e2e/test_first_run.py::test_serve_answers_its_first_host_at_once_with_an_empty_kernel_cache": 33,
+    "tests/lab/test_two_feet.py": 64,
+    "tests/nav/test_kernels.py": 53,
+    "tests/lab/test_spread.py": 44,
+    "tests/e2e/test_wire_golden.py::test_default_scenario_replay_is_byte_identical": 42,
+    "tests/nav/test_fastpath.py": 42,
+    "tests/lab/test_navshoe.py": 38,
+    "tests/hostlib/test_deviation.py": 28,
+    "tests/e2e/test_serve_gps.py": 27,
+    "tests/e2e/test_serve.py": 20,
+    "tests/hostlib/test_gps_bias.py": 19,
+    "tests/nav/test_nonfinite.py": 18,
+    "tests/e2e/test_host_tracks_served_module.py": 15,
+    "tests/lab/test_magcal.py": 14,
+    "tests/oracle/test_reference_oracle.py": 13,
+    "tests/oracle/test_threshold.py": 11,
+    "tests/oracle/test_stance_motion.py": 11,
+    "tests/lab/test_accuracy.py": 10,
+    "tests/app/test_calibrate_mag.py": 9,
+    "tests/lab/test_consistency.py": 9,
+}
+
+
+def _long_test(nodeid: str) -> str | None:
+    for key in LONG_TESTS:
+        if nodeid == key or nodeid.startswith((key + "::", key + "[")):
+            return key
+    return None
+
+
+@pytest.hookimpl(trylast=True)
+def pytest_collection_modifyitems(session: pytest.Session, config: pytest.Config,
+                                  items: list[pytest.Item]) -> None:
+    """The long tests first, so that no worker is left with one at the end while the others wait.
+
+    xdist's worksteal gives each of its N workers a run of consecutive tests at first (the first
+    len/N to the first worker, and so on), and an idle worker then takes half of what is left on
+    the busiest one, from its end. So the long tests are dealt to the N runs' heads, the longest
+    to the lightest head, and the other tests keep their order behind them. Run alone, the long
+    tests simply go first. (trylast: after ``-k``/``-m`` took their pick.)"""
+    workers = int(getattr(config, "workerinput", {}).get("workercount", 1))
+    groups: dict[str, list[pytest.Item]] = {}
+    rest = []
+    for item in items:
+        key = _long_test(item.nodeid)
+        if key is None:
+            rest.append(item)
+        else:
+            groups.setdefault(key, []).append(item)
+    if not groups:
+        return
+    heads: list[list[pytest.Item]] = [[] for _ in range(workers)]
+    loads = [0.0] * workers
+    for key in sorted(groups, key=lambda k: -LONG_TESTS[k]):
+        k = loads.index(min(loads))
+        heads[k] += groups[key]
+        loads[k] += LONG_TESTS[key]
+    ordered: list[pytest.Item] = []
+    left = len(items)
+    for k, head in enumerate(heads):
+        share = left // (workers - k)  # what worksteal sends this worker at first
+        tail = rest[:max(0, share - len(head))]
+        del rest[:len(tail)]
+        ordered += head + tail
+        left -= len(head) + len(tail)
+    items[:] = ordered + rest
