@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 FILL_KERNEL_CACHE := from firmware_sim.app.cluster import prepare_process; prepare_process()
 
-.PHONY: demo test lint setup clean
+.PHONY: demo test lint setup clean docs
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -33,5 +33,9 @@ test: $(STAMP)
 demo: $(STAMP)
 	$(BIN)/python -m firmware_sim.app.demo
 
+# docs: the site (guides, results, reference generated from the code) into docs/_build/html
+docs: $(STAMP)
+	$(BIN)/python -m sphinx -W -j auto -b html docs docs/_build/html
+
 clean:
-	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache
+	rm -rf $(VENV) build dist *.egg-info .pytest_cache .ruff_cache docs/_build docs/reference/api
