@@ -79,8 +79,9 @@ def pytest_sessionstart(session: pytest.Session) -> None:
                    stdin=subprocess.DEVNULL)
 
 
-#: The long tests [CPU-s or wall-clock s, whichever is more, on a 2-core machine]: a test file
-#: (its tests stay together, sharing their module's fixtures) or one test (all its parameters).
+#: The long tests [CPU-s or wall-clock s, whichever is more, on a 2-core machine]: a folder or a
+#: test file (its tests stay together in one process, sharing their module's fixtures and, in
+#: tests/oracle, the oracle's runs on the shared walks) or one test (all its parameters).
 LONG_TESTS = {
     "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[4]": 37,
     "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[0]": 32,
@@ -93,15 +94,13 @@ LONG_TESTS = {
     "tests/nav/test_fastpath.py": 42,
     "tests/lab/test_navshoe.py": 38,
     "tests/hostlib/test_deviation.py": 28,
+    "tests/oracle": 28,
     "tests/e2e/test_serve_gps.py": 27,
     "tests/e2e/test_serve.py": 20,
     "tests/hostlib/test_gps_bias.py": 19,
     "tests/nav/test_nonfinite.py": 18,
     "tests/e2e/test_host_tracks_served_module.py": 15,
     "tests/lab/test_magcal.py": 14,
-    "tests/oracle/test_reference_oracle.py": 13,
-    "tests/oracle/test_threshold.py": 11,
-    "tests/oracle/test_stance_motion.py": 11,
     "tests/lab/test_accuracy.py": 10,
     "tests/app/test_calibrate_mag.py": 9,
     "tests/lab/test_consistency.py": 9,
@@ -110,7 +109,7 @@ LONG_TESTS = {
 
 def _long_test(nodeid: str) -> str | None:
     for key in LONG_TESTS:
-        if nodeid == key or nodeid.startswith((key + "::", key + "[")):
+        if nodeid == key or nodeid.startswith((key + "::", key + "[", key + "/")):
             return key
     return None
 

@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .firmware_trace import FirmwareTrace, align, best_lag, trace_module
-from .reference_ins import ReferenceRun, run_reference, stance_phases
+from .firmware_trace import FirmwareTrace, align, best_lag, trace_of_recording
+from .reference_ins import ReferenceRun, reference_of_recording, stance_phases
 
 __all__ = ["WalkComparison", "compare_walk", "closure_pct"]
 
@@ -90,11 +90,8 @@ def _pairs(oracle: list[tuple[int, int]], firmware: list[tuple[int, int]]) -> li
 
 def compare_walk(path: str | Path) -> WalkComparison:
     """Run the oracle and the emulated firmware (as a replay runs it) on the recording *path*."""
-    from firmware_sim.sensors.replay import ReplaySource, load_recording
-
-    rec = load_recording(path)
-    oracle = run_reference(rec.acc_g, rec.gyro, rec.rate_hz)
-    trace = trace_module(ReplaySource(rec))
+    oracle = reference_of_recording(path)
+    trace = trace_of_recording(path)
     lag = best_lag(trace, oracle.stance)
     fw = align(trace)
     n = len(fw.zupt)

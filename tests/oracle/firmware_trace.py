@@ -10,8 +10,10 @@ the oracle refer to the same recorded sample; :func:`best_lag` checks that delay
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 
@@ -111,6 +113,25 @@ def trace_module(source, profile: str | None = None, th_zupt: int | None = None,
         if yaw is not None:
             reset[k], reset_yaw[k] = True, yaw
     return FirmwareTrace(zupt, t1, vel, pos, heading, reset, reset_yaw)
+
+
+def trace_of_recording(path: str | Path) -> FirmwareTrace:
+    """:func:`trace_module` with the defaults on the recording *path* replayed as a replay serves it,
+    once per process (the oracle's comparisons trace the same shared walks again). Its arrays are
+    read-only (shared by every caller)."""
+    return _trace_of(str(Path(path).resolve()))
+
+
+@functools.cache
+def _trace_of(path: str) -> FirmwareTrace:
+    from firmware_sim.sensors.replay import ReplaySource, load_recording
+
+    trace = trace_module(ReplaySource(load_recording(path)))
+    for f in fields(trace):
+        value = getattr(trace, f.name)
+        if value is not None:
+            value.flags.writeable = False
+    return trace
 
 
 #: Loops the filter runs behind the sensors by design: the middle of the detector's N-sample

@@ -19,8 +19,10 @@ the value the published closure figures were computed with (``reference.csv`` ch
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 
@@ -209,3 +211,21 @@ def run_reference(acc_g: np.ndarray, gyro: np.ndarray, rate_hz: float,
         pos[k], vel[k] = p, v
         heading[k] = math.atan2(rot[1, 0], rot[0, 0])
     return ReferenceRun(stance, statistic, pos, vel, heading, nis)
+
+
+def reference_of_recording(path: str | Path) -> ReferenceRun:
+    """:func:`run_reference` with the default settings on the recording *path* (its own rate), once
+    per process: the oracle's comparisons ask for the same shared walks again. Its arrays are
+    read-only (shared by every caller)."""
+    return _reference_of(str(Path(path).resolve()))
+
+
+@functools.cache
+def _reference_of(path: str) -> ReferenceRun:
+    from firmware_sim.sensors.replay import load_recording
+
+    rec = load_recording(path)
+    run = run_reference(rec.acc_g, rec.gyro, rec.rate_hz)
+    for f in fields(run):
+        getattr(run, f.name).flags.writeable = False
+    return run

@@ -44,7 +44,7 @@ from protocol.ids import StateId
 
 from .firmware_trace import DESIGN_LAG, HostPose, stepwise_loops
 from .gyro_bias_response import GYRO_LAG, _zaru_off_firmware
-from .reference_ins import run_reference, stance_phases
+from .reference_ins import reference_of_recording, stance_phases
 from .swing_rotation import foot_frame
 
 __all__ = ["STAND_S", "NFFT", "RATE_BAND_HZ", "RealWalk", "real_walk", "psd", "real_motion",
@@ -84,7 +84,7 @@ def real_walk(path: str | Path) -> RealWalk:
 
     rec = load_recording(path)
     acc, gyro, rate = rec.board_acc_g() * G0, rec.board_gyro(), rec.rate_hz
-    phases = stance_phases(run_reference(rec.acc_g, rec.gyro, rate).stance[:len(gyro)])
+    phases = stance_phases(reference_of_recording(path).stance[:len(gyro)])
     to_foot = foot_frame(acc, gyro, phases, rate)
     acc, gyro = acc @ to_foot.T, gyro @ to_foot.T
     trim = int(0.25 * rate)

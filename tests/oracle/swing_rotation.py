@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .reference_ins import run_reference, stance_phases
+from .reference_ins import reference_of_recording, stance_phases
 
 __all__ = ["MIN_SWING_S", "STRAIGHT_DEG", "SwingRotation", "foot_frame", "swing_rotations", "summary"]
 
@@ -92,7 +92,7 @@ def swing_rotations(path: str | Path) -> list[SwingRotation]:
 
     rec = load_recording(path)
     acc, gyro, rate = rec.board_acc_g(), rec.board_gyro(), rec.rate_hz
-    phases = stance_phases(run_reference(rec.acc_g, rec.gyro, rate).stance[:len(gyro)])
+    phases = stance_phases(reference_of_recording(path).stance[:len(gyro)])
     pairs = _swing_pairs(phases, rate)
     to_foot = foot_frame(acc, gyro, phases, rate)
     gyro, acc = gyro @ to_foot.T, acc @ to_foot.T

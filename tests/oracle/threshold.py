@@ -39,8 +39,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .firmware_trace import align, trace_module
-from .reference_ins import run_reference, stance_phases
+from .firmware_trace import align, trace_module, trace_of_recording
+from .reference_ins import reference_of_recording, stance_phases
 
 __all__ = ["DetectorSample", "GRID", "detector_sample", "simulated_sample", "error_rates", "agreement",
            "choose", "leave_one_out", "SIMULATED_SCENARIOS"]
@@ -67,11 +67,11 @@ MIN_SWING_S = 0.2
 
 def detector_sample(path: str | Path) -> DetectorSample:
     """Trace the module's statistic on the recording *path* and run the reference's detector on it."""
-    from firmware_sim.sensors.replay import ReplaySource, load_recording
+    from firmware_sim.sensors.replay import load_recording
 
-    rec = load_recording(path)
-    oracle = run_reference(rec.acc_g, rec.gyro, rec.rate_hz)
-    t1 = align(trace_module(ReplaySource(rec))).t1
+    rate_hz = load_recording(path).rate_hz
+    oracle = reference_of_recording(path)
+    t1 = align(trace_of_recording(path)).t1
     stance = oracle.stance[:len(t1)]
     phases = stance_phases(stance)
     first, last = phases[0]
@@ -79,7 +79,7 @@ def detector_sample(path: str | Path) -> DetectorSample:
     swings = []
     for (_, end), (start, _) in zip(phases[:-1], phases[1:], strict=True):
         gap = start - end - 1
-        if gap >= MIN_SWING_S * rec.rate_hz:
+        if gap >= MIN_SWING_S * rate_hz:
             swings.append(t1[end + 1 + gap // 10:start - gap // 10])
     return DetectorSample(Path(path), t1, stance, t1[first:last + 1], np.concatenate(walking),
                           np.concatenate(swings))
