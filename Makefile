@@ -22,13 +22,14 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 
 # test: the per-kernel tests as plain Python run on one core while the compiled kernels go into
-# numba's on-disk cache on the other (once, not in each worker); then every test on two workers.
+# numba's on-disk cache on the other (once, not in each worker); then every test on two workers,
+# whatever the first run gave (make fails if either failed).
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -c '$(FILL_KERNEL_CACHE)' & cache=$$!; \
 	  OPENSHOE_PURE=1 $(BIN)/python -m pytest -q tests/nav/test_kernels.py; pure=$$?; \
-	  wait $$cache && exit $$pure
-	$(BIN)/python -m pytest -q -n 2 --dist worksteal
+	  wait $$cache; \
+	  $(BIN)/python -m pytest -q -n 2 --dist worksteal && exit $$pure
 
 demo: $(STAMP)
 	$(BIN)/python -m firmware_sim.app.demo
