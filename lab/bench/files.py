@@ -46,6 +46,7 @@ def _replay(paths: list[Path], out: Path) -> tuple[float, float]:
     and the wall time of its runs (from its last line, ``… runs/s (S s) → DIR``)."""
     cmd = [sys.executable, "-m", "firmware_sim.app.cli", "replay", *map(str, paths),
            "--wire-dir", str(out / "wire"), "--table", str(out / "runs.csv"), "--quiet"]
+    out.mkdir(parents=True, exist_ok=True)  # replay refuses a table whose folder is missing
     t0 = time.perf_counter()
     done = subprocess.run(cmd, check=True, stdout=subprocess.PIPE, text=True)
     wall = time.perf_counter() - t0
