@@ -81,8 +81,14 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 
 #: The long tests [CPU-s or wall-clock s, whichever is more, on a 2-core machine]: a folder or a
 #: test file (its tests stay together in one process, sharing their module's fixtures and, in
-#: tests/oracle, the oracle's runs on the shared walks) or one test (all its parameters).
+#: tests/oracle, the oracle's runs on the shared walks) or one test (all its parameters, or one);
+#: a test in more than one goes with the most specific (the docs' two longest examples on their own,
+#: the other examples together).
 LONG_TESTS = {
+    "tests/docs/test_examples.py": 200,
+    "tests/docs/test_examples.py::test_example_runs[docs/guides/many-runs.md:34]": 80,
+    "tests/docs/test_examples.py::test_example_runs[docs/guides/virtual-module.md:40]": 36,
+    "tests/docs/test_docs.py::test_the_site_builds_without_warnings": 46,
     "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[4]": 37,
     "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache[0]": 32,
     "tests/e2e/test_first_run.py::test_demo_succeeds_on_the_first_try_with_an_empty_kernel_cache": 33,
@@ -108,10 +114,10 @@ LONG_TESTS = {
 
 
 def _long_test(nodeid: str) -> str | None:
-    for key in LONG_TESTS:
-        if nodeid == key or nodeid.startswith((key + "::", key + "[", key + "/")):
-            return key
-    return None
+    """The entry of :data:`LONG_TESTS` that *nodeid* belongs to (the most specific), if any."""
+    keys = [key for key in LONG_TESTS
+            if nodeid == key or nodeid.startswith((key + "::", key + "[", key + "/"))]
+    return max(keys, key=len, default=None)
 
 
 @pytest.hookimpl(trylast=True)
