@@ -51,9 +51,12 @@ heading's does to the positions after: a straight walk's along-track uncertainty
 length, a closed loop's does not. An aid makes them observable (GPS the scale, the compass the
 turns and the drift), and the steps after are corrected by the learned values.
 
-:data:`EMULATED_MODULE` holds the priors of the emulated MIMU22BT, estimated from simulated
-modules' end errors (``python -m lab.accuracy consistency``, the method-of-moments estimate below);
-another module has its own.
+:data:`MIMU22BT` holds the priors of a MIMU22BT-class module worked out from the MPU9150's datasheet
+and the physics of the four-die array, without looking at any walk: the host's default with an aid
+or two feet (:class:`hostlib.run.options.AidOptions`). :data:`EMULATED_MODULE` and
+:data:`EMULATED_MODULE_SWAYING` hold the emulated MIMU22BT's, estimated from simulated modules' end
+errors (``python -m lab.accuracy consistency``, the method-of-moments estimate below), for
+experiments on the emulator; another module has its own.
 """
 
 from __future__ import annotations
@@ -65,8 +68,9 @@ import numpy as np
 
 from ..track.steps import is_motion_step
 
-__all__ = ["DRIFT_STATE", "EMULATED_MODULE", "EMULATED_MODULE_SWAYING", "ERROR_STATES", "DriftClock",
-           "DriftSpan", "ModuleErrors", "error_jacobian", "step_duration", "through_step"]
+__all__ = ["DRIFT_STATE", "EMULATED_MODULE", "EMULATED_MODULE_SWAYING", "ERROR_STATES", "MIMU22BT", "PRESETS",
+           "DriftClock", "DriftSpan", "ModuleErrors", "error_jacobian", "preset_name", "step_duration",
+           "through_step"]
 
 #: The states every :class:`ModuleErrors` adds: s, c, k (:attr:`ModuleErrors.states`: one more, r,
 #: with a heading drift prior above 0, and one more, w, last, with a warm-up prior above 0).
@@ -131,17 +135,16 @@ class ModuleErrors:
 
     @classmethod
     def parse(cls, text: str) -> ModuleErrors:
-        """The priors a word or a list of numbers names: 'emulated' or 'emulated-sway' (the emulated
-        module as it walks by default, on swaying stances: :data:`EMULATED_MODULE_SWAYING`),
-        'emulated-still' (on still stances: :data:`EMULATED_MODULE`), or
+        """The priors a word or a list of numbers names: 'mimu22bt' (a MIMU22BT-class module, from its
+        datasheet: :data:`MIMU22BT`), 'emulated' or 'emulated-sway' (the emulated module as it walks by
+        default, on swaying stances: :data:`EMULATED_MODULE_SWAYING`), 'emulated-still' (on still
+        stances: :data:`EMULATED_MODULE`), or
         ``SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]]``: numbers ≥ 0 and τ > 0, the
         heading drift rate's 1σ in °/h and the warm-up's in °/s (held as rad/s). A ValueError says
         what is expected otherwise."""
-        presets = {"emulated": EMULATED_MODULE_SWAYING, "emulated-sway": EMULATED_MODULE_SWAYING,
-                   "emulated-still": EMULATED_MODULE}
         word = text.strip().lower()
-        if word in presets:
-            return presets[word]
+        if word in PRESETS:
+            return PRESETS[word]
         try:
             sigmas = [float(v) for v in text.split(",")]
             if not 2 <= len(sigmas) <= 6:
@@ -154,7 +157,7 @@ class ModuleErrors:
         except ValueError:
             raise ValueError(
                 f"expected SCALE,CLIMB[,TURN[,DRIFT_DEG_PER_H[,WARMUP_DEG_PER_S[,TAU_S]]]] (1σ, numbers ≥ 0, "
-                f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'emulated', 'emulated-sway' or "
+                f"τ > 0, e.g. 0.001,0.0017,0.01,20,0.05,120), 'mimu22bt', 'emulated', 'emulated-sway' or "
                 f"'emulated-still', got {text!r}") from None
 
     def clock(self) -> DriftClock:
@@ -299,3 +302,43 @@ EMULATED_MODULE = ModuleErrors(step_scale_sigma=0.00102, climb_sigma=0.00168, tu
 EMULATED_MODULE_SWAYING = ModuleErrors(step_scale_sigma=0.00108, climb_sigma=0.00173,
                                        turn_scale_sigma=0.00042, heading_warmup_sigma=8.06e-4,
                                        warmup_tau_s=120.0)
+
+#: A MIMU22BT-class module (four MPU9150 averaged, factory-calibrated), its priors from the datasheet
+#: and physics alone (shared/spec/sensors.md, docs/sensor-errors.md), never fitted to a walk:
+#:
+#: * **step-length scale** σ_s 0.0013: a step's length is the twice-integrated specific force, so its
+#:   scale is the accelerometers'. The MPU9150's sensitivity tolerance is ±3 % (datasheet); a
+#:   six-position factory calibration leaves a few tenths of a percent of it, ±0.45 % (15 % of the
+#:   tolerance). Uniform, that is 0.45 %/√3 = 0.26 % per die, and the module averages four
+#:   independent dies: 0.26 %/√4 = 0.13 %.
+#: * **turn scale** σ_k 0.0013: a step's heading change is the vertical gyro's integral, its scale
+#:   the gyros' sensitivity, with the same ±3 % tolerance and the same calibration: 0.13 %.
+#: * **climb** σ_c 0.002 m/m: a step's height error per metre is a tilt of its integrated
+#:   displacement, what the accelerometers' cross-axis residual (±2 % uncalibrated, ±0.3 % left)
+#:   and the dies' misalignment (±0.1°) leave after the four dies are averaged: about 0.001 m/m. The
+#:   module paper's fifty 100 m walks with real modules end with systematic height errors up to
+#:   0.5 % (shared/spec/sensors.md), the largest of fifty draws about 2.3σ: 0.002 m/m. The prior
+#:   takes the paper's, the larger, since a real foot adds what no datasheet holds (the sole's
+#:   flex, the mounting).
+#: * **warm-up** σ_w 8.06e-4 rad/s, τ 120 s: the gyros' zero-rate offset moves with temperature,
+#:   typically ±0.02 °/s per °C (the datasheet bounds ±20 °/s over −40…85 °C), and the dies warm by
+#:   about 8 °C after power-on (their own heat and the foot's), with a time constant of about two
+#:   minutes. Uniform, 0.02/√3 °/s/°C per die, over four dies ÷√4, times 8 °C: 0.046 °/s, the
+#:   distance the vertical rate's bias settles from where the module learned it. On a real foot's
+#:   walking stance the module's ZARU does not hold, so this, not a constant rate, turns the
+#:   heading (the constant part is what the module learned while it stood at the start).
+#: * the **heading drift rate** r is not held: what the module's bias estimate left of the
+#:   vertical rate's bias at the start is learned again at every stand, and the part that changes
+#:   while walking is the warm-up's.
+MIMU22BT = ModuleErrors(step_scale_sigma=0.0013, climb_sigma=0.002, turn_scale_sigma=0.0013,
+                        heading_warmup_sigma=8.06e-4, warmup_tau_s=120.0)
+
+#: The presets' words (:meth:`ModuleErrors.parse`).
+PRESETS = {"mimu22bt": MIMU22BT, "emulated": EMULATED_MODULE_SWAYING,
+           "emulated-sway": EMULATED_MODULE_SWAYING, "emulated-still": EMULATED_MODULE}
+
+
+def preset_name(errors: ModuleErrors) -> str | None:
+    """The word of the preset *errors* are (:data:`PRESETS`: 'mimu22bt', 'emulated', 'emulated-still'),
+    or None for priors of one's own."""
+    return next((word for word, preset in PRESETS.items() if preset == errors), None)
