@@ -39,6 +39,16 @@ Pieces (arguments optional, defaults in brackets):
 Every scenario starts and ends at rest (a recipe that does not start with
 ``stand`` gets ``stand:3`` in front, so the firmware's initial alignment can
 complete; one that does not end with ``stand`` gets ``stand:2`` at the end).
+
+Every number is checked before anything is walked (:mod:`.recipes`, which says why each range):
+finite, and within its piece's range — a length m or a stand's s > 0, a piece's distance (an arc's
+r · deg, a rectangle's perimeter) at most 2.5 km, a slope within ±30°, a turn within ±3600°, a
+heading within ±360°, a pace from 0.3 to 3 m/s, a wiggle of at most 600 s tilting 0–90°, whole
+counts of 1–2000 stairs, 1–1000 side or back steps (dir 1 or −1) and 1–6 laps, a rectangle's
+corner radius at most half its shorter side; at most 1000 pieces, and the whole scenario at most
+1800 s long. A refused recipe raises :class:`~.recipes.RecipeError` (a ValueError, and a KeyError
+for an unknown name) that names the piece, its number and the range: ``piece 2 'walk:-5': the
+length m [m] must be > 0 and at most 2500, got -5``.
 :data:`SCENARIOS` names the standard ones; :func:`trajectory` accepts a name
 or a recipe, :func:`feet` both feet of a walker walking it (the recipe is the body's path,
 :mod:`~firmware_sim.sensors.feet`). :func:`environment` says where a named scenario is walked: indoors (a
@@ -48,15 +58,16 @@ loses the sky after some distance.
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
+from . import recipes
 from .feet import STEP_WIDTH_M, Feet, feet_from_body
-from .gait import RUNNING, WALKING, WIGGLE_TILT_DEG, GaitParams, Trajectory
+from .gait import WALKING, GaitParams, Trajectory
 from .gait_builder import GaitBuilder
+from .recipes import PIECE_SPECS, RecipeError
 
-__all__ = ["SCENARIOS", "PIECES", "Environment", "environment", "feet", "list_scenarios", "recipe",
-           "trajectory"]
+__all__ = ["SCENARIOS", "PIECES", "Environment", "RecipeError", "check", "environment", "feet",
+           "list_scenarios", "recipe", "trajectory"]
 
 _LAP = (
     "walk:36+arc:2:90+walk:16+arc:2:90+walk:8+stairs_up:12+walk:6.28+stairs_down:12+walk:15"
@@ -156,27 +167,8 @@ def environment(name_or_recipe: str) -> Environment:
     return ENVIRONMENTS.get(name_or_recipe, Environment())
 
 
-def _pace(b: GaitBuilder, v: float = 1.55) -> None:
-    b.params = WALKING.with_speed(v)
-
-
-PIECES: dict[str, Callable[..., object]] = {
-    "stand": lambda b, s=3.0: b.stand(s),
-    "walk": lambda b, m=10.0, deg=0.0: b.walk(m, slope_deg=deg),
-    "ramp": lambda b, m=50.0, deg=6.0, across=0.0: b.ramp(m, deg, across),
-    "run": lambda b, m=50.0: b.run(m, RUNNING),
-    "arc": lambda b, r=2.0, deg=90.0: b.arc(r, deg),
-    "turn": lambda b, deg=90.0: b.turn_on_spot(deg),
-    "stairs_up": lambda b, n=12: b.stairs(int(n), up=True),
-    "stairs_down": lambda b, n=12: b.stairs(int(n), up=False),
-    "side": lambda b, n=4, d=1.0: b.side_steps(int(n), right=d > 0),
-    "back": lambda b, n=4: b.back_steps(int(n)),
-    "rectangle": lambda b, l=30.0, w=15.0, r=1.0: b.rectangle(l, w, r),
-    "track400": lambda b, laps=1: b.track_400m(laps=int(laps)),
-    "pace": _pace,
-    "face": lambda b, deg=0.0: b.face(deg),
-    "wiggle": lambda b, s=30.0, deg=WIGGLE_TILT_DEG: b.wiggle(s, deg),
-}
+#: name → the piece: its numbers, their ranges, how it is walked (:mod:`.recipes`).
+PIECES = PIECE_SPECS
 
 
 def list_scenarios() -> list[str]:
@@ -185,14 +177,21 @@ def list_scenarios() -> list[str]:
 
 
 def recipe(name_or_recipe: str) -> str:
-    """The recipe of a named scenario, or the argument itself when it is a recipe."""
+    """The recipe of a named scenario, or the argument itself when it starts as a recipe does
+    (its pieces are checked when walked: :func:`check`); :class:`~.recipes.RecipeError` otherwise."""
     if name_or_recipe in SCENARIOS:
         return SCENARIOS[name_or_recipe]
     head = name_or_recipe.split("+")[0].split(":")[0].strip()
     if head in PIECES:
         return name_or_recipe
-    raise KeyError(f"unknown scenario {name_or_recipe!r}; known: {', '.join(list_scenarios())} "
-                   f"(or a recipe of pieces {', '.join(sorted(PIECES))})")
+    raise RecipeError(f"unknown scenario {name_or_recipe!r}; known: {', '.join(list_scenarios())} "
+                      f"(or a recipe of pieces {', '.join(sorted(PIECES))})")
+
+
+def check(name_or_recipe: str) -> None:
+    """Refuse a scenario that is no name and no recipe that can be walked (:class:`~.recipes.RecipeError`,
+    naming the piece, the number and its range) without computing the walk: milliseconds."""
+    _walked(name_or_recipe, WALKING)
 
 
 def trajectory(name_or_recipe: str, params: GaitParams = WALKING) -> Trajectory:
@@ -207,25 +206,12 @@ def feet(name_or_recipe: str, params: GaitParams = WALKING, step_width: float = 
 
 
 def _walked(name_or_recipe: str, params: GaitParams) -> GaitBuilder:
-    """A builder that has walked the scenario's pieces."""
-    pieces = [p.strip() for p in recipe(name_or_recipe).split("+") if p.strip()]
-    lead = 1 if pieces and pieces[0].split(":")[0] == "face" else 0  # the start's heading comes first
-    if len(pieces) == lead or not pieces[lead].startswith("stand"):
-        pieces.insert(lead, "stand:3")
-    if not pieces[-1].startswith("stand"):
-        pieces.append("stand:2")
-    b = GaitBuilder(params)
-    for piece in pieces:
-        name, *args = piece.split(":")
-        if name not in PIECES:
-            known = ", ".join(sorted(PIECES))
-            raise KeyError(f"unknown piece {name!r} in {name_or_recipe!r}; known: {known}")
-        try:
-            values = [float(a) for a in args]
-        except ValueError:
-            raise ValueError(f"piece {piece!r}: arguments must be numbers") from None
-        try:
-            PIECES[name](b, *values)
-        except TypeError:
-            raise ValueError(f"piece {piece!r}: too many arguments") from None
-    return b
+    """A builder that has walked the scenario's pieces, with a stand added at either end
+    (module docstring); :class:`~.recipes.RecipeError` for a piece that is refused."""
+    pieces = recipes.parse(recipe(name_or_recipe))
+    lead = 1 if pieces and pieces[0].name == "face" else 0  # the start's heading comes first
+    if len(pieces) == lead or pieces[lead].name != "stand":
+        pieces.insert(lead, recipes.parse_piece("stand:3", 0))
+    if pieces[-1].name != "stand":
+        pieces.append(recipes.parse_piece("stand:2", 0))
+    return recipes.walk(pieces, params)
