@@ -23,7 +23,7 @@ from ..fusion.hard_iron import HardIron
 from ..fusion.module_errors import ModuleErrors
 from ..link.device import Device
 from ..link.device_options import DeviceOptions
-from ..run.options import AidOptions, RunOptions
+from ..run.options import AUTO, AidOptions, RunOptions
 from .checks import baud_rate, compass_sigma, declination, port_url, seconds, value_refusal
 
 __all__ = ["NO_FILE", "add_aid_options", "add_common", "add_feet_options", "add_log_calibration_options",
@@ -132,11 +132,15 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "(default: a reading beyond 3σ of its innovation is rejected and counted)")
     g.add_argument("--compass-deviation", type=compass_deviation_type, default=None,
                    metavar="outdoors|indoors|SIGMA_DEG,LENGTH_M",
-                   help="hold the local magnetic deviation as a state of the filter "
+                   help="the local magnetic deviation held as a state of the filter "
                         "(hostlib.fusion.deviation), "
                         "correlated over the distance walked: 'outdoors' (3° over 9 m), 'indoors' "
                         "(20° over 0.5 m) or its 1σ [deg] and correlation length [m]; with two modules "
-                        "one deviation for both feet (with --compass)")
+                        "one deviation for both feet (with --compass; held by default: outdoors with "
+                        "--gps, indoors without)")
+    g.add_argument("--no-compass-deviation", action="store_true",
+                   help="do not hold the local deviation: each compass reading's deviation is white noise "
+                        "of --compass-sigma")
     if live:
         g.add_argument("--gps", metavar="DEVICE_OR_FILE",
                        help="a GPS receiver to fuse (NMEA GGA/RMC): a device or pyserial URL, read as it "
@@ -152,13 +156,18 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="learn the shoe's hard iron as three states of the filter while walking "
                         "(hostlib.fusion.hard_iron): GPS and the walk's turns make it observable, and "
                         "until then the compass counts for as little as the iron's uncertainty says; "
-                        "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration)")
+                        "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration; learned "
+                        "by default with --compass)")
+    g.add_argument("--no-hard-iron", action="store_true",
+                   help="do not learn the hard iron: the compass takes the calibration's (or none) as exact")
     g.add_argument("--gps-bias", action="store_true",
                    help="hold the receiver's correlated error as a state of the filter "
                         "(hostlib.fusion.gps_bias): "
                         "a bias wandering over minutes (3 m RMS, τ 120 s) plus 0.3 m white per fix, every "
-                        "fix used (without it a fix is white noise of 15 m every 10 s); with two modules one "
-                        "bias for the body's receiver (with --gps)")
+                        "fix used; with two modules one bias for the body's receiver (with --gps; held by "
+                        "default)")
+    g.add_argument("--no-gps-bias", action="store_true",
+                   help="do not hold the receiver's bias: a fix is white noise of 15 m, one every 10 s")
     g.add_argument("--mag-cal", nargs="+", metavar="CAL.json",
                    help="the shoe's magnetometer calibration (hard/soft iron); with two captures or URLs, "
                         "the left foot's then the right foot's (- for none). Without it, --compass takes the "
@@ -171,12 +180,16 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "these 1σ priors (e.g. 0.001,0.0017,0.01,20,0.05,120: 0.1 %% per metre, 1.7 mm/m, "
                         "1 %% of the angle turned, 20 °/h, and a vertical rate bias settling 0.05 °/s away "
                         "with a warm-up time constant of 120 s, counted from the first step; a drift or "
-                        "warm-up of 0 or none: not held), or 'emulated' (also 'emulated-sway') for the "
+                        "warm-up of 0 or none: not held), or 'mimu22bt' for a MIMU22BT-class module's from "
+                        "its datasheet (the default with --compass, --gps or two modules), "
+                        "'emulated' (also 'emulated-sway') for the "
                         "emulated module's on a real foot's swaying stance (openshoe-emu's default; its "
                         "warm-up from the sensors' physics), or 'emulated-still' for the emulated module "
                         "on still stances (openshoe-emu --no-stance-sway): the covariance "
                         "then grows with the distance, the angle turned and the time walked, as a module's "
                         "systematic errors do; with two modules each foot's module holds its own")
+    g.add_argument("--no-module-errors", action="store_true",
+                   help="do not hold the module's errors: the covariance is the steps' own")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "
@@ -270,6 +283,10 @@ def usage_refusal(args: argparse.Namespace) -> str | None:
                 "readings")
     if args.gps_bias and not args.gps:
         return "--gps-bias needs --gps: it is the error of the receiver's fixes"
+    for on, off in (("module_errors", "no_module_errors"), ("compass_deviation", "no_compass_deviation"),
+                    ("hard_iron", "no_hard_iron"), ("gps_bias", "no_gps_bias")):
+        if getattr(args, on) not in (None, False) and getattr(args, off):
+            return f"--{on.replace('_', '-')} or --{off.replace('_', '-')}: one or the other, not both"
     return _calibration_refusal(args, two)
 
 
@@ -318,15 +335,23 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
     two = second(args) is not None
     live = args.cmd == "track" and bool(args.gps) and not Path(args.gps).is_file()
     return AidOptions(
-        compass=args.compass, compass_sigma_deg=args.compass_sigma, compass_deviation=args.compass_deviation,
-        compass_gate=args.compass_gate, hard_iron=args.hard_iron,
+        compass=args.compass, compass_sigma_deg=args.compass_sigma,
+        compass_deviation=_held(args.compass_deviation, args.no_compass_deviation),
+        compass_gate=args.compass_gate, hard_iron=_held(args.hard_iron, args.no_hard_iron),
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
-        gps_bias=GpsBias() if args.gps_bias else None, module_errors=args.module_errors,
+        gps_bias=_held(GpsBias() if args.gps_bias else None, args.no_gps_bias),
+        module_errors=_held(args.module_errors, args.no_module_errors),
         mag_calibration=args.mag_cal[0] if args.mag_cal and not two else None,
         foot_mag_calibrations=per_foot(args.mag_cal) if two else {},
         saved_calibration=bool(args.compass and not (args.mag_cal or args.calibrate_mag)),
         calibrate_mag=args.calibrate_mag, mag_cal_dir=args.mag_cal_dir, declination_deg=args.declination,
         origin=origin)
+
+
+def _held(given: Any, off: bool) -> Any:
+    """A model's option for :class:`~hostlib.run.options.AidOptions`: *given* (a model), None where
+    *off* (its ``--no-`` switch), else :data:`~hostlib.run.options.AUTO`, the default's to resolve."""
+    return None if off else AUTO if given is None else given
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:

@@ -129,10 +129,12 @@ def feet_summary(tracker: TwoFeetTracker, streams: Mapping[str, tuple[str, Sessi
                      f"| {track.distance:.2f} m")
     apart, sigmas = tracker.disagreement()
     if sigmas > DISAGREEMENT_SIGMAS:
+        remedy = ("hold each module's errors: leave out --no-module-errors"
+                  if tracker.aids.module_errors is None
+                  else "errors beyond their priors: --module-errors with the modules' own")
         lines.append(f"warning: the fused body and the average end {apart:.2f} m apart, {sigmas:.1f}σ of "
                      "their covariances: the constraint moved the walker more than either allows (a bound "
-                     "too tight for the gait, or modules whose headings drift apart: hold each module's "
-                     "errors, --module-errors)")
+                     f"too tight for the gait, or modules whose headings drift apart: {remedy})")
     return lines
 
 

@@ -32,9 +32,11 @@ from ..aids.declination import declination_deg
 from ..aids.geodesy import parse_origin
 from ..aids.gps import GpsFix, NmeaStats, fix_place, fixes_of_log, local_positions, seconds_since
 from ..calibration.drift import DriftCalibration
+from ..fusion.deviation import INDOORS, OUTDOORS, CompassDeviation
 from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
+from ..fusion.module_errors import preset_name
 from ..fusion.tracker import FusionSettings, FusionTracker
-from .options import AidOptions
+from .options import DEFAULTED, AidOptions
 
 __all__ = ["AidSetup", "feet_tracker", "prepare_aids", "prepare_feet_aids"]
 
@@ -51,15 +53,21 @@ class AidSetup:
     calibration_source: str = ""
     #: with two feet: side → where that foot's calibration came from, if said ("saved <path>")
     foot_calibration_sources: dict[str, str] = field(default_factory=dict)
+    #: why the models held by default are on or off (:meth:`AidOptions.defaulted
+    #: <hostlib.run.options.AidOptions.defaulted>`): option → "by default", "given" or "off"
+    defaulted: dict[str, str] = field(default_factory=dict)
 
     def describe(self) -> str:
+        """The ``aids:`` line: what is on, and why each model held by default is on or off."""
         s = self.tracker.aid_settings
         parts = []
         if s.compass and s.compass_deviation is not None:
-            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):g}° per step, local deviation held "
-                         f"({s.compass_deviation.describe()})" + self._calibrated())
+            parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):g}° per step, local deviation held"
+                         f"{self._why('compass_deviation')} ({_deviation_name(s.compass_deviation)}"
+                         f"{s.compass_deviation.describe()})" + self._calibrated())
         elif s.compass:
             parts.append(f"compass σ {math.degrees(s.compass_sigma_rad):.0f}° per step" + self._calibrated())
+            parts += self._off("compass_deviation", "local deviation")
         if s.compass:
             parts.append("every reading used (no gate)" if s.compass_gate_sigmas is None else
                          f"readings beyond {s.compass_gate_sigmas:g}σ of their innovation rejected")
@@ -68,19 +76,35 @@ class AidSetup:
             parts.append(self.gps_stats.summary())
         if s.gps and s.gps_bias is not None:
             every = s.gps_update_interval_s
-            parts.append(f"GPS receiver's bias held ({s.gps_bias.describe()}; "
+            parts.append(f"GPS receiver's bias held{self._why('gps_bias')} ({s.gps_bias.describe()}; "
                          + ("every fix used)" if every == 0 else f"a fix every {every:g} s)"))
+        elif s.gps:
+            parts += self._off("gps_bias", "GPS receiver's bias")
         if s.compass and s.hard_iron is not None:
-            parts.append(f"the shoe's hard iron learned ({s.hard_iron.describe()})")
+            parts.append(f"the shoe's hard iron learned{self._why('hard_iron')} ({s.hard_iron.describe()})")
+        elif s.compass:
+            parts += self._off("hard_iron", "the shoe's hard iron")
         if s.module_errors is not None:
             e = s.module_errors
-            parts.append(f"module errors held: step-length scale σ {e.step_scale_sigma:g}, "
+            preset = preset_name(e)
+            parts.append(f"module errors held{self._why('module_errors')}"
+                         + ("" if preset is None else f" ({preset})")
+                         + f": step-length scale σ {e.step_scale_sigma:g}, "
                          f"climb σ {e.climb_sigma:g} m/m, turn scale σ {e.turn_scale_sigma:g}"
                          + (f", heading drift σ {math.degrees(e.heading_drift_sigma) * 3600.0:.3g} °/h"
                             if e.holds_drift else "")
                          + (f", warm-up σ {math.degrees(e.heading_warmup_sigma):.3g} °/s "
                             f"(τ {e.warmup_tau_s:g} s)" if e.holds_warmup else ""))
+        else:
+            parts += self._off("module_errors", "module errors")
         return "; ".join(parts)
+
+    def _why(self, name: str) -> str:
+        return " by default" if self.defaulted.get(name) == "by default" else ""
+
+    def _off(self, name: str, what: str) -> list[str]:
+        """*what* turned off where its default would hold it, with the switch that did it."""
+        return [f"{what} not held (off: {DEFAULTED[name]})"] if self.defaulted.get(name) == "off" else []
 
     def _calibrated(self) -> str:
         if isinstance(self.tracker, FusionTracker):
@@ -97,6 +121,12 @@ class AidSetup:
                                             for side in sides) + ")"
 
 
+def _deviation_name(deviation: CompassDeviation) -> str:
+    """The deviation's preset word and a colon ("outdoors: "), or nothing for one's own."""
+    return next((f"{word}: " for word, preset in (("outdoors", OUTDOORS), ("indoors", INDOORS))
+                 if preset == deviation), "")
+
+
 @dataclass
 class _Plan:
     """The aids resolved from what the user has, before any tracker."""
@@ -107,15 +137,17 @@ class _Plan:
     place: tuple[float, float, float] | None
     declination_source: str
     gps_stats: NmeaStats | None
+    defaulted: dict[str, str]
 
     def setup(self, tracker: FusionTracker | TwoFeetTracker) -> AidSetup:
         if self.fix_times:
             tracker.add_fixes(self.fix_times, self.fix_positions)
-        return AidSetup(tracker, self.place, self.declination_source, self.gps_stats)
+        return AidSetup(tracker, self.place, self.declination_source, self.gps_stats,
+                        defaulted=self.defaulted)
 
 
-def _plan(options: AidOptions, first_fix: GpsFix | None = None) -> _Plan:
-    base = options.fusion_settings()
+def _plan(options: AidOptions, first_fix: GpsFix | None = None, feet: bool = False) -> _Plan:
+    base = options.fusion_settings(feet)
     place = None if options.origin is None else parse_origin(options.origin)
     when = options.date
     fixes, stats = [], None
@@ -143,7 +175,7 @@ def _plan(options: AidOptions, first_fix: GpsFix | None = None) -> _Plan:
         assert stats is not None and stats.first_time is not None
         times = list(seconds_since(stats.first_time, fixes))
         positions = local_positions(fixes)[:, :2].tolist()
-    return _Plan(cfg, times, positions, place, source, stats)
+    return _Plan(cfg, times, positions, place, source, stats, options.defaulted(feet))
 
 
 def prepare_aids(options: AidOptions | None = None, *, last_counter: int | None = None, heading: float = 0.0,
@@ -177,7 +209,7 @@ def prepare_feet_aids(options: AidOptions | None = None, feet: FeetSettings | No
     fixes for the body and each foot)."""
     options = replace(options or AidOptions(), **fields)
     calibrations = options.loaded_foot_calibrations()
-    plan = _plan(options, first_fix)
+    plan = _plan(options, first_fix, feet=True)
     tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading,
                              aids=plan.settings, mag_calibrations=calibrations, drift=drift)
     return plan.setup(tracker)
@@ -188,9 +220,10 @@ def feet_tracker(options: AidOptions, feet: FeetSettings | None = None, *,
                  defer: bool = True, heading: float = 0.0, first_fix: GpsFix | None = None
                  ) -> tuple[TwoFeetTracker, AidSetup | None]:
     """The two feet's tracker *options* ask for, with each module's *drift* calibration: with aids
-    (:attr:`~hostlib.run.options.AidOptions.uses_aids`) the one :func:`prepare_feet_aids` sets up, and
+    (:attr:`~hostlib.run.options.AidOptions.uses_aids` of the options resolved for two feet, whose
+    module errors are held by default) the one :func:`prepare_feet_aids` sets up, and
     its :class:`AidSetup`; else a plain :class:`TwoFeetTracker`, and None."""
-    if not options.uses_aids:
+    if not options.resolved(feet=True).uses_aids:
         tracker = TwoFeetTracker(feet, last_counter=last_counter, defer=defer, heading=heading, drift=drift)
         return tracker, None
     aids = prepare_feet_aids(options, feet, drift=drift, last_counter=last_counter, defer=defer,

@@ -6,24 +6,51 @@ them on: :class:`AidOptions` to :func:`~hostlib.run.aid_setup.prepare_aids` /
 :func:`~hostlib.run.aid_setup.prepare_feet_aids` (a replay of captures) or to a
 :class:`~hostlib.run.tracking_run.TrackingRun` with :class:`RunOptions` (a walk with live modules).
 Both are frozen: change one with :func:`dataclasses.replace`.
+
+**The defaults are best practice for a real module.** Four of the filter's models are held
+whenever what they describe is there, unless turned off (None) or given (a model or a preset's
+word): the option's default :data:`AUTO` stands for them, and :meth:`AidOptions.resolved` says what
+it becomes, in this one place for the command line and the Python API alike:
+
+* the module's systematic errors (:attr:`AidOptions.module_errors`): with the compass, GPS or two
+  feet, the priors of a MIMU22BT-class module from its datasheet
+  (:data:`~hostlib.fusion.module_errors.MIMU22BT`);
+* the compass's local deviation (:attr:`AidOptions.compass_deviation`): with the compass, outdoors'
+  (:data:`~hostlib.fusion.deviation.OUTDOORS`) when GPS is used, a building's
+  (:data:`~hostlib.fusion.deviation.INDOORS`) otherwise;
+* the shoe's hard iron (:attr:`AidOptions.hard_iron`): with the compass on one module, learned as
+  states, its prior that of an uncalibrated shoe (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`) or
+  what a calibration leaves (:data:`~hostlib.fusion.hard_iron.CALIBRATED`), so that the compass
+  counts for as little as the iron's uncertainty says. Not with two feet: each foot's tracker
+  would learn its own iron, but the joint filter weighs the heading it hands on without the
+  iron's uncertainty (given, it is held all the same);
+* the receiver's correlated error (:attr:`AidOptions.gps_bias`): with GPS, the defaults of
+  :class:`~hostlib.fusion.gps_bias.GpsBias`.
 """
 
 from __future__ import annotations
 
 import datetime as dt
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..calibration.magcal import MagCalibration
-from ..fusion.deviation import WHITE_SIGMA_RAD, CompassDeviation
+from ..fusion.deviation import INDOORS, OUTDOORS, WHITE_SIGMA_RAD, CompassDeviation
 from ..fusion.gps_bias import GpsBias
 from ..fusion.hard_iron import CALIBRATED, UNCALIBRATED, HardIron
-from ..fusion.module_errors import ModuleErrors
+from ..fusion.module_errors import MIMU22BT, ModuleErrors
 from ..fusion.settings import FusionSettings
 
-__all__ = ["AidOptions", "RunOptions"]
+__all__ = ["AUTO", "DEFAULTED", "AidOptions", "RunOptions"]
+
+#: The default of the models held where best practice holds them (module docstring,
+#: :meth:`AidOptions.resolved`).
+AUTO = "auto"
+#: The options :data:`AUTO` may stand for, and the command line's switch that turns each off.
+DEFAULTED = {"module_errors": "--no-module-errors", "compass_deviation": "--no-compass-deviation",
+             "hard_iron": "--no-hard-iron", "gps_bias": "--no-gps-bias"}
 
 
 @dataclass(frozen=True)
@@ -42,25 +69,29 @@ class AidOptions:
     compass_sigma_deg: float | None = None
     #: reject a compass reading beyond 3σ of its innovation (False: use every reading)
     compass_gate: bool = True
-    #: the local magnetic deviation held as a state (:meth:`CompassDeviation.parse
-    #: <hostlib.fusion.deviation.CompassDeviation.parse>`: "outdoors", "indoors"; None: not held)
-    compass_deviation: CompassDeviation | None = None
+    #: the local magnetic deviation held as a state, or its preset's word (:meth:`CompassDeviation.parse
+    #: <hostlib.fusion.deviation.CompassDeviation.parse>`: "outdoors", "indoors"); :data:`AUTO`: with the
+    #: compass, outdoors' with GPS and a building's without; None: not held
+    compass_deviation: CompassDeviation | str | None = AUTO
     #: a file of a GPS receiver's NMEA sentences, fused as a log (its first fix places the walk)
     gps_log: str | Path | None = None
     #: a GPS receiver read as it talks (a device path or pyserial URL; :mod:`hostlib.run.gps_stream`)
     gps_receiver: str | None = None
-    #: the shoe's hard iron learned as states (:mod:`hostlib.fusion.hard_iron`): its prior, or "auto"
-    #: (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, :data:`~hostlib.fusion.hard_iron.CALIBRATED`
-    #: with a calibration); None: not held
-    hard_iron: HardIron | str | None = None
-    #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`; None: not held)
-    gps_bias: GpsBias | None = None
+    #: the shoe's hard iron learned as states (:mod:`hostlib.fusion.hard_iron`): its prior, or
+    #: :data:`AUTO`: with the compass on one module, :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, or
+    #: :data:`~hostlib.fusion.hard_iron.CALIBRATED` with a calibration; None: not held
+    hard_iron: HardIron | str | None = AUTO
+    #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`); :data:`AUTO`:
+    #: with GPS, :class:`~hostlib.fusion.gps_bias.GpsBias`' defaults; None: not held
+    gps_bias: GpsBias | str | None = AUTO
     #: seconds between GPS updates (None: the filter's default, :attr:`FusionSettings.gps_interval_s
     #: <hostlib.fusion.settings.FusionSettings.gps_interval_s>`)
     gps_interval_s: float | None = None
-    #: the module's systematic errors held as states (:meth:`ModuleErrors.parse
-    #: <hostlib.fusion.module_errors.ModuleErrors.parse>`: "emulated", "emulated-still"; None: not held)
-    module_errors: ModuleErrors | None = None
+    #: the module's systematic errors held as states, or their preset's word (:meth:`ModuleErrors.parse
+    #: <hostlib.fusion.module_errors.ModuleErrors.parse>`: "mimu22bt", "emulated", "emulated-still");
+    #: :data:`AUTO`: with the compass, GPS or two feet, :data:`~hostlib.fusion.module_errors.MIMU22BT`;
+    #: None: not held
+    module_errors: ModuleErrors | str | None = AUTO
     #: the one module's magnetometer calibration (or its file)
     mag_calibration: MagCalibration | str | Path | None = None
     #: with a module on each foot: side → that foot's magnetometer calibration (or its file)
@@ -90,9 +121,51 @@ class AidOptions:
             raise ValueError("GPS fixes come from a log or from a receiver read live, not from both")
 
     @property
+    def uses_gps(self) -> bool:
+        """Whether GPS fixes are fused: from a log or from a receiver read live."""
+        return self.gps_log is not None or self.gps_receiver is not None
+
+    @property
     def uses_aids(self) -> bool:
-        """Whether the tracker needs the fusion filter: a compass, GPS, or the module's errors held."""
-        return bool(self.compass or self.gps_log or self.gps_receiver or self.module_errors is not None)
+        """Whether one module's tracker needs the fusion filter: a compass, GPS, or the module's errors
+        held though no aid is (given; their default holds them only with an aid). Two feet:
+        ``resolved(feet=True).uses_aids``."""
+        errors = self.module_errors
+        return bool(self.compass or self.uses_gps or (errors is not None and errors != AUTO))
+
+    def resolved(self, feet: bool = False) -> AidOptions:
+        """These options with each :data:`AUTO` replaced by the model it stands for (module docstring;
+        *feet*: a module on each foot) and each preset's word by its model; None stays None."""
+        held = self.compass or self.uses_gps or feet
+        deviation = OUTDOORS if self.uses_gps else INDOORS
+        calibrated = self.mag_calibration is not None or bool(self.foot_mag_calibrations)
+        iron = (CALIBRATED if calibrated else UNCALIBRATED) if self.compass and not feet else None
+        return replace(
+            self,
+            module_errors=_model(self.module_errors, MIMU22BT if held else None, ModuleErrors.parse),
+            compass_deviation=_model(self.compass_deviation, deviation if self.compass else None,
+                                     CompassDeviation.parse),
+            hard_iron=_model(self.hard_iron, iron, _no_word("hard_iron", "a HardIron")),
+            gps_bias=_model(self.gps_bias, GpsBias() if self.uses_gps else None,
+                            _no_word("gps_bias", "a GpsBias")))
+
+    def defaulted(self, feet: bool = False) -> dict[str, str]:
+        """Why each model :data:`AUTO` may stand for is on or off here, where it matters: option name
+        (:data:`DEFAULTED`) → "by default" (held, the default), "given" (held as asked) or "off"
+        (not held, where the default would hold it). An option the walk has no use for is left out."""
+        auto = replace(self, **{name: AUTO for name in DEFAULTED}).resolved(feet)
+        why = {}
+        for name in DEFAULTED:
+            value, default = getattr(self, name), getattr(auto, name)
+            if value == AUTO:
+                if default is not None:
+                    why[name] = "by default"
+            elif value is None:
+                if default is not None:
+                    why[name] = "off"
+            else:
+                why[name] = "given"
+        return why
 
     @property
     def wants_saved_calibration(self) -> bool:
@@ -101,29 +174,29 @@ class AidOptions:
         return bool(self.saved_calibration and self.compass and not self.calibrate_mag
                     and self.mag_calibration is None and not self.foot_mag_calibrations)
 
-    def fusion_settings(self) -> FusionSettings:
+    def fusion_settings(self, feet: bool = False) -> FusionSettings:
         """The filter's settings the options change (the compass's σ, the deviation: σ is then only
         the white part, 1.5° unless given; the receiver's bias and interval; the module's errors),
-        on :attr:`settings`; which aids are on and the declination are
-        :func:`~hostlib.run.aid_setup.prepare_aids`'s to set."""
+        on :attr:`settings`, the defaults resolved (:meth:`resolved`; *feet*: a module on each foot);
+        which aids are on and the declination are :func:`~hostlib.run.aid_setup.prepare_aids`'s to
+        set."""
+        o = self.resolved(feet)
         changes: dict[str, object] = {}
-        if self.module_errors is not None:
-            changes["module_errors"] = self.module_errors
-        if self.gps_bias is not None:
-            changes["gps_bias"] = self.gps_bias
-        if self.gps_interval_s is not None:
-            changes["gps_interval_s"] = self.gps_interval_s
-        if not self.compass_gate:
+        if o.module_errors is not None:
+            changes["module_errors"] = o.module_errors
+        if o.gps_bias is not None:
+            changes["gps_bias"] = o.gps_bias
+        if o.gps_interval_s is not None:
+            changes["gps_interval_s"] = o.gps_interval_s
+        if not o.compass_gate:
             changes["compass_gate_sigmas"] = None
-        if self.hard_iron is not None:
-            calibrated = self.mag_calibration is not None or bool(self.foot_mag_calibrations)
-            changes["hard_iron"] = (self.hard_iron if isinstance(self.hard_iron, HardIron)
-                                    else CALIBRATED if calibrated else UNCALIBRATED)
-        if self.compass_sigma_deg is not None or self.compass_deviation is not None:
-            sigma = self.compass_sigma_deg
+        if o.hard_iron is not None:
+            changes["hard_iron"] = o.hard_iron
+        if o.compass_sigma_deg is not None or o.compass_deviation is not None:
+            sigma = o.compass_sigma_deg
             changes.update(compass_sigma_rad=WHITE_SIGMA_RAD if sigma is None else math.radians(sigma),
-                           compass_deviation=self.compass_deviation)
-        return replace(self.settings or FusionSettings(), **changes)
+                           compass_deviation=o.compass_deviation)
+        return replace(o.settings or FusionSettings(), **changes)
 
     def loaded_calibration(self) -> MagCalibration | None:
         """:attr:`mag_calibration`, read from its file if it is one."""
@@ -132,6 +205,20 @@ class AidOptions:
     def loaded_foot_calibrations(self) -> dict[str, MagCalibration]:
         """:attr:`foot_mag_calibrations`, each read from its file if it is one."""
         return {side: _loaded(cal) for side, cal in self.foot_mag_calibrations.items()}
+
+
+def _model(value: object, default: object, parse: Callable[[str], object]) -> object:
+    """An option's model: *default* for :data:`AUTO`, a word *parse* d, else *value* itself."""
+    if isinstance(value, str):
+        return default if value == AUTO else parse(value)
+    return value
+
+
+def _no_word(name: str, what: str) -> Callable[[str], object]:
+    """The parser of an option that takes no word but :data:`AUTO`: it refuses every other."""
+    def parse(text: str) -> object:
+        raise ValueError(f"{name} is {what}, {AUTO!r} or None, not {text!r}")
+    return parse
 
 
 def _loaded(calibration: MagCalibration | str | Path | None) -> MagCalibration | None:

@@ -7,7 +7,8 @@ attitude quaternion and the magnetometers at the end of its stance. The capture 
 
 * ``plain``: the step sum (``openshoe-host replay CAPTURE``);
 * ``uncalibrated``: the per-step compass (:func:`hostlib.run.aid_setup.prepare_aids`, no GPS), the field as
-  the sensor measured it (``--compass --compass-sigma S``);
+  the sensor measured it (``--compass --compass-sigma S``, with the host's defaults for a real
+  module turned off: the white compass alone, as this experiment has always measured it);
 * ``calibrated``: the same with the shoe's iron removed (``--mag-cal``), the calibration fitted on
   the *other* walks' readings (:func:`hostlib.calibration.level_iron.iron_calibration`; the same
   sensor in the same shoe walked all of them), never on the walk it corrects.
@@ -266,13 +267,14 @@ class CompassWalkResult:
 
 
 def _compass_tracker(log: StanceLog, sigma: float, calibration: MagCalibration | None) -> FusionTracker:
-    """The fusion tracker ``openshoe-host replay CAPTURE --compass --compass-sigma S [--mag-cal]``
-    decodes *log*'s capture with (no GPS, no declination)."""
+    """The fusion tracker ``openshoe-host replay CAPTURE --compass --compass-sigma S [--mag-cal]
+    --no-compass-deviation --no-hard-iron --no-module-errors`` decodes *log*'s capture with (no GPS,
+    no declination; the white compass of σ S alone, the host's defaults off)."""
     from hostlib.files.replay import replay_session
     from hostlib.run.aid_setup import prepare_aids
 
-    aids = prepare_aids(compass=True, mag_calibration=calibration,
-                        settings=FusionSettings(compass_sigma_rad=sigma))
+    aids = prepare_aids(compass=True, mag_calibration=calibration, compass_deviation=None, hard_iron=None,
+                        module_errors=None, settings=FusionSettings(compass_sigma_rad=sigma))
     replay_session(log.capture, tracker=aids.tracker)
     return aids.tracker
 

@@ -119,7 +119,7 @@ def test_replay_with_the_compass_deviation_holds_it_for_one_module_or_both_feet(
     args = ["replay", capture, "--compass", "--compass-deviation", "outdoors", "--declination", "0"]
     assert main(args, out) == 0
     text = out.getvalue()
-    assert "compass σ 1.5° per step, local deviation held (σ 3° over 9 m)" in text
+    assert "compass σ 1.5° per step, local deviation held (outdoors: σ 3° over 9 m)" in text
     assert "local deviation at the end" in text
     out = io.StringIO()
     args = ["replay", capture, capture, "--compass", "--compass-deviation", "5,10", "--compass-sigma", "2",

@@ -18,7 +18,10 @@ from hostlib.errors import DeviceClosed
 from hostlib.files.export import read_csv, read_feet_csv
 from hostlib.files.replay import replay_feet
 from hostlib.fusion.feet import FOOT_SIDES, STALE_AFTER_STEPS, TwoFeetTracker
+from hostlib.fusion.module_errors import MIMU22BT
 from hostlib.link.device import Device
+from hostlib.run.aid_setup import feet_tracker
+from hostlib.run.options import AidOptions
 
 from . import protocol_fakeshoe
 from .link_outage import drop_packets
@@ -58,10 +61,12 @@ def _drift_file(folder, side: str, dv=(0.0, 0.1, 0.0), module: int | None = None
     return str(path)
 
 
-def _fused(left: str, right: str) -> TwoFeetTracker:
-    """The fusion `replay LEFT RIGHT` makes, from the library."""
+def _fused(left: str, right: str, options: AidOptions | None = None) -> TwoFeetTracker:
+    """The fusion `replay LEFT RIGHT` makes, from the library: with *options*' aids (default: the
+    defaults, each module's errors held), or None: the plain tracker."""
+    tracker = feet_tracker(options or AidOptions(), defer=True)[0]
     with open(left, "rb") as fl, open(right, "rb") as fr:
-        return replay_feet(fl.read(), fr.read())[0]
+        return replay_feet(fl.read(), fr.read(), tracker=tracker)[0]
 
 
 _SUMMARY = re.compile(r"^(left foot|right foot|fusion|body \((?:fused|average)\))")
@@ -104,6 +109,29 @@ def test_two_captures_give_the_body_at_the_feet_midpoint_and_each_foot_in_its_co
     x = expected.final_pose[0]
     assert f"x {x:+8.2f}" in lines["body (fused)"] and "body (average)" in lines
     assert (tmp_path / "feet.geojson").stat().st_size > 0
+
+
+def test_two_captures_hold_each_modules_errors_by_default_and_without_them_are_the_plain_fusion(
+        captures, tmp_path):
+    """Two feet hold each module's errors by default (the MIMU22BT's priors), as the library's
+    defaults do; --no-module-errors gives the plain two-feet tracker, bit for bit."""
+    out, csv_path = io.StringIO(), tmp_path / "feet.csv"
+    assert main(["replay", captures["left"], captures["right"], "--csv", str(csv_path)], out) == 0
+    assert "aids: declination +0.00° (none: magnetic headings); module errors held by default (mimu22bt)" \
+        in out.getvalue()
+    tracker = _fused(captures["left"], captures["right"])
+    assert tracker.aids.module_errors == MIMU22BT and tracker.module_errors("left") is not None
+    out, plain_csv = io.StringIO(), tmp_path / "plain.csv"
+    argv = ["replay", captures["left"], captures["right"], "--no-module-errors", "--csv", str(plain_csv)]
+    assert main(argv, out) == 0
+    assert "aids:" not in out.getvalue()
+    with open(captures["left"], "rb") as fl, open(captures["right"], "rb") as fr:
+        plain = replay_feet(fl.read(), fr.read())[0]
+    body = read_csv(plain_csv)
+    assert np.array_equal(body.poses, plain.body.poses)
+    assert np.array_equal(upper(body.covariances), upper(plain.body.covariances))
+    held = read_csv(csv_path)
+    assert not np.array_equal(upper(held.covariances), upper(body.covariances))  # the errors' growth
 
 
 def test_a_foot_missing_30_s_of_packets_is_a_gap_on_that_foot_and_the_body_goes_on_to_the_end(
@@ -149,8 +177,10 @@ def test_two_captures_with_the_compass_turn_both_feet_onto_magnetic_north(captur
     out = io.StringIO()
     assert main(["replay", captures["left"], captures["right"], "--compass", "--declination", "6"], out) == 0
     text = out.getvalue()
-    assert ("aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; "
-            "declination +6.00° (given)") in text
+    assert ("aids: compass σ 1.5° per step, local deviation held by default (indoors: σ 20° over 0.5 m); "
+            "readings beyond 3σ of their innovation rejected; declination +6.00° (given); "
+            "module errors held by default (mimu22bt)") in text
+    assert "hard iron" not in text  # not by default with two feet
     updates = int(re.search(r"fusion: (\d+) compass updates", text).group(1))
     assert updates > 60 and "heading aligned by compass" in text
     plain = _fused(captures["left"], captures["right"]).body.final_pose

@@ -72,8 +72,9 @@ def test_track_fuses_the_compass_and_a_live_receiver_that_is_then_pulled_out(tmp
     assert main(argv, out) == 0
     text, err = out.getvalue(), capsys.readouterr().err
     # the three fixes came before the first step: held, put before it, applied at the next step
-    # (the first places the origin, the second updates, the third is within the update interval)
-    assert fusion_counts(text) == (4, 1)
+    # (the first places the origin; the receiver's bias is held by default, so every fix after it
+    # updates: two)
+    assert fusion_counts(text) == (4, 2)
     assert "3 fixes, 0 without a fix, 1 garbled (skipped)" in text
     assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"
     assert err.count("the GPS receiver fakegps://3 is gone") == 1, err
@@ -219,10 +220,13 @@ def test_two_feet_fuse_each_foots_compass_and_a_live_receiver_that_is_then_pulle
     text, err = out.getvalue(), capsys.readouterr().err
     # ten steps, five a foot: the first reading aligns the body's heading, the nine others (of both
     # feet) update it; the three fixes came before the first step: held, put before it, applied at
-    # the next (the first places the origin, the second updates, the third is within the interval)
-    assert fusion_counts(text) == (9, 1)
-    assert ("aids: compass σ 20° per step; readings beyond 3σ of their innovation rejected; "
-            "declination") in text
+    # the next (the first places the origin; with the receiver's bias held by default the two
+    # others update)
+    assert fusion_counts(text) == (9, 2)
+    assert ("aids: compass σ 1.5° per step, local deviation held by default (outdoors: σ 3° over 9 m); "
+            "readings beyond 3σ of their innovation rejected; declination") in text
+    assert "GPS receiver's bias held by default" in text
+    assert "module errors held by default (mimu22bt)" in text
     assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"
     assert "3 fixes, 0 without a fix, 1 garbled (skipped)" in text
     assert err.count("the GPS receiver fakegps://3 is gone") == 1, err

@@ -305,13 +305,13 @@ def test_the_first_reading_keeps_each_headings_covariance_with_the_turn_scales_r
 
 def test_replay_of_two_captures_holds_each_modules_errors_and_leaves_the_body(tmp_path):
     """``replay LEFT RIGHT --module-errors`` runs: the body and both feet are where they are
-    without it, each foot's height 1σ is its single module's, grown by the climb over its path,
-    and the summary says the errors are held."""
+    without them (``--no-module-errors``), each foot's height 1σ is its single module's, grown by the
+    climb over its path, and the summary says the errors are held."""
     capture = tmp_path / "walk.bin"
     capture.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003"))
     plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
     two = ["replay", str(capture), str(capture)]
-    assert main([*two, "--csv", str(plain_csv)], io.StringIO()) == 0
+    assert main([*two, "--no-module-errors", "--csv", str(plain_csv)], io.StringIO()) == 0
     out = io.StringIO()
     assert main([*two, "--module-errors", "0.001,0.002", "--csv", str(held_csv)], out) == 0
     text = out.getvalue()
@@ -340,7 +340,8 @@ def test_track_with_two_devices_holds_the_module_errors_live(tmp_path):
     finally:
         serial.protocol_handler_packages.remove("tests.hostlib")
     drift = math.degrees(EMULATED_MODULE.heading_drift_sigma) * 3600
-    assert f"module errors held: step-length scale σ {EMULATED_MODULE.step_scale_sigma:g}" in out.getvalue()
+    assert (f"module errors held (emulated-still): step-length scale σ {EMULATED_MODULE.step_scale_sigma:g}"
+            in out.getvalue())
     assert f"heading drift σ {drift:.3g} °/h" in out.getvalue()
     feet = read_feet_csv(csv_path)
     assert feet.sides.count("left") == 4 and feet.sides.count("right") == 4

@@ -1,0 +1,168 @@
+"""The host's defaults with an aid or two feet: the module's errors (a MIMU22BT-class module's
+priors), the compass's local deviation, the shoe's hard iron and the receiver's bias are held; each
+``--no-…`` switch turns one off; the command line and the Python API resolve them in one place
+(:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why each is on or off."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import numpy as np
+import pytest
+
+from hostlib.cli import main
+from hostlib.cli.app import build_parser
+from hostlib.cli.options import aid_options
+from hostlib.fusion.deviation import INDOORS, OUTDOORS
+from hostlib.fusion.gps_bias import GpsBias
+from hostlib.fusion.hard_iron import CALIBRATED, UNCALIBRATED, HardIron
+from hostlib.fusion.module_errors import EMULATED_MODULE_SWAYING, MIMU22BT, ModuleErrors
+from hostlib.run.aid_setup import feet_tracker, prepare_aids
+from hostlib.run.options import AUTO, AidOptions
+
+from .loops import fusion_capture, rectangle
+
+
+def _resolved(options: AidOptions, feet: bool = False) -> tuple:
+    r = options.resolved(feet)
+    return r.module_errors, r.compass_deviation, r.hard_iron, r.gps_bias
+
+
+def test_the_defaults_hold_what_the_walk_has():
+    """With no aid one module is the plain step sum; the compass holds the module's errors, a
+    building's deviation and an uncalibrated shoe's iron; GPS the module's errors and the receiver's
+    bias; both, the open ground's deviation; two feet, each module's errors."""
+    assert AidOptions().module_errors == AUTO and not AidOptions().uses_aids
+    assert _resolved(AidOptions()) == (None, None, None, None)
+    assert _resolved(AidOptions(), feet=True) == (MIMU22BT, None, None, None)
+    assert _resolved(AidOptions(compass=True)) == (MIMU22BT, INDOORS, UNCALIBRATED, None)
+    assert _resolved(AidOptions(gps_log="walk.nmea")) == (MIMU22BT, None, None, GpsBias())
+    assert _resolved(AidOptions(compass=True, gps_receiver="socket://gps:1")) == (MIMU22BT, OUTDOORS,
+                                                                                  UNCALIBRATED, GpsBias())
+    assert _resolved(AidOptions(compass=True, mag_calibration="cal.json"))[2] is CALIBRATED
+    # two feet: each module's errors, the deviation, not the iron (the joint filter lacks its σ)
+    assert _resolved(AidOptions(compass=True), feet=True) == (MIMU22BT, INDOORS, None, None)
+    settings = AidOptions(compass=True, gps_log="walk.nmea").fusion_settings()
+    assert (settings.module_errors, settings.compass_deviation, settings.gps_bias) == (MIMU22BT, OUTDOORS,
+                                                                                       GpsBias())
+    assert settings.hard_iron is UNCALIBRATED
+    assert settings.compass_sigma_rad == pytest.approx(math.radians(1.5))  # the deviation is a state
+    assert settings.gps_update_interval_s == 0.0  # with the bias held, every fix
+
+
+def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
+    options = AidOptions(compass=True, gps_log="walk.nmea", module_errors=None, compass_deviation=None,
+                         hard_iron=None, gps_bias=None)
+    assert _resolved(options) == (None, None, None, None)
+    assert options.fusion_settings().compass_sigma_rad == pytest.approx(math.radians(20.0))
+    chosen = AidOptions(compass=True, module_errors="emulated", compass_deviation="indoors")
+    assert _resolved(chosen)[:2] == (EMULATED_MODULE_SWAYING, INDOORS)
+    own = ModuleErrors(0.001, 0.002)
+    assert AidOptions(module_errors=own).uses_aids  # given, the errors are held without an aid
+    assert _resolved(AidOptions(module_errors=own))[0] is own
+    with pytest.raises(ValueError, match="gps_bias"):
+        AidOptions(gps_log="walk.nmea", gps_bias="yes").resolved()
+
+
+def test_the_reasons_say_what_is_held_by_default_given_or_turned_off():
+    options = AidOptions(compass=True, gps_log="walk.nmea", gps_bias=None, module_errors="emulated")
+    assert options.defaulted() == {"module_errors": "given", "compass_deviation": "by default",
+                                   "hard_iron": "by default", "gps_bias": "off"}
+    assert AidOptions().defaulted() == {}  # nothing an aid-less walk would hold
+    assert AidOptions().defaulted(feet=True) == {"module_errors": "by default"}
+
+
+OFF = {"module_errors": None, "compass_deviation": None, "hard_iron": None, "gps_bias": None}
+#: ``replay``'s options, and the AidOptions a user of the API writes for the same walk
+CASES = [
+    ([], {}),
+    (["--compass"], {"compass": True, "saved_calibration": True}),
+    (["--gps", "walk.nmea"], {"gps_log": "walk.nmea"}),
+    (["--compass", "--gps", "walk.nmea"],
+     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea"}),
+    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-hard-iron",
+      "--no-gps-bias"], {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", **OFF}),
+    (["--compass", "--gps", "walk.nmea", "--module-errors", "emulated", "--compass-deviation", "indoors",
+      "--hard-iron", "3", "--gps-bias"],
+     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "module_errors": "emulated",
+      "compass_deviation": "indoors", "hard_iron": HardIron(3.0), "gps_bias": GpsBias()}),
+    (["--compass", "--no-hard-iron", "--compass-sigma", "5"],
+     {"compass": True, "saved_calibration": True, "hard_iron": None, "compass_sigma_deg": 5.0}),
+]
+
+
+@pytest.mark.parametrize(("argv", "api"), CASES, ids=lambda a: " ".join(a) if isinstance(a, list) else "")
+@pytest.mark.parametrize("feet", [False, True], ids=["one module", "two feet"])
+def test_the_command_line_and_the_python_api_resolve_the_same_settings(argv, api, feet):
+    """What ``replay`` makes of its options is what the same AidOptions, written with the API's
+    own defaults, resolve to: one place decides."""
+    captures = ["a.bin", "b.bin"] if feet else ["a.bin"]
+    cli = aid_options(build_parser().parse_args(["replay", *captures, *argv]), None)
+    options = AidOptions(**api)
+    assert cli.fusion_settings(feet) == options.fusion_settings(feet)
+    assert cli.defaulted(feet) == options.defaulted(feet)
+    assert cli.resolved(feet).uses_aids == options.resolved(feet).uses_aids
+
+
+@pytest.mark.parametrize("name", ["module-errors", "compass-deviation", "hard-iron", "gps-bias"])
+def test_a_model_and_its_off_switch_together_are_refused(name, capsys):
+    value = {"module-errors": ["emulated"], "compass-deviation": ["indoors"], "hard-iron": ["3"],
+             "gps-bias": []}[name]
+    argv = ["replay", "a.bin", "--compass", "--gps", "walk.nmea", f"--{name}", *value, f"--no-{name}"]
+    assert main(argv, io.StringIO()) == 2
+    assert f"--{name} or --no-{name}: one or the other" in capsys.readouterr().err
+
+
+def test_the_aids_line_says_what_is_held_by_default_and_what_was_turned_off():
+    held = prepare_aids(compass=True, gps_receiver="socket://gps:1").describe()
+    assert "local deviation held by default (outdoors: σ 3° over 9 m)" in held
+    assert "GPS receiver's bias held by default (σ 2.1 m per axis" in held
+    assert "the shoe's hard iron learned by default (σ 10 µT per axis)" in held
+    assert "module errors held by default (mimu22bt): step-length scale σ 0.0013, climb σ 0.002 m/m" in held
+    off = prepare_aids(compass=True, gps_receiver="socket://gps:1", **OFF).describe()
+    for text in ("local deviation not held (off: --no-compass-deviation)",
+                 "GPS receiver's bias not held (off: --no-gps-bias)",
+                 "the shoe's hard iron not held (off: --no-hard-iron)",
+                 "module errors not held (off: --no-module-errors)"):
+        assert text in off
+    assert "by default" not in off and "compass σ 20° per step" in off
+    given = prepare_aids(compass=True, compass_deviation="indoors", module_errors="emulated").describe()
+    assert "local deviation held (indoors: σ 20° over 0.5 m)" in given
+    assert "module errors held (emulated)" in given and "by default" in given  # the iron's
+
+
+def test_two_feet_hold_each_modules_errors_by_default_and_the_plain_fusion_without_them():
+    tracker, aids = feet_tracker(AidOptions())
+    assert aids is not None and tracker.aids.module_errors == MIMU22BT
+    assert tracker.module_errors("left") == (0.0,) * MIMU22BT.states
+    assert "module errors held by default (mimu22bt)" in aids.describe()
+    plain, none = feet_tracker(AidOptions(module_errors=None))
+    assert none is None and plain.aids.module_errors is None
+
+
+def test_the_replay_of_one_module_with_the_compass_holds_the_defaults(tmp_path):
+    capture = tmp_path / "walk.bin"
+    capture.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003"))
+    out = io.StringIO()
+    assert main(["replay", str(capture), "--compass", "--declination", "0", "--mag-cal-dir", str(tmp_path)],
+                out) == 0
+    text = out.getvalue()
+    assert "local deviation held by default (indoors" in text and "module errors held by default" in text
+    assert "hard iron at the end" in text and "local deviation at the end" in text
+
+
+def test_the_mimu22bt_priors_are_the_datasheets_arithmetic():
+    """Not fitted to any walk: a factory calibration leaves ±0.45 % of the ±3 % sensitivity
+    tolerance, uniform (÷√3), over four averaged dies (÷√4); the module paper's height errors up to
+    0.5 % over fifty walks (≈ 2.3σ); the gyro offset's ±0.02 °/s/°C, uniform, over four dies, times
+    the 8 °C warm-up."""
+    scale = 0.0045 / math.sqrt(3.0) / math.sqrt(4.0)
+    assert MIMU22BT.step_scale_sigma == pytest.approx(scale, rel=0.01)
+    assert MIMU22BT.turn_scale_sigma == pytest.approx(scale, rel=0.01)
+    assert MIMU22BT.climb_sigma == pytest.approx(0.005 / 2.3, rel=0.1)
+    warmup = math.radians(0.02 / math.sqrt(3.0) / math.sqrt(4.0) * 8.0)
+    assert MIMU22BT.heading_warmup_sigma == pytest.approx(warmup, rel=1e-3)
+    assert MIMU22BT.warmup_tau_s == 120.0 and not MIMU22BT.holds_drift
+    assert ModuleErrors.parse("MIMU22BT") is MIMU22BT
+    assert np.isclose(MIMU22BT.prior[3, 3], warmup ** 2, rtol=2e-3)
