@@ -257,6 +257,7 @@ class ServeSettings:
         if not (math.isfinite(self.status_interval) and self.status_interval >= 0):
             raise SettingsError("{} is a number of seconds >= 0 (0: no status line)", "status_interval",
                                 got=self.status_interval)
+        self.emulator.check_scenario()
 
 
 def settings_from_args(args: argparse.Namespace) -> ServeSettings:

@@ -78,7 +78,7 @@ class SweepSpec:
     def check(self) -> None:
         """Refuse an empty or ambiguous sweep, unknown scenarios, recordings that cannot be read,
         unknown settings, repeated values, more runs than :data:`MAX_RUNS`."""
-        from firmware_sim.sensors.scenarios import recipe
+        from firmware_sim.sensors.scenarios import check as check_scenario
         from hostlib.inputs import check_input
 
         from .batch import error_text
@@ -100,7 +100,7 @@ class SweepSpec:
             raise ValueError("--leave-one-out needs a setting with several values to choose from (--set)")
         for name in self.scenarios:
             try:
-                recipe(name)
+                check_scenario(name)  # each piece's numbers too: milliseconds, nothing is computed
             except KeyError as exc:
                 raise ValueError(error_text(exc)) from None
         missing = [path for path in self.recordings if not Path(path).exists()]

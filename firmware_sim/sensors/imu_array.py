@@ -62,8 +62,8 @@ from .scenarios import environment, feet, list_scenarios, trajectory
 from .stance_sway import stance_sway_on
 from .truth import GroundTruth, cross, rotate, rotation
 
-__all__ = ["CHUNK_S", "SimulatedSource", "make_feet_sources", "make_foot_source", "make_source",
-           "list_scenarios", "module_rng"]
+__all__ = ["CHUNK_S", "MAX_SAMPLES", "SimulatedSource", "make_feet_sources", "make_foot_source",
+           "make_source", "list_scenarios", "module_rng"]
 
 #: Mixed into the seed of a module's generator, so that module N and walk seed N draw apart.
 _MODULE_STREAM = 0x4D4F44  # "MOD"
@@ -74,6 +74,9 @@ _BUILDING_STREAM = 0x424C44  # "BLD"
 #: the one it was made at (plus the filter's lead-in before them, at most 2047 samples at 1 kHz):
 #: a few ms of one main loop, once per block.
 CHUNK_S = 0.1
+#: The most samples a simulated walk holds (ground truth and registers, about 1.5 kB each): the
+#: longest scenario (:data:`~.recipes.MAX_DURATION_S`) at 1 kHz, or the built-in route at 10 kHz.
+MAX_SAMPLES = 2_000_000
 #: Blocks of registers a walk keeps at other settings (the last read ones, 4.8 kB each at 1 kHz):
 #: a host that switches among the settings within a block finds them all computed.
 _CHUNKS_KEPT = 16
@@ -127,6 +130,11 @@ class SimulatedSource:
         self.geometry = geometry
         self._mounted = [rotation(m) for m in geometry.mounting.astype(float)]  # board → chip i's axes
         cfg = self.config
+        samples = self.trajectory.duration * self.rate_hz
+        if not samples <= MAX_SAMPLES:
+            raise ValueError(f"a walk of {self.trajectory.duration:.0f} s at {self.rate_hz:g} Hz is "
+                             f"{samples:.3g} samples: at most {MAX_SAMPLES:.3g} (a shorter scenario or a "
+                             "lower rate)")
         self.truth: GroundTruth = self.trajectory.sample(self.rate_hz, gravity=cfg.gravity)
         n, chips = len(self.truth), geometry.mounting.shape[0]
         t = self.truth.t

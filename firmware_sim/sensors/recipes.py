@@ -1,10 +1,10 @@
 """The recipe language of :mod:`.scenarios`, read and checked piece by piece.
 
 A recipe is pieces joined by ``+``, each ``name[:number[:number…]]`` (the pieces and what their
-numbers mean: :mod:`.scenarios`). :func:`parse` reads one into :class:`Piece` s, :func:`walk` has a
-:class:`~.gait_builder.GaitBuilder` walk them; whatever is refused raises :class:`RecipeError`,
+numbers mean: :mod:`.scenarios`). :func:`parse` reads one into pieces (:class:`Piece`), :func:`walk`
+has a :class:`~.gait_builder.GaitBuilder` walk them; whatever is refused raises :class:`RecipeError`,
 whose message names the piece (its place in the recipe and its text), the number at fault and
-the range it must lie in:
+the range it must lie in::
 
     piece 2 'walk:-5': the length m [m] must be > 0 and at most 2500, got -5
 

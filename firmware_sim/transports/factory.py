@@ -60,6 +60,8 @@ from firmware_sim.nav.profiles import profile_for
 from firmware_sim.sensors.feet import SIDES, foot_module, foot_seed
 from firmware_sim.sensors.imu_array import make_foot_source, make_source
 from firmware_sim.sensors.playback import served_source
+from firmware_sim.sensors.recipes import RecipeError
+from firmware_sim.sensors.scenarios import check as check_scenario
 from protocol.commands import COMMAND_SETS
 
 from .hub import HostHub
@@ -249,13 +251,15 @@ class EmulatorSettings:
 
     @classmethod
     def from_url(cls, url: str) -> EmulatorSettings:
-        """Parse ``openshoe://?key=value&...``; unknown keys and bad values are refused."""
+        """Parse ``openshoe://?key=value&...``; unknown keys and bad values are refused. A ``+`` is a
+        ``+`` (a recipe's, ``scenario=stand:3+walk:10``), not a space as in a form's query; so is
+        ``%2B``."""
         parts = urlsplit(url)
         if parts.scheme.lower() != "openshoe":
             raise ValueError(f"expected an openshoe:// URL, got {url!r}")
         types = {f.name: f.type for f in fields(cls)}
         kw: dict[str, object] = {}
-        for key, values in parse_qs(parts.query, keep_blank_values=True).items():
+        for key, values in parse_qs(parts.query.replace("+", "%2B"), keep_blank_values=True).items():
             if key not in URL_OPTIONS:
                 raise ValueError(f"unknown option {key!r} in {url!r}; known: {', '.join(URL_OPTIONS)}")
             raw = values[-1]
@@ -271,7 +275,20 @@ class EmulatorSettings:
                     kw[key] = raw
             except ValueError:
                 raise ValueError(f"option {key}={raw!r} in {url!r} is not a number") from None
-        return cls(**kw)  # type: ignore[arg-type]
+        settings = cls(**kw)  # type: ignore[arg-type]
+        settings.check_scenario()
+        return settings
+
+    def check_scenario(self) -> None:
+        """Refuse a scenario that is no name and no recipe that can be walked (unless a recording is
+        played instead): a :class:`SettingsError` whose message names the piece, the number and its
+        range (:mod:`firmware_sim.sensors.recipes`). Milliseconds: nothing is computed."""
+        if self.replay:
+            return
+        try:
+            check_scenario(self.scenario)
+        except RecipeError as e:
+            raise SettingsError("{}: " + str(e).replace("{", "{{").replace("}", "}}"), "scenario") from None
 
 
 def _switch(key: str, raw: str, url: str) -> bool:
@@ -324,8 +341,8 @@ def make_sensors(scenario: str, seed: int, rate_hz: float, module: int | None = 
         else:
             source = make_foot_source(scenario, side, seed=seed, rate_hz=rate_hz, module=module,
                                       walker_seed=walker_seed, stance_sway=stance_sway)
-    except KeyError as e:  # an unknown scenario name, reported as a bad option
-        raise ValueError(f"unknown scenario {scenario!r}: {e}") from None
+    except RecipeError as e:  # an unknown name, a piece refused: its message names it
+        raise ValueError(str(e)) from None
     return served_source(source)
 
 

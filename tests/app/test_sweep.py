@@ -230,6 +230,7 @@ def test_a_worker_killed_mid_sweep_loses_no_row_and_doubles_none(serial_table, l
 
 def test_a_run_that_fails_stops_the_sweep_with_its_reason(tmp_path, capsys):
     spec = tmp_path / "s.json"
-    spec.write_text(json.dumps({"scenarios": ["walk:no_number"], "rate_hz": 250.0}))  # fails when walked
+    # a recipe within range, too many samples at this rate: refused when the run makes its walk
+    spec.write_text(json.dumps({"scenarios": ["stand:250"], "rate_hz": 10000.0}))
     assert cli.main(["sweep", "--spec", str(spec), "--out", str(tmp_path), "--workers", "0", "-q"]) == 1
-    assert "walk:no_number" in capsys.readouterr().err
+    assert "a walk of 250 s at 10000 Hz is 2.5e+06 samples" in capsys.readouterr().err

@@ -40,6 +40,22 @@ def test_unknown_scenario_is_refused():
         serial.serial_for_url("openshoe://?scenario=moonwalk")
 
 
+@pytest.mark.parametrize(("recipe", "said"), [
+    ("walk:1e9", "scenario: piece 1 'walk:1e9': the length m [m] must be > 0 and at most 2500, got 1e+09"),
+    ("stand:inf", "scenario: piece 1 'stand:inf': the time s [s] must be > 0 and at most 1800, got inf"),
+    ("stand:3+rectangle:0:0:1", "scenario: piece 2 'rectangle:0:0:1': the length l [m] must be > 0"),
+])
+def test_a_recipe_out_of_range_is_refused_before_anything_is_walked(recipe, said):
+    with pytest.raises(serial.SerialException) as caught:
+        serial.serial_for_url(f"openshoe://?scenario={recipe}")
+    assert said in str(caught.value)
+
+
+def test_a_plus_in_the_url_joins_the_recipe_s_pieces_as_2b_does():
+    for url in ("openshoe://?scenario=stand:3+walk:10&seed=1", "openshoe://?scenario=stand:3%2Bwalk:10&seed=1"):
+        assert EmulatorSettings.from_url(url).scenario == "stand:3+walk:10"
+
+
 def test_bluetooth_link_in_virtual_time_is_deterministic():
     def session(seed):
         with serial.serial_for_url(f"openshoe://?scenario=stand&link=bt&seed={seed}", timeout=1.0) as s:
