@@ -24,6 +24,15 @@ The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOM
   TIME_UPDATE, ZUPT_UPDATE;
 * :data:`ALIGNMENT` — both modes until the alignment is done: INITIAL_ALIGNMENT, then
   RESTORE_PROC_SEQU_IF (the caller's).
+
+The alignment's attitude is numpy's float32 arctan2, sin and cos of the mean specific force
+(:func:`~firmware_sim.nav.ins.alignment_quaternion`), which compiled code reaches only through
+numba's object mode — and an object-mode block is compiled anew in every process that loads the
+kernels from the cache (with numba's whole typing set-up: most of a cache load). So the loop
+compiles INITIAL_ALIGNMENT with the mean handed over instead: in the loop that completes the
+alignment it leaves the mean in the INS's work (``align_mean``, ``attitude_due``) and returns, and
+the caller sets QUATERNION from it with the reference (:func:`finish_alignment`) before anything
+reads it. The kernel :func:`firmware_sim.nav.ins_kernels.initial_alignment` is the whole function.
 """
 
 from __future__ import annotations
@@ -35,12 +44,14 @@ from protocol.ids import NR_IMUS
 from .frontend import FrontendWork
 from .frontend_kernels import biasest, convcomp, preproc, statdet
 from .inertial import InertialWork, latch_registers
-from .ins import HeightWork, InsWork
+from .ins import HeightWork, InsWork, alignment_quaternion
+from .ins import initial_alignment as _reference_alignment
 from .ins_kernels import (
     clear_stance,
+    foot_angles,
     height_compensation,
-    initial_alignment,
     mechanization,
+    pack_p,
     stepwise_reset,
     time_update,
     zupt_update,
@@ -49,7 +60,7 @@ from .jit import compiled_reference, kernel
 from .records import STATE_RECORD
 
 __all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "TRACKING", "TRACKING_HEIGHT",
-           "run_loops"]
+           "finish_alignment", "run_loops"]
 
 #: The sequences the compiled loop runs: step-wise tracking (0x34), the initial alignment, the
 #: full-rate INS (0x33), and tracking with HEIGHT_COMPENSATION.
@@ -84,15 +95,39 @@ def front_end(s, fw):
 
 
 @kernel
+def _mean_for_caller(f_mean):
+    """Stands for alignment_quaternion in the loop's INITIAL_ALIGNMENT: the mean itself (and NaN),
+    which :func:`alignment` moves to the INS's work for the caller."""
+    q = np.full(4, np.nan, dtype=np.float32)
+    q[0:3] = f_mean
+    return q
+
+
+_initial_alignment = compiled_reference(_reference_alignment, alignment_quaternion=_mean_for_caller,
+                                        pack_p=pack_p, foot_angles=foot_angles)
+
+
+@kernel
 def alignment(s, iw, hw):
     """INITIAL_ALIGNMENT (*iw*: the INS's work); sets INIT_DONE, clears HEIGHT_COMPENSATION's stance
-    (*hw*) and returns True when complete."""
-    done = initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p,
-                             s.theta_init, s.theta_ground)
+    (*hw*) and returns True when complete, the attitude then due from the caller
+    (:func:`finish_alignment`)."""
+    done = _initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p,
+                              s.theta_init, s.theta_ground)
     if done:
+        iw.align_mean[:] = s.quaternion[0:3]
+        iw.attitude_due[0] = True
         s.init_done[0] = True
         clear_stance(hw)
     return done
+
+
+def finish_alignment(work: InsWork, quaternion: np.ndarray) -> None:
+    """After :func:`run_loops` ran the alignment: the attitude of an alignment it completed, from
+    the reference (*work*: the module's INS work, *quaternion*: its QUATERNION state)."""
+    if work.attitude_due[0]:
+        work.attitude_due[0] = False
+        quaternion[...] = alignment_quaternion(work.align_mean.copy())
 
 
 @kernel

@@ -55,6 +55,7 @@ from .driver import (
     NO_SAMPLES,
     TRACKING,
     TRACKING_HEIGHT,
+    finish_alignment,
     run_loops,
 )
 
@@ -171,7 +172,9 @@ class FastNav:
     """The compiled INS sequences bound to one module's state memory and work records."""
 
     def __init__(self, module: Module):
-        records = (module.memory.arena, frontend.frontend_work(module).record, ins.ins_work(module).record,
+        self._ins_work = ins.ins_work(module)
+        self._quaternion = module.memory[StateId.QUATERNION]
+        records = (module.memory.arena, frontend.frontend_work(module).record, self._ins_work.record,
                    inertial.inertial_work(module).record, ins.height_work(module).record)
         # the records' bytes (driver.run_loops); in plain Python a recarray, for their fields by name
         as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if jit.COMPILING else (
@@ -182,6 +185,11 @@ class FastNav:
         #: Loops run compiled, loop by loop and in quiet runs (for the benchmark).
         self.ticks_single = 0
         self.ticks_quiet = 0
+
+    def load(self) -> None:
+        """Have the compiled loop ready for the arguments this module calls it with — loaded from
+        numba's cache, or compiled — without running a loop (:mod:`firmware_sim.nav.warmup`)."""
+        jit.load(run_loops, ALIGNMENT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
 
     # -------------------------------------------------------------- eligibility
     @staticmethod
@@ -221,6 +229,8 @@ class FastNav:
         inertial.read_inertial(module)
         clock.spend(timing.read)
         run_loops(kind, 1, NO_SAMPLES, 0, 0, 0, *self._records)
+        if kind == ALIGNMENT:
+            finish_alignment(self._ins_work, self._quaternion)
         clock.spend(timing.numeric)
         for pid in seq.tail:
             _REFERENCE[pid](module)
@@ -320,6 +330,8 @@ class FastNav:
         first = clock.now_cycles + clock.cycles_until_next_tick()
         ts_offset = c.loop_overhead + 2 * c.rx_poll
         done = run_loops(kind, len(imu), imu, first, period, ts_offset, *self._records)
+        if kind == ALIGNMENT:
+            finish_alignment(self._ins_work, self._quaternion)
         last = module.account_loops(done, ts_offset + timing.total)
         memory = module.memory
         memory.ps_dt[timing.ps_slots] = timing.ps_values

@@ -118,12 +118,16 @@ class InsWork(WorkRecord):
     timers; ``p_full``: room for the full 9×9 P (the updates' scratch); ``t_swing`` [s]: the
     time without ZUPT since the last reset (SWING_TIME at the next one); ``noise``: the filter's
     noise figures (:meth:`~firmware_sim.nav.config.InsNoise.as_array`), set when the record is made.
+    ``align_mean`` / ``attitude_due``: the compiled path's hand-over of a completed alignment's mean
+    specific force, whose attitude the caller computes (:mod:`firmware_sim.nav.driver`); the
+    reference functions leave them alone.
     """
 
     FIELDS = (
         ("f_n", np.float32, (3,)), ("align_sum", np.float32, (3,)), ("align_count", np.int32, (1,)),
         ("t_since_reset", np.float32, (1,)), ("t_pending", np.float32, (1,)), ("pending", np.bool_, (1,)),
         ("p_full", np.float32, (9, 9)), ("t_swing", np.float32, (1,)), ("noise", np.float32, (4,)),
+        ("align_mean", np.float32, (3,)), ("attitude_due", np.bool_, (1,)),
     )
 
     def __repr__(self) -> str:

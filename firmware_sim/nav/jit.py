@@ -15,6 +15,10 @@ The on-disk cache: numba renews a cached function when its own source file chang
 a function it calls — and compiled into itself — changes in another file. The kernels of one
 sequence span several files, so every cache entry made here is stamped with the contents of
 all of them (:data:`SOURCES`): editing any of them recompiles the kernels.
+
+Loading a kernel from the cache starts only numba's runtime (:func:`load_cached`), not its
+whole typing and lowering set-up, which numba's own load refreshes first and which only a
+compile needs (a compile still sets it up itself): that set-up is most of a cache load.
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ import protocol.ids
 import protocol.states
 
 __all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compilations", "compiled_reference", "kernel",
-           "numba_version", "objmode", "plain", "pure_requested"]
+           "load", "load_cached", "numba_version", "objmode", "plain", "pure_requested"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -49,6 +53,7 @@ try:  # numba is optional (the `fast` extra)
     import numba
     from numba.core import caching
     from numba.core.registry import CPUDispatcher
+    from numba.core.runtime import rtsys
 
     if numba.config.DISABLE_JIT:
         raise ImportError("NUMBA_DISABLE_JIT=1")
@@ -105,6 +110,9 @@ if numba is not None:
     class _StampedCache(caching.FunctionCache):
         _impl_class = _StampedCacheImpl
 
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
+            return load_cached(self, sig, target_context)
+
     class _KernelDispatcher(CPUDispatcher):
         """numba's CPU dispatcher, its on-disk cache stamped with all of :data:`SOURCES`."""
 
@@ -112,6 +120,14 @@ if numba is not None:
             self._cache = _StampedCache(self.py_func)
 
     _OPTIONS = {"nopython": True, "nogil": True, "error_model": "numpy"}
+
+
+def load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
+    """numba's ``Cache.load_overload`` for a function that needs no object mode: the cached
+    compile result of *sig*, or None, with numba's runtime started (the compiled code links
+    against it) but not the typing and lowering registries numba's own version refreshes first."""
+    rtsys.initialize(target_context)
+    return cache._load_overload(sig, target_context)
 
 
 def kernel(fn: F, *, nogil: bool = True) -> F:
@@ -142,6 +158,13 @@ def compiled_reference(fn: F, **helpers: Callable[..., Any]) -> F:
 
 
 _KernelType: type | tuple[()] = _KernelDispatcher if numba is not None else ()
+
+
+def load(fn: Callable[..., Any], *args: Any) -> None:
+    """Make the kernel *fn* ready for arguments of the types of *args* — loaded from the cache,
+    or compiled — without calling it (nothing when *fn* is plain Python)."""
+    if isinstance(fn, _KernelType):
+        fn.compile(tuple(numba.typeof(a) for a in args))  # type: ignore[attr-defined]
 
 
 def compilations() -> int:

@@ -10,10 +10,11 @@ demo, the benchmarks — calls
 :func:`prepare_module` first, so no host ever waits on a compile for a command
 ack.
 
-Preparing runs a scratch module (a board lying still) through the initial
-alignment into step-wise tracking, which calls every compiled kernel once (the
-full-rate INS runs in the same compiled loop, with the same argument types). It
-happens once per process. While it takes longer than a moment, *announce* is
+Preparing loads the compiled loop (:func:`firmware_sim.nav.driver.run_loops`,
+every kernel compiled into it) for the argument types every module calls it
+with, those of a scratch module's records, without running a loop: from the
+cache that is numba's runtime and one library, no typing. It happens once per
+process. While it takes longer than a moment, *announce* is
 told why the first start is slower. If the compiled path cannot be had (numba
 missing, or a compile that fails), modules fall back to the pure-Python
 reference — the same bytes, slower — and *announce* is told that too, once.
@@ -29,8 +30,6 @@ from dataclasses import dataclass
 
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav.firmware import build_module
-from protocol.frames import build_command
-from protocol.ids import Command
 
 from . import fastpath
 
@@ -38,8 +37,6 @@ __all__ = ["FIRST_RUN_NOTICE", "CompiledPath", "prepare_compiled_path", "prepare
 
 #: What a user reads while the kernels compile.
 FIRST_RUN_NOTICE = "preparing the compiled tracking path (first run only, about 20 s) …"
-#: Loop cycles of the scratch run: alignment (256 still samples + the detector's delay), then tracking.
-WARM_UP_TICKS = 1000
 #: A preparation that takes longer than this [s] is announced while it runs (a cache load takes less).
 ANNOUNCE_AFTER_S = 0.5
 
@@ -72,9 +69,7 @@ _fallback_said = False
 
 
 def _warm_up() -> None:
-    scratch = build_module(ModuleConfig(compiled=True))
-    scratch.bt.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
-    scratch.run(WARM_UP_TICKS)
+    fastpath.FastNav(build_module(ModuleConfig(compiled=True))).load()
 
 
 def prepare_compiled_path(announce: Announce | None = to_stderr,

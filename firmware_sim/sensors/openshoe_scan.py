@@ -223,6 +223,20 @@ if numba is not None:
         globals()[_name] = numba.njit(inline="always", **_options)(globals()[_name])
     _scan = numba.njit(**_options)(_scan)
 
+    from numba.core import caching
+    from numba.core.runtime import rtsys
+
+    class _QuickLoadCache(caching.FunctionCache):
+        """numba's cache of the reader, loading it with only numba's runtime started: not the typing
+        and lowering registries numba's own load refreshes first, which only a compile needs (and
+        sets up itself) — most of a cache load (as the navigation kernels', firmware_sim.nav.jit)."""
+
+        def load_overload(self, sig, target_context):  # type: ignore[no-untyped-def]
+            rtsys.initialize(target_context)
+            return self._load_overload(sig, target_context)
+
+    _scan._cache = _QuickLoadCache(_scan.py_func)
+
 
 def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:
     """The kept fields of the rows in ``data[start:end]`` ((rows, 12) float64: a_x…ar_z, counter,
