@@ -156,10 +156,7 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                    help="learn the shoe's hard iron as three states of the filter while walking "
                         "(hostlib.fusion.hard_iron): GPS and the walk's turns make it observable, and "
                         "until then the compass counts for as little as the iron's uncertainty says; "
-                        "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration; learned "
-                        "by default with --compass)")
-    g.add_argument("--no-hard-iron", action="store_true",
-                   help="do not learn the hard iron: the compass takes the calibration's (or none) as exact")
+                        "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration)")
     g.add_argument("--gps-bias", action="store_true",
                    help="hold the receiver's correlated error as a state of the filter "
                         "(hostlib.fusion.gps_bias): "
@@ -284,7 +281,7 @@ def usage_refusal(args: argparse.Namespace) -> str | None:
     if args.gps_bias and not args.gps:
         return "--gps-bias needs --gps: it is the error of the receiver's fixes"
     for on, off in (("module_errors", "no_module_errors"), ("compass_deviation", "no_compass_deviation"),
-                    ("hard_iron", "no_hard_iron"), ("gps_bias", "no_gps_bias")):
+                    ("gps_bias", "no_gps_bias")):
         if getattr(args, on) not in (None, False) and getattr(args, off):
             return f"--{on.replace('_', '-')} or --{off.replace('_', '-')}: one or the other, not both"
     return _calibration_refusal(args, two)
@@ -337,7 +334,7 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
     return AidOptions(
         compass=args.compass, compass_sigma_deg=args.compass_sigma,
         compass_deviation=_held(args.compass_deviation, args.no_compass_deviation),
-        compass_gate=args.compass_gate, hard_iron=_held(args.hard_iron, args.no_hard_iron),
+        compass_gate=args.compass_gate, hard_iron=args.hard_iron,
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=_held(GpsBias() if args.gps_bias else None, args.no_gps_bias),
         module_errors=_held(args.module_errors, args.no_module_errors),

@@ -81,9 +81,7 @@ class AidSetup:
         elif s.gps:
             parts += self._off("gps_bias", "GPS receiver's bias")
         if s.compass and s.hard_iron is not None:
-            parts.append(f"the shoe's hard iron learned{self._why('hard_iron')} ({s.hard_iron.describe()})")
-        elif s.compass:
-            parts += self._off("hard_iron", "the shoe's hard iron")
+            parts.append(f"the shoe's hard iron learned ({s.hard_iron.describe()})")
         if s.module_errors is not None:
             e = s.module_errors
             preset = preset_name(e)

@@ -7,7 +7,7 @@ them on: :class:`AidOptions` to :func:`~hostlib.run.aid_setup.prepare_aids` /
 :class:`~hostlib.run.tracking_run.TrackingRun` with :class:`RunOptions` (a walk with live modules).
 Both are frozen: change one with :func:`dataclasses.replace`.
 
-**The defaults are best practice for a real module.** Four of the filter's models are held
+**The defaults are best practice for a real module.** Three of the filter's models are held
 whenever what they describe is there, unless turned off (None) or given (a model or a preset's
 word): the option's default :data:`AUTO` stands for them, and :meth:`AidOptions.resolved` says what
 it becomes, in this one place for the command line and the Python API alike:
@@ -18,14 +18,14 @@ it becomes, in this one place for the command line and the Python API alike:
 * the compass's local deviation (:attr:`AidOptions.compass_deviation`): with the compass, outdoors'
   (:data:`~hostlib.fusion.deviation.OUTDOORS`) when GPS is used, a building's
   (:data:`~hostlib.fusion.deviation.INDOORS`) otherwise;
-* the shoe's hard iron (:attr:`AidOptions.hard_iron`): with the compass on one module, learned as
-  states, its prior that of an uncalibrated shoe (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`) or
-  what a calibration leaves (:data:`~hostlib.fusion.hard_iron.CALIBRATED`), so that the compass
-  counts for as little as the iron's uncertainty says. Not with two feet: each foot's tracker
-  would learn its own iron, but the joint filter weighs the heading it hands on without the
-  iron's uncertainty (given, it is held all the same);
 * the receiver's correlated error (:attr:`AidOptions.gps_bias`): with GPS, the defaults of
   :class:`~hostlib.fusion.gps_bias.GpsBias`.
+
+The shoe's hard iron learned as states (:attr:`AidOptions.hard_iron`) is not among them: with an
+uncalibrated shoe and nothing but the walk's turns to learn it from, its wide prior lets the
+heading wander with it (on the six shared real walks, without GPS, it doubled the compass's
+closure error where the three defaults alone keep it at plain's), so it is learned only when asked
+for.
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ __all__ = ["AUTO", "DEFAULTED", "AidOptions", "RunOptions"]
 AUTO = "auto"
 #: The options :data:`AUTO` may stand for, and the command line's switch that turns each off.
 DEFAULTED = {"module_errors": "--no-module-errors", "compass_deviation": "--no-compass-deviation",
-             "hard_iron": "--no-hard-iron", "gps_bias": "--no-gps-bias"}
+             "gps_bias": "--no-gps-bias"}
 
 
 @dataclass(frozen=True)
@@ -78,9 +78,9 @@ class AidOptions:
     #: a GPS receiver read as it talks (a device path or pyserial URL; :mod:`hostlib.run.gps_stream`)
     gps_receiver: str | None = None
     #: the shoe's hard iron learned as states (:mod:`hostlib.fusion.hard_iron`): its prior, or
-    #: :data:`AUTO`: with the compass on one module, :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, or
-    #: :data:`~hostlib.fusion.hard_iron.CALIBRATED` with a calibration; None: not held
-    hard_iron: HardIron | str | None = AUTO
+    #: :data:`AUTO` (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, or
+    #: :data:`~hostlib.fusion.hard_iron.CALIBRATED` with a calibration); None: not held (the default)
+    hard_iron: HardIron | str | None = None
     #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`); :data:`AUTO`:
     #: with GPS, :class:`~hostlib.fusion.gps_bias.GpsBias`' defaults; None: not held
     gps_bias: GpsBias | str | None = AUTO
@@ -139,7 +139,7 @@ class AidOptions:
         held = self.compass or self.uses_gps or feet
         deviation = OUTDOORS if self.uses_gps else INDOORS
         calibrated = self.mag_calibration is not None or bool(self.foot_mag_calibrations)
-        iron = (CALIBRATED if calibrated else UNCALIBRATED) if self.compass and not feet else None
+        iron = CALIBRATED if calibrated else UNCALIBRATED
         return replace(
             self,
             module_errors=_model(self.module_errors, MIMU22BT if held else None, ModuleErrors.parse),

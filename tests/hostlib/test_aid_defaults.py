@@ -1,7 +1,8 @@
 """The host's defaults with an aid or two feet: the module's errors (a MIMU22BT-class module's
-priors), the compass's local deviation, the shoe's hard iron and the receiver's bias are held; each
-``--no-…`` switch turns one off; the command line and the Python API resolve them in one place
-(:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why each is on or off."""
+priors), the compass's local deviation and the receiver's bias are held (the shoe's hard iron only
+when asked for); each ``--no-…`` switch turns one off; the command line and the Python API resolve
+them in one place (:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why
+each is on or off."""
 
 from __future__ import annotations
 
@@ -26,35 +27,38 @@ from .loops import fusion_capture, rectangle
 
 def _resolved(options: AidOptions, feet: bool = False) -> tuple:
     r = options.resolved(feet)
-    return r.module_errors, r.compass_deviation, r.hard_iron, r.gps_bias
+    return r.module_errors, r.compass_deviation, r.gps_bias
 
 
 def test_the_defaults_hold_what_the_walk_has():
-    """With no aid one module is the plain step sum; the compass holds the module's errors, a
-    building's deviation and an uncalibrated shoe's iron; GPS the module's errors and the receiver's
-    bias; both, the open ground's deviation; two feet, each module's errors."""
+    """With no aid one module is the plain step sum; the compass holds the module's errors and a
+    building's deviation; GPS the module's errors and the receiver's bias; both, the open ground's
+    deviation; two feet, each module's errors. The shoe's hard iron is learned only when asked
+    for, its prior by the calibration."""
     assert AidOptions().module_errors == AUTO and not AidOptions().uses_aids
-    assert _resolved(AidOptions()) == (None, None, None, None)
-    assert _resolved(AidOptions(), feet=True) == (MIMU22BT, None, None, None)
-    assert _resolved(AidOptions(compass=True)) == (MIMU22BT, INDOORS, UNCALIBRATED, None)
-    assert _resolved(AidOptions(gps_log="walk.nmea")) == (MIMU22BT, None, None, GpsBias())
-    assert _resolved(AidOptions(compass=True, gps_receiver="socket://gps:1")) == (MIMU22BT, OUTDOORS,
-                                                                                  UNCALIBRATED, GpsBias())
-    assert _resolved(AidOptions(compass=True, mag_calibration="cal.json"))[2] is CALIBRATED
-    # two feet: each module's errors, the deviation, not the iron (the joint filter lacks its σ)
-    assert _resolved(AidOptions(compass=True), feet=True) == (MIMU22BT, INDOORS, None, None)
+    assert _resolved(AidOptions()) == (None, None, None)
+    assert _resolved(AidOptions(), feet=True) == (MIMU22BT, None, None)
+    assert _resolved(AidOptions(compass=True)) == (MIMU22BT, INDOORS, None)
+    assert _resolved(AidOptions(gps_log="walk.nmea")) == (MIMU22BT, None, GpsBias())
+    both = AidOptions(compass=True, gps_receiver="socket://gps:1")
+    assert _resolved(both) == (MIMU22BT, OUTDOORS, GpsBias())
+    assert _resolved(AidOptions(compass=True), feet=True) == (MIMU22BT, INDOORS, None)
+    assert AidOptions(compass=True).resolved().hard_iron is None
+    assert AidOptions(compass=True, hard_iron=AUTO).resolved().hard_iron is UNCALIBRATED
+    calibrated = AidOptions(compass=True, hard_iron=AUTO, mag_calibration="c.json")
+    assert calibrated.resolved().hard_iron is CALIBRATED
     settings = AidOptions(compass=True, gps_log="walk.nmea").fusion_settings()
     assert (settings.module_errors, settings.compass_deviation, settings.gps_bias) == (MIMU22BT, OUTDOORS,
                                                                                        GpsBias())
-    assert settings.hard_iron is UNCALIBRATED
+    assert settings.hard_iron is None
     assert settings.compass_sigma_rad == pytest.approx(math.radians(1.5))  # the deviation is a state
     assert settings.gps_update_interval_s == 0.0  # with the bias held, every fix
 
 
 def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
     options = AidOptions(compass=True, gps_log="walk.nmea", module_errors=None, compass_deviation=None,
-                         hard_iron=None, gps_bias=None)
-    assert _resolved(options) == (None, None, None, None)
+                         gps_bias=None)
+    assert _resolved(options) == (None, None, None)
     assert options.fusion_settings().compass_sigma_rad == pytest.approx(math.radians(20.0))
     chosen = AidOptions(compass=True, module_errors="emulated", compass_deviation="indoors")
     assert _resolved(chosen)[:2] == (EMULATED_MODULE_SWAYING, INDOORS)
@@ -68,12 +72,12 @@ def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
 def test_the_reasons_say_what_is_held_by_default_given_or_turned_off():
     options = AidOptions(compass=True, gps_log="walk.nmea", gps_bias=None, module_errors="emulated")
     assert options.defaulted() == {"module_errors": "given", "compass_deviation": "by default",
-                                   "hard_iron": "by default", "gps_bias": "off"}
+                                   "gps_bias": "off"}
     assert AidOptions().defaulted() == {}  # nothing an aid-less walk would hold
     assert AidOptions().defaulted(feet=True) == {"module_errors": "by default"}
 
 
-OFF = {"module_errors": None, "compass_deviation": None, "hard_iron": None, "gps_bias": None}
+OFF = {"module_errors": None, "compass_deviation": None, "gps_bias": None}
 #: ``replay``'s options, and the AidOptions a user of the API writes for the same walk
 CASES = [
     ([], {}),
@@ -81,14 +85,15 @@ CASES = [
     (["--gps", "walk.nmea"], {"gps_log": "walk.nmea"}),
     (["--compass", "--gps", "walk.nmea"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea"}),
-    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-hard-iron",
-      "--no-gps-bias"], {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", **OFF}),
+    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-gps-bias"],
+     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", **OFF}),
     (["--compass", "--gps", "walk.nmea", "--module-errors", "emulated", "--compass-deviation", "indoors",
       "--hard-iron", "3", "--gps-bias"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "module_errors": "emulated",
       "compass_deviation": "indoors", "hard_iron": HardIron(3.0), "gps_bias": GpsBias()}),
-    (["--compass", "--no-hard-iron", "--compass-sigma", "5"],
-     {"compass": True, "saved_calibration": True, "hard_iron": None, "compass_sigma_deg": 5.0}),
+    (["--compass", "--no-compass-deviation", "--compass-sigma", "5", "--hard-iron"],
+     {"compass": True, "saved_calibration": True, "compass_deviation": None, "compass_sigma_deg": 5.0,
+      "hard_iron": AUTO}),
 ]
 
 
@@ -105,10 +110,9 @@ def test_the_command_line_and_the_python_api_resolve_the_same_settings(argv, api
     assert cli.resolved(feet).uses_aids == options.resolved(feet).uses_aids
 
 
-@pytest.mark.parametrize("name", ["module-errors", "compass-deviation", "hard-iron", "gps-bias"])
+@pytest.mark.parametrize("name", ["module-errors", "compass-deviation", "gps-bias"])
 def test_a_model_and_its_off_switch_together_are_refused(name, capsys):
-    value = {"module-errors": ["emulated"], "compass-deviation": ["indoors"], "hard-iron": ["3"],
-             "gps-bias": []}[name]
+    value = {"module-errors": ["emulated"], "compass-deviation": ["indoors"], "gps-bias": []}[name]
     argv = ["replay", "a.bin", "--compass", "--gps", "walk.nmea", f"--{name}", *value, f"--no-{name}"]
     assert main(argv, io.StringIO()) == 2
     assert f"--{name} or --no-{name}: one or the other" in capsys.readouterr().err
@@ -118,18 +122,17 @@ def test_the_aids_line_says_what_is_held_by_default_and_what_was_turned_off():
     held = prepare_aids(compass=True, gps_receiver="socket://gps:1").describe()
     assert "local deviation held by default (outdoors: σ 3° over 9 m)" in held
     assert "GPS receiver's bias held by default (σ 2.1 m per axis" in held
-    assert "the shoe's hard iron learned by default (σ 10 µT per axis)" in held
+    assert "hard iron" not in held
     assert "module errors held by default (mimu22bt): step-length scale σ 0.0013, climb σ 0.002 m/m" in held
     off = prepare_aids(compass=True, gps_receiver="socket://gps:1", **OFF).describe()
     for text in ("local deviation not held (off: --no-compass-deviation)",
                  "GPS receiver's bias not held (off: --no-gps-bias)",
-                 "the shoe's hard iron not held (off: --no-hard-iron)",
                  "module errors not held (off: --no-module-errors)"):
         assert text in off
     assert "by default" not in off and "compass σ 20° per step" in off
     given = prepare_aids(compass=True, compass_deviation="indoors", module_errors="emulated").describe()
     assert "local deviation held (indoors: σ 20° over 0.5 m)" in given
-    assert "module errors held (emulated)" in given and "by default" in given  # the iron's
+    assert "module errors held (emulated)" in given and "by default" not in given
 
 
 def test_two_feet_hold_each_modules_errors_by_default_and_the_plain_fusion_without_them():
@@ -149,7 +152,7 @@ def test_the_replay_of_one_module_with_the_compass_holds_the_defaults(tmp_path):
                 out) == 0
     text = out.getvalue()
     assert "local deviation held by default (indoors" in text and "module errors held by default" in text
-    assert "hard iron at the end" in text and "local deviation at the end" in text
+    assert "local deviation at the end" in text and "hard iron" not in text
 
 
 def test_the_mimu22bt_priors_are_the_datasheets_arithmetic():
