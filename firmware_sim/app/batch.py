@@ -281,6 +281,19 @@ def seed_number(text: str) -> int:
     return value
 
 
+def speed_factor(text: str) -> float:
+    """The argparse type of ``serve --speed``: module time per wall time, a number >= 0; 0 and
+    ``inf`` both run the modules as fast as the CPU allows (the pacer's *speed*)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not value >= 0:  # NaN too
+        raise argparse.ArgumentTypeError(f"module time per wall time, >= 0 (1: real time; 0 or inf: as fast "
+                                         f"as possible), not {text!r}")
+    return value
+
+
 def load_walk(path: str | Path):
     """The :class:`~firmware_sim.sensors.replay.ReplaySource` of the recording at *path*; a file
     that cannot be read (no such file, a directory, a device, an I/O error) is an

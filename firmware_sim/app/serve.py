@@ -66,7 +66,14 @@ from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsE
 from firmware_sim.transports.pacer import MultiPacer, Pacer
 from hostlib.web.address import web_address
 
-from .batch import MODULE_HELP, add_receiver_arguments, add_stance_sway_argument, module_number, seed_number
+from .batch import (
+    MODULE_HELP,
+    add_receiver_arguments,
+    add_stance_sway_argument,
+    module_number,
+    seed_number,
+    speed_factor,
+)
 from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
@@ -133,8 +140,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_stance_sway_argument(m)
     m.add_argument("--command-set", choices=["2014", "2015"], default="2015",
                    help="command numbering (default 2015; 2014 for old vendor apps)")
-    m.add_argument("--speed", type=float, default=1.0,
-                   help="module time per wall time (default 1 = real time; 0 = as fast as possible)")
+    m.add_argument("--speed", type=speed_factor, default=1.0,
+                   help="module time per wall time (default 1 = real time; 0 or inf = as fast as possible)")
     m.add_argument("--trace", metavar="FILE", help="write every frame in and out to FILE")
     f = p.add_argument_group("the link and its faults")
     f.add_argument("--link", choices=["bt", "usb", "ideal"],

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import socket
 
 import pytest
@@ -165,7 +166,6 @@ SERVE_CASES = [
     (("--tcp", "0", "--frame-ms", "1e9"), 2, "--frame-ms must be a finite number of milliseconds, at most"),
     (("--tcp", "0", "--overrun-ms", "inf"), 2, "--overrun-ms must be a finite number of milliseconds"),
     (("--tcp", "0", "--modules", "100000"), 2, "--modules must be <= 64 (one process's loop paces them all"),
-    (("--tcp", "0", "--speed", "-1"), 2, "--speed must be >= 0"),
     (("--tcp", "0", "--scenario", "walk:1e9"), 2,
      "--scenario: piece 1 'walk:1e9': the length m [m] must be > 0 and at most 2500, got 1e+09"),
     (("--tcp", "0", "--scenario", "stand:3+turn:90:1"), 2,
@@ -207,11 +207,26 @@ def test_a_control_port_in_use_is_named(busy_port):
 @pytest.mark.parametrize(("argv", "said"), [
     (["--seed", "-1"], "a whole number >= 0"), (["--tcp", "99999"], "port 99999 out of range"),
     (["--loss", "nan"], "expected a probability 0..1"),
+    (["--speed", "nan"], "argument --speed: module time per wall time, >= 0 (1: real time; 0 or inf: as fast "
+                         "as possible), not 'nan'"),
+    (["--speed", "-1"], "argument --speed: module time per wall time, >= 0"),
+    (["--speed=-inf"], "argument --speed: module time per wall time, >= 0"),
+    (["--speed", "fast"], "argument --speed: module time per wall time, >= 0"),
 ])
 def test_serve_refuses_a_number_out_of_range_as_argparse_does(capsys, argv, said):
     with pytest.raises(SystemExit) as caught:
         serve_args("--tcp", "0", *argv)
     assert caught.value.code == 2 and said in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("text", "speed"), [("inf", math.inf), ("0", 0.0), ("1e3", 1000.0)])
+def test_serve_speed_inf_runs_as_fast_as_possible_as_0_does(text, speed):
+    from firmware_sim.app.serve import settings_from_args
+    from firmware_sim.transports.pacer.schedule import Schedule
+
+    settings = settings_from_args(serve_args("--tcp", "0", "--speed", text))
+    assert settings.emulator.speed == speed
+    assert Schedule(1, 1000.0, speed, 1, None).asap == (speed in (0.0, math.inf))
 
 
 json_values = st.recursive(

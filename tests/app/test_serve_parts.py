@@ -190,7 +190,6 @@ def test_the_command_line_becomes_settings():
 @pytest.mark.parametrize(("argv", "message"), [
     ((), "openshoe-emu serve: say where hosts connect: --pty PATH and/or --tcp [HOST:]PORT"),
     (("--tcp", "0", "--modules", "0"), "openshoe-emu serve: --modules must be >= 1"),
-    (("--tcp", "0", "--speed", "-1"), "openshoe-emu serve: --speed must be >= 0"),
     (("--tcp", "0", "--frame-ms", "-1"), "openshoe-emu serve: --frame-ms must be >= 0"),
     (("--tcp", "0", "--overrun-ms", "nan"), "openshoe-emu serve: --overrun-ms must be >= 0"),
     (("--tcp", "0", "--interface", "usb", "--usb-tcp", "0"),

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -288,7 +289,7 @@ def test_multipacer_spreads_the_modules_over_the_period_and_none_runs_early(spin
 # --------------------------------------------------------------------------- waiting on ticks
 
 
-@pytest.mark.parametrize("speed", [1.0, 0.0])
+@pytest.mark.parametrize("speed", [1.0, 0.0, math.inf])
 def test_wait_ticks_returns_once_the_module_ran_that_many_more_ticks(speed):
     m = build_module()
     with Pacer(m, speed=speed) as pacer:
