@@ -5,16 +5,14 @@ command and turns the host's errors into messages and exit statuses."""
 from __future__ import annotations
 
 import argparse
+import importlib
 import sys
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TextIO
 
 from ..errors import HostError
 from ..web.address import web_address
 from .checks import value_refusal
-from .drift import cmd_drift
-from .info import cmd_info
-from .log import cmd_log
 from .options import (
     add_aid_options,
     add_common,
@@ -25,8 +23,6 @@ from .options import (
     step_count,
     usage_refusal,
 )
-from .replay import cmd_replay
-from .track import cmd_track
 
 __all__ = ["DESCRIPTION", "build_parser", "main"]
 
@@ -34,8 +30,16 @@ __all__ = ["DESCRIPTION", "build_parser", "main"]
 DESCRIPTION = ("``openshoe-host``: track, log and inspect an OpenShoe module (real or emulated) from a "
                "terminal.")
 
-#: Each command's function: (args, out) → exit status.
-COMMANDS = {"track": cmd_track, "log": cmd_log, "info": cmd_info, "replay": cmd_replay, "drift": cmd_drift}
+#: Each command's function, (args, out) → exit status, by its module of :mod:`hostlib.cli` and its
+#: name: a run imports only its command's module.
+COMMANDS = {"track": ("track", "cmd_track"), "log": ("log", "cmd_log"), "info": ("info", "cmd_info"),
+            "replay": ("replay", "cmd_replay"), "drift": ("drift", "cmd_drift")}
+
+
+def command(name: str) -> Callable[[argparse.Namespace, TextIO], int]:
+    """The function of the command *name* (its module imported now)."""
+    module, function = COMMANDS[name]
+    return getattr(importlib.import_module(f"{__package__}.{module}"), function)
 
 
 def _add_track(sub: argparse._SubParsersAction) -> None:
@@ -136,7 +140,7 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
         print(f"openshoe-host {args.cmd}: {refusal}", file=sys.stderr)
         return 2
     try:
-        return COMMANDS[args.cmd](args, out)
+        return command(args.cmd)(args, out)
     except HostError as exc:
         print(f"openshoe-host: {exc}", file=sys.stderr)
         return 1

@@ -15,12 +15,11 @@ from typing import TYPE_CHECKING
 
 from ..errors import HostError
 from .address import is_loopback
-from .feed import WalkFeed, walk_model
-from .server import LiveServer, MissingWebLibrary, static_dir
 
 if TYPE_CHECKING:
     from ..run.status import Messages
     from ..run.tracking_run import TrackingRun
+    from .feed import WalkFeed
 
 __all__ = ["WalkPage", "following", "walk_page"]
 
@@ -31,6 +30,9 @@ class WalkPage:
     def __init__(self, address: tuple[str, int], title: str, messages: Messages):
         self.title = title
         self.messages = messages
+        from .feed import walk_model  # the web stack only for a page
+        from .server import LiveServer, MissingWebLibrary, static_dir
+
         self.model = walk_model()
         self.model.update(values={"title": title, "state": "starting"})
         try:
@@ -62,6 +64,8 @@ class WalkPage:
     @contextmanager
     def following(self, run: TrackingRun) -> Iterator[WalkFeed]:
         """The page follows *run* (started) until the block ends (the walk ended)."""
+        from .feed import WalkFeed
+
         self.feed = WalkFeed(run, self.model, title=self.title)
         with self.feed:
             yield self.feed
