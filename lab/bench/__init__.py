@@ -15,6 +15,9 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
   included: walks/s (target 22) and the time split (:mod:`lab.bench.files`).
 * ``sweep`` — a sweep of ``--runs`` (64) runs on 1, then 2 local Dask workers: the speed-up
   (target 1.7) and identical tables (:mod:`lab.bench.sweep`).
+* ``startup`` — fresh processes, ``--repeats`` (7) of each kind in turn: one walk replayed
+  (target ≤ 0.3 s), the two commands' ``--help``, a replay's imports, the kernels' loading from
+  numba's cache, each also as a ratio to ``python -c pass`` (:mod:`lab.bench.startup`).
 * ``memory`` — a batch run of ``--cycles`` loop cycles (86.4 M = 24 h at 1 kHz) of a
   repeated walk, compiled; RSS sampled along the way: peak and growth (flat = < 5 %).
 * ``hostile`` — ``--modules`` (10) served modules, each with a hostile client (random
@@ -46,7 +49,7 @@ from .result import Result
 
 __all__ = ["Result", "main", "machine_info"]
 
-TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep", "hostile")
+TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep", "startup", "hostile")
 #: --modules when not given, by target.
 DEFAULT_MODULES = {"realtime": 50, "hostile": 10}
 #: 24 h at 1 kHz.
@@ -112,6 +115,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
     p.add_argument("--walks", type=int, default=100, help="files: walk files replayed (default 100)")
     p.add_argument("--runs", type=int, default=64, help="sweep: runs in the sweep (default 64)")
+    p.add_argument("--repeats", type=int, default=7,
+                   help="startup: fresh processes of each kind (default 7); the medians are reported")
     p.add_argument("--baseline", choices=("side-by-side", "before"), default="side-by-side",
                    help="hostile: the run without hostile clients runs beside the hostile one (default) "
                         "or before it")
@@ -170,6 +175,10 @@ def main(argv: list[str] | None = None) -> int:
             from .sweep import bench_sweep
 
             r = bench_sweep(args.runs, _say)
+        elif name == "startup":
+            from .startup import bench_startup
+
+            r = bench_startup(args.repeats, _say)
         else:
             r = t.bench_memory(int(args.cycles), _say, quiet=args.quiet)
         r.details["wall_s"] = round(time.monotonic() - t0, 1)
