@@ -64,7 +64,7 @@ from typing import Any, TextIO
 
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
-from hostlib.web.address import web_address
+from hostlib.web.address import bind_refusal, web_address
 
 from .batch import (
     MODULE_HELP,
@@ -487,8 +487,9 @@ def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.s
     try:
         try:
             _open(served, settings)
-        except (OSError, ValueError) as exc:
-            print(f"openshoe-emu serve: {exc}", file=err)
+        except (OSError, ValueError) as exc:  # an endpoint's error names its option: --tcp 127.0.0.1:5000
+            print(f"openshoe-emu serve: {exc.spelled(cli_option) if hasattr(exc, 'spelled') else exc}",
+                  file=err)
             return 1
         _start_loop(served, settings, err)
         if settings.web is not None:
@@ -496,7 +497,7 @@ def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.s
                 served.panel = open_panel(served.modules, settings.web, served.control, served.gps,
                                           settings.web_control, err)
             except (OSError, RuntimeError) as exc:
-                print(f"openshoe-emu serve: cannot serve the panel: {exc}", file=err)
+                print(f"openshoe-emu serve: {bind_refusal('--web', settings.web, exc)}", file=err)
                 return 1
         web = None if served.panel is None else served.panel.address
         print(ready_line(served.modules, served.control, served.gps, web), file=out, flush=True)

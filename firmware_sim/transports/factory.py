@@ -41,6 +41,7 @@ endpoints beside a served Bluetooth interface, which get a USB link of their own
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -95,6 +96,20 @@ def module_serial(module: int | None) -> bytes:
     if not 0 <= module <= MAX_MODULE:
         raise ValueError(f"a module number is 0..{MAX_MODULE}, got {module}")
     return b"OSEMU-M" + f"{module:08d}".encode()
+
+
+class EndpointError(OSError):
+    """An endpoint that could not open: the setting that asked for it (*option*: ``tcp``,
+    ``usb_pty``), where (*where*: ``127.0.0.1:5000``, a pty's path) and why (*reason*: ``Address
+    already in use``). ``str()`` names the option as the settings do; :meth:`spelled` the caller's
+    way (``--tcp 127.0.0.1:5000: Address already in use``)."""
+
+    def __init__(self, option: str, where: str, reason: str):
+        self.option, self.where, self.reason = option, where, reason
+        super().__init__(self.spelled())
+
+    def spelled(self, spell: Callable[[str], str] = str) -> str:
+        return f"{spell(self.option)} {self.where}: {self.reason}"
 
 
 class SettingsError(ValueError):
@@ -406,13 +421,27 @@ ENDPOINT_KINDS: dict[str, Callable[[Port, Any, EmulatorSettings, int], tuple[Any
 }
 
 
+def _where(kind: str, where: Any, settings: EmulatorSettings, index: int) -> str:
+    """Where module *index*'s endpoint of *kind* was to be: its pty's path or ``HOST:PORT``."""
+    if kind == "pty":
+        return module_path(where, settings, index)
+    return _address_text(indexed_address(where, index))
+
+
+def _reason(exc: OSError) -> str:
+    """An OS error in words, without its errno and address: ``Address already in use``."""
+    if isinstance(exc, EndpointError):
+        return exc.reason
+    return os.strerror(exc.errno) if exc.errno else (str(exc) or type(exc).__name__)
+
+
 def open_endpoints(settings: EmulatorSettings, links: dict[str, Link],
                    index: int = 0) -> tuple[list[Any], list[tuple[str, str]]]:
     """The endpoints *settings* ask for on module *index*'s *links*, and their READY fields.
 
     Fields are ``(key, where)``, the key ``<interface>-<kind>``, prefixed with the module's
     :func:`module_label` and a dot when it has one (``m1.bt-pty``, ``left.bt-pty``). On failure the
-    endpoints opened so far are closed.
+    endpoints opened so far are closed, and an :class:`EndpointError` names the setting and where.
     """
     endpoints: list[Any] = []
     ready: list[tuple[str, str]] = []
@@ -422,8 +451,12 @@ def open_endpoints(settings: EmulatorSettings, links: dict[str, Link],
         for iface, kinds in settings.endpoint_requests().items():
             hub = HostHub(links[iface]) if len(kinds) > 1 else None
             for kind, where in kinds.items():
-                endpoint, shown = ENDPOINT_KINDS[kind](hub.tap(kind) if hub else links[iface], where,
-                                                       settings, index)
+                try:
+                    endpoint, shown = ENDPOINT_KINDS[kind](hub.tap(kind) if hub else links[iface], where,
+                                                           settings, index)
+                except OSError as exc:  # a port in use, an address not this machine's, a pty's folder
+                    option = kind if iface == settings.served_interface else f"{iface}_{kind}"
+                    raise EndpointError(option, _where(kind, where, settings, index), _reason(exc)) from None
                 endpoints.append(endpoint)
                 ready.append((f"{prefix}{iface}-{kind}", shown))
     except BaseException:

@@ -5,8 +5,9 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
+import os
 
-__all__ = ["LOOPBACK", "is_loopback", "page_url", "web_address"]
+__all__ = ["LOOPBACK", "bind_refusal", "is_loopback", "page_url", "web_address"]
 
 #: Where a page listens when ``--web`` names only a port: this machine alone can open it.
 LOOPBACK = "127.0.0.1"
@@ -28,6 +29,15 @@ def web_address(text: str) -> tuple[str, int]:
     if sep and not host:
         raise argparse.ArgumentTypeError(f"expected [HOST:]PORT, got {text!r}: the host is empty")
     return (host if sep else LOOPBACK), number
+
+
+def bind_refusal(option: str, address: tuple[str, int], exc: Exception) -> str:
+    """Why *option* could not listen on *address*, in one line naming both: ``--web
+    127.0.0.1:5000: Address already in use`` (an OS error in words, without its errno)."""
+    errno = getattr(exc, "errno", None)
+    reason = os.strerror(errno) if errno else (str(exc) or type(exc).__name__)
+    host, port = address
+    return f"{option} {f'[{host}]' if ':' in host else host}:{port}: {reason}"
 
 
 def is_loopback(host: str) -> bool:

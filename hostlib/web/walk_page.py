@@ -14,7 +14,7 @@ from contextlib import contextmanager, nullcontext
 from typing import TYPE_CHECKING
 
 from ..errors import HostError
-from .address import is_loopback
+from .address import bind_refusal, is_loopback
 
 if TYPE_CHECKING:
     from ..run.status import Messages
@@ -48,8 +48,7 @@ class WalkPage:
         try:
             url = self.server.start()
         except OSError as exc:
-            where = f"{self.server.host}:{self.server.port}"
-            raise HostError(f"cannot serve the live page on {where}: {exc}") from None
+            raise HostError(bind_refusal("--web", (self.server.host, self.server.port), exc)) from None
         self.messages.note(f"live page at {url}")
         if not is_loopback(self.server.host):
             self.messages.note(f"the live page listens on {self.server.host}, not only on this machine: "

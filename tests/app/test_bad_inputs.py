@@ -257,3 +257,20 @@ def test_any_bytes_in_a_spec_file_are_a_spec_or_refused_naming_the_file(tmp_path
         load_spec_file(path)
     except ValueError as exc:
         assert str(exc).startswith(str(path)) and "\n" not in str(exc)
+
+
+@pytest.mark.parametrize("argv", [("--tcp", "{port}"), ("--rfc2217", "{port}"),
+                                  ("--tcp", "0", "--usb-tcp", "{port}"),
+                                  ("--pty", "{pty}", "--tcp", "{port}", "--feet", "2")])
+def test_a_port_in_use_is_named_with_its_option_and_address(tmp_path, busy_port, argv):
+    """What serve cannot open ends with status 1 and one line: the option, the address, the reason."""
+    from firmware_sim.app.serve import serve, settings_from_args
+
+    words = (a.format(port=busy_port, pty=tmp_path / "shoe") for a in argv)
+    args = serve_args("--scenario", "stand:1", *words)
+    err = io.StringIO()
+    assert serve(settings_from_args(args), io.StringIO(), err) == 1
+    option = "--usb-tcp" if "--usb-tcp" in argv else argv[0] if argv[0] != "--pty" else "--tcp"
+    said = f"openshoe-emu serve: {option} 127.0.0.1:{busy_port}: Address already in use"
+    assert err.getvalue().splitlines() == [said]
+    assert list(tmp_path.iterdir()) == [], "the pty opened before the port is closed and its symlink removed"

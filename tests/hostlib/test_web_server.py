@@ -117,3 +117,22 @@ def test_the_controls_are_off_unless_given_and_answer_only_the_page(served):
         assert status == 200 and json.loads(answer) == {"ok": True, "reply": "OK"}
         assert _post(on.url + "control", [1, 2], {"X-Live-Control": "1"})[0] == 400
     assert asked == [body]
+
+
+def test_a_port_in_use_is_named_with_the_option_and_its_address():
+    """``openshoe-host track --web PORT`` and ``openshoe-emu serve --web PORT`` on a port something
+    else listens on: one line naming the option and the address, before any walk is tracked."""
+    import io
+    import socket
+
+    from hostlib.errors import HostError
+    from hostlib.run.status import Messages
+    from hostlib.web.walk_page import WalkPage
+
+    with socket.create_server(("127.0.0.1", 0)) as busy:
+        port = busy.getsockname()[1]
+        page = WalkPage(("127.0.0.1", port), "a walk", Messages(stream=io.StringIO()))
+        with pytest.raises(HostError) as caught:
+            page.open()
+        page.close()
+    assert str(caught.value) == f"--web 127.0.0.1:{port}: Address already in use"
