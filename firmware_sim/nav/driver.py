@@ -32,7 +32,7 @@ kernels from the cache (with numba's whole typing set-up: most of a cache load).
 compiles INITIAL_ALIGNMENT with the mean handed over instead: in the loop that completes the
 alignment it leaves the mean in the INS's work (``align_mean``, ``attitude_due``) and returns, and
 the caller sets QUATERNION from it with the reference (:func:`finish_alignment`) before anything
-reads it. The kernel :func:`firmware_sim.nav.ins_kernels.initial_alignment` is the whole function.
+reads it. The kernel ``ins_kernels.initial_alignment`` is the whole function.
 """
 
 from __future__ import annotations
