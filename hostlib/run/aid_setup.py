@@ -13,6 +13,10 @@
   way, and the later fixes are queued as they come;
 * a magnetometer calibration (:class:`hostlib.calibration.magcal.MagCalibration`) is applied to every
   reading; one fitted on another module is refused once the module names itself.
+* the models held by default with an aid or two feet (the module's errors, the compass's local
+  deviation, the receiver's bias: :meth:`AidOptions.resolved <hostlib.run.options.AidOptions.resolved>`)
+  are resolved once, and :meth:`AidSetup.describe`, the ``aids:`` line, says of each whether it is
+  held by default, as given, or turned off.
 
 :func:`prepare_feet_aids` does the same for a module on each foot: a
 :class:`~hostlib.fusion.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
