@@ -78,7 +78,6 @@ from .control import ControlServer
 from .frame_trace import TraceWriter
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
 from .served_module import ServedModule
-from .web.panel import open_panel
 
 # --------------------------------------------------------------------------- options
 
@@ -493,6 +492,8 @@ def serve(settings: ServeSettings, out: TextIO = sys.stdout, err: TextIO = sys.s
             return 1
         _start_loop(served, settings, err)
         if settings.web is not None:
+            from .web.panel import open_panel  # the web stack only for a panel
+
             try:
                 served.panel = open_panel(served.modules, settings.web, served.control, served.gps,
                                           settings.web_control, err)
