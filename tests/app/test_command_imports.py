@@ -47,3 +47,13 @@ def test_a_subcommands_help_builds_only_that_subcommand():
     assert {"serve", "replay", "sweep"} == set(sub.choices)
     assert sub.choices["sweep"]._actions[1:], "the chosen subcommand has its options"
     assert [a.dest for a in sub.choices["serve"]._actions] == ["help"], "the others are only listed"
+
+
+@pytest.mark.parametrize("module", ["firmware_sim.app.serve", "hostlib.cli.track"])
+def test_serving_and_tracking_import_the_web_stack_only_for_a_page(module):
+    web = ("asyncio", "aiohttp", "hostlib.web.server")
+    code = (f"import sys, importlib; importlib.import_module({module!r})\n"
+            f"print(sorted(m for m in sys.modules if m.startswith({web!r})))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
