@@ -45,6 +45,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from firmware_sim.links.faults import MAX_EVENT_RATE_HZ
 from firmware_sim.sensors.config import DEFAULT_CONFIG, IDEAL_CONFIG, SensorConfig
 from protocol.ids import StateId
 
@@ -159,8 +160,8 @@ def parse_value(name: str, value: Any) -> Any:
 
 
 def _in_range(name: str, number: float) -> bool:
-    """Whether a number setting *name* can take *number*: finite; a rate > 0 (the scenario's) or >= 0
-    (a link fault's); a probability from 0 to 1."""
+    """Whether a number setting *name* can take *number*: finite; a rate > 0 (the scenario's) or from 0
+    to :data:`~firmware_sim.links.faults.MAX_EVENT_RATE_HZ` (a link fault's); a probability from 0 to 1."""
     if not math.isfinite(number):
         return False
     if name == RATE:
@@ -168,7 +169,7 @@ def _in_range(name: str, number: float) -> bool:
     if name in PROBABILITIES:
         return 0.0 <= number <= 1.0
     if name.startswith("link."):
-        return number >= 0
+        return 0 <= number <= MAX_EVENT_RATE_HZ
     return True
 
 
@@ -181,7 +182,7 @@ def _what(name: str, kind: type) -> str:
     if name in PROBABILITIES:
         return "probabilities from 0 to 1"
     if name.startswith("link."):
-        return "rates >= 0 [Hz]"
+        return f"rates from 0 to {MAX_EVENT_RATE_HZ:g} [Hz]"
     if name in THRESHOLDS:
         return f"int values from 0 to {THRESHOLD_MAX}"
     if kind is bool:

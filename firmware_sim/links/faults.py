@@ -19,6 +19,19 @@ __all__ = ["DIRECTIONS", "Direction", "DirectionFaults", "LinkFaults", "random_b
 Direction = Literal["to_module", "to_host"]
 DIRECTIONS: tuple[Direction, Direction] = ("to_module", "to_host")
 
+#: The most random stalls or disconnects a second a link takes. A stall lasts 0.1–2 s and a link
+#: comes back 0.5–2 s after a disconnect, so far below this a link is down all the time; above it a
+#: module's 1-ms tick would have more than one event to play, and an infinite rate one every cycle
+#: (a loop that never ends).
+MAX_EVENT_RATE_HZ = 100.0
+
+
+def rate_refusal(name: str, rate: float) -> str | None:
+    """Why *rate* [events a second] is refused for the fault *name*, or None."""
+    if 0.0 <= rate <= MAX_EVENT_RATE_HZ:  # NaN and inf too
+        return None
+    return f"{name} must be a rate from 0 to {MAX_EVENT_RATE_HZ:g} a second, got {rate}"
+
 
 @dataclass(frozen=True)
 class DirectionFaults:
@@ -39,8 +52,9 @@ class DirectionFaults:
             p = getattr(self, name)
             if not 0.0 <= p <= 1.0:
                 raise ValueError(f"{name} must be a probability in [0, 1], got {p}")
-        if self.stall_rate_hz < 0:
-            raise ValueError(f"stall_rate_hz must be >= 0, got {self.stall_rate_hz}")
+        refusal = rate_refusal("stall_rate_hz", self.stall_rate_hz)
+        if refusal is not None:
+            raise ValueError(refusal)
 
     @property
     def any(self) -> bool:
@@ -66,8 +80,9 @@ class LinkFaults:
         lo, hi = self.stall_s
         if not 0 <= lo <= hi:
             raise ValueError(f"stall_s must be (min, max) with 0 <= min <= max, got {self.stall_s}")
-        if self.disconnect_rate_hz < 0:
-            raise ValueError(f"disconnect_rate_hz must be >= 0, got {self.disconnect_rate_hz}")
+        refusal = rate_refusal("disconnect_rate_hz", self.disconnect_rate_hz)
+        if refusal is not None:
+            raise ValueError(refusal)
         if self.reconnect_s is not None and not 0 <= self.reconnect_s[0] <= self.reconnect_s[1]:
             raise ValueError(f"reconnect_s must be (min, max) or None, got {self.reconnect_s}")
 

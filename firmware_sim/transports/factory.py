@@ -48,7 +48,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import parse_qs, urlsplit
 
-from firmware_sim.links.faults import LinkFaults
+from firmware_sim.links.faults import MAX_EVENT_RATE_HZ, LinkFaults
 from firmware_sim.links.link import Link, make_link
 from firmware_sim.links.profiles import PROFILES
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
@@ -221,8 +221,9 @@ class EmulatorSettings:
             if not 0.0 <= getattr(self, name) <= 1.0:
                 raise SettingsError("{} must be a probability 0..1", name, got=getattr(self, name))
         for name in ("stall_rate", "disconnect_rate"):
-            if not getattr(self, name) >= 0:
-                raise SettingsError("{} must be >= 0", name, got=getattr(self, name))
+            if not 0 <= getattr(self, name) <= MAX_EVENT_RATE_HZ:  # NaN, inf: events every cycle
+                raise SettingsError(f"{{}} must be a rate from 0 to {MAX_EVENT_RATE_HZ:g} a second", name,
+                                    got=getattr(self, name))
 
     def _check_endpoints(self) -> None:
         if (self.usb_pty or self.usb_tcp) and self.served_interface == "usb":

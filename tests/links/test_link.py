@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from firmware_sim.links.faults import DirectionFaults, LinkFaults
+from firmware_sim.links.faults import MAX_EVENT_RATE_HZ, DirectionFaults, LinkFaults
 from firmware_sim.links.link import CLOCK_HZ, BluetoothLink, Link, UsbLink, make_link
+from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.mcu.port import Port
+from firmware_sim.nav.firmware import build_module
 
 TICK = CLOCK_HZ // 1000  # one 1 kHz module tick
 
@@ -49,6 +53,24 @@ def test_unknown_profile_and_bad_faults_are_refused():
         DirectionFaults(byte_loss=1.5)
     with pytest.raises(ValueError, match="stall_s"):
         LinkFaults(stall_s=(2.0, 1.0))
+
+
+@pytest.mark.parametrize("rate", [-1.0, math.nan, math.inf, 1e9])
+def test_a_stall_or_disconnect_rate_beyond_one_event_a_tick_is_refused(rate):
+    """An infinite rate drew an event every cycle (a tick never ended), 1e9 took half a second a tick."""
+    said = f"must be a rate from 0 to 100 a second, got {rate}"
+    with pytest.raises(ValueError, match=f"stall_rate_hz {said}"):
+        LinkFaults.both(stall_rate_hz=rate)
+    with pytest.raises(ValueError, match=f"disconnect_rate_hz {said}"):
+        LinkFaults(disconnect_rate_hz=rate)
+
+
+def test_the_highest_rates_cost_a_tick_at_most_a_few_events():
+    link = make_link("bt", seed=1, faults=LinkFaults.both(stall_rate_hz=MAX_EVENT_RATE_HZ,
+                                                          disconnect_rate_hz=MAX_EVENT_RATE_HZ))
+    m = build_module(ModuleConfig(compiled=False), bt_port=link)
+    m.run(1000)
+    assert 0 < link.counters.stalls < 1000 and 0 < link.counters.disconnects < 500
 
 
 def test_bt_module_to_host_throughput_is_11520_bytes_per_second():
