@@ -268,7 +268,7 @@ class CompassWalkResult:
 
 def _compass_tracker(log: StanceLog, sigma: float, calibration: MagCalibration | None) -> FusionTracker:
     """The fusion tracker ``openshoe-host replay CAPTURE --compass --compass-sigma S [--mag-cal]
-    --no-compass-deviation --no-hard-iron --no-module-errors`` decodes *log*'s capture with (no GPS,
+    --no-compass-deviation --no-module-errors`` decodes *log*'s capture with (no GPS,
     no declination; the white compass of σ S alone, the host's defaults off)."""
     from hostlib.files.replay import replay_session
     from hostlib.run.aid_setup import prepare_aids
