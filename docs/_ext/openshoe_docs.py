@@ -19,6 +19,7 @@
 from __future__ import annotations
 
 import argparse
+import functools
 import importlib
 import os
 import pkgutil
@@ -32,6 +33,7 @@ from docutils import nodes
 from docutils.parsers.rst import Parser, directives
 from docutils.utils import new_document
 from sphinx.application import Sphinx
+from sphinx.domains.python import PythonDomain
 from sphinx.util import logging
 from sphinx.util.docutils import SphinxDirective
 
@@ -149,6 +151,7 @@ def write_api_pages(app: Sphinx) -> None:
 _MISSING = object()
 
 
+@functools.cache
 def _import_attr(dotted: str) -> Any:
     """The object *dotted* names (a module, or an attribute chain under one); :data:`_MISSING`
     if none."""
@@ -198,6 +201,32 @@ def canonical_name(dotted: str, documented: Any = ()) -> str | None:
 
 _FUNCTION_TYPES = (types.FunctionType, types.BuiltinFunctionType, types.MethodType, property,
                    classmethod, staticmethod)
+
+
+class IndexedPythonDomain(PythonDomain):
+    """Sphinx's Python domain, but a reference that cannot match anything is answered at once.
+
+    A type hint in a signature is looked up "fuzzily": Sphinx scans every documented object for a
+    name ending in ``.name``, for each hint — and most hints (``float``, ``np.ndarray``, ``Path``)
+    name nothing of the project's. Here such a lookup first asks an index of every dotted suffix
+    of the documented names; where neither the suffix nor an exact name is there, the result is
+    the one Sphinx's scan would give, nothing. Any other lookup is Sphinx's own."""
+
+    _suffixes: set[str] = set()
+    _indexed = -1
+
+    def find_obj(self, env: Any, modname: str, classname: str, name: str, type: str | None,
+                 searchmode: int = 0) -> list[tuple[str, Any]]:
+        bare = name.removesuffix("()")
+        if searchmode == 1 and bare:
+            if self._indexed != len(self.objects):
+                self._suffixes = {"." + ".".join(parts[i:]) for full in self.objects
+                                  for parts in [full.split(".")] for i in range(1, len(parts))}
+                self._indexed = len(self.objects)
+            exact = {bare, f"{modname}.{bare}", f"{modname}.{classname}.{bare}"}
+            if "." + bare not in self._suffixes and not exact & self.objects.keys():
+                return []
+        return super().find_obj(env, modname, classname, name, type, searchmode)
 
 
 def resolve_reexport(app: Sphinx, env: Any, node: nodes.Element, contnode: nodes.Node) -> nodes.Node | None:
@@ -540,6 +569,7 @@ def lab_bench_parser() -> argparse.ArgumentParser:
 
 
 def setup(app: Sphinx) -> dict[str, Any]:
+    app.add_domain(IndexedPythonDomain, override=True)
     app.connect("builder-inited", write_api_pages)
     app.connect("missing-reference", resolve_reexport)
     app.connect("autodoc-process-docstring", process_docstring)

@@ -3,6 +3,7 @@ the files the examples read (captures, calibrations, a recording), made once per
 
 from __future__ import annotations
 
+import fcntl
 import os
 import shutil
 import subprocess
@@ -62,7 +63,22 @@ def fixture_files(tmp_path_factory: pytest.TempPathFactory, command_bin: Path) -
     ``left-cal.json``, ``right-cal.json``), ``cal.json``, a closed loop of module 3
     (``loop.bin``), a shared walk as ``walk.txt`` and as a recording in CSV (``walk.csv``), and
     the files the pages show (``<!-- file: NAME -->``)."""
-    d = tmp_path_factory.mktemp("doc-fixtures")
+    # made once per run: the workers of a distributed run share them (the examples copy them)
+    root = tmp_path_factory.getbasetemp()
+    if os.environ.get("PYTEST_XDIST_WORKER"):
+        root = root.parent
+    d, done = root / "doc-fixtures", root / "doc-fixtures.done"
+    with open(root / "doc-fixtures.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not done.exists():
+            shutil.rmtree(d, ignore_errors=True)
+            d.mkdir()
+            _make_fixture_files(d, command_bin)
+            done.touch()
+    return d
+
+
+def _make_fixture_files(d: Path, command_bin: Path) -> None:
     env = example_env(command_bin, d)
     emu = [sys.executable, "-m", COMMANDS["openshoe-emu"]]
     host = [sys.executable, "-m", COMMANDS["openshoe-host"]]
@@ -84,4 +100,3 @@ def fixture_files(tmp_path_factory: pytest.TempPathFactory, command_bin: Path) -
               "save_csv; save_csv(load_recording(sys.argv[1]), sys.argv[2])", str(walk), "walk.csv"], d, env)
     for name, text in page_files().items():
         (d / name).write_text(text)
-    return d

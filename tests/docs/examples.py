@@ -19,7 +19,7 @@ How an example runs: in a folder of its own holding the fixtures (:mod:`tests.do
 with ``openshoe-emu``, ``openshoe-host``, ``openshoe-conformance`` and ``python`` resolved to the
 project's interpreter (``python -m …``), ``/tmp/`` moved into the example's folder and
 ``../shared/`` to the shared data beside the clone; ``openshoe-emu serve`` stops by itself
-(``--duration``: 2 s in the foreground, 60 s in the background, where the next command waits for
+(``--duration``: half a second in the foreground, 60 s in the background, where the next command waits for
 its READY line) and every background job is stopped when the block ends.
 """
 
@@ -139,7 +139,7 @@ def shell_script(block: Block, tmp: Path) -> str:
             continue
         command, background = m.group(1), bool(m.group(2))
         if "--duration" not in command:
-            command += " --duration 60" if background else " --duration 2"
+            command += " --duration 60" if background else " --duration 0.5"
         if background:
             served += 1
             log = f"serve{served}.out"
