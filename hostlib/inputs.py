@@ -7,7 +7,9 @@ before anything is run, with an :class:`InputFileError` (a :class:`~hostlib.erro
 
 * no such file, a directory, a file the process may not read, an I/O error: its reason in words;
 * a device (``/dev/zero``, a serial port): refused, since reading one as a file never ends (a GPS
-  receiver or a module is read live, by its URL); a pipe is read (``<(…)`` in a shell);
+  receiver or a module is read live, by its URL); a pipe is read (``<(…)`` in a shell, a named
+  pipe), once something writes to it: one nothing writes to within :data:`PIPE_WAIT_S` is refused
+  (reading it would wait for ever);
 * text that is not UTF-8: the line and the byte;
 * JSON that does not parse: the line and column (:func:`load_json`).
 
@@ -21,13 +23,18 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import stat
 from pathlib import Path
 from typing import Any
 
 from .errors import HostError
 
-__all__ = ["InputFileError", "check_input", "load_json", "output_refusal", "read_input", "read_text"]
+__all__ = ["PIPE_WAIT_S", "InputFileError", "check_input", "load_json", "output_refusal", "read_input",
+           "read_text"]
+
+#: How long a pipe named as an input is waited on for its first byte (or its writer's end) [s].
+PIPE_WAIT_S = 10.0
 
 
 class InputFileError(HostError, ValueError):
@@ -39,9 +46,10 @@ def _reason(exc: OSError) -> str:
     return exc.strerror or str(exc) or type(exc).__name__
 
 
-def check_input(path: str | os.PathLike[str], what: str = "file") -> Path:
+def check_input(path: str | os.PathLike[str], what: str = "file", *, pipes: bool = True) -> Path:
     """*path* as a :class:`~pathlib.Path`, once it is a file that can be opened for reading (a regular
-    file or a pipe); :class:`InputFileError` naming it and *what* it was to be otherwise."""
+    file or, unless *pipes* is false — for a reader that opens its file more than once —, a pipe);
+    :class:`InputFileError` naming it and *what* it was to be otherwise."""
     name = os.fspath(path)
     if not name:
         raise InputFileError(f"an empty name was given for the {what}")
@@ -54,6 +62,9 @@ def check_input(path: str | os.PathLike[str], what: str = "file") -> Path:
         raise InputFileError(f"{name}: cannot read the {what}: it is a directory")
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
         raise InputFileError(f"{name}: cannot read the {what}: it is a device, not a file")
+    if stat.S_ISFIFO(mode) and not pipes:
+        raise InputFileError(f"{name}: cannot read the {what}: it is a pipe, and a {what} is read more "
+                             "than once: name a file")
     if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
         raise InputFileError(f"{name}: cannot read the {what}: it is not a file")
     return p
@@ -63,9 +74,26 @@ def read_input(path: str | os.PathLike[str], what: str = "file") -> bytes:
     """The bytes of the file *path* (:func:`check_input`; an error while reading refused the same way)."""
     p = check_input(path, what)
     try:
-        return p.read_bytes()
+        return _read_pipe(p, what) if stat.S_ISFIFO(p.stat().st_mode) else p.read_bytes()
     except OSError as exc:
         raise InputFileError(f"{os.fspath(path)}: cannot read the {what}: {_reason(exc)}") from None
+
+
+def _read_pipe(p: Path, what: str) -> bytes:
+    """The bytes of the pipe *p* once something writes to it (or its writer ends), within
+    :data:`PIPE_WAIT_S`: opened without waiting for a writer, which a plain open would for ever."""
+    fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        ready, _, _ = select.select([fd], [], [], PIPE_WAIT_S)
+        if not ready:
+            raise InputFileError(f"{p}: cannot read the {what}: a pipe nothing wrote to in {PIPE_WAIT_S:g} s")
+        os.set_blocking(fd, True)
+        chunks = []
+        while chunk := os.read(fd, 1 << 16):
+            chunks.append(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
 
 
 def read_text(path: str | os.PathLike[str], what: str = "file") -> str:

@@ -303,7 +303,7 @@ def load_walk(path: str | Path):
     from hostlib.inputs import InputFileError, check_input
 
     try:
-        return ReplaySource.from_file(check_input(path, "walk recording"))
+        return ReplaySource.from_file(check_input(path, "walk recording", pipes=False))
     except OSError as exc:
         raise InputFileError(f"{path}: cannot read the walk recording: {exc.strerror or exc}") from None
 

@@ -331,7 +331,7 @@ def _open(served: _Served, settings: ServeSettings) -> None:
     if emulator.replay:
         from hostlib.inputs import check_input
 
-        check_input(emulator.replay, "walk recording")  # a device (/dev/zero) would never be read whole
+        check_input(emulator.replay, "walk recording", pipes=False)  # a device (/dev/zero): never read whole
     for i in range(emulator.module_count):
         served.modules.append(build_served_module(emulator, i))
     if settings.gps is not None:

@@ -107,7 +107,7 @@ class SweepSpec:
         if missing:
             raise ValueError(f"no such recording: {', '.join(missing)}")
         for path in self.recordings:
-            check_input(path, "walk recording")
+            check_input(path, "walk recording", pipes=False)
         runs = (len(self.recordings) + len(self.scenarios)) * len(self.seeds) * math.prod(
             len(v) for _, v in self.settings)
         if runs > MAX_RUNS:

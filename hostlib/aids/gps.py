@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..inputs import InputFileError, check_input
+from ..inputs import InputFileError, read_input
 
 __all__ = ["GpsFix", "GpsLogError", "NmeaStats", "NmeaReader", "fix_place", "fixes_of_log", "read_nmea",
            "local_positions", "seconds_since"]
@@ -189,8 +189,7 @@ def read_nmea(path: str | Path) -> tuple[list[GpsFix], NmeaStats]:
     refused with a :class:`GpsLogError` naming it; what it holds is never refused, only counted."""
     reader = NmeaReader()
     try:
-        with check_input(path, "GPS log").open("rb") as f:
-            fixes = reader.feed_all(f)
+        fixes = reader.feed_all(read_input(path, "GPS log").splitlines(keepends=True))  # a pipe too
     except InputFileError as exc:
         raise GpsLogError(str(exc)) from None
     except OSError as exc:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import math
+import os
 import socket
 
 import pytest
@@ -43,8 +44,9 @@ def names(tmp_path) -> dict[str, str]:
         out[name.replace(".", "_")] = str(tmp_path / name)
     (tmp_path / "dir").mkdir()
     (tmp_path / "out").mkdir()
-    out.update(dir=str(tmp_path / "dir"), nope=str(tmp_path / "nope"), out=str(tmp_path / "out"),
-               missing=str(tmp_path / "no" / "where"))
+    os.mkfifo(tmp_path / "fifo")  # a named pipe nothing writes to
+    out.update(fifo=str(tmp_path / "fifo"), dir=str(tmp_path / "dir"), nope=str(tmp_path / "nope"),
+               out=str(tmp_path / "out"), missing=str(tmp_path / "no" / "where"))
     return out
 
 
@@ -55,6 +57,8 @@ CASES = [
     ("replay {nope} --wire {out}/w.bin", 2, "{nope}: cannot read the walk recording: No such file"),
     ("replay {dir} --wire {out}/w.bin", 2, "{dir}: cannot read the walk recording: it is a directory"),
     ("replay /dev/zero --wire {out}/w.bin", 2, "/dev/zero: cannot read the walk recording: it is a device"),
+    ("replay {fifo} --wire {out}/w.bin", 2,
+     "{fifo}: cannot read the walk recording: it is a pipe, and a walk recording is read more than once"),
     ("replay {garbage} --wire {out}/w.bin", 2, "{garbage}, line 1: not ASCII text (byte 0x80)"),
     ("replay {empty} --wire {out}/w.bin", 2, "{empty}: missing title line"),
     ("replay /proc/self/mem --wire {out}/w.bin", 2, "/proc/self/mem: cannot read the walk recording: Input/"),
@@ -112,6 +116,7 @@ CASES = [
      "piece 1 'track400:1e6': the number of laps must be a whole number from 1 to 6, got 1e+06"),
     ("sweep {dir} --out {out}/s", 2, "{dir}: cannot read the walk recording: it is a directory"),
     ("sweep {nope} --out {out}/s", 2, "no such recording: {nope}"),
+    ("sweep {fifo} --out {out}/s", 2, "{fifo}: cannot read the walk recording: it is a pipe"),
     ("sweep --scenario walk --rate 0 --out {out}/s", 2, "argument --rate: a sample rate in Hz > 0"),
     ("sweep --scenario walk --set link.byte_loss=nan --out {out}/s", 2,
      "setting 'link.byte_loss' takes probabilities from 0 to 1, got 'nan'"),
@@ -180,6 +185,7 @@ SERVE_CASES = [
      "--origin: origin is LAT,LON[,ALT]"),
     (("--tcp", "0", "--replay", "{nope}"), 1, "{nope}: cannot read the walk recording: No such file"),
     (("--tcp", "0", "--replay", "/dev/zero"), 1, "/dev/zero: cannot read the walk recording: it is a device"),
+    (("--tcp", "0", "--replay", "{fifo}"), 1, "{fifo}: cannot read the walk recording: it is a pipe"),
 ]
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import io
 import json
+import os
 import socket
 
 import pytest
@@ -173,3 +174,19 @@ def test_log_writes_what_came_before_its_file_was_open(tmp_path):
     assert main(["log", "fakeshoe://3", "--raw", str(raw), "--start", "--steps", "3", "--duration", "30"],
                 io.StringIO()) == 0
     assert raw.read_bytes().startswith(bytes.fromhex("A0 34 00 D4"))
+
+
+@pytest.mark.parametrize("template", ["replay {fifo}", "replay {cap} --gps {fifo}",
+                                      "drift calibrate {fifo} -o {out}.json"])
+def test_a_named_pipe_nothing_writes_to_is_refused_in_one_line(tmp_path, capsys, monkeypatch, files,
+                                                               template):
+    """It was waited on for ever (the open blocks until a writer comes), and Ctrl-C was a traceback."""
+    from hostlib import inputs
+
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    monkeypatch.setattr(inputs, "PIPE_WAIT_S", 0.05)
+    assert main(_argv(template, {**files, "fifo": str(fifo)}), io.StringIO()) == 1
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1].startswith("openshoe-host") and "Traceback" not in err
+    assert f"{fifo}: cannot read the " in err and "a pipe nothing wrote to in 0.05 s" in err

@@ -9,12 +9,14 @@ from __future__ import annotations
 import json
 import math
 import os
+import threading
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from hostlib import inputs
 from hostlib.calibration.drift import DriftCalibration, DriftError
 from hostlib.calibration.magcal import MagCalibration, MagCalibrationError
 from hostlib.errors import HostError
@@ -34,6 +36,33 @@ def test_what_is_not_a_readable_file_is_refused_naming_it_and_why(tmp_path):
             read_input(path, "GPS log")
         assert said in str(caught.value) and str(path) in str(caught.value)
         assert isinstance(caught.value, HostError) and isinstance(caught.value, ValueError)
+
+
+def test_a_pipe_is_read_once_something_writes_to_it(tmp_path):
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    data = bytes(range(256)) * 1000
+
+    def write() -> None:
+        with open(fifo, "wb") as w:  # waits for the reader, as a shell's writer does
+            w.write(data)
+
+    writer = threading.Thread(target=write)
+    writer.start()
+    assert read_input(fifo, "capture") == data
+    writer.join()
+
+
+def test_a_pipe_nothing_writes_to_is_refused_not_waited_on_for_ever(tmp_path, monkeypatch):
+    """A named pipe with no writer: a plain open waited for one for ever, and Ctrl-C was a traceback."""
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    monkeypatch.setattr(inputs, "PIPE_WAIT_S", 0.05)
+    with pytest.raises(InputFileError, match="cannot read the capture: a pipe nothing wrote to in 0.05 s"):
+        read_input(fifo, "capture")
+    with pytest.raises(InputFileError, match="pipe: cannot read the walk recording: it is a pipe, and a walk "
+                                             "recording is read more than once: name a file"):
+        check_input(fifo, "walk recording", pipes=False)
 
 
 def test_a_file_that_cannot_be_read_is_refused_with_the_systems_reason():
