@@ -4,10 +4,11 @@ disconnect, stall or corrupt the running modules' links on demand."""
 from __future__ import annotations
 
 import json
-import os
 import selectors
 import socket
 from typing import TYPE_CHECKING, Any
+
+from hostlib.web.address import bind_refusal
 
 if TYPE_CHECKING:  # pragma: no cover
     from .served_module import ServedModule
@@ -33,9 +34,8 @@ class ControlServer:
         self.modules = modules
         try:
             self.server = socket.create_server((host, port), backlog=4)
-        except OSError as exc:  # a port in use, an address not this machine's
-            reason = os.strerror(exc.errno) if exc.errno else str(exc)
-            raise OSError(f"--control {host}:{port}: {reason}") from None
+        except OSError as exc:  # a port in use, an address not this machine's, a name that does not resolve
+            raise OSError(bind_refusal("--control", (host, port), exc)) from None
         self.server.setblocking(False)
         self.address = self.server.getsockname()[:2]
         self.clients: dict[socket.socket, bytearray] = {}

@@ -42,6 +42,7 @@ endpoints beside a served Bluetooth interface, which get a USB link of their own
 from __future__ import annotations
 
 import os
+import socket
 from collections.abc import Callable
 from dataclasses import dataclass, fields
 from pathlib import Path
@@ -433,6 +434,8 @@ def _reason(exc: OSError) -> str:
     """An OS error in words, without its errno and address: ``Address already in use``."""
     if isinstance(exc, EndpointError):
         return exc.reason
+    if isinstance(exc, socket.gaierror) or (exc.errno or 0) < 0:  # a name that does not resolve
+        return str(exc.strerror or exc).split(" (while attempting")[0]  # as socket.create_server words it
     return os.strerror(exc.errno) if exc.errno else (str(exc) or type(exc).__name__)
 
 

@@ -6,8 +6,9 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import os
+import socket
 
-__all__ = ["LOOPBACK", "bind_refusal", "is_loopback", "page_url", "web_address"]
+__all__ = ["LOOPBACK", "bind_refusal", "is_loopback", "os_reason", "page_url", "web_address"]
 
 #: Where a page listens when ``--web`` names only a port: this machine alone can open it.
 LOOPBACK = "127.0.0.1"
@@ -33,11 +34,21 @@ def web_address(text: str) -> tuple[str, int]:
 
 def bind_refusal(option: str, address: tuple[str, int], exc: Exception) -> str:
     """Why *option* could not listen on *address*, in one line naming both: ``--web
-    127.0.0.1:5000: Address already in use`` (an OS error in words, without its errno)."""
-    errno = getattr(exc, "errno", None)
-    reason = os.strerror(errno) if errno else (str(exc) or type(exc).__name__)
+    127.0.0.1:5000: Address already in use`` (an OS error in words, without its errno; a host name
+    that does not resolve: the resolver's words, ``Name or service not known``)."""
+    reason = os_reason(exc)
     host, port = address
     return f"{option} {f'[{host}]' if ':' in host else host}:{port}: {reason}"
+
+
+def os_reason(exc: Exception) -> str:
+    """An OS error in words, without its errno and address: ``Address already in use``; a host name
+    that does not resolve (a resolver's error, a negative errno, also as :func:`socket.create_server`
+    re-raises it): the resolver's words, ``Name or service not known``."""
+    errno = getattr(exc, "errno", None)
+    if isinstance(exc, socket.gaierror) or (errno is not None and errno < 0):
+        return str(getattr(exc, "strerror", None) or exc).split(" (while attempting")[0]
+    return os.strerror(errno) if errno else (str(exc) or type(exc).__name__)
 
 
 def is_loopback(host: str) -> bool:

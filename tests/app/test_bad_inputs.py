@@ -282,3 +282,16 @@ def test_a_port_in_use_is_named_with_its_option_and_address(tmp_path, busy_port,
     said = f"openshoe-emu serve: {option} 127.0.0.1:{busy_port}: Address already in use"
     assert err.getvalue().splitlines() == [said]
     assert list(tmp_path.iterdir()) == [], "the pty opened before the port is closed and its symlink removed"
+
+
+@pytest.mark.parametrize("option", ["--tcp", "--control"])
+def test_an_address_that_does_not_resolve_is_named_with_the_resolver_s_words(option):
+    """It read ``--tcp 999.1.1.1:5000: Unknown error -2`` (the resolver's code taken for an errno)."""
+    from firmware_sim.app.serve import serve, settings_from_args
+
+    argv = ("--tcp", "999.1.1.1:5000") if option == "--tcp" else ("--tcp", "0", "--control", "999.1.1.1:5000")
+    err = io.StringIO()
+    assert serve(settings_from_args(serve_args("--scenario", "stand:1", *argv)), io.StringIO(), err) == 1
+    (line,) = err.getvalue().splitlines()
+    assert line.startswith(f"openshoe-emu serve: {option} 999.1.1.1:5000: ")
+    assert "Unknown error" not in line and "Errno" not in line and "while attempting" not in line

@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import socket
 import threading
 from types import SimpleNamespace
 
@@ -19,7 +20,7 @@ from hostlib.fusion.feet import TwoFeetTracker
 from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.link.session import SessionStats
 from hostlib.track.steps import rotation_z
-from hostlib.web.address import is_loopback, page_url, web_address
+from hostlib.web.address import bind_refusal, is_loopback, os_reason, page_url, web_address
 from hostlib.web.feed import SERIES_CAPS, WalkFeed, ellipse
 from hostlib.web.model import LiveModel, thin
 
@@ -64,6 +65,16 @@ def test_a_page_listens_on_the_loopback_interface_unless_a_host_is_named():
     assert is_loopback("127.0.0.1") and is_loopback("::1") and is_loopback("localhost")
     assert not is_loopback("0.0.0.0") and not is_loopback("192.0.2.1")
     assert page_url("0.0.0.0", 80) == "http://127.0.0.1:80/" and page_url("::1", 81) == "http://[::1]:81/"
+
+
+def test_an_os_error_is_said_in_words_without_its_errno_or_address():
+    in_use = OSError(98, "error while attempting to bind on address ('127.0.0.1', 80): address in use")
+    assert bind_refusal("--web", ("127.0.0.1", 80), in_use) == "--web 127.0.0.1:80: Address already in use"
+    unresolved = OSError(-2, "Name or service not known (while attempting to bind on address ('x', 1))")
+    assert os_reason(unresolved) == "Name or service not known"
+    assert os_reason(socket.gaierror(-2, "Name or service not known")) == "Name or service not known"
+    missing = RuntimeError("aiohttp is missing")
+    assert bind_refusal("--web", ("::1", 8), missing) == "--web [::1]:8: aiohttp is missing"
 
 
 def test_the_ellipse_of_a_covariance():
