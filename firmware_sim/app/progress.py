@@ -3,7 +3,7 @@
 A bar shows the rate and an ETA. It is drawn on stderr only when both stdout
 and stderr are terminals and the user did not ask for quiet: a log file or a
 pipe gets no carriage returns and no bar, just the lines the command prints
-anyway.
+anyway. tqdm is imported only for a bar that is drawn.
 """
 
 from __future__ import annotations
@@ -11,9 +11,7 @@ from __future__ import annotations
 import sys
 from typing import Any
 
-from tqdm import tqdm
-
-__all__ = ["interactive", "progress_bar", "say"]
+__all__ = ["HiddenBar", "interactive", "progress_bar", "say"]
 
 
 def interactive() -> bool:
@@ -21,16 +19,42 @@ def interactive() -> bool:
     return all(getattr(stream, "isatty", lambda: False)() for stream in (sys.stdout, sys.stderr))
 
 
-def progress_bar(total: float | None, desc: str, unit: str, *, quiet: bool = False, **kw: Any) -> tqdm:
-    """A tqdm bar on stderr, disabled when *quiet* or when nobody watches a terminal.
+class HiddenBar:
+    """The bar nobody sees: a disabled tqdm bar's calls, doing nothing (``n`` stays 0, as there)."""
 
-    Use as a context manager and call ``update(n)``; a disabled bar accepts the
+    n = 0
+
+    def __enter__(self) -> HiddenBar:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+    def update(self, n: float = 1) -> None:
+        """Nothing."""
+
+    def close(self) -> None:
+        """Nothing."""
+
+
+def progress_bar(total: float | None, desc: str, unit: str, *, quiet: bool = False, **kw: Any) -> Any:
+    """A tqdm bar on stderr; a :class:`HiddenBar` when *quiet* or when nobody watches a terminal.
+
+    Use as a context manager and call ``update(n)``; a hidden bar accepts the
     same calls and prints nothing.
     """
-    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True,
-                disable=quiet or not interactive(), leave=False, **kw)
+    if quiet or not interactive():
+        return HiddenBar()
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, dynamic_ncols=True, leave=False, **kw)
 
 
 def say(text: str) -> None:
     """One line on stderr that a running bar does not overwrite (the bar is redrawn below it)."""
-    tqdm.write(text, file=sys.stderr)
+    if "tqdm" in sys.modules:  # a bar may be drawn
+        from tqdm import tqdm
+
+        tqdm.write(text, file=sys.stderr)
+    else:
+        print(text, file=sys.stderr)
