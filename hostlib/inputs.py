@@ -10,6 +10,8 @@ before anything is run, with an :class:`InputFileError` (a :class:`~hostlib.erro
   receiver or a module is read live, by its URL); a pipe is read (``<(…)`` in a shell, a named
   pipe), once something writes to it: one nothing writes to within :data:`PIPE_WAIT_S` is refused
   (reading it would wait for ever);
+* a file larger than :data:`MAX_INPUT_BYTES` (a day of a module's bytes at the Bluetooth link's
+  full rate): refused by its size, before it is read into memory;
 * text that is not UTF-8: the line and the byte;
 * JSON that does not parse: the line and column (:func:`load_json`).
 
@@ -30,11 +32,14 @@ from typing import Any
 
 from .errors import HostError
 
-__all__ = ["PIPE_WAIT_S", "InputFileError", "check_input", "load_json", "output_refusal", "read_input",
-           "read_text"]
+__all__ = ["MAX_INPUT_BYTES", "PIPE_WAIT_S", "InputFileError", "check_input", "load_json", "output_refusal",
+           "read_input", "read_text"]
 
 #: How long a pipe named as an input is waited on for its first byte (or its writer's end) [s].
 PIPE_WAIT_S = 10.0
+#: The largest input read [B]: a day of a module's bytes at the Bluetooth link's full rate (11 520 B/s)
+#: is under 1 GB; an input is read whole into memory.
+MAX_INPUT_BYTES = 1_000_000_000
 
 
 class InputFileError(HostError, ValueError):
@@ -74,9 +79,19 @@ def read_input(path: str | os.PathLike[str], what: str = "file") -> bytes:
     """The bytes of the file *path* (:func:`check_input`; an error while reading refused the same way)."""
     p = check_input(path, what)
     try:
-        return _read_pipe(p, what) if stat.S_ISFIFO(p.stat().st_mode) else p.read_bytes()
+        if stat.S_ISFIFO(p.stat().st_mode):
+            return _read_pipe(p, what)
+        size = p.stat().st_size
+        if size > MAX_INPUT_BYTES:
+            raise InputFileError(_too_big(p, what, f"is {size / 1e9:.3g} GB"))
+        return p.read_bytes()
     except OSError as exc:
         raise InputFileError(f"{os.fspath(path)}: cannot read the {what}: {_reason(exc)}") from None
+
+
+def _too_big(p: Path, what: str, how: str) -> str:
+    return (f"{p}: cannot read the {what}: it {how}, past the {MAX_INPUT_BYTES / 1e9:g} GB an input may "
+            "have (a day of a module's bytes at the Bluetooth link's full rate is under 1 GB)")
 
 
 def _read_pipe(p: Path, what: str) -> bytes:
@@ -88,9 +103,12 @@ def _read_pipe(p: Path, what: str) -> bytes:
         if not ready:
             raise InputFileError(f"{p}: cannot read the {what}: a pipe nothing wrote to in {PIPE_WAIT_S:g} s")
         os.set_blocking(fd, True)
-        chunks = []
+        chunks, size = [], 0
         while chunk := os.read(fd, 1 << 16):
             chunks.append(chunk)
+            size += len(chunk)
+            if size > MAX_INPUT_BYTES:
+                raise InputFileError(_too_big(p, what, "goes on"))
         return b"".join(chunks)
     finally:
         os.close(fd)

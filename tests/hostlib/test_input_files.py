@@ -6,6 +6,7 @@ exception."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
@@ -63,6 +64,28 @@ def test_a_pipe_nothing_writes_to_is_refused_not_waited_on_for_ever(tmp_path, mo
     with pytest.raises(InputFileError, match="pipe: cannot read the walk recording: it is a pipe, and a walk "
                                              "recording is read more than once: name a file"):
         check_input(fifo, "walk recording", pipes=False)
+
+
+def test_an_input_larger_than_a_day_of_a_module_s_bytes_is_refused_by_its_size(tmp_path, monkeypatch):
+    """A sparse file of 3 GB was read whole into memory (a MemoryError, or the process killed)."""
+    big = tmp_path / "big.bin"
+    with open(big, "wb") as f:
+        f.truncate(3 * 10**9)  # sparse: nothing written
+    with pytest.raises(InputFileError, match="big.bin: cannot read the capture: it is 3 GB, past the 1 GB"):
+        read_input(big, "capture")
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    monkeypatch.setattr(inputs, "MAX_INPUT_BYTES", 1000)
+
+    def write() -> None:
+        with open(fifo, "wb") as w, contextlib.suppress(BrokenPipeError):
+            w.write(b"x" * 5000)
+
+    writer = threading.Thread(target=write)
+    writer.start()
+    with pytest.raises(InputFileError, match="pipe: cannot read the capture: it goes on, past the 1e-06 GB"):
+        read_input(fifo, "capture")
+    writer.join()
 
 
 def test_a_file_that_cannot_be_read_is_refused_with_the_systems_reason():
