@@ -11,7 +11,7 @@ before anything is run, with an :class:`InputFileError` (a :class:`~hostlib.erro
   pipe), once something writes to it: one nothing writes to within :data:`PIPE_WAIT_S` is refused
   (reading it would wait for ever);
 * a file larger than :data:`MAX_INPUT_BYTES` (a day of a module's bytes at the Bluetooth link's
-  full rate): refused by its size, before it is read into memory;
+  full rate): refused by its size, before it is read into memory (a walk recording too);
 * text that is not UTF-8: the line and the byte;
 * JSON that does not parse: the line and column (:func:`load_json`).
 
@@ -60,9 +60,10 @@ def check_input(path: str | os.PathLike[str], what: str = "file", *, pipes: bool
         raise InputFileError(f"an empty name was given for the {what}")
     p = Path(name)
     try:
-        mode = p.stat().st_mode
+        st = p.stat()
     except OSError as exc:
         raise InputFileError(f"{name}: cannot read the {what}: {_reason(exc)}") from None
+    mode = st.st_mode
     if stat.S_ISDIR(mode):
         raise InputFileError(f"{name}: cannot read the {what}: it is a directory")
     if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
@@ -72,6 +73,8 @@ def check_input(path: str | os.PathLike[str], what: str = "file", *, pipes: bool
                              "than once: name a file")
     if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
         raise InputFileError(f"{name}: cannot read the {what}: it is not a file")
+    if stat.S_ISREG(mode) and st.st_size > MAX_INPUT_BYTES:  # read whole into memory: refused by its size
+        raise InputFileError(_too_big(p, what, f"is {st.st_size / 1e9:.3g} GB"))
     return p
 
 
@@ -79,12 +82,7 @@ def read_input(path: str | os.PathLike[str], what: str = "file") -> bytes:
     """The bytes of the file *path* (:func:`check_input`; an error while reading refused the same way)."""
     p = check_input(path, what)
     try:
-        if stat.S_ISFIFO(p.stat().st_mode):
-            return _read_pipe(p, what)
-        size = p.stat().st_size
-        if size > MAX_INPUT_BYTES:
-            raise InputFileError(_too_big(p, what, f"is {size / 1e9:.3g} GB"))
-        return p.read_bytes()
+        return _read_pipe(p, what) if stat.S_ISFIFO(p.stat().st_mode) else p.read_bytes()
     except OSError as exc:
         raise InputFileError(f"{os.fspath(path)}: cannot read the {what}: {_reason(exc)}") from None
 

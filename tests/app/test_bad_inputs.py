@@ -45,8 +45,10 @@ def names(tmp_path) -> dict[str, str]:
     (tmp_path / "dir").mkdir()
     (tmp_path / "out").mkdir()
     os.mkfifo(tmp_path / "fifo")  # a named pipe nothing writes to
-    out.update(fifo=str(tmp_path / "fifo"), dir=str(tmp_path / "dir"), nope=str(tmp_path / "nope"),
-               out=str(tmp_path / "out"), missing=str(tmp_path / "no" / "where"))
+    with open(tmp_path / "huge", "wb") as f:
+        f.truncate(3 * 10**9)  # sparse: 3 GB of nothing, which was read whole into memory
+    out.update(fifo=str(tmp_path / "fifo"), huge=str(tmp_path / "huge"), dir=str(tmp_path / "dir"),
+               nope=str(tmp_path / "nope"), out=str(tmp_path / "out"), missing=str(tmp_path / "no" / "where"))
     return out
 
 
@@ -57,6 +59,7 @@ CASES = [
     ("replay {nope} --wire {out}/w.bin", 2, "{nope}: cannot read the walk recording: No such file"),
     ("replay {dir} --wire {out}/w.bin", 2, "{dir}: cannot read the walk recording: it is a directory"),
     ("replay /dev/zero --wire {out}/w.bin", 2, "/dev/zero: cannot read the walk recording: it is a device"),
+    ("replay {huge} --wire {out}/w.bin", 2, "{huge}: cannot read the walk recording: it is 3 GB, past the"),
     ("replay {fifo} --wire {out}/w.bin", 2,
      "{fifo}: cannot read the walk recording: it is a pipe, and a walk recording is read more than once"),
     ("replay {garbage} --wire {out}/w.bin", 2, "{garbage}, line 1: not ASCII text (byte 0x80)"),
