@@ -36,10 +36,18 @@ from firmware_sim.sensors.playback import served_source
 from firmware_sim.sensors.truth import GroundTruth
 from firmware_sim.transports.factory import EmulatorSettings, build
 from firmware_sim.transports.pacer import Pacer
+from hostlib.cli.checks import seconds
 from hostlib.track.steps import StepTracker, Track, is_motion_step
 from protocol.ids import StateId
 
-from .batch import MODULE_HELP, add_stance_sway_argument, module_number, stance_note
+from .batch import (
+    MODULE_HELP,
+    add_stance_sway_argument,
+    module_number,
+    seed_number,
+    speed_factor,
+    stance_note,
+)
 from .progress import progress_bar
 
 #: Virtual seconds the module keeps running after the route ends (the last step's reset).
@@ -104,16 +112,16 @@ class DemoResult:
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m firmware_sim.app.demo", description=__doc__.split("\n\n")[0])
     p.add_argument("--scenario", default="default", help="route or recipe (default: the built-in route)")
-    p.add_argument("--seed", type=int, default=0, help="sensor and link seed (default 0)")
+    p.add_argument("--seed", type=seed_number, default=0, help="sensor and link seed (default 0)")
     p.add_argument("--module", type=module_number, metavar="N", default=None, help=MODULE_HELP)
     add_stance_sway_argument(p)
     p.add_argument("--link", choices=["bt", "usb", "ideal"], default="bt", help="link model (default bt)")
-    p.add_argument("--speed", type=float, default=0.0,
-                   help="module time per wall time; 0 = as fast as the CPU allows (default)")
+    p.add_argument("--speed", type=speed_factor, default=0.0,
+                   help="module time per wall time; 0 (or inf) = as fast as the CPU allows (default)")
     p.add_argument("--out", default="out/demo",
                    help="folder for track.png and track.csv (default out/demo)")
     p.add_argument("--no-plot", action="store_true", help="skip the PNG (no matplotlib needed)")
-    p.add_argument("--timeout", type=float, default=900.0, help="give up after this many wall seconds")
+    p.add_argument("--timeout", type=seconds, default=900.0, help="give up after this many wall seconds")
     p.add_argument("-q", "--quiet", action="store_true", help="only the summary")
     return p
 
@@ -310,8 +318,28 @@ def run_demo(args: argparse.Namespace) -> DemoResult:
     return result
 
 
+def refusal(args: argparse.Namespace) -> str | None:
+    """Why the demo would not run as *args* say, said before anything is walked, or None: a
+    scenario that is no name and no recipe (the piece refused and its range), an ``--out`` that is
+    no folder."""
+    from firmware_sim.sensors.scenarios import RecipeError, check
+
+    try:
+        check(args.scenario)
+    except RecipeError as exc:
+        return f"--scenario: {exc}"
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        return f"--out {out} is a file: name a folder for track.png and track.csv"
+    return None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    why = refusal(args)
+    if why is not None:
+        print(f"demo: {why}", file=sys.stderr)
+        return 2
     try:
         result = run_demo(args)
     except KeyboardInterrupt:

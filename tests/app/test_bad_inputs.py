@@ -298,3 +298,24 @@ def test_an_address_that_does_not_resolve_is_named_with_the_resolver_s_words(opt
     (line,) = err.getvalue().splitlines()
     assert line.startswith(f"openshoe-emu serve: {option} 999.1.1.1:5000: ")
     assert "Unknown error" not in line and "Errno" not in line and "while attempting" not in line
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--scenario", "walk:1e9"], "demo: --scenario: piece 1 'walk:1e9': the length m [m] must be > 0"),
+    (["--scenario", "nope"], "demo: --scenario: unknown scenario 'nope'; known:"),
+    (["--out", "{text}"], "demo: --out {text} is a file: name a folder for track.png and track.csv"),
+    (["--speed", "nan"], "argument --speed: module time per wall time, >= 0"),
+    (["--timeout", "-1"], "argument --timeout: a number of seconds > 0, not '-1'"),
+    (["--seed", "-1"], "argument --seed: a whole number >= 0, not '-1'"),
+])
+def test_the_demo_refuses_a_bad_option_before_anything_is_walked(capsys, names, argv, said):
+    """They were 'demo failed: RecipeError: …' after the compile, 'SettingsError: …', a FileExistsError at the
+    end of the walk, a timeout of NaN that never gave up, a negative one that gave up at once."""
+    from firmware_sim.app import demo
+
+    try:
+        code = demo.main([a.format(**names) for a in argv] + ["--no-plot", "-q"])
+    except SystemExit as exc:
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and "Traceback" not in err and said.format(**names) in err.strip().splitlines()[-1]
