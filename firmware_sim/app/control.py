@@ -18,13 +18,19 @@ CONTROL_HELP = """\
 commands (one per line; prefix with @I to address module I only, e.g. "@1 disconnect"):
   disconnect       the link goes down (bytes in flight are lost); the host stays attached
   reconnect        the link comes back
-  stall S          deliver nothing for S seconds of module time, both directions
-  corrupt N        corrupt the next N bytes sent to the host
-  drop N           lose the next N bytes sent to the host
+  stall S          deliver nothing for S seconds of module time, both directions (S up to 3600)
+  corrupt N        corrupt the next N bytes sent to the host (N up to 10^9)
+  drop N           lose the next N bytes sent to the host (N up to 10^9)
   status           one status line per module
   status json      the same as one JSON object per line (every counter, lateness classes included)
   help             this text
   quit             close this control connection"""
+
+
+#: The longest ``stall S`` [s]: an hour (a link held longer is better disconnected).
+MAX_STALL_S = 3600.0
+#: The most bytes one ``corrupt N`` or ``drop N`` names: a day of the Bluetooth link at full rate.
+MAX_FAULT_BYTES = 1_000_000_000
 
 
 class ControlServer:
@@ -114,20 +120,23 @@ class ControlServer:
             return f"ERR {exc}"
         for m in targets:
             for link in m.links.values():
-                m.pacer.call(lambda _mod, link=link: action(link)).result(timeout=5.0)
+                try:
+                    m.pacer.call(lambda _mod, link=link: action(link)).result(timeout=5.0)
+                except Exception as exc:  # noqa: BLE001 - a command the link refused: said, the module runs on
+                    return f"ERR {cmd}: {exc or type(exc).__name__}"
         return f"OK {' '.join(words)}"
 
     @staticmethod
     def _action(cmd: str, rest: list[str]):
-        def number(kind: type) -> Any:
+        def number(kind: type, most: float) -> Any:
             if len(rest) != 1:
                 raise ValueError(f"{cmd} takes one number")
             try:
                 v = kind(rest[0])
             except ValueError:
                 raise ValueError(f"{cmd}: {rest[0]!r} is not a number") from None
-            if v < 0:
-                raise ValueError(f"{cmd}: must be >= 0")
+            if not 0 <= v <= most:  # NaN and inf too: a stall of NaN seconds stopped serve
+                raise ValueError(f"{cmd}: must be from 0 to {most:g}, got {rest[0]}")
             return v
 
         if cmd == "disconnect" and not rest:
@@ -135,13 +144,13 @@ class ControlServer:
         if cmd == "reconnect" and not rest:
             return lambda link: link.reconnect()
         if cmd == "stall":
-            s = number(float)
+            s = number(float, MAX_STALL_S)
             return lambda link: link.stall(s)
         if cmd == "corrupt":
-            n = number(int)
+            n = number(int, MAX_FAULT_BYTES)
             return lambda link: link.corrupt_next(n)
         if cmd == "drop":
-            n = number(int)
+            n = number(int, MAX_FAULT_BYTES)
             return lambda link: link.drop_next(n)
         raise ValueError(f"unknown command {' '.join([cmd, *rest])!r}; try help")
 

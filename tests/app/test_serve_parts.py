@@ -137,14 +137,35 @@ def test_control_commands_drive_the_link():
     assert ctl.execute("disconnect") == "OK disconnect" and not link.connected
     assert ctl.execute("reconnect") == "OK reconnect" and link.connected
     assert ctl.execute("stall 0.5") == "OK stall 0.5" and link.counters.stalls == 1
+    assert ctl.execute("stall nan") == "ERR stall: must be from 0 to 3600, got nan"
+    assert ctl.execute("stall inf") == "ERR stall: must be from 0 to 3600, got inf"
+    assert ctl.execute("drop 1e9") == "ERR drop: '1e9' is not a number"
     assert ctl.execute("@0 corrupt 3") == "OK corrupt 3"
     assert ctl.execute("status") == "m0 t=1.000s\nOK"
     assert ctl.execute("status json") == '{"module": 0, "overruns": 0, "lag_frames": {"<1ms": 9}}\nOK'
-    assert ctl.execute("stall -1").startswith("ERR stall: must be >= 0")
+    assert ctl.execute("stall -1") == "ERR stall: must be from 0 to 3600, got -1"
     assert ctl.execute("corrupt x").startswith("ERR corrupt: 'x' is not a number")
     assert ctl.execute("@3 stall 1").startswith("ERR no module @3")
     assert ctl.execute("jump").startswith("ERR unknown command")
     assert ctl.execute("quit") is None
+
+
+_commands = st.sampled_from(["stall", "corrupt", "drop", "disconnect", "reconnect", "@0 stall", "@9 drop",
+                             "status"])
+_words = st.sampled_from(["nan", "inf", "-inf", "1e300", "-0", "1e9", "99999999999999999999", "x", "0.5",
+                          "3"])
+
+
+@given(_commands, st.lists(_words | st.text(max_size=8), max_size=3))
+def test_any_control_line_is_answered_and_the_module_runs_on(cmd, words):
+    """A host's line on the control channel is answered OK or ERR; 'stall nan' stopped serve with a
+    traceback (a NaN stall's cycles raised in the module's loop)."""
+    link = make_link("bt", seed=1)
+    ctl = ControlServer.__new__(ControlServer)
+    ctl.modules = [ServedModule(0, None, {"bt": link}, [], _FakePacer())]  # type: ignore[arg-type]
+    reply = ctl.execute(" ".join([cmd, *words]))
+    assert reply is not None and reply.splitlines()[-1].split()[0] in ("OK", "ERR")
+    link.advance(64_000)  # the link still runs
 
 
 _keys = st.from_regex(r"[a-z0-9][a-z0-9.\-]{0,15}", fullmatch=True)
