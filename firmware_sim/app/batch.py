@@ -40,7 +40,7 @@ out once the module acknowledged the one before. What is sent when is ``openshoe
 policy, the same code (:class:`hostlib.run.host_setup.HostSetup`), carried out over a host session
 without I/O (:class:`hostlib.run.host_setup.SessionSetup`). Without them the host sends ``34 00 34``
 only, and the bytes are those of before. A module made with ``--module N`` has the MCU serial number
-``OSEMU-M`` + N in 8 digits (:func:`firmware_sim.transports.factory.module_serial`).
+``OSEMU-M`` + N in 8 digits (:func:`firmware_sim.mcu.module.module_serial`).
 
 ``--wire-dir DIR`` replays many in one process — every FILE, or the scenario with every seed
 of ``--seeds A:B`` — into ``DIR/<name>.bin`` (:mod:`firmware_sim.app.replay_cli`); each file's
@@ -63,12 +63,11 @@ from collections.abc import Callable
 from pathlib import Path
 
 from firmware_sim.mcu.imu_bus import SensorSource
-from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.module import MAX_MODULE, Module, ModuleConfig, module_serial
 from firmware_sim.mcu.port import Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import PROFILES, profile_for
 from firmware_sim.nav.warmup import Announce, prepare_compiled_path, prepare_module, to_stderr
-from firmware_sim.transports.factory import MAX_MODULE, module_serial
 from protocol.frames import StatePacket, build_packet_ack
 from protocol.ids import Command
 from protocol.stream import StreamDecoder

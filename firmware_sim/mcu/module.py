@@ -35,6 +35,21 @@ from .sequence import ProcessSequence
 
 T = TypeVar("T")
 _U32 = 0xFFFFFFFF
+#: The largest number of a simulated module: its serial number has 8 digits.
+MAX_MODULE = 99_999_999
+
+
+def module_serial(module: int | None) -> bytes:
+    """The MCU serial number (state 0x04, 15 bytes) of simulated module *module*:
+    ``OSEMU-M`` and the number in 8 digits; None (no identity given): the default serial.
+
+    A host tells modules apart by it (``MCU_ID``), e.g. to refuse one module's drift
+    calibration for another (:mod:`hostlib.calibration.drift`)."""
+    if module is None:
+        return DEFAULT_MCU_SERIAL
+    if not 0 <= module <= MAX_MODULE:
+        raise ValueError(f"a module number is 0..{MAX_MODULE}, got {module}")
+    return b"OSEMU-M" + f"{module:08d}".encode()
 
 
 @dataclass

@@ -11,8 +11,8 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
     seed         seed of the sensors and the link's jitter/faults, 0 (module i of several: seed + i)
     module       the simulated module's identity: its own systematic errors, the same whatever the
                  seed (firmware_sim.sensors.make_source), and its MCU serial number
-                 (:func:`module_serial`); None: the seed's own errors, the default serial
-                 (module i: module + i)
+                 (:func:`~firmware_sim.mcu.module.module_serial`); None: the seed's own errors, the
+                 default serial (module i: module + i)
     stance_sway  1/0 (true/false, yes/no, on/off): the walking stances sway and vibrate as a real
                  foot's do (firmware_sim.sensors.stance_sway.StanceSway: ZARU then seldom holds while
                  walking, as on a real module); not with a replay; None (not given):
@@ -54,8 +54,7 @@ from firmware_sim.links.link import Link, make_link
 from firmware_sim.links.profiles import PROFILES
 from firmware_sim.mcu.clock import DEFAULT_RATE_HZ
 from firmware_sim.mcu.imu_bus import SensorSource
-from firmware_sim.mcu.memory import DEFAULT_MCU_SERIAL
-from firmware_sim.mcu.module import Module, ModuleConfig
+from firmware_sim.mcu.module import MAX_MODULE, Module, ModuleConfig, module_serial
 from firmware_sim.mcu.port import IdealPort, Port
 from firmware_sim.nav.firmware import build_module
 from firmware_sim.nav.profiles import profile_for
@@ -80,23 +79,6 @@ URL_OPTIONS = ("scenario", "seed", "module", "stance_sway", "link", "interface",
 _SWITCH_ON, _SWITCH_OFF = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 _NO_VALUE = object()
-
-
-#: The largest module number: its serial number has 8 digits.
-MAX_MODULE = 99_999_999
-
-
-def module_serial(module: int | None) -> bytes:
-    """The MCU serial number (state 0x04, 15 bytes) of simulated module *module*:
-    ``OSEMU-M`` and the number in 8 digits; None (no identity given): the default serial.
-
-    A host tells modules apart by it (``MCU_ID``), e.g. to refuse one module's drift
-    calibration for another (:mod:`hostlib.calibration.drift`)."""
-    if module is None:
-        return DEFAULT_MCU_SERIAL
-    if not 0 <= module <= MAX_MODULE:
-        raise ValueError(f"a module number is 0..{MAX_MODULE}, got {module}")
-    return b"OSEMU-M" + f"{module:08d}".encode()
 
 
 class EndpointError(OSError):
