@@ -55,7 +55,9 @@ def test_the_buttons_run_the_control_channels_lines_and_nothing_else():
     assert panel.act({"module": 0, "command": "reconnect"})["ok"]
     for bad in ({"module": 0, "command": "quit"}, {"module": 0, "command": "status"},
                 {"module": 2, "command": "disconnect"}, {"module": True, "command": "disconnect"},
-                {"module": 0, "command": "stall", "arg": "long"}, {"command": "disconnect"}):
+                {"module": 0, "command": "stall", "arg": "long"}, {"command": "disconnect"},
+                {"module": 0, "command": "corrupt", "arg": float("inf")},  # int(inf) was an OverflowError
+                {"module": 0, "command": "drop", "arg": [1]}):
         answer = panel.act(bad)
         assert not answer["ok"] and answer["reply"].startswith("ERR"), bad
     assert control.lines == ["@1 disconnect", "@0 stall 1.5", "@0 corrupt 20", "@0 drop 7", "@0 reconnect"]

@@ -280,7 +280,7 @@ class EmulatorPanel:
         if kind is not None:
             try:
                 value = kind(arg)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):  # int(Infinity) of a page's JSON too
                 return {"ok": False, "reply": f"ERR {command} takes a number, not {arg!r}"}
             line += f" {value:g}" if kind is float else f" {value}"
         reply = self.control.execute(line) or ""
