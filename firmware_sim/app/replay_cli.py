@@ -18,14 +18,15 @@ import argparse
 import dataclasses
 import sys
 import time
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from . import batch
 from .batch import error_text
 from .progress import progress_bar, say
-from .runs import RunSpec, file_runs, finish, load, parse_seeds, scenario_runs, summary_lines, write_csv
+
+if TYPE_CHECKING:
+    from .runs import RunSpec
 
 __all__ = ["add_arguments", "main", "replay_many"]
 
@@ -39,6 +40,8 @@ def main(args: argparse.Namespace) -> int:
         return 2
     if args.wire_dir is None:
         return batch.main(args)
+    from .runs import file_runs, parse_seeds, scenario_runs  # many runs only
+
     try:
         seeds = parse_seeds(args.seeds) if args.seeds is not None else [args.seed]
     except ValueError as e:
@@ -64,8 +67,12 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     reader and the navigation kernels release the GIL), and the first while the compiled
     tracking path is prepared.
     """
+    from concurrent.futures import ThreadPoolExecutor
+
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import RecordingFormatError
+
+    from .runs import finish, load, summary_lines, write_csv
 
     rows: list[dict[str, Any]] = []
     with ThreadPoolExecutor(1, thread_name_prefix="openshoe-reader") as reader, \
