@@ -18,11 +18,13 @@ before anything is run, with an :class:`InputFileError` (a :class:`~hostlib.erro
 The messages read ``FILE: cannot read the WHAT: reason`` and ``FILE: not a WHAT: reason``.
 
 :func:`output_refusal` says, before a run, why an output file could not be written (a directory, a
-folder that does not exist), so that a walk is never lost for a misspelt ``--csv``.
+folder that does not exist, a named pipe nothing reads from), so that a walk is never lost for a
+misspelt ``--csv``.
 """
 
 from __future__ import annotations
 
+import errno
 import json
 import os
 import select
@@ -138,6 +140,24 @@ def load_json(path: str | os.PathLike[str], what: str = "file") -> Any:
         raise InputFileError(f"{os.fspath(path)}: not a {what}: JSON nested too deep") from None
 
 
+#: Pipes named as outputs, held open for writing from the check on (:func:`output_refusal`).
+_HELD_PIPES: list[int] = []
+
+
+def _pipe_refusal(p: Path, option: str) -> str | None:
+    """Why the pipe *p* cannot be written to, or None: one nothing reads from is refused (writing
+    would wait for a reader for ever); one that has a reader is held open for writing until this
+    process ends, so that the reader sees the output's end only then, not at the check."""
+    try:
+        fd = os.open(p, os.O_WRONLY | os.O_NONBLOCK)
+    except OSError as exc:
+        if exc.errno == errno.ENXIO:
+            return f"{option} {p} is a pipe nothing reads from: start its reader first"
+        return f"{option} {p}: {_reason(exc)}"
+    _HELD_PIPES.append(fd)
+    return None
+
+
 def output_refusal(path: str | os.PathLike[str] | None, option: str) -> str | None:
     """Why the output file *path* of *option* (``--csv``) could not be written, or None (also for
     no *path*): an empty name, a directory, a folder that does not exist or is no folder. Checked
@@ -150,6 +170,8 @@ def output_refusal(path: str | os.PathLike[str] | None, option: str) -> str | No
     p = Path(name)
     if p.is_dir():
         return f"{option} {name} is a directory: name a file in it"
+    if p.is_fifo():
+        return _pipe_refusal(p, option)
     parent = p.parent
     if not parent.exists():
         return f"{option} {name}: the folder {parent} does not exist"

@@ -89,6 +89,7 @@ CASES = [
     ("replay --scenario " + SC + " --module -1 --wire {out}/w.bin", 2, "argument --module: a module number"),
     # replay: where it writes, checked before the run
     ("replay --scenario " + SC + " --wire {dir}", 2, "--wire {dir} is a directory: name a file in it"),
+    ("replay --scenario " + SC + " --wire {fifo}", 2, "--wire {fifo} is a pipe nothing reads from"),
     ("replay --scenario " + SC + " --wire {missing}.bin", 2, "--wire {missing}.bin: the folder"),
     ("replay --scenario " + SC + " --feet 2 --wire {missing}.bin", 2, "--wire {missing}.bin: the folder"),
     ("replay --scenario " + SC + " --wire-dir {garbage}", 2, "--wire-dir {garbage} is a file, not a folder"),

@@ -190,3 +190,12 @@ def test_a_named_pipe_nothing_writes_to_is_refused_in_one_line(tmp_path, capsys,
     err = capsys.readouterr().err
     assert err.splitlines()[-1].startswith("openshoe-host") and "Traceback" not in err
     assert f"{fifo}: cannot read the " in err and "a pipe nothing wrote to in 0.05 s" in err
+
+
+def test_log_to_a_named_pipe_nothing_reads_from_is_refused_before_the_port_opens(tmp_path, capsys, files):
+    """It opened the port, then waited for a reader for ever."""
+    fifo = tmp_path / "fifo"
+    os.mkfifo(fifo)
+    assert main(["log", f"socket://127.0.0.1:{files['port']}", "--raw", str(fifo)], io.StringIO()) == 2
+    said = f"openshoe-host log: --raw {fifo} is a pipe nothing reads from: start its reader first\n"
+    assert capsys.readouterr().err == said

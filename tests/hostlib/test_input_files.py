@@ -88,6 +88,26 @@ def test_an_input_larger_than_a_day_of_a_module_s_bytes_is_refused_by_its_size(t
     writer.join()
 
 
+def test_an_output_pipe_nothing_reads_from_is_refused_before_the_run(tmp_path, monkeypatch):
+    """Writing to it waited for a reader for ever (``log --raw FIFO`` after the port opened)."""
+    fifo = tmp_path / "out.pipe"
+    os.mkfifo(fifo)
+    said = f"--raw {fifo} is a pipe nothing reads from: start its reader first"
+    assert output_refusal(fifo, "--raw") == said
+    held: list[int] = []
+    monkeypatch.setattr(inputs, "_HELD_PIPES", held)
+    reader = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        assert output_refusal(fifo, "--raw") is None and len(held) == 1, "held: its reader sees no end yet"
+        with open(fifo, "wb") as w:
+            w.write(b"walk")
+        assert os.read(reader, 10) == b"walk"
+        os.close(held.pop())
+        assert os.read(reader, 10) == b"", "the end once the process lets go"
+    finally:
+        os.close(reader)
+
+
 def test_a_file_that_cannot_be_read_is_refused_with_the_systems_reason():
     with pytest.raises(InputFileError, match=r"/proc/self/mem: cannot read the capture: Input/output error"):
         read_input("/proc/self/mem", "capture")
