@@ -275,6 +275,10 @@ class TwoFeetTracker(AidedFilter):
         self._covs: list[np.ndarray] = []  # its covariance
         self._stale: list[int] = []  # 0: both feet fresh; 1: the left foot stale; 2: the right
         self._counts: list[tuple[int, int]] = []  # each foot's steps through the filter
+        # the body's pose and covariance of each recorded row, made once when first asked for (a
+        # live page asks after every step: a long walk's body is not made anew each time)
+        self._body_poses: list[np.ndarray] = []
+        self._body_covs: list[np.ndarray] = []
         self._sides: list[str] = []
         self._init_aids()
         self._record()
@@ -419,6 +423,7 @@ class TwoFeetTracker(AidedFilter):
             shift[self.filter.index(side, 3)] = turn
         self._states = [t @ s + shift for s in self._states]
         self._covs = [t @ c @ t.T for c in self._covs]
+        self._body_poses, self._body_covs = [], []
         self.filter.transform(t, shift)
         self._frame_heading += turn
 
@@ -459,9 +464,20 @@ class TwoFeetTracker(AidedFilter):
     def body(self) -> Track:
         """The fused body track: the feet's midpoint after each fused step (row 0: the start);
         while one foot is stale, the other foot."""
+        return Track.from_arrays(*self.body_poses())
+
+    def body_poses(self) -> tuple[np.ndarray, np.ndarray]:
+        """:attr:`body`'s (n + 1, 4) poses and (n + 1, 4, 4) covariances, without the track: each
+        row is made once, the first time it is asked for."""
+        rows = self._body_rows()
         with self._lock:
-            states, covs, stale = np.array(self._states), np.array(self._covs), np.array(self._stale)
-        return _body_track(states, covs, self._body_rows()[stale])
+            done = len(self._body_poses)
+            if done < len(self._states):
+                poses, covs = _body_pose_rows(np.array(self._states[done:]), np.array(self._covs[done:]),
+                                              rows[np.array(self._stale[done:])])
+                self._body_poses.extend(poses)
+                self._body_covs.extend(covs)
+            return np.array(self._body_poses), np.array(self._body_covs)
 
     @property
     def average(self) -> Track:
@@ -476,7 +492,7 @@ class TwoFeetTracker(AidedFilter):
         for side, poses, cov in zip(FOOT_SIDES, single, covs, strict=True):
             b = self.filter.slice(side)
             states[:, b], joint[:, b, b] = poses, cov
-        return _body_track(states, joint, self._body_rows()[stale])
+        return Track.from_arrays(*_body_pose_rows(states, joint, self._body_rows()[stale]))
 
     def _body_rows(self) -> np.ndarray:
         """(3, 4, n): the body pose from the joint state — the midpoint; the right foot while the
@@ -541,11 +557,10 @@ class TwoFeetTracker(AidedFilter):
                 f"{len(self.restarts)} restarts)")
 
 
-def _body_track(states: np.ndarray, covs: np.ndarray, m: np.ndarray) -> Track:
-    """The body's track from (n, k) joint states, their (n, k, k) covariances and each row's (4, k)
-    body rows *m* (:meth:`TwoFeetTracker._body_rows`)."""
-    poses = np.einsum("kij,kj->ki", m, states)
-    return Track.from_arrays(poses, m @ covs @ np.transpose(m, (0, 2, 1)))
+def _body_pose_rows(states: np.ndarray, covs: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The body's (n, 4) poses and (n, 4, 4) covariances from (n, k) joint states, their (n, k, k)
+    covariances and each row's (4, k) body rows *m* (:meth:`TwoFeetTracker._body_rows`)."""
+    return np.einsum("kij,kj->ki", m, states), m @ covs @ np.transpose(m, (0, 2, 1))
 
 
 def _time_order(steps: list[FootStep]) -> list[FootStep]:

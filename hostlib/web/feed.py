@@ -244,8 +244,7 @@ class WalkFeed:
             feet: dict[str, np.ndarray] = {}
             sides: list[str] = []
             if isinstance(tracker, TwoFeetTracker):
-                body = tracker.body
-                poses, covs = body.poses, body.covariances
+                poses, covs = tracker.body_poses()
                 feet = {side: tracker.fused_foot(side) for side in FOOT_SIDES}
                 sides = tracker.sides
             else:

@@ -25,8 +25,10 @@ class _Step:
     counter: int
 
 
-def _alternate(tracker: TwoFeetTracker, steps: list[tuple[str, np.ndarray]], dp=DP) -> None:
-    counters = {side: 0 for side in FOOT_SIDES}
+def _alternate(tracker: TwoFeetTracker, steps: list[tuple[str, np.ndarray]], dp=DP,
+               counters_from: list[tuple[str, np.ndarray]] = ()) -> None:
+    """Each foot's steps of *steps* added to *tracker*, counted on from *counters_from*'s."""
+    counters = {side: sum(1 for s, _ in counters_from if s == side) for side in FOOT_SIDES}
     for side, dx in steps:
         counters[side] += 1
         tracker.foot(side).add(_Step(np.asarray(dx, dtype=float), dp, counters[side]))
@@ -140,6 +142,20 @@ def test_body_is_the_feet_midpoint_with_its_covariance():
     assert np.allclose(tracker.body.final_covariance, m @ p @ m.T)
     assert tracker.body.poses[0] == pytest.approx([0, 0, 0, 0])  # the feet start a step width apart
     assert tracker.fused_foot("left")[0][1] == pytest.approx(-0.06)
+
+
+def test_the_body_asked_after_every_step_is_the_body_asked_once_at_the_end():
+    """A live page asks for the body after every step; each row is made once and kept, and is the
+    row a replay asking once at the end gets (a stale foot's rows included)."""
+    steps = _walk(6) + [("left", [1.5, 0.0, 0.0, 0.01])] * 4 + _walk(3)[1:]
+    live, once = TwoFeetTracker(), TwoFeetTracker()
+    for k in range(len(steps)):
+        _alternate(live, steps[:k + 1][-1:], counters_from=steps[:k])
+        poses, covs = live.body_poses()
+        assert len(poses) == len(covs) == len(live) + 1
+    _alternate(once, steps)
+    np.testing.assert_allclose(live.body.poses, once.body.poses, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(live.body.covariances, once.body.covariances, rtol=0, atol=1e-12)
 
 
 def test_a_silent_foot_does_not_pull_the_walking_one_and_the_body_follows_the_walking_foot():

@@ -112,6 +112,29 @@ def test_gps_fixes_of_the_body_turn_the_walk_onto_its_course_and_hold_it():
     assert all(tracker.foot(side).fusion.gps_updates >= 10 for side in FOOT_SIDES)  # each foot's own
 
 
+class _AskedAfterEveryStep(TwoFeetTracker):
+    """A tracker whose body a live page asks for after every fused step."""
+
+    def take(self, step) -> None:
+        super().take(step)
+        self.body_poses()
+
+
+def test_a_body_asked_after_every_step_is_turned_with_the_walk_when_gps_aligns_it():
+    times = np.arange(0.0, 60.0, 1.0)
+    fixes = np.outer(times * STRIDE / (2 * STEP_PERIOD), [0.0, 1.0])  # due east
+    bodies = []
+    for kind in (_AskedAfterEveryStep, TwoFeetTracker):
+        tracker = kind(aids=FusionSettings(gps=True))
+        tracker.add_fixes(times, fixes)
+        _walk(tracker, 40)
+        assert tracker.fusion.heading_aligned_by == "gps"
+        bodies.append(tracker.body)
+    np.testing.assert_allclose(bodies[0].poses, bodies[1].poses, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(bodies[0].covariances, bodies[1].covariances, rtol=0, atol=1e-12)
+    assert abs(bodies[0].final_pose[1]) > 10.0  # walked east, in the turned frame
+
+
 def test_gps_and_the_compass_together_learn_the_declination():
     tracker = TwoFeetTracker(aids=FusionSettings(compass=True, gps=True, declination_rad=math.radians(8.0),
                                                  compass_sigma_rad=math.radians(5.0)))
