@@ -293,6 +293,24 @@ def speed_factor(text: str) -> float:
     return value
 
 
+#: The most worker processes of a local Dask cluster (each a Python process holding the compiled
+#: kernels, some 200 MB): more belong on a real cluster (``--scheduler``).
+MAX_LOCAL_WORKERS = 64
+
+
+def worker_count(text: str) -> int:
+    """The argparse type of ``--workers``: local Dask worker processes, a whole number from 0 (the
+    runs one after the other, here) to :data:`MAX_LOCAL_WORKERS`."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= MAX_LOCAL_WORKERS:
+        raise argparse.ArgumentTypeError(f"a whole number of processes from 0 (here, one run after the "
+                                         f"other) to {MAX_LOCAL_WORKERS} (more: --scheduler), not {text!r}")
+    return value
+
+
 def load_walk(path: str | Path):
     """The :class:`~firmware_sim.sensors.replay.ReplaySource` of the recording at *path*; a file
     that cannot be read (no such file, a directory, a device, an I/O error) is an

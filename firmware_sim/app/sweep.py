@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 from . import settings as run_settings
-from .batch import MAX_RATE_HZ, rate_hz
+from .batch import MAX_RATE_HZ, rate_hz, worker_count
 from .progress import say
 from .runs import RunSpec, columns, parse_seeds, summary_lines, write_csv, write_rows
 
@@ -301,7 +301,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", type=Path, required=True, metavar="DIR",
                    help="write runs.parquet, runs.csv and closure.png here")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=2,
+    where.add_argument("--workers", type=worker_count, default=2,
                        help="local Dask worker processes, 1 thread each (default 2; 0 = serial, here)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask cluster instead")
     p.add_argument("--leave-one-out", metavar="METRIC",
@@ -325,9 +325,6 @@ def main(args: argparse.Namespace) -> int:
             raise ValueError(f"--scheduler is a Dask scheduler's tcp://HOST:PORT, not {args.scheduler!r}")
     except (OSError, ValueError) as e:
         print(f"openshoe-emu sweep: {e}", file=sys.stderr)
-        return 2
-    if args.workers < 0:
-        print("openshoe-emu sweep: --workers must be ≥ 0", file=sys.stderr)
         return 2
     try:
         rows = run_sweep(spec, workers=args.workers, scheduler=args.scheduler, quiet=args.quiet)

@@ -131,6 +131,10 @@ CASES = [
     ("sweep --scenario walk --seeds x --out {out}/s", 2, "seeds must be A:B"),
     ("sweep --scenario walk --out {garbage}", 2, "--out {garbage} is a file"),
     ("sweep --scenario walk --scheduler bogus --out {out}/s", 2, "--scheduler is a Dask scheduler's tcp://"),
+    ("sweep --scenario walk --workers 100000 --out {out}/s", 2,
+     "argument --workers: a whole number of processes from 0 (here, one run after the other) to 64 (more: "
+     "--scheduler), not '100000'"),
+    ("sweep --scenario walk --workers -1 --out {out}/s", 2, "argument --workers: a whole number of"),
 ]
 
 
@@ -138,7 +142,8 @@ def _argv(template: str, names: dict[str, str]) -> list[str]:
     argv = [word.format(**names) for word in template.split()]
     if argv[0] != "sweep":
         return [*argv, "-q"]
-    return [*argv, "-q", "--no-plot", *([] if "--scheduler" in argv else ["--workers", "0"])]
+    placed = "--scheduler" in argv or "--workers" in argv
+    return [*argv, "-q", "--no-plot", *([] if placed else ["--workers", "0"])]
 
 
 @pytest.mark.parametrize(("template", "status", "said"), CASES,
