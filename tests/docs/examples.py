@@ -19,8 +19,9 @@ How an example runs: in a folder of its own holding the fixtures (:mod:`tests.do
 with ``openshoe-emu``, ``openshoe-host``, ``openshoe-conformance`` and ``python`` resolved to the
 project's interpreter (``python -m …``), ``/tmp/`` moved into the example's folder and
 ``../shared/`` to the shared data beside the clone; ``openshoe-emu serve`` stops by itself
-(``--duration``: half a second in the foreground, 60 s in the background, where the next command waits for
-its READY line) and every background job is stopped when the block ends.
+(``--duration``: half a second in the foreground, standing still unless the block names a scenario,
+60 s in the background, where the next command waits for its READY line) and every background job is
+stopped when the block ends.
 """
 
 from __future__ import annotations
@@ -122,6 +123,11 @@ def substituted(block: Block, tmp: Path) -> str:
     return text.replace("../shared/", f"{SHARED}/")
 
 
+#: What a ``serve`` in the foreground walks when its block names no route: no host talks to it in
+#: its half second, which would not reach the default route's first step, and the default route's
+#: sensors take seconds to simulate before the READY line.
+IDLE_SCENARIO = "stand:3"
+
 _SERVE = re.compile(r"^(\s*openshoe-emu serve\b[^#&]*?)\s*(&)?\s*(#.*)?$")
 
 
@@ -140,6 +146,8 @@ def shell_script(block: Block, tmp: Path) -> str:
         command, background = m.group(1), bool(m.group(2))
         if "--duration" not in command:
             command += " --duration 60" if background else " --duration 0.5"
+        if not background and "--scenario" not in command and "--replay" not in command:
+            command += f" --scenario {IDLE_SCENARIO}"
         if background:
             served += 1
             log = f"serve{served}.out"
