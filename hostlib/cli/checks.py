@@ -1,13 +1,15 @@
 """The values the commands' options take, checked before a port opens or a capture is read: the
 argparse types of the link's and the aids' numbers, and :func:`value_refusal` for the rest — a
-walk's duration and heading, the plot's ellipses, the origin, the files a command writes — each
-refused in one line (exit status 2), so that nothing is walked or computed for a value the command
-would refuse at its end, and no output file is left half written or written for nothing."""
+walk's duration and heading, the plot's ellipses, the origin, the files a command writes, a second
+foot's capture that is the first's file again — each refused in one line (exit status 2), so that
+nothing is walked or computed for a value the command would refuse at its end, and no output file
+is left half written or written for nothing."""
 
 from __future__ import annotations
 
 import argparse
 import math
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -66,6 +68,14 @@ def port_url(text: str) -> str:
     return text
 
 
+def _same_file(a: str, b: str) -> bool:
+    """Whether the names *a* and *b* are one file (False when either is no file: refused when read)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        return False
+
+
 def value_refusal(args: argparse.Namespace) -> str | None:
     """Why a value of the options of ``track``, ``log``, ``replay`` or ``drift calibrate`` is
     refused, or None (module docstring); an option the command does not have is not looked at."""
@@ -87,6 +97,10 @@ def value_refusal(args: argparse.Namespace) -> str | None:
         refusal = output_refusal(getattr(args, dest, None), flag)
         if refusal is not None:
             return refusal
+    first, second = getattr(args, "capture", None), getattr(args, "capture2", None)
+    if first and second and _same_file(first, second):
+        return (f"{second} is {first} again: the two feet are two modules, each with a capture of its "
+                "own (one capture: give it alone)")
     directory = getattr(args, "mag_cal_dir", None)
     if directory and Path(directory).exists() and not Path(directory).is_dir():
         return f"--mag-cal-dir {directory} is not a folder: each module's calibration is kept there"

@@ -65,6 +65,8 @@ CASES = [
     ("replay /proc/self/mem --csv {out}.csv", 1, "/proc/self/mem: cannot read the capture: Input/output"),
     ("replay {garbage} --csv {out}.csv", 1, "{garbage}: no OpenShoe frame in its 1024 bytes"),
     ("replay {cap} {nope} --csv {out}.csv", 1, "{nope}: cannot read the capture"),
+    ("replay {cap} {cap} --csv {out}.csv", 2,  # it was fused as two modules, 25σ apart
+     "{cap} is {cap} again: the two feet are two modules, each with a capture of its own"),
     ("replay '' --csv {out}.csv", 1, "an empty name was given for the capture"),
     # replay: the files the aids read
     ("replay {cap} --gps {nope} --csv {out}.csv", 1, "{nope}: cannot read the GPS log: No such file"),
