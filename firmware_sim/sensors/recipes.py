@@ -36,8 +36,8 @@ from dataclasses import dataclass
 from .gait import RUNNING, WALKING, GaitParams
 from .gait_builder import GaitBuilder
 
-__all__ = ["MAX_DURATION_S", "MAX_LENGTH_M", "MAX_PIECES", "MAX_SLOPE_DEG", "PIECE_SPECS", "Arg", "Piece",
-           "PieceSpec", "RecipeError", "parse", "walk"]
+__all__ = ["MAX_DURATION_S", "MAX_LENGTH_M", "MAX_PIECES", "MAX_SLOPE_DEG", "MAX_TURN_DEG", "PIECE_SPECS",
+           "Arg", "Piece", "PieceSpec", "RecipeError", "parse", "parse_piece", "walk"]
 
 #: The longest scenario, stands included [s] (module docstring).
 MAX_DURATION_S = 1800.0
