@@ -20,7 +20,8 @@ The settings (an ``openshoe://`` URL takes those in :data:`URL_OPTIONS`)::
     link         "ideal", "bt" or "usb" (firmware_sim.links.profiles), "ideal"
     interface    "usb" or "bt"; default: "bt" for link=bt, else "usb"
     command_set  "2015" (current numbering) or "2014", "2015"
-    speed        0 = virtual time as the host waits; s > 0 = real time × s, 0
+    speed        0 = virtual time as the host waits; s > 0 = real time × s (inf: as fast as the CPU
+                 allows, in the pacer's thread), 0
     loss, corrupt   per-byte fault probabilities on both directions, 0
     stall_rate, disconnect_rate   random stalls / disconnects per second, 0
     replay       a recording (OpenShoe text or CSV) played instead of the scenario

@@ -104,6 +104,15 @@ def test_bad_urls_are_refused_clearly():
         EmulatorSettings.from_url("openshoe://?speed=-1")
 
 
+def test_speed_inf_runs_the_module_as_fast_as_possible_and_nan_is_refused():
+    with serial.serial_for_url("openshoe://?scenario=stand&link=usb&speed=inf", timeout=30) as s:
+        s.write(PING)
+        assert s.read(4) == PING_ACK
+        assert s.pacer is not None and s.pacer.speed == float("inf") and s.pacer.status().running
+    with pytest.raises(serial.SerialException, match="speed must be >= 0, got nan"):
+        serial.serial_for_url("openshoe://?speed=nan")
+
+
 def test_real_time_ping_with_speed_1():
     with serial.serial_for_url("openshoe://?scenario=stand&link=usb&speed=1", timeout=30) as s:
         s.write(PING)
