@@ -10,10 +10,11 @@ FILL_KERNEL_CACHE := from firmware_sim.app.cluster import prepare_process; prepa
 
 .PHONY: demo test lint setup clean docs
 
+# The venv is filled by uv (installed into it by pip): the same packages as pip's, in a tenth of the time.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet --upgrade pip
-	$(BIN)/pip install --quiet -e '.[dev]'
+	$(BIN)/pip install --quiet uv
+	$(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev]'
 	touch $(STAMP)
 
 setup: $(STAMP)
