@@ -17,6 +17,8 @@ PROG = "python -m lab.accuracy"
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from firmware_sim.app.batch import worker_count
+
     from . import __doc__ as doc
 
     p = argparse.ArgumentParser(prog=PROG, description=(doc or "").split("\n\n")[0])
@@ -73,7 +75,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="seconds of the walk the right foot's link is down (default 600:630)")
     for q in (w, wc, s, v, n, hs, mc, f, lp, a, d, c, ef, h):
         where = q.add_mutually_exclusive_group()
-        where.add_argument("--workers", type=int, default=2,
+        where.add_argument("--workers", type=worker_count, default=2,
                            help="local Dask worker processes, 1 thread each (default 2; 0 = here, one after "
                                 "the other)")
         where.add_argument("--scheduler", metavar="tcp://HOST:PORT",
@@ -311,9 +313,6 @@ def _true_profile(scenario: str) -> tuple[np.ndarray, np.ndarray]:
 def main(argv: Sequence[str] | None = None, out=None) -> int:
     args = build_parser().parse_args(argv)
     out = out or sys.stdout
-    if args.workers < 0:
-        print(f"{PROG}: --workers must be ≥ 0, got {args.workers}", file=sys.stderr)
-        return 2
     return {"walks": _walks, "walks-compass": _walks_compass,
             "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
             "navshoe-house": _navshoe_house, "magcal": _magcal,

@@ -14,6 +14,8 @@ PROG = "python -m lab.spread"
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from firmware_sim.app.batch import worker_count
+
     from . import __doc__ as doc
     from .experiment import POWERED_S
 
@@ -31,7 +33,7 @@ def build_parser() -> argparse.ArgumentParser:
                      help="walk the seeds with a new module each walk and with module N each walk; "
                           "print the ratio of their horizontal spreads")
     where = p.add_mutually_exclusive_group()
-    where.add_argument("--workers", type=int, default=2,
+    where.add_argument("--workers", type=worker_count, default=2,
                        help="local Dask worker processes, 1 thread each (default 2; 0 = serial, here)")
     where.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on this Dask cluster instead")
     p.add_argument("--powered-for", type=float, default=POWERED_S, metavar="SECONDS",
@@ -102,8 +104,6 @@ def main(argv: list[str] | None = None) -> int:
     try:
         seeds = _seeds(args.seeds)
         check_route(args.route)
-        if args.workers < 0:
-            raise ValueError("--workers must be ≥ 0")
         if not 0.0 <= args.powered_for < float("inf"):
             raise ValueError("--powered-for must be a number of seconds ≥ 0")
     except ValueError as e:

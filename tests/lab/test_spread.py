@@ -185,3 +185,20 @@ def test_straight_100m_ends_scatter_by_module_and_one_module_clusters():
     assert abs(fleet.length_pct.mean) <= 0.5 and abs(fleet.height_pct.mean) <= 0.5, fleet
     assert fleet.length_pct.sd >= 0.05, fleet
     assert one.horizontal_m <= 0.7 * fleet.horizontal_m, (one, fleet)
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (["--workers", "100000"],
+     "argument --workers: a whole number of processes from 0 (here, one run after the other) to 64 (more: "
+     "--scheduler), not '100000'"),
+    (["--workers", "-1"], "argument --workers: a whole number of processes from 0"),
+    (["--route", "walk:1e9"], "piece 1 'walk:1e9': the length m [m] must be > 0 and at most 2500, got 1e+09"),
+])
+def test_a_bad_route_or_worker_count_is_refused_before_a_cluster_starts(tmp_path, capsys, argv, said):
+    """--workers 100000 started a local cluster of 100000 processes; -1 was refused only after parsing."""
+    try:
+        code = main(["--seeds", "1:3", "--out", str(tmp_path / "out"), *argv])
+    except SystemExit as exc:
+        code = exc.code
+    assert code == 2 and said in capsys.readouterr().err
+    assert not (tmp_path / "out").exists()
