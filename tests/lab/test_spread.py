@@ -151,7 +151,6 @@ def test_comparing_a_module_with_the_fleet_prints_the_ratio_of_spreads(tmp_path,
     (["--route", "no_such_route"], "unknown scenario"),
     (["--route", "stand:2+nope:3"], "unknown piece"),
     (["--route", "walk:x"], "arguments must be numbers"),
-    (["--workers", "-1"], "--workers"),
     (["--powered-for", "-1"], "--powered-for must be a number of seconds ≥ 0"),
     (["--powered-for", "nan"], "--powered-for must be a number of seconds ≥ 0"),
 ])
