@@ -20,8 +20,11 @@ import numpy as np
 __all__ = ["ABS_TOL", "MAX_DIFFS", "REL_TOL", "as_text", "compare_bytes", "compare_csv", "compare_json",
            "compare_png", "compare_text"]
 
+#: Two numbers within this relative difference are the same.
 REL_TOL = 1e-9
+#: Two numbers within this absolute difference are the same (near zero, where REL_TOL is none).
 ABS_TOL = 1e-12
+#: The differences a compare_* returns at most.
 MAX_DIFFS = 5
 DROP_LINES = [re.compile(r"preparing the compiled tracking path"),
               re.compile(r"compiled tracking path ready \(")]

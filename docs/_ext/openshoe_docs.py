@@ -173,12 +173,15 @@ def _import_attr(dotted: str) -> Any:
 def canonical_name(dotted: str, documented: Any = ()) -> str | None:
     """Where the object *dotted* names is documented: ``module.qualname`` for a class or function,
     the module's name for a module, the owner class's place and the name for a member of a class
-    (a method, a property, a dataclass field), the module that defines it for data (the first of
-    *documented* names whose module holds it); None when that is *dotted* itself or not found."""
+    (a method, a property, a dataclass field; an instance attribute or an annotation: the first
+    class in the MRO where *documented* holds it), the module that defines it for data (the first
+    of *documented* names whose module holds it); None when that is *dotted* itself or not found."""
     owner, _, attr = dotted.rpartition(".")
     holder = _import_attr(owner) if owner else _MISSING
     if isinstance(holder, type):  # a member: where the class that defines it is documented
-        definer = next((k for k in holder.__mro__ if attr in vars(k)), holder)
+        definer = next((k for k in holder.__mro__ if attr in vars(k)), None) or \
+            next((k for k in holder.__mro__ if f"{k.__module__}.{k.__qualname__}.{attr}" in documented),
+                 holder)
         place = f"{definer.__module__}.{definer.__qualname__}" if definer is not holder else \
             (canonical_name(owner) or owner)
         name = f"{place}.{attr}"

@@ -67,7 +67,7 @@ class LinkFaults:
 
     ``disconnect_rate_hz``: mean disconnects per second (Poisson); after one the
     link reconnects by itself after a uniform draw from ``reconnect_s``
-    (``None``: it stays down until :meth:`Link.reconnect`).
+    (``None``: it stays down until :meth:`.Link.reconnect`).
     """
 
     to_module: DirectionFaults = field(default_factory=DirectionFaults)

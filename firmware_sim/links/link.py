@@ -79,7 +79,7 @@ class Link:
         self.seed = seed
         self.faults = faults if faults is not None else LinkFaults()
         self.connected = connected
-        self.counters = LinkCounters()
+        self.counters = LinkCounters()  #: what the link delivered, lost and corrupted, per direction
         self.now_cycles = 0
         #: The host's present in module cycles, in real time (set by the pacer); None = the
         #: module's clock (virtual time): see the module doc.

@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # pragma: no cover
     from .context import Mcu as Module
     from .interface import ExternalInterface
 
+#: A command's handler: (the module, the interface the command came on, its decoded payload, its bytes).
 Handler = Callable[["Module", "ExternalInterface", Any, bytes], None]
 HANDLERS: dict[Command, Handler] = {}
 

@@ -17,7 +17,7 @@ from typing import Protocol
 __all__ = ["COND_OUTPUT_SIZE", "ConditionalOutput"]
 
 
-class _Outputs(Protocol):
+class Outputs(Protocol):
     """An interface as the conditional output uses it."""
 
     mask: int
@@ -59,7 +59,7 @@ class ConditionalOutput:
         """What OUTPUT_ALL_OFF does: no flag, no interface, no ids."""
         self.setup(0, 0, 0, [], interrupt_count, 0)
 
-    def force(self, interfaces: Iterable[_Outputs]) -> None:
+    def force(self, interfaces: Iterable[Outputs]) -> None:
         """state_output_once_force(): output the listed states with the mode, now, on those
         of *interfaces* (the module's) that the "from" mask names."""
         mask = self.from_mask

@@ -25,6 +25,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Mcu"]
 
+#: The type of a processing function's private state (:meth:`Mcu.work`): what its factory makes.
 T = TypeVar("T")
 
 

@@ -33,6 +33,7 @@ from .memory import DEFAULT_MCU_SERIAL, StateMemory
 from .port import IdealPort, Port
 from .sequence import ProcessSequence
 
+#: The type of a processing function's private state (:meth:`Module.work`): what its factory makes.
 T = TypeVar("T")
 _U32 = 0xFFFFFFFF
 #: The largest number of a simulated module: its serial number has 8 digits.

@@ -287,7 +287,7 @@ class Trajectory:
             setattr(self, "_" + name, np.array([s[name] for s in segments], dtype=float))
         self._A = np.array([s["A"].as_array() for s in segments])
         self._B = np.array([s["B"].as_array() for s in segments])
-        self.stances = stances
+        self.stances = stances  #: each stance's start and end [s] and the foot's pose in it
         self.duration = float(self._t0[-1] + self._dur[-1])
         self._sway: SwayDraw | None = None
 

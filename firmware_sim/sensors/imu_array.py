@@ -1,4 +1,4 @@
-"""The MIMU22BT's four MPU9150s on a moving foot: a simulated :class:`SensorSource`.
+"""The MIMU22BT's four MPU9150s on a moving foot: a simulated :class:`~firmware_sim.mcu.imu_bus.SensorSource`.
 
 :class:`SimulatedSource` samples a foot trajectory (a scenario of
 :mod:`.scenarios`) at the module's loop rate and turns it into the raw

@@ -184,7 +184,7 @@ class GroundTruth:
 
     def __init__(self, kinematics: Kinematics, rate_hz: float, stance_start: np.ndarray,
                  stance_end: np.ndarray, stance_poses: np.ndarray):
-        self.kinematics = kinematics
+        self.kinematics = kinematics  #: the per-sample motion (:class:`Kinematics`)
         self.rate_hz = float(rate_hz)
         self.stance_start = stance_start
         self.stance_end = stance_end

@@ -6,10 +6,10 @@ import threading
 
 
 class PairingEvents:
-    """Mixin: :meth:`wait_paired` for other threads, :meth:`_notify` from the pacer's loop.
+    """Mixin: :meth:`wait_paired` for other threads, ``_notify()`` from the pacer's loop.
 
     The endpoint provides a ``paired`` attribute or property and calls
-    :meth:`_notify` whenever it changes.
+    ``_notify()`` whenever it changes.
     """
 
     paired: bool

@@ -105,7 +105,7 @@ _LEVEL_HEADINGS_DEG = np.arange(0.0, 360.0, 30.0)
 _COVERAGE_QUANTILE = 0.99
 #: Directions (a Fibonacci lattice) whose halves of the sphere :func:`coverage_deg` looks into:
 #: neighbours lie about 5° apart, well under the angles it tells apart.
-_HALF_SPHERES = 2000
+HALF_SPHERES = 2000
 
 
 def _fibonacci_sphere(n: int) -> np.ndarray:
@@ -119,13 +119,13 @@ def _fibonacci_sphere(n: int) -> np.ndarray:
 def coverage_deg(calibration: MagCalibration, readings: Sequence[StanceReading]) -> float:
     """How far [deg] the readings' directions about the calibration's centre (its hard iron) reach
     into the half of the sphere they reach least into: for each half (about each of
-    :data:`_HALF_SPHERES` directions d), the angle beyond its rim of the readings the 1 % farthest
+    :data:`HALF_SPHERES` directions d), the angle beyond its rim of the readings the 1 % farthest
     into it, asin(q₉₉(u·d)); the worst half. A cap of half-angle θ gives θ − 90°: negative when all
     readings lie in one half. (Taken before the soft iron, so that a fit gone wrong cannot spread
     the directions it judges.)"""
     u = np.array([r.field_board for r in readings]) - calibration.hard_iron
     u /= np.linalg.norm(u, axis=1, keepdims=True)
-    reach = np.quantile(u @ _fibonacci_sphere(_HALF_SPHERES).T, _COVERAGE_QUANTILE, axis=0)
+    reach = np.quantile(u @ _fibonacci_sphere(HALF_SPHERES).T, _COVERAGE_QUANTILE, axis=0)
     return math.degrees(math.asin(float(np.clip(reach.min(), -1.0, 1.0))))
 
 

@@ -16,7 +16,8 @@ from ..errors import QueueFullWarning
 
 __all__ = ["CLOSED", "BoundedQueue"]
 
-CLOSED = object()  # marker put in the queues on close to wake iterators
+#: The marker put in the queues on close, to wake their iterators.
+CLOSED = object()
 
 
 class BoundedQueue:

@@ -427,6 +427,7 @@ class StepTracker:
             raise ValueError("covariance must be symmetric")
         if last_counter is not None and not 0 <= int(last_counter) < COUNTER_MODULUS:
             raise ValueError(f"last_counter {last_counter} is not a uint16")
+        #: the summed track: every step's pose and covariance
         self.track = Track(pose0, cov0, None if last_counter is None else int(last_counter))
         self._last: int | None = None if last_counter is None else int(last_counter)
         self.duplicates = 0  #: steps ignored because their counter was already summed

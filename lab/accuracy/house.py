@@ -69,6 +69,8 @@ class ContinuousCompassTracker(FusionTracker):
 
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *, reading=None,
                  time_s: float = math.nan):
+        """The step as :meth:`FusionTracker.add_step` fuses it, its compass reading's σ that of one
+        magnetometer sample over √(the stance's samples): a reading per sample since the last one."""
         swing = swing_time if math.isfinite(swing_time) else 0.0
         stance_s = time_s - self._last_reset_s - swing
         samples = max(1, round(stance_s * self._mag_rate_hz)) if math.isfinite(stance_s) else 1

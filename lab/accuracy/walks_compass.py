@@ -30,13 +30,13 @@ robust spread.
 * the spread of the compass heading about the INS's (uncalibrated, and with the leave-one-out
   calibration): what one reading says about the heading;
 * the INS's heading drift over the walk as the compass sees it on the spot where the walk starts
-  and ends (:func:`_start_spot_drift_deg`): what there was for a compass to correct; and the INS's
+  and ends (:func:`start_spot_drift_deg`): what there was for a compass to correct; and the INS's
   own heading σ at the end of the plain track, which sets how much the filter lets a compass
   reading change the heading relative to the start;
 * the net turn the compass gave the heading after its first reading: the filter learns mostly the
   INS frame's heading from magnetic north, a turn of the whole track about its start, which a
   closed loop's closure does not see;
-* a control (:func:`_control_changes`): the closure's change when the readings carry no
+* a control (:func:`control_changes`): the closure's change when the readings carry no
   information on the heading's change at all, at the same σ — what the filter alone does to the
   closure while it turns the frame step by step.
 """
@@ -70,7 +70,7 @@ __all__ = ["VARIANTS", "StanceLog", "CompassWalkResult", "capture_walk", "compas
 VARIANTS = ("plain", "uncalibrated", "calibrated")
 #: Accelerometer samples averaged for the gravity while the wearer stands (32 ms at 250 Hz).
 GRAVITY_SAMPLES = 8
-#: Draws of the information-free control (:func:`_control_changes`).
+#: Draws of the information-free control (:func:`control_changes`).
 CONTROL_DRAWS = 200
 
 
@@ -154,7 +154,7 @@ def deviation_sigma(logs: Sequence[StanceLog], calibration: MagCalibration | Non
     return float(np.sqrt(np.mean(d ** 2)))
 
 
-def _field_stats(log: StanceLog) -> dict[str, float]:
+def field_stats(log: StanceLog) -> dict[str, float]:
     """Magnitude, horizontal part and inclination of the measured field at the steps a compass uses."""
     readings = [log.readings[k] for k in log.used]
     board = np.array([r.field_board for r in readings])
@@ -186,7 +186,7 @@ def _gravity_levelled(down: np.ndarray) -> np.ndarray:
         [[1.0, 0.0, 0.0], [0.0, cr, -sr], [0.0, sr, cr]])
 
 
-def _start_spot_drift_deg(log: StanceLog, acc_g: np.ndarray, rate_hz: float) -> float:
+def start_spot_drift_deg(log: StanceLog, acc_g: np.ndarray, rate_hz: float) -> float:
     """The INS's heading drift over the walk as the compass sees it on the spot where the walk starts
     and ends [deg]: INS minus compass heading while standing after the last step (median of the
     standing resets) less the same while standing before the first. Standing, the recorded gravity
@@ -214,7 +214,7 @@ def _start_spot_drift_deg(log: StanceLog, acc_g: np.ndarray, rate_hz: float) -> 
 
 class _InformationFreeTracker(FusionTracker):
     """A compass tracker whose readings say nothing about the heading's change: each is the plain
-    track's own heading after the step plus white noise (:func:`_control_changes`)."""
+    track's own heading after the step plus white noise (:func:`control_changes`)."""
 
     def __init__(self, sigma: float, headings: np.ndarray, noise: np.ndarray):
         super().__init__(FusionSettings(compass=True, compass_sigma_rad=sigma), last_counter=None)
@@ -227,7 +227,7 @@ class _InformationFreeTracker(FusionTracker):
         return wrap_angle(float(self._plain_headings[k] + self._noise[k]))
 
 
-def _control_changes(log: StanceLog, sigma: float, draws: int = CONTROL_DRAWS) -> np.ndarray:
+def control_changes(log: StanceLog, sigma: float, draws: int = CONTROL_DRAWS) -> np.ndarray:
     """The horizontal closure's change [percentage points] when the compass readings carry no
     information on the heading's change (the INS's heading plus white noise of *sigma*), one per
     draw (seeded 0, 1, …): what the filter alone does to a closed loop at that σ."""
@@ -259,10 +259,10 @@ class CompassWalkResult:
     spread_deg: dict[str, float]  #: compass variant → RMS of this walk's heading deviations
     turn_deg: dict[str, float]  #: compass variant → net heading turn after the first reading
     iron: IronFit  #: the calibration fitted on the other walks
-    field: dict[str, float]  #: the measured field (:func:`_field_stats`)
-    start_spot_drift_deg: float  #: :func:`_start_spot_drift_deg`
+    field: dict[str, float]  #: the measured field (:func:`field_stats`)
+    start_spot_drift_deg: float  #: :func:`start_spot_drift_deg`
     heading_sigma_deg: float  #: the plain track's heading σ at the end
-    control_pct: np.ndarray  #: :func:`_control_changes` at the uncalibrated σ
+    control_pct: np.ndarray  #: :func:`control_changes` at the uncalibrated σ
     tracks: dict[str, Any] = field(default_factory=dict)  #: variant → Track
 
 
@@ -307,9 +307,9 @@ def _walk_result(log: StanceLog, others: Sequence[StanceLog], control_draws: int
         log.name, float(log.track.distance), len(log.readings), int(log.moved.sum()), len(log.used),
         {k: 100.0 * t.relative_closure_error() for k, t in tracks.items()},
         {k: 100.0 * t.relative_closure_error(horizontal=False) for k, t in tracks.items()},
-        sigma, updates, spread, turn, iron, _field_stats(log), _start_spot_drift_deg(log, acc, rate),
+        sigma, updates, spread, turn, iron, field_stats(log), start_spot_drift_deg(log, acc, rate),
         math.degrees(math.sqrt(max(float(log.track.final_covariance[3, 3]), 0.0))),
-        _control_changes(log, math.radians(sigma["uncalibrated"]), control_draws), tracks)
+        control_changes(log, math.radians(sigma["uncalibrated"]), control_draws), tracks)
 
 
 def compass_walk_results(paths: Sequence[str | Path], workers: int = 2,

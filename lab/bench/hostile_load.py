@@ -202,7 +202,7 @@ class HostileConfig:
     commands: tuple[str, ...] = ()  #: only these commands (names); empty: every command of the table
 
 
-class _Conn:
+class Connection:
     """One open connection of a host: a pty fd or a TCP socket, non-blocking."""
 
     def __init__(self, kind: str, where: Any):
@@ -243,12 +243,12 @@ class _Conn:
         self.fd = -1
 
 
-class _Host:
+class Host:
     """What both kinds of host share: a connection registered in the loop's selector."""
 
     def __init__(self, name: str):
         self.name = name
-        self.conn: _Conn | None = None
+        self.conn: Connection | None = None
         self.sel: selectors.BaseSelector | None = None
         self.reading = False
         self.decoder = StreamDecoder()
@@ -310,7 +310,7 @@ class _Host:
         self._drop()
 
 
-class WellBehavedHost(_Host):
+class WellBehavedHost(Host):
     """The baseline's host on one module's pty: starts step-wise dead reckoning, acks every step."""
 
     def __init__(self, name: str, pty_path: str):
@@ -319,7 +319,7 @@ class WellBehavedHost(_Host):
         self.steps = 0
 
     def start(self, now: float) -> None:
-        self.conn = _Conn("pty", self.pty_path)
+        self.conn = Connection("pty", self.pty_path)
         self._listen(True)
         self.conn.write(START_STEPWISE)
 
@@ -333,7 +333,7 @@ class WellBehavedHost(_Host):
                 "acks": sum(self.acks.values())}
 
 
-class HostileClient(_Host):
+class HostileClient(Host):
     """One hostile host on one module (the module docstring), seeded; stops at :meth:`close`.
 
     *pty_path* and *tcp* (``(host, port)``, 127.0.0.1) are the module's endpoints on one
@@ -364,7 +364,7 @@ class HostileClient(_Host):
         if kind is None:
             kind = "tcp" if self.tcp is not None and self.rng.random() < cfg.tcp_share else "pty"
         try:
-            self.conn = _Conn(kind, self.pty_path if kind == "pty" else self.tcp)
+            self.conn = Connection(kind, self.pty_path if kind == "pty" else self.tcp)
         except OSError:
             self.counts["connect_errors"] += 1
             self._next = now + self.rng.uniform(*cfg.away_s)
@@ -451,7 +451,7 @@ class LoadLoop:
     """Drives hosts (hostile or well-behaved) in one thread until a deadline: their reads,
     their actions when due, and *tick* (e.g. sampling the serve processes) every *tick_s*."""
 
-    def __init__(self, hosts: list[_Host]):
+    def __init__(self, hosts: list[Host]):
         self.hosts = hosts
         self.sel = selectors.DefaultSelector()
         for h in hosts:

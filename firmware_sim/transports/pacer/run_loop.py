@@ -36,7 +36,7 @@ class RunOwner(Protocol):
 class RunLoop:
     """One run of *owner*'s loop (in the loop's thread, until *stop* is set or *duration_s* passed).
 
-    A pass (:meth:`_pass`) runs the controls, hands over the bytes due at hosts, runs every
+    A pass (``_pass()``) runs the controls, hands over the bytes due at hosts, runs every
     module whose frame is due, in turn, then waits (sleeps in select, or spins) for the
     next deadline, the next bytes due at a host or a host's bytes (see the package doc)."""
 
