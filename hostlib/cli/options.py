@@ -129,7 +129,12 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "default 1.5)")
     g.add_argument("--no-compass-gate", dest="compass_gate", action="store_false",
                    help="use every compass reading, however far it lies from what the filter expects "
-                        "(default: a reading beyond 3σ of its innovation is rejected and counted)")
+                        "(default: a reading beyond 3σ of its innovation, or whose field's magnitude "
+                        "or inclination is not the Earth's there, is rejected and counted)")
+    g.add_argument("--no-uncalibrated-weight", dest="uncalibrated_weight", action="store_false",
+                   help="weigh an uncalibrated compass as a calibrated one (default: without a "
+                        "calibration and without --hard-iron, its deviation gains atan(10 µT / H), the "
+                        "heading error an uncalibrated shoe's iron causes against the horizontal field H)")
     g.add_argument("--compass-deviation", type=compass_deviation_type, default=None,
                    metavar="outdoors|indoors|SIGMA_DEG,LENGTH_M",
                    help="the local magnetic deviation held as a state of the filter "
@@ -334,7 +339,8 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
     return AidOptions(
         compass=args.compass, compass_sigma_deg=args.compass_sigma,
         compass_deviation=_held(args.compass_deviation, args.no_compass_deviation),
-        compass_gate=args.compass_gate, hard_iron=args.hard_iron,
+        compass_gate=args.compass_gate, uncalibrated_weight=args.uncalibrated_weight,
+        hard_iron=args.hard_iron,
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=_held(GpsBias() if args.gps_bias else None, args.no_gps_bias),
         module_errors=_held(args.module_errors, args.no_module_errors),

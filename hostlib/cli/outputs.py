@@ -41,6 +41,8 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
         "heading not aligned (the module's initial frame)"
     return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped"
             + (f", {f.compass_rejected} rejected by the innovation gate" if f.compass_rejected else "")
+            + (f", {f.compass_field_rejected} rejected by the field check (the first: "
+               f"{f.compass_field_first})" if f.compass_field_rejected else "")
             + (f", {f.compass_refused} not finite" if f.compass_refused else "") + "), "
             f"{f.gps_updates} GPS updates ({f.gps_skipped} fixes between updates, "
             f"{f.gps_before_alignment} before alignment); {aligned}; declination "

@@ -34,9 +34,13 @@ from collections.abc import Iterable
 import numpy as np
 
 from ..aids.compass import wrap_angle
+from ..aids.field_check import level_field
+from ..calibration.magcal import MagCalibration
 from .aid_events import AidEvent, AidObserver
+from .compass_trust import disturbance_ut, field_check, weighs_uncalibrated
 from .core import StateFilter
-from .hard_iron import iron_heading
+from .gauss_markov import transition
+from .hard_iron import iron_heading, iron_heading_sigma
 from .settings import FusionSettings, FusionStats
 
 __all__ = ["AidedFilter"]
@@ -65,6 +69,13 @@ class AidedFilter(ABC):
         self._last_gps_update = -math.inf
         self._bias_time: float | None = None  # the module time b was carried to (None: not yet)
         self._aid_observers: list[AidObserver] = []
+        #: 1σ [rad] an uncalibrated compass is weighed for its unknown hard iron (0: it is not),
+        #: and the horizontal field [µT] it was worked out with (NaN: not yet)
+        self.iron_weight_rad = 0.0
+        self.iron_weight_horizontal_ut = math.nan
+        #: weighed, but no horizontal field to work the weight out with until the first reading
+        self.iron_weight_pending = False
+        self._weigh_uncalibrated(None)
 
     # -- what a tracker gives -----------------------------------------------------------
 
@@ -83,6 +94,10 @@ class AidedFilter(ABC):
     @abstractmethod
     def __len__(self) -> int:
         """The steps fused."""
+
+    def _compass_calibration(self, pose: str) -> MagCalibration | None:
+        """The magnetometer calibration the compass of block *pose* reads with."""
+        return self.aid_settings.mag_calibration
 
     # -- where the aids look ------------------------------------------------------------
 
@@ -196,9 +211,63 @@ class AidedFilter(ABC):
 
     def _walk_deviation(self, distance_m: float) -> None:
         """The local deviation d (held) after a walk of *distance_m* [m]: d ← φ d, its variance
-        φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs."""
-        phi, q = self.aid_settings.compass_deviation.transition(distance_m)
+        φ² var d + (1 − φ²) σ_d², its covariances with the rest φ times theirs (σ_d² with an
+        uncalibrated compass's weight added, :meth:`_weigh_uncalibrated`)."""
+        phi, q = transition(distance_m, self.aid_settings.compass_deviation.length_m,
+                            self._deviation_variance())
         self.filter.decay("deviation", phi, q)
+
+    def _deviation_variance(self) -> float:
+        """The local deviation's stationary variance: σ_d², plus the unknown iron's heading
+        variance while an uncalibrated compass is weighed for it."""
+        return self.aid_settings.compass_deviation.variance + self.iron_weight_rad ** 2
+
+    def _weigh_uncalibrated(self, horizontal_ut: float | None) -> None:
+        """Weigh the compass for an unknown hard iron (:mod:`hostlib.fusion.compass_trust`) when a
+        module's compass is uncalibrated and its iron not learned: its heading error's σ
+        atan(σ_b / H), H the WMM's horizontal intensity or else *horizontal_ut* (the first reading's;
+        None and no WMM: wait for that reading). Held, the local deviation starts with that variance
+        added (before any reading, it is correlated with nothing)."""
+        s = self.aid_settings
+        self.iron_weight_pending = False
+        if not (s.compass and any(weighs_uncalibrated(s, self._compass_calibration(pose))
+                                  for pose in self.pose_blocks)):
+            self.iron_weight_rad = 0.0
+            return
+        if s.magnetic_field is not None:
+            horizontal_ut = s.magnetic_field.horizontal_nt / 1000.0
+        if horizontal_ut is None:
+            self.iron_weight_pending = True
+            return
+        self.iron_weight_rad = iron_heading_sigma(s.uncalibrated_iron, horizontal_ut)
+        self.iron_weight_horizontal_ut = float(horizontal_ut)
+        if "deviation" in self.filter:
+            self.filter.decay("deviation", 0.0, self._deviation_variance())
+
+    def _compass_calibrated(self) -> None:
+        """A calibration came for the compass (:meth:`FusionTracker.release_compass
+        <hostlib.fusion.tracker.FusionTracker.release_compass>`): no more weight for an unknown
+        iron; before any reading was used, the local deviation starts again from σ_d²."""
+        weighed = self.iron_weight_rad > 0.0
+        self._weigh_uncalibrated(self.iron_weight_horizontal_ut if weighed else None)
+        if weighed and "deviation" in self.filter and self.fusion.compass_updates == 0:
+            self.filter.decay("deviation", 0.0, self._deviation_variance())
+
+    def _field_problem(self, pose: str, reading: tuple[np.ndarray, np.ndarray]) -> str | None:
+        """Why the field of *reading* (calibrated board-frame field [µT], board → navigation
+        rotation) of block *pose*'s compass is not the Earth's, or None (:func:`field_check
+        <hostlib.fusion.compass_trust.field_check>`; nothing to check it against: None)."""
+        s = self.aid_settings
+        calibration = self._compass_calibration(pose)
+        check = field_check(s, calibration)
+        if check is None:
+            return None
+        field_b, rotation = reading
+        if "hard_iron" in self.filter:
+            field_b = np.asarray(field_b, dtype=np.float64) - self.filter.mean("hard_iron")
+        horizontal = (s.magnetic_field.horizontal_nt / 1000.0 if s.magnetic_field is not None
+                      else level_field(field_b, rotation)[2])
+        return check.problem(field_b, rotation, disturbance_ut(s, calibration, horizontal))
 
     def _drift_gps_bias(self, now: float) -> None:
         """The receiver's bias b (held) carried on to module time *now* [s]: over Δt, b ← φ b, each
@@ -218,10 +287,11 @@ class AidedFilter(ABC):
     def _compass_step(self, psi: float | None, pose: str, moved: bool,
                       reading: tuple[np.ndarray, np.ndarray] | None = None) -> None:
         """A step's compass heading *psi* [rad] from magnetic north (None: no reading) measures the
-        heading of block *pose* minus D (minus d, held); *moved*: the step moved the foot. With the
-        shoe's hard iron held, *reading* (the calibrated board-frame field [µT] and the board →
-        navigation rotation) gives the heading less the iron's estimate, and the reading measures
-        the iron too (:func:`hostlib.fusion.hard_iron.iron_heading`)."""
+        heading of block *pose* minus D (minus d, held); *moved*: the step moved the foot. *reading*
+        (the calibrated board-frame field [µT] and the board → navigation rotation; None: not
+        given) must pass the field check first (:meth:`_field_problem`). With the shoe's hard iron
+        held, it gives the heading less the iron's estimate, and the reading measures the iron too
+        (:func:`hostlib.fusion.hard_iron.iron_heading`)."""
         s = self.aid_settings
         g = None
         if psi is not None and reading is not None and "hard_iron" in self.filter:
@@ -238,6 +308,14 @@ class AidedFilter(ABC):
             self.fusion.compass_skipped += 1
             self._tell("compass", "skipped", pose, psi)
             return
+        problem = None if reading is None else self._field_problem(pose, reading)
+        if problem is not None:
+            self.fusion.compass_field_rejected += 1
+            self.fusion.compass_field_first = self.fusion.compass_field_first or problem
+            self._tell("compass", "rejected", pose, psi)
+            return
+        if self.iron_weight_pending and reading is not None:
+            self._weigh_uncalibrated(level_field(*reading)[2])
         if not self._aligned:
             self._tell("compass", "aligned", pose, psi)
             self._align_by_compass(psi, pose, g)
@@ -253,7 +331,7 @@ class AidedFilter(ABC):
             innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
         else:
             innovation = wrap_angle(psi - (x[k] - x[dec]))
-        h, r = f.row(weights), s.compass_sigma_rad ** 2
+        h, r = f.row(weights), self._reading_variance()
         gate = s.compass_gate_sigmas
         if gate is not None and innovation ** 2 > gate ** 2 * (float(h @ f.P @ h) + r):
             self.fusion.compass_rejected += 1
@@ -263,6 +341,12 @@ class AidedFilter(ABC):
         f.update(h, innovation, r)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
+
+    def _reading_variance(self) -> float:
+        """A compass reading's own variance σ_c², plus an uncalibrated compass's weight when the
+        local deviation, which holds it otherwise, is not held."""
+        return self.aid_settings.compass_sigma_rad ** 2 + (
+            0.0 if "deviation" in self.filter else self.iron_weight_rad ** 2)
 
     def _align_by_compass(self, psi: float, pose: str, g: np.ndarray | None = None) -> None:
         """The first reading aligns heading *pose*: χ ← ψ + D (+ d, held), with the reading's
@@ -278,7 +362,7 @@ class AidedFilter(ABC):
         var_d = float(p[dec, dec])
         sigma = self._align_sigma_rad
         if sigma is None:
-            sigma = self.aid_settings.compass_sigma_rad
+            sigma = math.sqrt(self._reading_variance())
         k = f.index(pose, 3)
         if "deviation" in f:
             dev = f.index("deviation")

@@ -180,6 +180,8 @@ class FootStep:
     after_gap: bool  #: steps of this foot were lost just before it
     swing_time: float = math.nan  #: the step's swing time [s] (NaN: none in the packet)
     compass: float | None = None  #: heading from magnetic north at its end of stance [rad], if read
+    #: the calibrated field [µT] and the board → navigation rotation it was read with, if read
+    field: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class FootTracker(FusionTracker):
@@ -203,7 +205,7 @@ class FootTracker(FusionTracker):
         if outcome.summed and self.on_step is not None:
             self.on_step(FootStep(self.side, self.track.last_step, np.asarray(dp, dtype=np.float64), time_s,
                                   outcome is StepOutcome.SUMMED_AFTER_GAP, float(swing_time),
-                                  self.compass_heading(reading)))
+                                  self.compass_heading(reading), self.calibrated_reading(reading)))
         return outcome
 
     def __repr__(self) -> str:
@@ -300,6 +302,10 @@ class TwoFeetTracker(AidedFilter):
             raise ValueError(f"a foot is {' or '.join(FOOT_SIDES)}, not {side!r}")
         return self.left if side == "left" else self.right
 
+    def _compass_calibration(self, pose: str) -> MagCalibration | None:
+        """The calibration foot *pose*'s compass reads with (its own tracker's)."""
+        return self.foot(pose).settings.mag_calibration
+
     def add_fix(self, time_s: float, north_east) -> None:
         """Queue one GPS fix of the body, for the joint filter and each foot's own tracker."""
         self.add_body_fix(time_s, north_east)
@@ -354,7 +360,7 @@ class TwoFeetTracker(AidedFilter):
             # d walks with the body: the feet's midpoint moves half the stepping foot's step
             self._walk_deviation(0.5 * math.hypot(step.dx[0], step.dx[1]))
         if self.aids.compass:
-            self._compass_step(step.compass, step.side, is_motion_step(step.dx))
+            self._compass_step(step.compass, step.side, is_motion_step(step.dx), step.field)
         if self.aids.gps:
             self._gps_until(self._time)
         if self._since[FOOT_SIDES[1 - i]] > 1:

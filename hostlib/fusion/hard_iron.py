@@ -28,7 +28,7 @@ import numpy as np
 from ..aids.compass import compass_heading
 from .gauss_markov import require_positive
 
-__all__ = ["CALIBRATED", "UNCALIBRATED", "HardIron", "iron_heading"]
+__all__ = ["CALIBRATED", "UNCALIBRATED", "HardIron", "iron_heading", "iron_heading_sigma"]
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,16 @@ UNCALIBRATED = HardIron(10.0)
 #: What an in-situ or file calibration leaves: the ellipsoid fit's centre is good to about a
 #: microtesla (the fit's residual over a wiggle's readings).
 CALIBRATED = HardIron(1.0)
+
+
+def iron_heading_sigma(iron: HardIron, horizontal_ut: float) -> float:
+    """1σ [rad] of the heading error an unknown hard iron *iron* causes against the horizontal field
+    *horizontal_ut* [µT]: with the foot level, the iron's part across the field, σ per axis, turns
+    the field's direction by atan(σ_b / H) (an error that depends on the heading, the same while it
+    holds)."""
+    if not (math.isfinite(horizontal_ut) and horizontal_ut > 0.0):
+        return math.pi / 2.0
+    return math.atan(iron.sigma_ut / horizontal_ut)
 
 
 def iron_heading(field_board: np.ndarray, rotation: np.ndarray,

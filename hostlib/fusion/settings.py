@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+from ..aids.declination import MagneticField
 from ..calibration.magcal import MagCalibration
 from .deviation import CompassDeviation
 from .gps_bias import GpsBias
@@ -32,12 +33,22 @@ class FusionSettings:
     #: a compass reading is used only if its innovation ν lies within this many σ of what the filter
     #: expects, |ν| ≤ g √(h P hᵀ + σ_c²): a reading that far out is a disturbance the model does not
     #: hold (steel, a magnet, an uncalibrated shoe's iron turned with the foot), not a heading. 3σ
-    #: keeps 99.7 % of the readings the model describes. None: every reading is used
+    #: keeps 99.7 % of the readings the model describes. The field check takes as many σ of the
+    #: field's magnitude and inclination (:attr:`magnetic_field`). None: every reading is used
     compass_gate_sigmas: float | None = 3.0
     #: the shoe's hard iron b [µT] as three states, learned while the module walks
     #: (:mod:`hostlib.fusion.hard_iron`: :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`,
     #: :data:`~hostlib.fusion.hard_iron.CALIBRATED`; None: not held, the iron is the calibration's)
     hard_iron: HardIron | None = None
+    #: an uncompensated compass weighed for this unknown hard iron: with no :attr:`mag_calibration`
+    #: and :attr:`hard_iron` not held, the local deviation's variance (or, not held, each reading's)
+    #: gains atan(σ_b / H)² (:mod:`hostlib.fusion.compass_trust`); None: the readings weighed as if
+    #: the iron were not there
+    uncalibrated_iron: HardIron | None = None
+    #: the Earth's field where the walk is (the World Magnetic Model at the first fix or the origin):
+    #: each compass reading's magnitude and inclination are checked against it, and its horizontal
+    #: intensity is the H an uncalibrated compass is weighed by (None: not known)
+    magnetic_field: MagneticField | None = None
     #: the shoe's hard and soft iron, removed before the heading is taken
     mag_calibration: MagCalibration | None = None
     #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`add_fix`)
@@ -104,6 +115,11 @@ class FusionStats:
     compass_refused: int = 0
     #: readings rejected by the innovation gate (:attr:`FusionSettings.compass_gate_sigmas`)
     compass_rejected: int = 0
+    #: readings rejected by the field check: their magnitude or inclination is not the Earth's field
+    #: (:mod:`hostlib.fusion.compass_trust`)
+    compass_field_rejected: int = 0
+    #: why the field check rejected its first reading ("" none)
+    compass_field_first: str = ""
     gps_updates: int = 0
     gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned

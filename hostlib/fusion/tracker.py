@@ -198,6 +198,7 @@ class FusionTracker(AidedFilter, StepTracker):
         self.aid_settings = self.settings
         self._align_sigma_rad = align_sigma_rad
         self._compass_held = False
+        self._compass_calibrated()
 
     # -- input -------------------------------------------------------------------------
 
@@ -225,8 +226,8 @@ class FusionTracker(AidedFilter, StepTracker):
         if self.settings.compass and self._compass_held:
             self.fusion.compass_skipped += 1
         elif self.settings.compass:
-            iron = self.calibrated_reading(reading) if "hard_iron" in self.filter else None
-            self._compass_step(self.compass_heading(reading), "pose", is_motion_step(dxa), iron)
+            self._compass_step(self.compass_heading(reading), "pose", is_motion_step(dxa),
+                               self.calibrated_reading(reading))
         if self.settings.gps:
             self._gps_until(self._time)
         self._write_track()

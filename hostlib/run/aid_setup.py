@@ -32,10 +32,11 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from ..aids.declination import declination_deg
+from ..aids.declination import MagneticField, magnetic_field
 from ..aids.geodesy import parse_origin
 from ..aids.gps import GpsFix, NmeaStats, fix_place, fixes_of_log, local_positions, seconds_since
 from ..calibration.drift import DriftCalibration
+from ..fusion.compass_trust import field_check
 from ..fusion.deviation import INDOORS, OUTDOORS, CompassDeviation
 from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from ..fusion.module_errors import preset_name
@@ -75,6 +76,7 @@ class AidSetup:
         if s.compass:
             parts.append("every reading used (no gate)" if s.compass_gate_sigmas is None else
                          f"readings beyond {s.compass_gate_sigmas:g}σ of their innovation rejected")
+            parts += self._compass_trust()
         parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
@@ -100,6 +102,30 @@ class AidSetup:
         else:
             parts += self._off("module_errors", "module errors")
         return "; ".join(parts)
+
+    def _compass_trust(self) -> list[str]:
+        """The field check's reference, and the weight of an uncalibrated compass
+        (:mod:`hostlib.fusion.compass_trust`)."""
+        t, s = self.tracker, self.tracker.aid_settings
+        parts = []
+        calibration = t._compass_calibration(t.pose_blocks[0])
+        check = field_check(s, calibration)
+        if check is not None:
+            parts.append(f"each reading's field checked against {check.describe()}")
+        elif s.compass_gate_sigmas is not None:
+            parts.append("the readings' field not checked (no place and no calibration's field to "
+                         "check it against)")
+        if t.iron_weight_rad > 0.0 or t.iron_weight_pending:
+            iron = s.uncalibrated_iron
+            where = ("its first reading's" if s.magnetic_field is None
+                     else f"WMM: {t.iron_weight_horizontal_ut:.1f} µT")
+            what = "the local deviation's σ" if s.compass_deviation is not None else "each reading's σ"
+            weight = ("" if t.iron_weight_pending else
+                      f" = {math.degrees(t.iron_weight_rad):.1f}°")
+            parts.append(f"compass uncalibrated (no calibration, the shoe's iron not learned): weighed for "
+                         f"an unknown iron of σ {iron.sigma_ut:g} µT per axis, atan(σ / H) with H the "
+                         f"horizontal field ({where}){weight} in quadrature with {what}")
+        return parts
 
     def _why(self, name: str) -> str:
         return " by default" if self.defaulted.get(name) == "by default" else ""
@@ -161,23 +187,37 @@ def _plan(options: AidOptions, first_fix: GpsFix | None = None, feet: bool = Fal
         when = when or first_fix.date
     if first_fix is not None:
         place = fix_place(first_fix)
+    day = when or dt.date.today()
+    wmm = _field_at(place, day, strict=options.declination_deg is None)
     if options.declination_deg is not None:
         dec, source = float(options.declination_deg), "given"
-    elif place is not None:
-        day = when or dt.date.today()
-        dec = declination_deg(*place, day)
+    elif wmm is not None:
+        dec = wmm.declination_deg
         source = f"WMM at {'the first fix' if first_fix is not None else 'the origin'}, {day.isoformat()}"
     else:
         dec, source = 0.0, "none: magnetic headings"
     live_gps = options.gps_receiver is not None
     cfg = replace(base, compass=options.compass, gps=bool(fixes) or live_gps,
-                  declination_rad=math.radians(dec))
+                  declination_rad=math.radians(dec), magnetic_field=wmm)
     times, positions = [], []
     if fixes:
         assert stats is not None and stats.first_time is not None
         times = list(seconds_since(stats.first_time, fixes))
         positions = local_positions(fixes)[:, :2].tolist()
     return _Plan(cfg, times, positions, place, source, stats, options.defaulted(feet))
+
+
+def _field_at(place: tuple[float, float, float] | None, day: dt.date, strict: bool) -> MagneticField | None:
+    """The World Magnetic Model's field at *place* on *day* (None without a place; *strict*: a day
+    outside the model's lifespan is a ValueError, else None)."""
+    if place is None:
+        return None
+    try:
+        return magnetic_field(*place, day)
+    except ValueError:
+        if strict:
+            raise
+        return None
 
 
 def prepare_aids(options: AidOptions | None = None, *, last_counter: int | None = None, heading: float = 0.0,

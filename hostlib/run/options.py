@@ -67,8 +67,13 @@ class AidOptions:
     #: 1σ of one compass reading [deg] (None: 20°, the indoor deviation; with
     #: :attr:`compass_deviation`, the reading's own white error, 1.5°)
     compass_sigma_deg: float | None = None
-    #: reject a compass reading beyond 3σ of its innovation (False: use every reading)
+    #: reject a compass reading beyond 3σ of its innovation, or whose field's magnitude or
+    #: inclination is not the Earth's (:mod:`hostlib.fusion.compass_trust`; False: use every reading)
     compass_gate: bool = True
+    #: with the compass, no calibration and the iron not learned (:attr:`hard_iron` None): weigh the
+    #: compass for an uncalibrated shoe's hard iron, :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`
+    #: (:attr:`FusionSettings.uncalibrated_iron <hostlib.fusion.settings.FusionSettings.uncalibrated_iron>`)
+    uncalibrated_weight: bool = True
     #: the local magnetic deviation held as a state, or its preset's word (:meth:`CompassDeviation.parse
     #: <hostlib.fusion.deviation.CompassDeviation.parse>`: "outdoors", "indoors"); :data:`AUTO`: with the
     #: compass, outdoors' with GPS and a building's without; None: not held
@@ -192,6 +197,8 @@ class AidOptions:
             changes["compass_gate_sigmas"] = None
         if o.hard_iron is not None:
             changes["hard_iron"] = o.hard_iron
+        elif o.compass and o.uncalibrated_weight:
+            changes["uncalibrated_iron"] = UNCALIBRATED
         if o.compass_sigma_deg is not None or o.compass_deviation is not None:
             sigma = o.compass_sigma_deg
             changes.update(compass_sigma_rad=WHITE_SIGMA_RAD if sigma is None else math.radians(sigma),

@@ -224,7 +224,8 @@ def test_two_feet_fuse_each_foots_compass_and_a_live_receiver_that_is_then_pulle
     # others update)
     assert fusion_counts(text) == (9, 2)
     assert ("aids: compass σ 1.5° per step, local deviation held by default (outdoors: σ 3° over 9 m); "
-            "readings beyond 3σ of their innovation rejected; declination") in text
+            "readings beyond 3σ of their innovation rejected; each reading's field checked against ") in text
+    assert "compass uncalibrated (no calibration, the shoe's iron not learned): weighed for" in text
     assert "GPS receiver's bias held by default" in text
     assert "module errors held by default (mimu22bt)" in text
     assert "WMM at the first fix, 2026-06-01" in text, "the first fix placed the walk"

@@ -189,6 +189,7 @@ def test_each_foots_compass_teaches_its_own_modules_heading_drift():
                                               module_errors=errors))
     for side in FOOT_SIDES:
         feet.foot(side).compass_heading = lambda reading: 0.0
+        feet.foot(side).calibrated_reading = lambda reading: None  # no field to check
     counter = dict.fromkeys(FOOT_SIDES, 0)
     for k in range(1100):
         side = FOOT_SIDES[(k + 1) % 2]
