@@ -17,8 +17,9 @@ A block with ``<!-- file: NAME -->`` before it is written as NAME into every exa
 
 How an example runs: in a folder of its own holding the fixtures (:mod:`tests.docs.conftest`),
 with ``openshoe-emu``, ``openshoe-host``, ``openshoe-conformance`` and ``python`` resolved to the
-project's interpreter (``python -m …``), ``/tmp/`` moved into the example's folder and
-``../shared/`` to the shared data beside the clone; ``openshoe-emu serve`` stops by itself
+project's interpreter (``python -m …``), ``/tmp/`` moved into the example's folder,
+``../shared/`` to the shared data beside the clone and ``lab/…`` (a file of the clone, which the
+pages read from the clone's root) to the clone's; ``openshoe-emu serve`` stops by itself
 (``--duration``: half a second in the foreground, standing still unless the block names a scenario,
 60 s in the background, where the next command waits for its READY line) and every background job is
 stopped when the block ends.
@@ -113,13 +114,14 @@ def page_files() -> dict[str, str]:
 
 
 def substituted(block: Block, tmp: Path) -> str:
-    """The block's text with its substitutions, ``/tmp/`` in *tmp* and ``../shared/`` found."""
+    """The block's text with its substitutions, ``/tmp/`` in *tmp*, ``../shared/`` and ``lab/`` found."""
     text = block.text
     for old, new in block.subs:
         if old not in text:
             raise AssertionError(f"{block.name}: the substitution {old!r} matches nothing")
         text = text.replace(old, new)
     text = re.sub(r"(?<![\w.])/tmp/", f"{tmp}/", text)
+    text = re.sub(r"(?<![\w./-])lab/", f"{ROOT}/lab/", text)
     return text.replace("../shared/", f"{SHARED}/")
 
 
