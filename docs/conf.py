@@ -60,16 +60,7 @@ nitpick_ignore_regex = [
     (r"py:.*", r"(ArrayLike|Callable|Path|dict|list|tuple)(\[.*)?"),
 ]
 nitpick_ignore = [
-    ('py:attr', 'TwoFeetTracker.long_steps'),
     ('py:class', 'firmware_sim.nav.jit.F'),
-    ('py:func', '_time_order'),
-    ('py:meth', 'AidedFilter._compass_step'),
-    ('py:meth', 'AidedFilter._gps_rows'),
-    ('py:meth', 'AidedFilter._gps_until'),
-    ('py:meth', 'AidedFilter._rotate_frame'),
-    ('py:meth', 'AidedFilter._travelled'),
-    ('py:meth', 'AidedFilter._walk_deviation'),
-    ('py:meth', 'add_fix'),
 ]
 
 html_theme = "alabaster"

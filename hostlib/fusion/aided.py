@@ -7,13 +7,13 @@ aid states' process noise.
 and the aid states of :mod:`hostlib.fusion.aid_states` (``gps_bias``, ``deviation``,
 ``declination``). It addresses them by name only: :attr:`AidedFilter.pose_blocks` says which blocks
 are poses, and a tracker gives what only it knows — the point a GPS fix measures
-(:meth:`~AidedFilter._gps_rows`), how to turn its kept history with the frame
-(:meth:`~AidedFilter._rotate_frame`) and how far the measured point has travelled
-(:meth:`~AidedFilter._travelled`).
+(``_gps_rows()``), how to turn its kept history with the frame
+(``_rotate_frame()``) and how far the measured point has travelled
+(``_travelled()``).
 
-For each step a tracker calls, with the local deviation held, :meth:`~AidedFilter._walk_deviation`
-with the distance walked, then :meth:`~AidedFilter._compass_step` with the step's compass heading,
-and :meth:`~AidedFilter._gps_until` with the step's module time (which also carries the receiver's
+For each step a tracker calls, with the local deviation held, ``_walk_deviation()``
+with the distance walked, then ``_compass_step()`` with the step's compass heading,
+and ``_gps_until()`` with the step's module time (which also carries the receiver's
 bias, if held, on to it).
 
 **Aligning two headings.** The first compass reading (or the GPS course) gives one heading χ_k;

@@ -288,8 +288,8 @@ class TwoFeetTracker(AidedFilter):
         #: other foot had not stepped since this foot's previous step, or because the step was
         #: longer than twice the bound (the other foot moved meanwhile: module docstring)
         self.projections = 0
-        self.stale_steps = 0
-        self.long_steps = 0
+        self.stale_steps = 0  #: steps fused without the constraint: the other foot had not stepped
+        self.long_steps = 0  #: steps fused without the constraint: longer than twice the bound
         #: feet restarted at the other foot after a gap in their stream
         self.restarts: list[tuple[str, int]] = []  # (side, index of the joint step)
         #: steps the drift correction could not move: their packet had no swing time
@@ -324,7 +324,7 @@ class TwoFeetTracker(AidedFilter):
 
     def fuse_in_time_order(self) -> None:
         """Run the collected steps through the filter in module-time order (without T_INT_K in
-        every packet, alternately: :func:`_time_order`)."""
+        every packet, alternately: ``_time_order()``)."""
         order = _time_order(self._deferred)
         self._deferred = []
         for step in order:

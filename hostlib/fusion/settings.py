@@ -51,7 +51,7 @@ class FusionSettings:
     magnetic_field: MagneticField | None = None
     #: the shoe's hard and soft iron, removed before the heading is taken
     mag_calibration: MagCalibration | None = None
-    #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`add_fix`)
+    #: GPS updates on (fixes given with :meth:`FusionTracker.add_fixes` / :meth:`FusionTracker.add_fix`)
     gps: bool = False
     #: 1σ [m] of the receiver's horizontal error as specified (the emulator's: 3 m RMS)
     gps_receiver_sigma_m: float = 3.0
