@@ -278,6 +278,7 @@ class WalkFeed:
         aids: dict[str, Any] = {
             "compass": run.tracker.aid_settings.compass, "gps": run.tracker.aid_settings.gps,
             "compass_updates": f.compass_updates, "compass_rejected": f.compass_rejected,
+            "compass_field_rejected": f.compass_field_rejected,
             "compass_skipped": f.compass_skipped, "compass_refused": f.compass_refused,
             "gps_updates": f.gps_updates, "gps_skipped": f.gps_skipped,
             "gps_before_alignment": f.gps_before_alignment, "aligned_by": f.heading_aligned_by,

@@ -24,6 +24,7 @@ from hostlib.cli.app import build_parser
 from hostlib.cli.options import aid_options
 from hostlib.cli.outputs import fusion_line
 from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
+from hostlib.fusion.feet import FOOT_SIDES, TwoFeetTracker
 from hostlib.fusion.hard_iron import CALIBRATED, UNCALIBRATED, iron_heading_sigma
 from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.run.aid_setup import prepare_aids
@@ -210,3 +211,24 @@ def test_the_command_line_turns_the_weight_off(tmp_path):
     assert aid_options(args, None).uncalibrated_weight is False
     assert aid_options(build_parser().parse_args(["replay", str(tmp_path / "walk.bin"), "--compass"]),
                        None).uncalibrated_weight is True
+
+
+# -- two feet ------------------------------------------------------------------------------------
+
+
+def test_two_feet_weigh_an_uncalibrated_foots_compass_and_check_each_foots_field():
+    aids = _settings(uncalibrated_iron=UNCALIBRATED)
+    feet = TwoFeetTracker(aids=aids, defer=False)
+    assert feet.iron_weight_rad == pytest.approx(math.atan(10.0 / H_UT))
+    weighed = math.hypot(OUTDOORS.sigma_rad, feet.iron_weight_rad)
+    assert feet.filter.sigma("deviation") == pytest.approx(weighed)
+    both = TwoFeetTracker(aids=aids, defer=False, mag_calibrations=dict.fromkeys(FOOT_SIDES, CALIBRATION))
+    assert both.iron_weight_rad == 0.0
+    counter = dict.fromkeys(FOOT_SIDES, 0)
+    for k, scale in enumerate([1.0, 1.0, 0.7, 1.0]):
+        side = FOOT_SIDES[k % 2]
+        counter[side] += 1
+        both.foot(side).add_step([0.7, 0.0, 0.0, 0.0], DP, counter[side],
+                                 reading=StanceReading(_field(scale), np.eye(3), 3), time_s=float(k + 1))
+    assert both.fusion.compass_field_rejected == 1
+    assert both.fusion.compass_field_first.startswith("magnitude 36.3 µT")

@@ -198,3 +198,4 @@ def test_the_compass_readings_are_drawn_where_the_foot_was_used_or_rejected():
     assert heading == pytest.approx(90.0, abs=0.5)
     aids = feed.model.value("aids")
     assert aids["compass_updates"] == 7 and aids["compass_rejected"] == 1 and aids["aligned_by"] == "compass"
+    assert aids["compass_field_rejected"] == 0

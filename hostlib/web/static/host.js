@@ -181,7 +181,7 @@
     } else {
       if (a.compass) {
         rows.push(["compass used", a.compass_updates]);
-        rows.push(["compass rejected", a.compass_rejected]);
+        rows.push(["compass rejected: gate / field", `${a.compass_rejected} / ${a.compass_field_rejected}`]);
         rows.push(["compass skipped / refused", `${a.compass_skipped} / ${a.compass_refused}`]);
       }
       if (a.gps) {
