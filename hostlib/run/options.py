@@ -28,7 +28,7 @@ closure error where the three defaults alone keep it at plain's), so it is learn
 for. Not learned and not calibrated, the compass is weighed for it instead
 (:attr:`AidOptions.uncalibrated_weight`): an unknown iron of 10 µT turns a heading by up to
 atan(10 µT / H), and the local deviation's variance takes that in (:mod:`hostlib.fusion.compass_trust`;
-on NavShoe's outage loop, seeds 1–5, an uncalibrated `--gps --compass` then ends 2.48 % of the
+on NavShoe's outage loop, seeds 1–5, an uncalibrated ``--gps --compass`` then ends 2.48 % of the
 distance without GPS from its start, against 3.93 % for GPS alone and 6.27 % unweighed).
 """
 
