@@ -26,6 +26,7 @@ import pkgutil
 import re
 import sys
 import types
+import typing
 from pathlib import Path
 from typing import Any
 
@@ -234,10 +235,13 @@ class IndexedPythonDomain(PythonDomain):
 
 def resolve_reexport(app: Sphinx, env: Any, node: nodes.Element, contnode: nodes.Node) -> nodes.Node | None:
     """A Python reference Sphinx did not find: the name as the package re-exports it, resolved to
-    the definition (tried as written, then under the current module and its parents)."""
+    the definition (tried as written, then under the current module and its parents); a type
+    variable a signature names (``F`` of ``Callable[[F], F]``) is shown as its name."""
     if node.get("refdomain") != "py":
         return None
     target = node["reftarget"].lstrip(".~")
+    if isinstance(_import_attr(target), typing.TypeVar):  # a signature's type variable: its name, no link
+        return contnode
     module = node.get("py:module") or ""
     klass = node.get("py:class") or ""
     candidates = [target]
