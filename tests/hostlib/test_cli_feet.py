@@ -178,7 +178,8 @@ def test_two_captures_with_the_compass_turn_both_feet_onto_magnetic_north(captur
     assert main(["replay", captures["left"], captures["right"], "--compass", "--declination", "6"], out) == 0
     text = out.getvalue()
     assert ("aids: compass σ 1.5° per step, local deviation held by default (indoors: σ 20° over 0.5 m); "
-            "readings beyond 3σ of their innovation rejected; declination +6.00° (given); "
+            "readings beyond 3σ of their innovation rejected; the readings' field not checked") in text
+    assert ("in quadrature with the local deviation's σ; declination +6.00° (given); "
             "module errors held by default (mimu22bt)") in text
     assert "hard iron" not in text  # not by default with two feet
     updates = int(re.search(r"fusion: (\d+) compass updates", text).group(1))

@@ -119,6 +119,7 @@ def test_a_compass_teaches_the_warmup_and_the_steps_after_are_corrected():
     held, rate_only = FusionTracker(settings), FusionTracker(replace(settings, module_errors=constant))
     for t in (held, rate_only):
         t.compass_heading = lambda reading: 0.0
+        t.calibrated_reading = lambda reading: None  # no field to check
         for k in range(600):
             # the true turn over the step from t to t + 1: w ∫ (1 − e^(−t/τ)) dt
             turn = warmup * (1.0 - TAU * (math.exp(-k / TAU) - math.exp(-(k + 1) / TAU)))
