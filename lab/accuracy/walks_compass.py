@@ -268,13 +268,14 @@ class CompassWalkResult:
 
 def _compass_tracker(log: StanceLog, sigma: float, calibration: MagCalibration | None) -> FusionTracker:
     """The fusion tracker ``openshoe-host replay CAPTURE --compass --compass-sigma S [--mag-cal]
-    --no-compass-deviation --no-module-errors`` decodes *log*'s capture with (no GPS,
-    no declination; the white compass of σ S alone, the host's defaults off)."""
+    --no-compass-deviation --no-module-errors --no-uncalibrated-weight`` decodes *log*'s capture with
+    (no GPS, no declination; the white compass of σ S alone, the host's defaults off)."""
     from hostlib.files.replay import replay_session
     from hostlib.run.aid_setup import prepare_aids
 
     aids = prepare_aids(compass=True, mag_calibration=calibration, compass_deviation=None, hard_iron=None,
-                        module_errors=None, settings=FusionSettings(compass_sigma_rad=sigma))
+                        module_errors=None, uncalibrated_weight=False,
+                        settings=FusionSettings(compass_sigma_rad=sigma))
     replay_session(log.capture, tracker=aids.tracker)
     return aids.tracker
 
