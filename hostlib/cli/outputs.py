@@ -50,6 +50,9 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
             + ("" if tracker.deviation is None else
                f"; local deviation at the end {math.degrees(tracker.deviation):+.2f}° ± "
                f"{math.degrees(tracker.deviation_sigma):.2f}°")
+            + ("" if not tracker.iron_weight_rad > 0.0 else
+               f"; uncalibrated compass weighed for its iron: {math.degrees(tracker.iron_weight_rad):.1f}° "
+               f"(H {tracker.iron_weight_horizontal_ut:.1f} µT)")
             + ("" if "hard_iron" not in tracker.filter else
                "; hard iron at the end [{:+.2f}, {:+.2f}, {:+.2f}] ± [{:.2f}, {:.2f}, {:.2f}] µT".format(
                    *tracker.filter.mean("hard_iron"),

@@ -153,6 +153,8 @@ def test_the_weight_stays_through_the_walk_the_deviation_relaxes_to_it():
     assert not tracker.iron_weight_pending
     assert tracker.iron_weight_rad == pytest.approx(weight)
     assert tracker.iron_weight_horizontal_ut == pytest.approx(0.8 * H_UT)
+    assert (f"; uncalibrated compass weighed for its iron: {math.degrees(weight):.1f}° "
+            f"(H {0.8 * H_UT:.1f} µT)") in fusion_line(tracker)
     # the first reading aligned χ with d's inflated variance in it
     assert tracker.filter.sigma("pose", 3) == pytest.approx(math.sqrt(WHITE_SIGMA_RAD ** 2 + OUTDOORS.variance
                                                                       + weight ** 2))
