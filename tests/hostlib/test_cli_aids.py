@@ -16,8 +16,8 @@ from hostlib.files.export import CSV_COLUMNS, GEO_COLUMNS, read_csv
 from .loops import fusion_capture, rectangle
 
 
-def _capture(tmp_path, with_setup=True):
-    path = tmp_path / "walk.bin"
+def _capture(tmp_path, with_setup=True, name="walk.bin"):
+    path = tmp_path / name
     path.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003", with_setup=with_setup))
     return str(path)
 
@@ -122,7 +122,8 @@ def test_replay_with_the_compass_deviation_holds_it_for_one_module_or_both_feet(
     assert "compass σ 1.5° per step, local deviation held (outdoors: σ 3° over 9 m)" in text
     assert "local deviation at the end" in text
     out = io.StringIO()
-    args = ["replay", capture, capture, "--compass", "--compass-deviation", "5,10", "--compass-sigma", "2",
+    right = _capture(tmp_path, name="right.bin")  # the same walk on the other foot
+    args = ["replay", capture, right, "--compass", "--compass-deviation", "5,10", "--compass-sigma", "2",
             "--declination", "0"]
     assert main(args, out) == 0
     assert "compass σ 2° per step, local deviation held (σ 5° over 10 m)" in out.getvalue()
@@ -143,7 +144,8 @@ def test_replay_with_the_gps_bias_holds_the_receivers_error_for_one_module_or_bo
     assert "GPS receiver's bias held (σ 2.1 m per axis over τ 120 s, white σ 0.3 m; every fix used)" in text
     assert "GPS bias at the end N" in text and "0 fixes between updates" in text
     out = io.StringIO()
-    assert main(["replay", capture, capture, "--gps", nmea, "--gps-bias"], out) == 0
+    right = _capture(tmp_path, name="right.bin")
+    assert main(["replay", capture, right, "--gps", nmea, "--gps-bias"], out) == 0
     assert "GPS bias at the end N" in out.getvalue()
     assert main(["replay", capture, "--compass", "--gps-bias"], io.StringIO()) == 2
     assert "--gps-bias needs --gps" in capsys.readouterr().err

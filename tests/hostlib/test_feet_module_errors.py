@@ -308,10 +308,11 @@ def test_replay_of_two_captures_holds_each_modules_errors_and_leaves_the_body(tm
     """``replay LEFT RIGHT --module-errors`` runs: the body and both feet are where they are
     without them (``--no-module-errors``), each foot's height 1σ is its single module's, grown by the
     climb over its path, and the summary says the errors are held."""
-    capture = tmp_path / "walk.bin"
-    capture.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003"))
+    left, right = tmp_path / "left.bin", tmp_path / "right.bin"  # the same walk, on each foot
+    for capture in (left, right):
+        capture.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003"))
     plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
-    two = ["replay", str(capture), str(capture)]
+    two = ["replay", str(left), str(right)]
     assert main([*two, "--no-module-errors", "--csv", str(plain_csv)], io.StringIO()) == 0
     out = io.StringIO()
     assert main([*two, "--module-errors", "0.001,0.002", "--csv", str(held_csv)], out) == 0
