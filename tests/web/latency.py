@@ -1,7 +1,7 @@
 """How late a step appears on the walk's live page: from the moment its step packet reached the host
 (the device's step callback, in ``openshoe-host track``) to the render that drew it in the browser::
 
-    python -m tests.web.latency [--speed 1] [--seconds 40] [--feet 2]
+    python -m tests.web.latency [--speed 1] [--seconds 40] [--feet 2] [--recipe RECIPE]
 
 A served walk (with GPS, two feet by default) is tracked with ``--web``; headless Chromium keeps the
 page open; the page notes, after each render, how long ago each step packet it drew arrived
@@ -39,9 +39,11 @@ def main(argv: list[str]) -> int:
     p.add_argument("--speed", type=float, default=1.0, help="module time per wall time (default 1)")
     p.add_argument("--seconds", type=float, default=40.0, help="wall seconds measured (default 40)")
     p.add_argument("--feet", type=int, choices=(1, 2), default=2)
+    p.add_argument("--recipe", default=RECIPE, help=f"the walk (default {RECIPE}; a 10-minute one: "
+                   "stand:3+track400:2+stand:3)")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp, \
-            served(Path(tmp), feet=args.feet, speed=args.speed, recipe=RECIPE) as srv, \
+            served(Path(tmp), feet=args.feet, speed=args.speed, recipe=args.recipe) as srv, \
             tracking(module_urls(srv), gps=srv.ready["gps-pty"], duration=args.seconds + 120) as host:
         delays = asyncio.run(measure(host.url, args.seconds))
         host.stop()
