@@ -63,17 +63,21 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     recording that cannot be read, an unknown scenario: before it, nothing is written, not even
     *wire_dir*).
 
-    A reader thread loads the next run's recording while the current one runs (the compiled
-    reader and the navigation kernels release the GIL), and the first while the compiled
-    tracking path is prepared.
+    A reader thread loads the next run's recording while the current one runs (numba's compiled
+    reader and navigation kernels release the GIL: with more than one run they are used rather
+    than the ones built ahead of time, which hold it), and the first while the compiled tracking
+    path is prepared.
     """
     from concurrent.futures import ThreadPoolExecutor
 
+    from firmware_sim.nav import aot
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import RecordingFormatError
 
     from .runs import finish, load, summary_lines, write_csv
 
+    if len(runs) > 1:
+        aot.decline()
     rows: list[dict[str, Any]] = []
     with ThreadPoolExecutor(1, thread_name_prefix="openshoe-reader") as reader, \
             progress_bar(len(runs), "replay", "runs", quiet=quiet) as bar:

@@ -11,18 +11,19 @@ of READ_INERTIAL and of HEIGHT_COMPENSATION; :func:`run_loops` takes them as the
 recognises a byte array at once, a record array only after comparing its whole type: µs on every
 call).
 
-The sequences (slots 0–4 are READ_INERTIAL, PREPROC, STATDET, BIASEST, CONVCOMP in all four):
+The sequences (:mod:`~firmware_sim.nav.loop_kinds`; slots 0–4 are READ_INERTIAL, PREPROC, STATDET,
+BIASEST, CONVCOMP in all four):
 
-* :data:`TRACKING` — step-wise dead reckoning (0x34) after the alignment: STEPWISE_SYSTEM_RESET,
+* ``TRACKING`` — step-wise dead reckoning (0x34) after the alignment: STEPWISE_SYSTEM_RESET,
   MECHANIZATION, TIME_UPDATE, ZUPT_UPDATE, then STATE_OUTPUT_IF (the caller's);
-* :data:`TRACKING_HEIGHT` — the same with HEIGHT_COMPENSATION after STATE_OUTPUT_IF (slot 10).
+* ``TRACKING_HEIGHT`` — the same with HEIGHT_COMPENSATION after STATE_OUTPUT_IF (slot 10).
   In a loop in which no step ends the step output does nothing (and any output only names
   states, read when the loop transmits), so HEIGHT_COMPENSATION runs here; in the loop in which
   a step ends :func:`run_loops` returns before it, and the caller runs the output and then
-  HEIGHT_COMPENSATION (:data:`HEIGHT_AFTER_OUTPUT`), in the slots' order;
-* :data:`FULL_RATE_INS` — the ZUPT-aided INS (0x33) after the alignment: MECHANIZATION,
+  HEIGHT_COMPENSATION (``HEIGHT_AFTER_OUTPUT``), in the slots' order;
+* ``FULL_RATE_INS`` — the ZUPT-aided INS (0x33) after the alignment: MECHANIZATION,
   TIME_UPDATE, ZUPT_UPDATE;
-* :data:`ALIGNMENT` — both modes until the alignment is done: INITIAL_ALIGNMENT, then
+* ``ALIGNMENT`` — both modes until the alignment is done: INITIAL_ALIGNMENT, then
   RESTORE_PROC_SEQU_IF (the caller's).
 
 The alignment's attitude is numpy's float32 arctan2, sin and cos of the mean specific force
@@ -31,8 +32,9 @@ numba's object mode — and an object-mode block is compiled anew in every proce
 kernels from the cache (with numba's whole typing set-up: most of a cache load). So the loop
 compiles INITIAL_ALIGNMENT with the mean handed over instead: in the loop that completes the
 alignment it leaves the mean in the INS's work (``align_mean``, ``attitude_due``) and returns, and
-the caller sets QUATERNION from it with the reference (:func:`finish_alignment`) before anything
-reads it. The kernel ``ins_kernels.initial_alignment`` is the whole function.
+the caller sets QUATERNION from it with the reference
+(:func:`~firmware_sim.nav.loop_kinds.finish_alignment`) before anything reads it. The kernel
+``ins_kernels.initial_alignment`` is the whole function.
 """
 
 from __future__ import annotations
@@ -44,7 +46,7 @@ from protocol.ids import NR_IMUS
 from .frontend import FrontendWork
 from .frontend_kernels import biasest, convcomp, preproc, statdet
 from .inertial import InertialWork, latch_registers
-from .ins import HeightWork, InsWork, alignment_quaternion
+from .ins import HeightWork, InsWork
 from .ins import initial_alignment as _reference_alignment
 from .ins_kernels import (
     clear_stance,
@@ -57,19 +59,24 @@ from .ins_kernels import (
     zupt_update,
 )
 from .jit import compiled_reference, kernel
+from .loop_kinds import (
+    ALIGNMENT,
+    FULL_RATE_INS,
+    HEIGHT_AFTER_OUTPUT,
+    NO_SAMPLES,
+    TRACKING,
+    TRACKING_HEIGHT,
+    finish_alignment,
+)
 from .records import STATE_RECORD
 
-__all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "TRACKING", "TRACKING_HEIGHT",
-           "finish_alignment", "run_loops"]
+__all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "RUN_LOOPS_SIGNATURE",
+           "TRACKING", "TRACKING_HEIGHT", "finish_alignment", "run_loops"]
 
-#: The sequences the compiled loop runs: step-wise tracking (0x34), the initial alignment, the
-#: full-rate INS (0x33), and tracking with HEIGHT_COMPENSATION.
-TRACKING, ALIGNMENT, FULL_RATE_INS, TRACKING_HEIGHT = 1, 2, 3, 4
-#: Not a sequence: HEIGHT_COMPENSATION alone, of the loop of TRACKING_HEIGHT in which a step ended
-#: (the caller runs it after that loop's STATE_OUTPUT_IF).
-HEIGHT_AFTER_OUTPUT = 5
-#: An empty register block: the caller has read the loop's sample itself.
-NO_SAMPLES = np.zeros((0, NR_IMUS, 6), dtype=np.int16)
+#: The argument types every caller gives :func:`run_loops` (the loop built ahead of time takes
+#: exactly these: :mod:`firmware_sim.nav.aot`).
+RUN_LOOPS_SIGNATURE = ("int64(int64, int64, int16[:, :, ::1], int64, int64, int64, uint8[::1], uint8[::1], "
+                       "uint8[::1], uint8[::1], uint8[::1])")
 
 _latch_registers = compiled_reference(latch_registers)
 #: The work records' types (compiled code takes a dtype, not a class).
@@ -111,7 +118,7 @@ _initial_alignment = compiled_reference(_reference_alignment, alignment_quaterni
 def alignment(s, iw, hw):
     """INITIAL_ALIGNMENT (*iw*: the INS's work); sets INIT_DONE, clears HEIGHT_COMPENSATION's stance
     (*hw*) and returns True when complete, the attitude then due from the caller
-    (:func:`finish_alignment`)."""
+    (:func:`~firmware_sim.nav.loop_kinds.finish_alignment`)."""
     done = _initial_alignment(s.u_k[0:3], s.zupt[0] != 0, iw, s.position, s.velocity, s.quaternion, s.p,
                               s.theta_init, s.theta_ground)
     if done:
@@ -120,14 +127,6 @@ def alignment(s, iw, hw):
         s.init_done[0] = True
         clear_stance(hw)
     return done
-
-
-def finish_alignment(work: InsWork, quaternion: np.ndarray) -> None:
-    """After :func:`run_loops` ran the alignment: the attitude of an alignment it completed, from
-    the reference (*work*: the module's INS work, *quaternion*: its QUATERNION state)."""
-    if work.attitude_due[0]:
-        work.attitude_due[0] = False
-        quaternion[...] = alignment_quaternion(work.align_mean.copy())
 
 
 @kernel
@@ -164,9 +163,9 @@ def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work
 
     Loop i reads the registers ``imu[i]`` (READ_INERTIAL: the accelerometer one read late,
     IMU_TS the cycle counter at ``first_wake + i·period + ts_offset``); with no registers
-    (:data:`NO_SAMPLES`) the caller has read the one loop's sample. Stops after a loop in which
+    (``NO_SAMPLES``) the caller has read the one loop's sample. Stops after a loop in which
     a step ends (TRACKING, TRACKING_HEIGHT: before that loop's HEIGHT_COMPENSATION) or the
-    alignment completes (ALIGNMENT). *kind* :data:`HEIGHT_AFTER_OUTPUT` runs only that
+    alignment completes (ALIGNMENT). *kind* ``HEIGHT_AFTER_OUTPUT`` runs only that
     HEIGHT_COMPENSATION (no sample; returns 1). *memory* is the bytes of the state memory's
     arena, the work arguments the bytes of the FrontendWork, InsWork, InertialWork and
     HeightWork records (uint8 arrays; a numpy.recarray of them in plain Python).

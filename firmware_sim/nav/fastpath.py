@@ -22,15 +22,17 @@ tests/e2e/test_wire_golden.py check it).
   alignment completes, reading the sensor block directly; the clock, interrupt counter, GP_DT
   and PS_DT advance exactly as loop by loop.
 
-Selection: numba importable and ``OPENSHOE_PURE`` not 1 (:func:`available`);
-``ModuleConfig.compiled`` forces either path. numba is the optional ``fast`` extra; without it
+Selection: the loop built ahead of time there (:mod:`~firmware_sim.nav.aot`: no numba imported at
+all) or numba importable, and ``OPENSHOE_PURE`` not 1 (:func:`available`); ``ModuleConfig.compiled``
+forces either path. numba is the optional ``fast`` extra; without it (and without a built loop)
 everything runs in pure Python, unchanged.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -47,8 +49,8 @@ from protocol.ids import (
     StateId,
 )
 
-from . import frontend, inertial, ins, jit
-from .driver import (
+from . import aot, frontend, inertial, ins, kernel_sources
+from .loop_kinds import (
     ALIGNMENT,
     FULL_RATE_INS,
     HEIGHT_AFTER_OUTPUT,
@@ -56,15 +58,14 @@ from .driver import (
     TRACKING,
     TRACKING_HEIGHT,
     finish_alignment,
-    run_loops,
 )
 
 if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
 
 __all__ = ["ALIGNMENT_SLOTS", "COMPILED_PATH", "FULL_RATE_INS_SLOTS", "TRACKING_HEIGHT_SLOTS",
-           "TRACKING_SLOTS", "FastNav", "available", "disable", "numba_version", "pure_requested",
-           "reason_unavailable"]
+           "TRACKING_SLOTS", "FastNav", "ahead_of_time", "available", "disable", "numba_version",
+           "pure_requested", "reason_unavailable"]
 
 P = ProcId
 _FRONT_END = (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST,
@@ -106,18 +107,44 @@ _WRITTEN = frozenset(
     | set(range(PS_DT_BASE, PS_DT_BASE + NR_SLOTS)))
 _U32 = 0xFFFFFFFF
 
-pure_requested = jit.pure_requested
-numba_version = jit.numba_version
+pure_requested = kernel_sources.pure_requested
 _disabled = ""  #: why the compiled path was switched off in this process ("" = it was not)
 
 
+def _jit() -> Any:
+    from . import jit  # numba, when the loop was not built ahead of time
+
+    return jit
+
+
+def numba_version() -> str | None:
+    return _jit().numba_version()  # type: ignore[no-any-return]
+
+
+def _loop() -> tuple[Callable[..., int], bool]:
+    """The compiled loop — built ahead of time, else numba's — and whether it is compiled (numba's
+    loop is plain Python without numba)."""
+    built = aot.run_loops()
+    if built is not None:
+        return built, True
+    from .driver import run_loops
+
+    return run_loops, _jit().COMPILING
+
+
+def ahead_of_time() -> bool:
+    """Whether the compiled loop is the one built ahead of time (:mod:`~firmware_sim.nav.aot`)."""
+    return aot.run_loops() is not None
+
+
 def available() -> bool:
-    """Whether the compiled path can be used (numba importable, OPENSHOE_PURE not 1, not disabled)."""
-    return jit.COMPILING and not _disabled
+    """Whether the compiled path can be used (the loop built ahead of time, or numba importable;
+    OPENSHOE_PURE not 1; not disabled)."""
+    return not _disabled and not pure_requested() and (ahead_of_time() or _jit().COMPILING)
 
 
 def reason_unavailable() -> str:
-    return "" if available() else (_disabled or jit.NUMBA_ERROR)
+    return "" if available() else (_disabled or _jit().NUMBA_ERROR)
 
 
 def disable(reason: str) -> None:
@@ -176,8 +203,10 @@ class FastNav:
         self._quaternion = module.memory[StateId.QUATERNION]
         records = (module.memory.arena, frontend.frontend_work(module).record, self._ins_work.record,
                    inertial.inertial_work(module).record, ins.height_work(module).record)
+        self._run, compiled = _loop()
+        self._ahead = self._run is aot.run_loops()
         # the records' bytes (driver.run_loops); in plain Python a recarray, for their fields by name
-        as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if jit.COMPILING else (
+        as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if compiled else (
             lambda r: r.view(np.ndarray).view(np.uint8).view(np.recarray))
         self._records = tuple(as_bytes(r) for r in records)
         self._sequences = {seq.kind: seq for seq in SEQUENCES}
@@ -188,8 +217,10 @@ class FastNav:
 
     def load(self) -> None:
         """Have the compiled loop ready for the arguments this module calls it with — loaded from
-        numba's cache, or compiled — without running a loop (:mod:`firmware_sim.nav.warmup`)."""
-        jit.load(run_loops, ALIGNMENT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
+        numba's cache, or compiled — without running a loop (:mod:`firmware_sim.nav.warmup`); the
+        loop built ahead of time is ready as it is."""
+        if not self._ahead:
+            _jit().load(self._run, ALIGNMENT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
 
     # -------------------------------------------------------------- eligibility
     @staticmethod
@@ -228,7 +259,7 @@ class FastNav:
         # slot 0 in Python: any sensor source, exhaustion, temperature and magnetometer
         inertial.read_inertial(module)
         clock.spend(timing.read)
-        run_loops(kind, 1, NO_SAMPLES, 0, 0, 0, *self._records)
+        self._run(kind, 1, NO_SAMPLES, 0, 0, 0, *self._records)
         if kind == ALIGNMENT:
             finish_alignment(self._ins_work, self._quaternion)
         clock.spend(timing.numeric)
@@ -244,7 +275,7 @@ class FastNav:
         """The numeric slots after the tail, in a loop that ends a run (a step's end): the driver
         returned before them, so that they run after the tail, as the slots' order has it."""
         if seq.after_tail and seq.ends_with is not None and module.memory.flag(seq.ends_with):
-            run_loops(HEIGHT_AFTER_OUTPUT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
+            self._run(HEIGHT_AFTER_OUTPUT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
 
     # ------------------------------------------------------------------ quiet runs
     def quiet_ticks(self, module: Module, max_ticks: int) -> int:
@@ -325,11 +356,14 @@ class FastNav:
         imu = imu_block(module.sensors, start, max_ticks)
         if imu is None:
             return 0
+        # the loop takes C-ordered registers (its one signature; the one built ahead of time reads
+        # them so): a source's view in another order is copied
+        imu = np.ascontiguousarray(imu)
         c = module.costs
         period = clock.cycles_per_tick
         first = clock.now_cycles + clock.cycles_until_next_tick()
         ts_offset = c.loop_overhead + 2 * c.rx_poll
-        done = run_loops(kind, len(imu), imu, first, period, ts_offset, *self._records)
+        done = self._run(kind, len(imu), imu, first, period, ts_offset, *self._records)
         if kind == ALIGNMENT:
             finish_alignment(self._ins_work, self._quaternion)
         last = module.account_loops(done, ts_offset + timing.total)

@@ -25,26 +25,17 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import hashlib
-import os
 import types
 from collections.abc import Callable, Iterator
-from pathlib import Path
 from typing import Any, TypeVar
 
-import firmware_sim.mcu.memory
-import protocol.ids
-import protocol.states
+from .kernel_sources import SOURCES, pure_requested
+from .kernel_sources import sources_stamp as _sources_stamp
 
 __all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compilations", "compiled_reference", "kernel",
            "load", "load_cached", "numba_version", "objmode", "plain", "pure_requested"]
 
 F = TypeVar("F", bound=Callable[..., Any])
-
-
-def pure_requested() -> bool:
-    """Whether the user asked for the pure-Python path (``OPENSHOE_PURE=1``)."""
-    return os.environ.get("OPENSHOE_PURE", "") == "1"
 
 
 try:  # numba is optional (the `fast` extra)
@@ -65,25 +56,8 @@ except ImportError as _e:  # pragma: no cover - depends on the environment
 #: Whether :func:`kernel` compiles in this process.
 COMPILING = numba is not None
 
-_HERE = Path(__file__).resolve().parent
-#: The sources whose contents stamp every cached kernel: the navigation package (kernels,
-#: reference functions, constants), the ids it sizes its arrays by, and the state table and
-#: memory that lay out the state record the kernels read (records.STATE_RECORD: a new state
-#: moves the others).
-SOURCES = (*sorted(_HERE.glob("*.py")),
-           *(Path(m.__file__).resolve() for m in (protocol.ids, protocol.states, firmware_sim.mcu.memory)))
-
-
 def numba_version() -> str | None:
     return None if numba is None else numba.__version__
-
-
-@functools.cache
-def _sources_stamp() -> bytes:
-    digest = hashlib.sha256()
-    for path in SOURCES:
-        digest.update(path.read_bytes())
-    return digest.digest()
 
 
 #: Each kernel's plain-Python function (for :func:`plain`).

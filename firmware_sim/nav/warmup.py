@@ -10,11 +10,13 @@ demo, the benchmarks — calls
 :func:`prepare_module` first, so no host ever waits on a compile for a command
 ack.
 
-Preparing loads the compiled loop (:func:`firmware_sim.nav.driver.run_loops`,
-every kernel compiled into it) for the argument types every module calls it
-with, those of a scratch module's records, without running a loop: from the
-cache that is numba's runtime and one library, no typing. It happens once per
-process. While it takes longer than a moment, *announce* is
+Preparing finds the compiled loop built ahead of time (:mod:`firmware_sim.nav.aot`:
+ready at once, no numba); else it loads numba's loop
+(:func:`firmware_sim.nav.driver.run_loops`, every kernel compiled into it) for
+the argument types every module calls it with, those of a scratch module's
+records, without running a loop (from the cache that is numba's runtime and one
+library, no typing), and then builds the loop ahead of time for the next
+processes. It happens once per process. While it takes longer than a moment, *announce* is
 told why the first start is slower. If the compiled path cannot be had (numba
 missing, or a compile that fails), modules fall back to the pure-Python
 reference — the same bytes, slower — and *announce* is told that too, once.
@@ -31,7 +33,7 @@ from dataclasses import dataclass
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav.firmware import build_module
 
-from . import fastpath
+from . import aot, fastpath
 
 __all__ = ["FIRST_RUN_NOTICE", "CompiledPath", "prepare_compiled_path", "prepare_module", "to_stderr"]
 
@@ -70,6 +72,7 @@ _fallback_said = False
 
 def _warm_up() -> None:
     fastpath.FastNav(build_module(ModuleConfig(compiled=True))).load()
+    aot.build()  # for the next processes (nothing when built)
 
 
 def prepare_compiled_path(announce: Announce | None = to_stderr,

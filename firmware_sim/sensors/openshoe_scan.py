@@ -24,30 +24,47 @@ refuses, and never gives a different number:
   numbers (more than 15–16 significant digits, huge exponents) send the file to the exact parser.
 
 Without numba (or with ``OPENSHOE_PURE=1``) :data:`AVAILABLE` is false and the caller uses the
-exact parser only.
+exact parser only. numba is imported on the first scan, not before; and the reader built ahead of
+time (:func:`build`: numba's ahead-of-time compiler, once, named by the digest of this file, beside
+numba's cache) is used without numba at all when it is there (``OPENSHOE_AOT=0`` turns it off).
 """
 
 from __future__ import annotations
 
+import hashlib
+import importlib.util
 import math
 import os
+import tempfile
+import warnings
+from collections.abc import Callable
+from importlib.machinery import EXTENSION_SUFFIXES
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "scan_rows", "warm_up"]
+__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "build", "built_path", "decline_built", "scan_rows", "warm_up"]
 
-try:  # numba is optional (the `fast` extra)
-    if os.environ.get("OPENSHOE_PURE", "") == "1":
-        raise ImportError("OPENSHOE_PURE=1")
-    import numba
 
-    if numba.config.DISABLE_JIT:
-        raise ImportError("NUMBA_DISABLE_JIT=1")
-except ImportError:  # pragma: no cover - depends on the environment
-    numba = None
+def built_path() -> Path:
+    """Where the reader built ahead of time from this file is (or would be): beside numba's cache
+    (``NUMBA_CACHE_DIR``, else this package's ``__pycache__``), named by this file's digest."""
+    here = Path(__file__).resolve()
+    cache = os.environ.get("NUMBA_CACHE_DIR", "")
+    stamp = hashlib.sha256(here.read_bytes()).hexdigest()[:24]
+    folder = Path(cache) if cache else here.parent / "__pycache__"
+    return folder / f"openshoe_scan_{stamp}{EXTENSION_SUFFIXES[0]}"
 
-#: Whether the compiled reader is used (otherwise :func:`scan_rows` always returns None).
-AVAILABLE = numba is not None
+
+def _wanted() -> bool:
+    return os.environ.get("OPENSHOE_PURE", "") != "1" and os.environ.get("NUMBA_DISABLE_JIT", "") in ("", "0")
+
+
+#: Whether the compiled reader is used (otherwise :func:`scan_rows` always returns None): the
+#: reader built ahead of time, or numba (the optional `fast` extra).
+AVAILABLE = _wanted() and (os.environ.get("OPENSHOE_AOT", "") != "0" and built_path().is_file()
+                           or importlib.util.find_spec("numba") is not None)
 
 HEX, NUM, UINT, NUM_OR_NAN = 0, 1, 2, 3
 #: The 17 columns of a row, by kind (see the grammar in firmware_sim.sensors.replay).
@@ -215,27 +232,103 @@ def _scan(buf: np.ndarray, start: int, end: int, columns: np.ndarray, kept: np.n
     return row, OK
 
 
-if numba is not None:
-    _options = {"cache": True, "nogil": True, "error_model": "numpy"}
-    # the helpers are inlined into the one compiled function (a call per byte costs more than the byte)
-    for _name in ("_is_blank", "_ends_field", "_is_digit", "_is_hex", "_scan_hex", "_scan_digits",
-                  "_scan_exponent", "_scan_number", "_scan_field", "_scan_line"):
-        globals()[_name] = numba.njit(inline="always", **_options)(globals()[_name])
-    _scan = numba.njit(**_options)(_scan)
+_reader: list[Callable[..., tuple[int, int]] | None] = []  #: the compiled reader once found (one element)
 
-    from numba.core import caching
-    from numba.core.runtime import rtsys
 
-    class _QuickLoadCache(caching.FunctionCache):
+def _compiled() -> Callable[..., tuple[int, int]] | None:
+    """The compiled :func:`_scan`: the reader built ahead of time, else numba's (from its cache
+    or compiled on first use), else None. Found once per process."""
+    if not _reader:
+        _reader.append(_built() or _numba_scan() if AVAILABLE else None)
+    return _reader[0]
+
+
+def decline_built() -> None:
+    """Read with numba's reader in this process (it releases the GIL, the built one holds it), when
+    numba is there."""
+    scan = _numba_scan() if AVAILABLE else None
+    if scan is not None:
+        _reader[:] = [scan]
+
+
+def _built() -> Callable[..., tuple[int, int]] | None:
+    path = built_path()
+    if os.environ.get("OPENSHOE_AOT", "") == "0" or not path.is_file():
+        return None
+    try:
+        spec = importlib.util.spec_from_file_location(path.name.split(".")[0], path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module.scan  # type: ignore[no-any-return]
+    except Exception:  # noqa: BLE001 - an unusable file: numba's reader instead
+        return None
+
+
+def _numba_scan() -> Callable[..., tuple[int, int]] | None:
+    """:func:`_scan` compiled with numba (its helpers inlined: a call per byte costs more than the
+    byte); None without numba."""
+    global _scan
+    try:
+        import numba
+        from numba.core import caching
+        from numba.core.runtime import rtsys
+    except ImportError:  # pragma: no cover - depends on the environment
+        return None
+    if hasattr(_scan, "py_func"):
+        return _scan
+    options = {"cache": True, "nogil": True, "error_model": "numpy"}
+    for name in ("_is_blank", "_ends_field", "_is_digit", "_is_hex", "_scan_hex", "_scan_digits",
+                 "_scan_exponent", "_scan_number", "_scan_field", "_scan_line"):
+        globals()[name] = numba.njit(inline="always", **options)(globals()[name])
+    _scan = numba.njit(**options)(_scan)
+
+    class QuickLoadCache(caching.FunctionCache):
         """numba's cache of the reader, loading it with only numba's runtime started: not the typing
         and lowering registries numba's own load refreshes first, which only a compile needs (and
         sets up itself) — most of a cache load (as the navigation kernels', firmware_sim.nav.jit)."""
 
-        def load_overload(self, sig, target_context):  # type: ignore[no-untyped-def]
+        def load_overload(self, sig: Any, target_context: Any) -> Any:
             rtsys.initialize(target_context)
             return self._load_overload(sig, target_context)
 
-    _scan._cache = _QuickLoadCache(_scan.py_func)
+    _scan._cache = QuickLoadCache(_scan.py_func)
+    return _scan
+
+
+def build() -> bool:
+    """Build the reader ahead of time for this file unless it is there or failed before (remembered
+    beside it); whether it is there now. Needs numba (its ``pycc``) and a C compiler; seconds."""
+    path = built_path()
+    failed = path.with_suffix(".failed")
+    if path.is_file() or failed.is_file() or not _wanted() or os.environ.get("OPENSHOE_AOT", "") == "0":
+        return path.is_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".openshoe-aot-") as tmp, \
+                warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # pycc's pending deprecation
+            from numba import types
+            from numba.pycc import CC
+
+            scan = _numba_scan()
+            assert scan is not None, "numba is needed to build the reader"
+            cc: Any = CC(path.name.split(".")[0])
+            cc.output_dir = tmp
+            cc.verbose = False
+            i8 = types.Array(types.int8, 1, "C")
+            cc.export("scan", types.UniTuple(types.int64, 2)(
+                types.Array(types.uint8, 1, "C", readonly=True), types.int64, types.int64, i8, i8,
+                types.Array(types.float64, 2, "C")))(scan.py_func)
+            cc.compile()
+            os.replace(Path(tmp) / path.name, path)  # whole, or not at all, for the processes beside
+    except Exception as exc:  # noqa: BLE001 - no C compiler, no pycc …: numba's reader stays
+        try:
+            failed.write_text(f"{type(exc).__name__}: {exc}\n")
+        except OSError:
+            pass
+        return False
+    return True
 
 
 def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:
@@ -244,11 +337,12 @@ def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:
 
     ``data[start:end]`` must be whole lines, the last one ended by a line feed.
     """
-    if not AVAILABLE or end <= start or data[end - 1] != 10:
+    scan = _compiled() if AVAILABLE and end > start and data[end - 1] == 10 else None
+    if scan is None:
         return None
     buf = np.frombuffer(data, dtype=np.uint8)
     out = np.empty(((end - start) // MIN_ROW_BYTES + 1, N_KEPT))  # room for every possible row
-    rows, status = _scan(buf, start, end, COLUMNS, KEPT, out)
+    rows, status = scan(buf, start, end, COLUMNS, KEPT, out)
     if status != OK:
         return None
     return out[:rows]

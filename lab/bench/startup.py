@@ -5,10 +5,10 @@ Every figure is the median wall time of ``--repeats`` (7) fresh processes, the k
 (``python -c pass``):
 
 * ``openshoe-emu --help`` and ``openshoe-host --help`` — the command lines themselves;
-* the imports of a batch replay (``import firmware_sim.app.replay_cli``, and numba, which a
-  replay's compiled path needs);
+* the imports of a batch replay (``import firmware_sim.app.replay_cli``), and numba's, which a
+  replay needs only when its loop was not built ahead of time (:mod:`firmware_sim.nav.aot`);
 * the compiled path's preparation in a fresh process (:func:`firmware_sim.nav.warmup.prepare_compiled_path`:
-  the tracking kernels loaded from numba's cache), timed inside it;
+  the loop built ahead of time found, or the kernels loaded from numba's cache), timed inside it;
 * one walk: ``openshoe-emu replay WALK --wire OUT -q`` of the first shared walk (a scenario when
   there is none), start-up included — the figure, against 0.3 s.
 
@@ -33,9 +33,9 @@ __all__ = ["STARTUP_TARGET_S", "bench_startup"]
 
 #: One walk in a fresh process, start-up included [s].
 STARTUP_TARGET_S = 0.3
-#: The preparation's seconds, printed by a fresh process.
-_PREPARE = ("from firmware_sim.nav.warmup import prepare_compiled_path; "
-            "found = prepare_compiled_path(None); print(found.compiled, found.seconds)")
+#: The preparation's result and seconds, and whether the loop was built ahead of time, from a fresh process.
+_PREPARE = ("from firmware_sim.nav import fastpath, warmup; found = warmup.prepare_compiled_path(None); "
+            "print(found.compiled, found.seconds, fastpath.ahead_of_time())")
 
 
 def _commands(walk: list[str], out: Path) -> dict[str, list[str]]:
@@ -67,18 +67,20 @@ def bench_startup(repeats: int, say: Callable[[str], None], walks_dir: Path | No
             f"{' '.join(walk)}")
         walls: dict[str, list[float]] = {name: [] for name in commands}
         prepare: list[float] = []
-        compiled = True
+        compiled = ahead = True
         for _ in range(repeats):
             for name, cmd in commands.items():
                 walls[name].append(_wall(cmd)[0])
             printed = _wall([sys.executable, "-c", _PREPARE])[1].split()
             compiled = compiled and printed[0] == "True"
+            ahead = ahead and printed[2] == "True"
             prepare.append(float(printed[1]))
     median = {name: statistics.median(w) for name, w in walls.items()}
     median["prepare_in_process"] = statistics.median(prepare)
     base = median["python"]
     # without written bytecode (PYTHONDONTWRITEBYTECODE) every process compiles the sources it imports
     details: dict[str, Any] = {"repeats": repeats, "walk": " ".join(walk), "compiled_path": compiled,
+                               "ahead_of_time": ahead,
                                "bytecode_written": not sys.dont_write_bytecode}
     for name, seconds in median.items():
         details[f"{name}_s"] = round(seconds, 4)

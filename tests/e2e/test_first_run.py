@@ -35,10 +35,12 @@ SHORT_WALK = "stand:3+walk:6+stand:2"
 def cold_env(tmp_path) -> dict[str, str]:
     """This environment with an empty numba cache (as in a fresh clone), numba optimizing least
     (``NUMBA_OPT=0``): the compile takes half the CPU and still lasts many times an ack timeout,
-    which is what these tests need; ``make test`` fills the cache with the full compile first."""
+    which is what these tests need; ``make test`` fills the cache with the full compile first.
+    Nothing is built ahead of time (``OPENSHOE_AOT=0``): that build, after the compile and before the
+    clock as well, would only double each test's CPU (tests/nav/test_aot.py checks it)."""
     cache = tmp_path / "numba-cache"
     cache.mkdir()
-    return {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NUMBA_OPT": "0"}
+    return {**os.environ, "NUMBA_CACHE_DIR": str(cache), "NUMBA_OPT": "0", "OPENSHOE_AOT": "0"}
 
 
 def expect_notice(text: str) -> None:

@@ -1,0 +1,125 @@
+"""The compiled loop built ahead of time: an extension module that runs without numba.
+
+Importing numba and loading the compiled loop (:func:`firmware_sim.nav.driver.run_loops`) from
+its cache take most of a fresh process's start: about 0.15 s and 0.1 s of a 0.5 s replay. So the
+preparation that compiles or loads the loop with numba (:mod:`firmware_sim.nav.warmup`) also
+builds it once with numba's ahead-of-time compiler (``numba.pycc``), for the argument types every
+caller gives it (:data:`~firmware_sim.nav.driver.RUN_LOOPS_SIGNATURE`): the same kernels, an
+extension module of its own (about 7 s, once). Later processes import that module in well under
+a millisecond and never import numba (:func:`run_loops`); tests check its bytes against numba's
+loop.
+
+The module lives beside numba's cache (``NUMBA_CACHE_DIR`` when set, else the ``__pycache__``
+of this package) and is named by the digest of the kernels' sources
+(:func:`~firmware_sim.nav.kernel_sources.sources_stamp`): an edit of any of them names another
+module, which the next preparation builds. A build that fails (no C compiler, a numba without
+``pycc``) is remembered beside it and not tried again for those sources; the loop then stays
+numba's. ``OPENSHOE_AOT=0`` turns the built loop off, and so does ``OPENSHOE_PURE=1``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import os
+import tempfile
+import warnings
+from collections.abc import Callable
+from importlib.machinery import EXTENSION_SUFFIXES
+from pathlib import Path
+from typing import Any
+
+from firmware_sim.sensors import openshoe_scan
+
+from .kernel_sources import pure_requested, sources_stamp
+
+__all__ = ["build", "decline", "module_path", "run_loops", "wanted"]
+
+_HERE = Path(__file__).resolve().parent
+_loaded: list[Callable[..., int] | None] = []  #: the loop once looked for (one element)
+
+
+def wanted() -> bool:
+    """Whether the loop built ahead of time may be used (neither ``OPENSHOE_AOT=0`` nor
+    ``OPENSHOE_PURE=1``)."""
+    return os.environ.get("OPENSHOE_AOT", "") != "0" and not pure_requested()
+
+
+def _name() -> str:
+    return f"openshoe_loop_{sources_stamp().hex()[:24]}"
+
+
+def module_path() -> Path:
+    """Where the module built from the present sources is (or would be)."""
+    cache = os.environ.get("NUMBA_CACHE_DIR", "")
+    folder = Path(cache) if cache else _HERE / "__pycache__"
+    return folder / (_name() + EXTENSION_SUFFIXES[0])
+
+
+def run_loops() -> Callable[..., int] | None:
+    """The built loop (the arguments and result of :func:`firmware_sim.nav.driver.run_loops`,
+    without numba), or None when there is none for the present sources or it is not wanted.
+    Looked for once per process."""
+    if not _loaded:
+        _loaded.append(_import() if wanted() else None)
+    return _loaded[0]
+
+
+def decline() -> None:
+    """Run numba's loop and walk reader in this process, not the ones built ahead of time, when
+    numba is there: numba's release the GIL while they run, so a reader thread overlaps the runs of
+    a long batch (the built ones hold it). Call before the first module is made."""
+    if importlib.util.find_spec("numba") is not None:
+        _loaded[:] = [None]
+        openshoe_scan.decline_built()
+
+
+def _import() -> Callable[..., int] | None:
+    path = module_path()
+    if not path.is_file():
+        return None
+    try:
+        spec = importlib.util.spec_from_file_location(_name(), path)
+        assert spec is not None and spec.loader is not None
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        return module.run_loops  # type: ignore[no-any-return]
+    except Exception:  # noqa: BLE001 - an unusable file: numba's loop instead
+        return None
+
+
+def build() -> bool:
+    """Build the loop for the present sources unless it is there, unwanted, or failed before, and
+    the walk reader likewise (:func:`firmware_sim.sensors.openshoe_scan.build`); whether the loop
+    is there now. Needs numba (its ``pycc``) and a C compiler; takes seconds."""
+    openshoe_scan.build()
+    path = module_path()
+    failed = path.with_suffix(".failed")
+    if not wanted() or path.is_file() or failed.is_file():
+        return path.is_file()
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".openshoe-aot-") as tmp:
+            _compile(Path(tmp))
+            os.replace(Path(tmp) / path.name, path)  # whole, or not at all, for the processes beside
+    except Exception as exc:  # noqa: BLE001 - no C compiler, no pycc …: numba's loop stays
+        try:
+            failed.write_text(f"{type(exc).__name__}: {exc}\n")
+        except OSError:
+            pass
+        return False
+    return True
+
+
+def _compile(folder: Path) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pycc's pending deprecation
+        from numba.pycc import CC
+
+        from .driver import RUN_LOOPS_SIGNATURE
+        from .driver import run_loops as loop
+
+        cc: Any = CC(_name())
+        cc.output_dir = str(folder)
+        cc.verbose = False
+        cc.export("run_loops", RUN_LOOPS_SIGNATURE)(getattr(loop, "py_func", loop))
+        cc.compile()

@@ -1,0 +1,55 @@
+"""The loop and the walk reader built ahead of time (no numba when they run) give exactly what
+numba's give: the wire bytes and every state, and every number of a walk file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from firmware_sim.app.batch import run_replay
+from firmware_sim.nav import aot, jit
+from firmware_sim.sensors import openshoe_scan
+from firmware_sim.sensors.imu_array import make_source
+
+pytestmark = pytest.mark.skipif(not jit.COMPILING or not aot.wanted(),
+                                reason="building ahead of time needs numba (and OPENSHOE_AOT not 0)")
+
+WALK = Path(__file__).resolve().parents[3] / "shared" / "data" / "openshoe-walks" / "walk_100521_2.txt"
+
+
+def replay_with(monkeypatch, loop, **options):
+    """A short walk replayed with *loop* as the compiled loop (None: numba's): its bytes and states."""
+    monkeypatch.setattr(aot, "_loaded", [loop])
+    data = run_replay(make_source("stand:3+walk:10+turn:90+walk:5+stand:2", seed=4), announce=None,
+                      **options)
+    assert data.module.compiled
+    return bytes(data), data.module.memory.arena.tobytes()
+
+
+@pytest.mark.parametrize("height_compensation", [False, True])
+def test_the_loop_built_ahead_of_time_sends_and_holds_what_numbas_does(monkeypatch, height_compensation):
+    assert aot.build(), "built for the present sources (or there already)"
+    built = aot._import()
+    assert built is not None
+    ahead = replay_with(monkeypatch, built, height_compensation=height_compensation)
+    numbas = replay_with(monkeypatch, None, height_compensation=height_compensation)
+    assert ahead[0] == numbas[0], "the wire bytes"
+    assert ahead[1] == numbas[1], "every state"
+
+
+def test_the_reader_built_ahead_of_time_reads_what_numbas_reads():
+    assert openshoe_scan.build(), "built for this reader (or there already)"
+    built, numbas = openshoe_scan._built(), openshoe_scan._numba_scan()
+    assert built is not None and numbas is not None
+    data = WALK.read_bytes() if WALK.is_file() else openshoe_scan._SAMPLE_ROW * 500
+    start = data.index(b"\n", data.index(b"Header:")) + 1 if WALK.is_file() else 0
+    end = data.rindex(b"\n") + 1
+    buf = np.frombuffer(data, dtype=np.uint8)
+    rows = (end - start) // openshoe_scan.MIN_ROW_BYTES + 1
+    outs = [np.empty((rows, openshoe_scan.N_KEPT)) for _ in range(2)]
+    got = [scan(buf, start, end, openshoe_scan.COLUMNS, openshoe_scan.KEPT, out)
+           for scan, out in zip((built, numbas), outs, strict=True)]
+    assert got[0] == got[1] and got[0][0] > 0
+    assert outs[0][:got[0][0]].tobytes() == outs[1][:got[1][0]].tobytes()
