@@ -89,14 +89,25 @@ async def _walk_and_disconnect(srv, host) -> None:
                         WAIT_S)
         assert await walk.evaluate("document.querySelectorAll('#plan *').length") < 400, "a bounded drawing"
 
+        before_down = await panel.evaluate(_steps_sent(0))
         await panel.click("#btn-0-disconnect")
         await panel.wait(f"{_text('reply-0')} === 'OK disconnect' && {_connected(0)} === '0'", WAIT_S)
         down_at = await panel.evaluate(_steps_sent(0))
         await panel.wait(f"{_steps_sent(0)} >= {down_at + 2}", WAIT_S)  # it walks on, unheard
+        before_up = await panel.evaluate(_steps_sent(0))
         await panel.click("#btn-0-reconnect")
         await panel.wait(f"{_connected(0)} === '1'", WAIT_S)
+        up_at = await panel.evaluate(_steps_sent(0))
         gaps = await walk.wait(f"Number({_gaps(0)}.dataset.gaps) > 0 && {_gaps(0)}.textContent", WAIT_S)
         assert gaps.startswith("1 (") and not gaps.endswith("(0)"), gaps
+        # the gap is the disconnect's length: the steps the module sent unheard — at least those the
+        # panel counted while the link was down, at most those from before the press that took it
+        # down to after the one that brought it back (give or take the one in flight)
+        missing = int(gaps[3:-1])
+        assert before_up - down_at - 1 <= missing <= up_at - before_down + 1, \
+            (gaps, before_down, down_at, before_up, up_at)
+        print(f"\ngap of {missing} steps; the panel counted {before_up - down_at} sent while down, "
+              f"{up_at - before_down} from press to press")
         assert await walk.evaluate(f"{_gaps(1)}.dataset.gaps") == "0", "the right foot walked on, heard"
         assert await panel.evaluate("liveMirror.values.actions.map(a => a.line).join(',')") == \
             "@0 disconnect,@0 reconnect"
