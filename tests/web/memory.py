@@ -73,7 +73,7 @@ def main(argv: list[str]) -> int:
     recipe = f"stand:3+track400:{laps}+stand:3"
     wall = args.minutes * 60.0 / args.speed
     with tempfile.TemporaryDirectory() as tmp, \
-            served(Path(tmp), feet=args.feet, speed=args.speed, recipe=recipe) as srv, \
+            served(Path(tmp), feet=args.feet, speed=args.speed, recipe=recipe, timeout=600.0) as srv, \
             tracking(module_urls(srv), gps=srv.ready["gps-pty"], duration=wall + 120) as host:
         rows = asyncio.run(sample(host.url, {"host": host.proc.pid, "serve": srv.proc.pid}, wall, args.every))
         host.stop()

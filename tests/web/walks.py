@@ -32,16 +32,17 @@ def page(address: str) -> str:
 
 @contextmanager
 def served(folder: Path, *, feet: int = 2, gps: bool = True, speed: float = 5.0, recipe: str = RECIPE,
-           extra: Sequence[str] = ()) -> Iterator[ServeProcess]:
+           extra: Sequence[str] = (), timeout: float = 60.0) -> Iterator[ServeProcess]:
     """``openshoe-emu serve`` of *recipe* with its panel (buttons on) and a control channel, on ptys
-    in *folder*: the walker's two feet (or one module), with a GPS receiver."""
+    in *folder*: the walker's two feet (or one module), with a GPS receiver; its READY line within
+    *timeout* seconds (a long walk's sensors are simulated before it)."""
     args = ["--scenario", recipe, "--pty", str(folder / "shoe"), "--speed", f"{speed:g}", "--control", "0",
             "--status-interval", "0", "--web", "0", "--web-control", *extra]
     if feet == 2:
         args += ["--feet", "2"]
     if gps:
         args += ["--gps-pty", str(folder / "gps")]
-    with spawn(*args, timeout=60.0) as srv:
+    with spawn(*args, timeout=timeout) as srv:
         yield srv
 
 
