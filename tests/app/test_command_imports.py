@@ -57,3 +57,10 @@ def test_serving_and_tracking_import_the_web_stack_only_for_a_page(module):
     out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("argv", [["replay", "--help"], ["serve", "--help"], ["sweep", "--help"],
+                                  ["replay", "--no-such-option"]])
+def test_a_subcommands_help_and_usage_errors_import_no_numba_and_no_web_stack(argv):
+    loaded = loaded_after("firmware_sim.app.cli", argv)
+    assert [m for m in loaded if not m.startswith("firmware_sim.nav")] == []
