@@ -22,6 +22,10 @@ setup: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check .
 
+# The tests start hundreds of fresh processes: each loads its modules' cached bytecode, also where the
+# environment asks Python not to write it (PYTHONDONTWRITEBYTECODE, empty here: unset).
+test: export PYTHONDONTWRITEBYTECODE =
+
 # test: the per-kernel tests as plain Python run on one core while the compiled kernels go into
 # numba's on-disk cache on the other (once, not in each worker); then every test on two workers,
 # whatever the first run gave (make fails if either failed).
