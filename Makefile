@@ -10,11 +10,12 @@ FILL_KERNEL_CACHE := from firmware_sim.app.cluster import prepare_process; prepa
 
 .PHONY: demo test lint setup clean docs
 
-# The venv is filled by uv (installed into it by pip): the same packages as pip's, in a tenth of the time.
+# The venv is filled by uv (installed into it by pip): the same packages as pip's, in a tenth of the
+# time; by pip itself where uv cannot be had or cannot reach the packages.
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
-	$(BIN)/pip install --quiet uv
-	$(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev]'
+	{ $(BIN)/pip install --quiet uv && $(BIN)/uv pip install --quiet --python $(BIN)/python -e '.[dev]'; } \
+	  || $(BIN)/pip install --quiet -e '.[dev]'
 	touch $(STAMP)
 
 setup: $(STAMP)
