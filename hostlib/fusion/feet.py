@@ -274,7 +274,10 @@ class TwoFeetTracker(AidedFilter):
         self._drift_clocks = {side: errors.clock() for side in FOOT_SIDES} if errors is not None else {}
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
         self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
-        self._covs: list[np.ndarray] = []  # its covariance
+        # the two feet's poses' covariance (the pose blocks, first in the state: all the body and each
+        # foot's σ need; the error and aid blocks' would grow a long walk's history tenfold)
+        self._poses = slice(self.filter.slice("left").start, self.filter.slice("right").stop)  # side by side
+        self._covs: list[np.ndarray] = []
         self._stale: list[int] = []  # 0: both feet fresh; 1: the left foot stale; 2: the right
         self._counts: list[tuple[int, int]] = []  # each foot's steps through the filter
         # the body's pose and covariance of each recorded row, made once when first asked for (a
@@ -404,7 +407,7 @@ class TwoFeetTracker(AidedFilter):
 
     def _record(self) -> None:
         self._states.append(self.filter.x.copy())
-        self._covs.append(self.filter.P.copy())
+        self._covs.append(self.filter.P[self._poses, self._poses].copy())
         self._stale.append(self._stale_foot())
         self._counts.append((self._fused["left"], self._fused["right"]))
 
@@ -428,7 +431,8 @@ class TwoFeetTracker(AidedFilter):
             t[position: position + 3, position: position + 3] = rotation_z(turn)
             shift[self.filter.index(side, 3)] = turn
         self._states = [t @ s + shift for s in self._states]
-        self._covs = [t @ c @ t.T for c in self._covs]
+        tp = t[self._poses, self._poses]  # t turns only the pose blocks
+        self._covs = [tp @ c @ tp.T for c in self._covs]
         self._body_poses, self._body_covs = [], []
         self.filter.transform(t, shift)
         self._frame_heading += turn
@@ -479,8 +483,9 @@ class TwoFeetTracker(AidedFilter):
         with self._lock:
             done = len(self._body_poses)
             if done < len(self._states):
-                poses, covs = _body_pose_rows(np.array(self._states[done:]), np.array(self._covs[done:]),
-                                              rows[np.array(self._stale[done:])])
+                poses, covs = _body_pose_rows(np.array(self._states[done:])[:, self._poses],
+                                              np.array(self._covs[done:]),
+                                              rows[np.array(self._stale[done:])][:, :, self._poses])
                 self._body_poses.extend(poses)
                 self._body_covs.extend(covs)
             return np.array(self._body_poses), np.array(self._body_covs)
@@ -542,6 +547,7 @@ class TwoFeetTracker(AidedFilter):
     def fused_foot_sigmas(self, side: str) -> np.ndarray:
         """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
         b = self.filter.slice(side)
+        b = slice(b.start - self._poses.start, b.stop - self._poses.start)
         with self._lock:
             var = np.array([np.diagonal(c)[b] for c in self._covs])
         return np.sqrt(np.clip(var, 0.0, None))
