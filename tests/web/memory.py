@@ -5,9 +5,9 @@
 A served walk of *minutes* module-minutes (with GPS, two feet by default) is tracked with
 ``openshoe-host track --web``; headless Chromium keeps the walk's page open. Every ``--every``
 seconds of wall time it notes the resident memory of the host (which serves the page) and of the
-served modules' process, and the page's JavaScript heap and element count; at the end it prints
-them at a quarter, half and all of the walk, and the growth over the second half. A measurement to
-read, not a test.
+served modules' process, and the page's JavaScript heap (after a collection) and element count; at
+the end it prints them at a quarter, half and all of the walk, and the growth over the second half.
+A measurement to read, not a test.
 """
 
 from __future__ import annotations
@@ -42,6 +42,7 @@ async def sample(url: str, pids: dict[str, int], seconds: float, every: float) -
         loop = asyncio.get_running_loop()
         start = loop.time()
         while loop.time() - start < seconds:
+            await walk.send("HeapProfiler.collectGarbage")  # the heap in use, not what awaits collection
             heap, elements = await walk.evaluate(PAGE_FIGURES)
             row = {"t_s": loop.time() - start, "page_heap_mb": heap / 2 ** 20, "page_elements": elements}
             row.update({f"{name}_rss_mb": rss_mb(pid) for name, pid in pids.items()})
