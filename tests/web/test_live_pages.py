@@ -117,7 +117,7 @@ def test_both_pages_follow_a_two_feet_walk_and_a_disconnect_on_the_panel_is_a_ga
     with served(tmp_path, speed=5.0) as srv, \
             tracking(module_urls(srv), gps=srv.ready["gps-pty"], duration=120) as host:
         asyncio.run(_walk_and_disconnect(srv, host))
-        assert host.stop(timeout=60.0) == 0, "\n".join(host.said[-20:])  # what it said last, if it hung
+        assert host.stop(timeout=60.0) == 0, "\n".join(host.said[-200:])  # its threads' stacks if it hung
         assert srv.stop() == 0
 
 

@@ -66,9 +66,13 @@ class Tracking:
             self.proc.send_signal(signal.SIGINT)
         try:
             self.proc.wait(timeout)
-        except subprocess.TimeoutExpired:
-            self.proc.terminate()
-            self.proc.wait(10)
+        except subprocess.TimeoutExpired:  # every thread's stack into said (faulthandler), then gone
+            self.proc.send_signal(signal.SIGABRT)
+            try:
+                self.proc.wait(10)
+            except subprocess.TimeoutExpired:
+                self.proc.kill()
+                self.proc.wait(10)
         return self.proc.returncode
 
 
@@ -82,7 +86,7 @@ def tracking(urls: Sequence[str], *, gps: str | None = None, duration: float = 2
     if gps is not None:
         argv += ["--fusion", "--compass", "--gps", gps]
     proc = subprocess.Popen(argv, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
-                            env={**os.environ, "PYTHONUNBUFFERED": "1"})
+                            env={**os.environ, "PYTHONUNBUFFERED": "1", "PYTHONFAULTHANDLER": "1"})
     assert proc.stderr is not None
     said: list[str] = []
     try:
@@ -131,6 +135,6 @@ def _drain(proc: subprocess.Popen, said: list[str]) -> None:
     def run() -> None:
         for line in proc.stderr:
             said.append(line.decode(errors="replace").rstrip("\n"))
-            del said[:-50]
+            del said[:-200]
 
     threading.Thread(target=run, daemon=True).start()
