@@ -20,14 +20,11 @@ numba's. ``OPENSHOE_AOT=0`` turns the built loop off, and so does ``OPENSHOE_PUR
 from __future__ import annotations
 
 import importlib.util
-import os
-import tempfile
-import warnings
 from collections.abc import Callable
-from importlib.machinery import EXTENSION_SUFFIXES
 from pathlib import Path
 from typing import Any
 
+from firmware_sim import prebuilt
 from firmware_sim.sensors import openshoe_scan
 
 from .kernel_sources import pure_requested, sources_stamp
@@ -41,7 +38,7 @@ _loaded: list[Callable[..., int] | None] = []  #: the loop once looked for (one 
 def wanted() -> bool:
     """Whether the loop built ahead of time may be used (neither ``OPENSHOE_AOT=0`` nor
     ``OPENSHOE_PURE=1``)."""
-    return os.environ.get("OPENSHOE_AOT", "") != "0" and not pure_requested()
+    return prebuilt.enabled() and not pure_requested()
 
 
 def _name() -> str:
@@ -50,9 +47,7 @@ def _name() -> str:
 
 def module_path() -> Path:
     """Where the module built from the present sources is (or would be)."""
-    cache = os.environ.get("NUMBA_CACHE_DIR", "")
-    folder = Path(cache) if cache else _HERE / "__pycache__"
-    return folder / (_name() + EXTENSION_SUFFIXES[0])
+    return prebuilt.module_path(_HERE, _name())
 
 
 def run_loops() -> Callable[..., int] | None:
@@ -60,7 +55,7 @@ def run_loops() -> Callable[..., int] | None:
     without numba), or None when there is none for the present sources or it is not wanted.
     Looked for once per process."""
     if not _loaded:
-        _loaded.append(_import() if wanted() else None)
+        _loaded.append(prebuilt.load(module_path(), "run_loops") if wanted() else None)
     return _loaded[0]
 
 
@@ -73,53 +68,24 @@ def decline() -> None:
         openshoe_scan.decline_built()
 
 
-def _import() -> Callable[..., int] | None:
-    path = module_path()
-    if not path.is_file():
-        return None
-    try:
-        spec = importlib.util.spec_from_file_location(_name(), path)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module.run_loops  # type: ignore[no-any-return]
-    except Exception:  # noqa: BLE001 - an unusable file: numba's loop instead
-        return None
-
-
 def build() -> bool:
     """Build the loop for the present sources unless it is there, unwanted, or failed before, and
     the walk reader likewise (:func:`firmware_sim.sensors.openshoe_scan.build`); whether the loop
     is there now. Needs numba (its ``pycc``) and a C compiler; takes seconds."""
     openshoe_scan.build()
-    path = module_path()
-    failed = path.with_suffix(".failed")
-    if not wanted() or path.is_file() or failed.is_file():
-        return path.is_file()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".openshoe-aot-") as tmp:
-            _compile(Path(tmp))
-            os.replace(Path(tmp) / path.name, path)  # whole, or not at all, for the processes beside
-    except Exception as exc:  # noqa: BLE001 - no C compiler, no pycc …: numba's loop stays
-        try:
-            failed.write_text(f"{type(exc).__name__}: {exc}\n")
-        except OSError:
-            pass
-        return False
-    return True
+    if not wanted():
+        return module_path().is_file()
+    return prebuilt.build_once(module_path(), _compile)
 
 
 def _compile(folder: Path) -> None:
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # pycc's pending deprecation
-        from numba.pycc import CC
+    from numba.pycc import CC
 
-        from .driver import RUN_LOOPS_SIGNATURE
-        from .driver import run_loops as loop
+    from .driver import RUN_LOOPS_SIGNATURE
+    from .driver import run_loops as loop
 
-        cc: Any = CC(_name())
-        cc.output_dir = str(folder)
-        cc.verbose = False
-        cc.export("run_loops", RUN_LOOPS_SIGNATURE)(getattr(loop, "py_func", loop))
-        cc.compile()
+    cc: Any = CC(_name())
+    cc.output_dir = str(folder)
+    cc.verbose = False
+    cc.export("run_loops", RUN_LOOPS_SIGNATURE)(getattr(loop, "py_func", loop))
+    cc.compile()

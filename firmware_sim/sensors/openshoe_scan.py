@@ -35,14 +35,13 @@ import hashlib
 import importlib.util
 import math
 import os
-import tempfile
-import warnings
 from collections.abc import Callable
-from importlib.machinery import EXTENSION_SUFFIXES
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from firmware_sim import prebuilt
 
 __all__ = ["AVAILABLE", "COLUMNS", "KEPT", "build", "built_path", "decline_built", "scan_rows", "warm_up"]
 
@@ -51,10 +50,8 @@ def built_path() -> Path:
     """Where the reader built ahead of time from this file is (or would be): beside numba's cache
     (``NUMBA_CACHE_DIR``, else this package's ``__pycache__``), named by this file's digest."""
     here = Path(__file__).resolve()
-    cache = os.environ.get("NUMBA_CACHE_DIR", "")
     stamp = hashlib.sha256(here.read_bytes()).hexdigest()[:24]
-    folder = Path(cache) if cache else here.parent / "__pycache__"
-    return folder / f"openshoe_scan_{stamp}{EXTENSION_SUFFIXES[0]}"
+    return prebuilt.module_path(here.parent, f"openshoe_scan_{stamp}")
 
 
 def _wanted() -> bool:
@@ -63,7 +60,7 @@ def _wanted() -> bool:
 
 #: Whether the compiled reader is used (otherwise :func:`scan_rows` always returns None): the
 #: reader built ahead of time, or numba (the optional `fast` extra).
-AVAILABLE = _wanted() and (os.environ.get("OPENSHOE_AOT", "") != "0" and built_path().is_file()
+AVAILABLE = _wanted() and (prebuilt.enabled() and built_path().is_file()
                            or importlib.util.find_spec("numba") is not None)
 
 HEX, NUM, UINT, NUM_OR_NAN = 0, 1, 2, 3
@@ -252,17 +249,7 @@ def decline_built() -> None:
 
 
 def _built() -> Callable[..., tuple[int, int]] | None:
-    path = built_path()
-    if os.environ.get("OPENSHOE_AOT", "") == "0" or not path.is_file():
-        return None
-    try:
-        spec = importlib.util.spec_from_file_location(path.name.split(".")[0], path)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        return module.scan  # type: ignore[no-any-return]
-    except Exception:  # noqa: BLE001 - an unusable file: numba's reader instead
-        return None
+    return prebuilt.load(built_path(), "scan")
 
 
 def _numba_scan() -> Callable[..., tuple[int, int]] | None:
@@ -298,37 +285,28 @@ def _numba_scan() -> Callable[..., tuple[int, int]] | None:
 
 def build() -> bool:
     """Build the reader ahead of time for this file unless it is there or failed before (remembered
-    beside it); whether it is there now. Needs numba (its ``pycc``) and a C compiler; seconds."""
+    beside it: :func:`firmware_sim.prebuilt.build_once`); whether it is there now. Needs numba (its
+    ``pycc``) and a C compiler; seconds."""
     path = built_path()
-    failed = path.with_suffix(".failed")
-    if path.is_file() or failed.is_file() or not _wanted() or os.environ.get("OPENSHOE_AOT", "") == "0":
+    if not _wanted() or not prebuilt.enabled():
         return path.is_file()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.TemporaryDirectory(dir=path.parent, prefix=".openshoe-aot-") as tmp, \
-                warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # pycc's pending deprecation
-            from numba import types
-            from numba.pycc import CC
+    return prebuilt.build_once(path, _compile)
 
-            scan = _numba_scan()
-            assert scan is not None, "numba is needed to build the reader"
-            cc: Any = CC(path.name.split(".")[0])
-            cc.output_dir = tmp
-            cc.verbose = False
-            i8 = types.Array(types.int8, 1, "C")
-            cc.export("scan", types.UniTuple(types.int64, 2)(
-                types.Array(types.uint8, 1, "C", readonly=True), types.int64, types.int64, i8, i8,
-                types.Array(types.float64, 2, "C")))(scan.py_func)
-            cc.compile()
-            os.replace(Path(tmp) / path.name, path)  # whole, or not at all, for the processes beside
-    except Exception as exc:  # noqa: BLE001 - no C compiler, no pycc …: numba's reader stays
-        try:
-            failed.write_text(f"{type(exc).__name__}: {exc}\n")
-        except OSError:
-            pass
-        return False
-    return True
+
+def _compile(folder: Path) -> None:
+    from numba import types
+    from numba.pycc import CC
+
+    scan = _numba_scan()
+    assert scan is not None, "numba is needed to build the reader"
+    cc: Any = CC(built_path().name.split(".")[0])
+    cc.output_dir = str(folder)
+    cc.verbose = False
+    i8 = types.Array(types.int8, 1, "C")
+    cc.export("scan", types.UniTuple(types.int64, 2)(
+        types.Array(types.uint8, 1, "C", readonly=True), types.int64, types.int64, i8, i8,
+        types.Array(types.float64, 2, "C")))(scan.py_func)
+    cc.compile()
 
 
 def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:

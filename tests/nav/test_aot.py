@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from firmware_sim import prebuilt
 from firmware_sim.app.batch import run_replay
 from firmware_sim.nav import aot, jit
 from firmware_sim.sensors import openshoe_scan
@@ -31,7 +32,7 @@ def replay_with(monkeypatch, loop, **options):
 @pytest.mark.parametrize("height_compensation", [False, True])
 def test_the_loop_built_ahead_of_time_sends_and_holds_what_numbas_does(monkeypatch, height_compensation):
     assert aot.build(), "built for the present sources (or there already)"
-    built = aot._import()
+    built = prebuilt.load(aot.module_path(), "run_loops")
     assert built is not None
     ahead = replay_with(monkeypatch, built, height_compensation=height_compensation)
     numbas = replay_with(monkeypatch, None, height_compensation=height_compensation)
