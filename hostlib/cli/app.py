@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 from collections.abc import Callable, Sequence
 from typing import TextIO
 
@@ -129,6 +131,15 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def ctrl_c_ends_the_walk() -> None:
+    """Ctrl-C (SIGINT) ends a live walk even in a process started with SIGINT ignored — a script's
+    background job (``openshoe-host track … &``, then ``kill -INT``), a test runner's worker — where
+    Python would leave the inherited ignore as it is and the walk would run on."""
+    if threading.current_thread() is threading.main_thread() and \
+            signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
 def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     """Entry point of ``openshoe-host``; returns the exit status."""
     args = build_parser().parse_args(argv)
@@ -139,6 +150,8 @@ def main(argv: Sequence[str] | None = None, out: TextIO | None = None) -> int:
     if refusal is not None:
         print(f"openshoe-host {args.cmd}: {refusal}", file=sys.stderr)
         return 2
+    if args.cmd in ("track", "log"):
+        ctrl_c_ends_the_walk()
     try:
         return command(args.cmd)(args, out)
     except HostError as exc:
