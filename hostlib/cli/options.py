@@ -370,11 +370,12 @@ def feet_settings(args: argparse.Namespace) -> FeetSettings:
     return FeetSettings(constraint=not args.no_constraint, max_separation_m=gamma)
 
 
-def open_device(args: argparse.Namespace, url: str, **kw: Any) -> Device:
-    """The device at *url*, talking as the link options say (*kw*: to :class:`Device`); a port
-    that does not open is a :class:`~hostlib.errors.HostError` naming it (one of two feet's)."""
+def open_device(args: argparse.Namespace, url: str, *, queue_packets: bool = True, **kw: Any) -> Device:
+    """The device at *url*, talking as the link options say (*queue_packets*: to
+    :class:`DeviceOptions`, *kw*: to :class:`Device`); a port that does not open is a
+    :class:`~hostlib.errors.HostError` naming it (one of two feet's)."""
     try:
         return Device(url, DeviceOptions(command_set=args.command_set, baudrate=args.baudrate,
-                                         ack_timeout=args.ack_timeout), **kw)
+                                         ack_timeout=args.ack_timeout, queue_packets=queue_packets), **kw)
     except (OSError, ValueError) as exc:  # pyserial's SerialException is an OSError
         raise HostError(f"cannot use {url}: {exc}") from None

@@ -34,7 +34,8 @@ def cmd_track(args: argparse.Namespace, out: TextIO) -> int:
     with ExitStack() as stack:
         page = stack.enter_context(walk_page(args.web, _title(args), messages))
         stack.enter_context(run)
-        dev = stack.enter_context(open_device(args, args.url, tracker=run.tracker_for(None)))
+        dev = stack.enter_context(open_device(args, args.url, queue_packets=False,  # it reads steps
+                                              tracker=run.tracker_for(None)))
         run.start(dev)
         stack.enter_context(following(page, run))
         run.follow(LiveLine(out))
@@ -64,7 +65,8 @@ def _track_feet(args: argparse.Namespace, run: TrackingRun, origin: tuple[float,
         page = stack.enter_context(walk_page(args.web, _title(args), run.messages))
         stack.enter_context(run)
         urls = dict(zip(FOOT_SIDES, (args.url, args.url2), strict=True))
-        devices = {side: stack.enter_context(open_device(args, urls[side], tracker=run.tracker_for(side)))
+        devices = {side: stack.enter_context(open_device(args, urls[side], queue_packets=False,
+                                                         tracker=run.tracker_for(side)))
                    for side in FOOT_SIDES}
         run.start(devices)
         stack.enter_context(following(page, run))

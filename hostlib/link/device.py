@@ -336,7 +336,8 @@ class Device(CommandMethods):
             self._cond.notify_all()
         for ev in events:
             if isinstance(ev, PacketEvent):
-                self._packets.put(ev)
+                if self.options.queue_packets:
+                    self._packets.put(ev)
             elif isinstance(ev, StepEvent):
                 self._steps.put(ev)
             elif isinstance(ev, GapEvent):

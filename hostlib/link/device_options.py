@@ -32,6 +32,11 @@ class DeviceOptions:
     reconnect_interval: float = 0.5
     #: bound of the packet queue and of the step queue
     queue_size: int = 10000
+    #: put every state packet in the packet queue (:meth:`Device.recv_packet
+    #: <hostlib.link.device.Device.recv_packet>`); off for a program that reads only the steps (as
+    #: ``openshoe-host track`` does), where the unread packets would pile up to :attr:`queue_size`
+    #: over a long walk and then be dropped with a warning
+    queue_packets: bool = True
     #: UART baud rate (ignored by URLs and USB)
     baudrate: int = DEFAULT_BAUDRATE
     #: the port's read timeout [s]: how long the reader thread waits for bytes at a time

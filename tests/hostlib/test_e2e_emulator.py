@@ -13,6 +13,7 @@ pytest.importorskip("firmware_sim.transports.protocol_openshoe")
 
 from hostlib.errors import AckTimeout  # noqa: E402
 from hostlib.link.device import Device  # noqa: E402
+from hostlib.link.device_options import DeviceOptions  # noqa: E402
 from protocol.ids import OutputMode, StateId  # noqa: E402
 
 
@@ -147,3 +148,18 @@ def test_a_faulty_bluetooth_link_loses_no_step():
     np.testing.assert_array_equal(track.counters, np.arange(1, len(track) + 1))
     x, y, _, _ = track.final_pose
     assert x == pytest.approx(8.0, abs=0.3) and abs(y) < 0.3
+
+
+def test_a_device_that_reads_only_steps_queues_no_packets_and_sums_every_step():
+    """``openshoe-host track`` reads steps only: its devices leave the packet queue out (a long
+    walk's unread packets would fill it and be dropped with a warning); the steps all come."""
+    recipe = "stand:3%2Bwalk:12%2Bstand:3"
+    with Device(f"openshoe://?scenario={recipe}&seed=1", DeviceOptions(queue_packets=False)) as dev:
+        dev.start_stepwise_dead_reckoning()
+        for _ev in dev.steps(timeout=120):
+            if dev.track.final_pose[0] > 11.0:
+                break
+        assert dev.recv_packet(timeout=0.0) is None
+        st = dev.stats
+    assert st["packets"] > 10 and st["dropped_packets"] == 0
+    assert len(dev.track) >= 10 and dev.track.gaps == []
