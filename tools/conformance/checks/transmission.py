@@ -52,16 +52,23 @@ def _copies(d: DeviceDriver, number: int, count: int, timeout: float) -> list[Re
     return got
 
 
+def _first_lossless_packet(ctx: Context) -> tuple[bytes, Received]:
+    """Output INTERRUPT_COUNTER lossless at rate 1: the bytes sent and its first packet (the check
+    fails without one)."""
+    s, _ = ctx.driver.command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER,
+                              mode=int(OutputMode.LOSSLESS) | 1)
+    first = ctx.driver.next_packet(1.0)
+    if first is None:
+        ctx.fail("no packet after a lossless rate-1 output", s)
+    return s, first
+
+
 @check("lossless", "lossless mode is stop-and-wait: only the oldest packet is (re)sent until its ACK; an ACK "
        "with another number is ignored; after the ACK the next packet follows",
        duration="~0.6 s (3 resends)")
 def check_lossless(ctx: Context) -> str:
     d = ctx.driver
-    s, _ = d.command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER,
-                     mode=int(OutputMode.LOSSLESS) | 1)
-    first = d.next_packet(1.0)
-    if first is None:
-        ctx.fail("no packet after a lossless rate-1 output", s)
+    s, first = _first_lossless_packet(ctx)
     n1 = first.frame.number
     copies = [first] + _copies(d, n1, 1, 1.0)
     if len(copies) < 2:
@@ -152,11 +159,7 @@ def check_resend_interval(ctx: Context) -> str:
        "queued lossless packets", duration="~0.4 s")
 def check_all_off(ctx: Context) -> str:
     d = ctx.driver
-    s, _ = d.command(Command.OUTPUT_STATE, state_id=StateId.INTERRUPT_COUNTER,
-                     mode=int(OutputMode.LOSSLESS) | 1)
-    first = d.next_packet(1.0)
-    if first is None:
-        ctx.fail("no packet after a lossless rate-1 output", s)
+    s, first = _first_lossless_packet(ctx)
     d.collect(0.05)
     off, ack = d.command(Command.OUTPUT_ALL_OFF)
     _, _, strays = d.wait_ticks(2 * RESEND_CYCLES + 44)
