@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
+from collections import deque
 from collections.abc import Iterable
 
 import numpy as np
@@ -61,9 +62,10 @@ class AidedFilter(ABC):
         s = self.aid_settings
         self.fusion = FusionStats()
         self._aligned = not (s.compass or s.gps)
-        self._fix_times: list[float] = []
-        self._fixes: list[np.ndarray] = []
-        self._next_fix = 0
+        # the fixes queued and not applied yet, (time [s], north-east [m]) in time order: an applied
+        # fix is let go (a receiver's fix a second over a long walk would otherwise pile up)
+        self._queued_fixes: deque[tuple[float, np.ndarray]] = deque()
+        self._last_fix_time = -math.inf  # the latest fix queued [s]
         self._origin_set = False
         self._first_fix = np.zeros(2)
         self._last_gps_update = -math.inf
@@ -164,13 +166,13 @@ class AidedFilter(ABC):
     def add_fix(self, time_s: float, north_east: Iterable[float]) -> None:
         """Queue one fix (see :meth:`add_fixes`); fixes must come in time order."""
         t = float(time_s) + self.aid_settings.gps_offset_s
-        if self._fix_times and t < self._fix_times[-1]:
-            raise ValueError(f"fix at {time_s} s is older than the one before ({self._fix_times[-1]} s)")
+        if t < self._last_fix_time:
+            raise ValueError(f"fix at {time_s} s is older than the one before ({self._last_fix_time} s)")
         pos = np.asarray(list(north_east), dtype=np.float64)[:2]
         if pos.shape != (2,) or not np.isfinite(pos).all():
             raise ValueError(f"a fix needs finite north and east, got {pos}")
-        self._fix_times.append(t)
-        self._fixes.append(pos)
+        self._queued_fixes.append((t, pos))
+        self._last_fix_time = t
 
     def observe_aids(self, fn: AidObserver) -> AidObserver:
         """Call *fn(event)* for every compass reading and GPS fix the filter takes, with what became
@@ -205,7 +207,7 @@ class AidedFilter(ABC):
 
     def pending_fixes(self) -> int:
         """Fixes queued whose time no step has reached yet."""
-        return len(self._fix_times) - self._next_fix
+        return len(self._queued_fixes)
 
     # -- the aid states' process noise --------------------------------------------------
 
@@ -398,9 +400,8 @@ class AidedFilter(ABC):
         """Apply the queued fixes whose time module time *now* [s] has reached (the receiver's
         bias, held, carried to each fix's time, then to *now*)."""
         bias = self.aid_settings.gps_bias
-        while self._next_fix < len(self._fix_times) and self._fix_times[self._next_fix] <= now:
-            t, pos = self._fix_times[self._next_fix], self._fixes[self._next_fix]
-            self._next_fix += 1
+        while self._queued_fixes and self._queued_fixes[0][0] <= now:
+            t, pos = self._queued_fixes.popleft()
             if bias is not None:
                 self._drift_gps_bias(t)
             self._gps_fix(t, pos)

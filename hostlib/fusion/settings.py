@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 from ..aids.declination import MagneticField
 from ..calibration.magcal import MagCalibration
+from ..track.rows import Rows
 from .deviation import CompassDeviation
 from .gps_bias import GpsBias
 from .hard_iron import HardIron
@@ -124,5 +125,6 @@ class FusionStats:
     gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned
     heading_aligned_by: str = ""  #: "compass", "gps" or "" (not aligned: the module's frame)
-    #: (step index, innovation [rad]) of every compass update, for consistency checks
-    compass_innovations: list[tuple[int, float]] = field(default_factory=list)
+    #: rows (step index, innovation [rad]) of every compass update, for consistency checks (a
+    #: :class:`~hostlib.track.rows.Rows` of 16 bytes each: one a step over a long walk)
+    compass_innovations: Rows = field(default_factory=lambda: Rows((2,)))

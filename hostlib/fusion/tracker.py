@@ -90,6 +90,7 @@ from ..aids.compass import StanceReading, compass_heading, stance_reading
 from ..calibration.magcal import MagCalibration
 from ..events import StepOutcome
 from ..link.module_clock import ModuleClock
+from ..track.rows import Rows
 from ..track.steps import StepTracker, is_motion_step, rotation_z
 from .aid_states import add_aid_states
 from .aided import AidedFilter
@@ -132,10 +133,15 @@ class FusionTracker(AidedFilter, StepTracker):
         self._drift_clock = errors.clock() if errors is not None else None
         self._time = 0.0  # module time of the last step [s]
         self._step_time = math.nan  # module time of the step being summed [s]
-        #: per summed step: module time [s] (NaN: the packet had no T_INT_K)
-        self.step_times: list[float] = []
+        self._step_times = Rows(())  # per summed step: module time [s]
 
     # -- state -------------------------------------------------------------------------
+
+    @property
+    def step_times(self) -> np.ndarray:
+        """(n,) per summed step its module time [s] (NaN: the packet had no T_INT_K); read-only,
+        as it is now (later steps do not show in it)."""
+        return self._step_times.view()
 
     @property
     def covariance5(self) -> np.ndarray:
@@ -222,7 +228,7 @@ class FusionTracker(AidedFilter, StepTracker):
             self._walk_deviation(math.hypot(dxa[0], dxa[1]))  # where this step's reading is taken
         if math.isfinite(time_s):
             self._time = time_s
-        self.step_times.append(time_s)
+        self._step_times.append(time_s)
         if self.settings.compass and self._compass_held:
             self.fusion.compass_skipped += 1
         elif self.settings.compass:

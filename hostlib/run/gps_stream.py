@@ -139,7 +139,7 @@ class LiveFixes:
         self.queued = 0  #: fixes queued on the tracker (with two feet: on the joint filter)
         self._pending: list[tuple[float, np.ndarray]] = []  # fixes received before attach
         self._routes: list[_Route] = []  # the tracker's own filter first
-        self._steps: dict[str | None, Callable[[], list[float]]] = {}  # module → its steps' times
+        self._steps: dict[str | None, Callable[[], Sequence[float]]] = {}  # module → its steps' times
         self._tracker_locks: tuple[AbstractContextManager[Any], ...] = ()
         self._lock = threading.Lock()
 
@@ -191,8 +191,8 @@ class LiveFixes:
         are queued."""
         with self._lock:
             steps = self._steps.get(module)
-            times = [] if steps is None else steps()
-            if not times:
+            times = () if steps is None else steps()
+            if len(times) == 0:
                 return
             h = self.clock() if host_s is None else float(host_s)
             for route in self._routes:

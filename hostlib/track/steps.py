@@ -43,6 +43,7 @@ from typing import Protocol
 import numpy as np
 
 from ..events import GapEvent, StepOutcome
+from .rows import Rows
 
 __all__ = [
     "COUNTER_MODULUS",
@@ -51,6 +52,7 @@ __all__ = [
     "StepLike",
     "StepTracker",
     "Track",
+    "closure_sigma",
     "counter_delta",
     "heading_deg",
     "is_motion_step",
@@ -167,6 +169,13 @@ def step_problem(dx: np.ndarray, dp: np.ndarray) -> str | None:
     return None
 
 
+def closure_sigma(cov0: np.ndarray, cov: np.ndarray) -> float:
+    """1σ [m] along its worst direction of the horizontal position a walk added: from the start's
+    pose covariance *cov0* to the end's *cov* (4×4 each, or at least their x–y block)."""
+    c = cov[:2, :2] - cov0[:2, :2]
+    return float(math.sqrt(max(0.0, float(np.linalg.eigvalsh(c).max()))))
+
+
 def counter_delta(previous: int, counter: int) -> int:
     """Signed distance from *previous* to *counter* on the uint16 circle, in −32768..32767.
 
@@ -181,50 +190,60 @@ class Track:
     Row 0 of :attr:`poses` / :attr:`covariances` is the initial pose; row *k* is
     the pose after the *k*-th summed step. Poses are ``[x, y, z, χ]`` in metres
     and radians, navigation frame x north, y east, z down.
+
+    Kept per step, for the whole walk (the CSV and the plot at the end write every pose, a live
+    page opened late draws them all): the pose (4 float64), its 4×4 covariance, the step's dx
+    (4 float64), its counter and its swing time, in growing arrays (:class:`~hostlib.track.rows.Rows`):
+    about 200 bytes a step, nothing else grows with the walk.
     """
 
     def __init__(self, pose0: np.ndarray, cov0: np.ndarray, start_counter: int | None = 0):
         #: counter of the step before the first one (0 after 0x34; None when attached mid-walk)
         self.start_counter = start_counter
-        self._poses: list[np.ndarray] = [np.array(pose0, dtype=np.float64)]
-        self._covs: list[np.ndarray] = [np.array(cov0, dtype=np.float64)]
-        self._steps: list[np.ndarray] = []
-        self._counters: list[int] = []
-        self._swing_times: list[float] = []
+        self._poses = Rows((4,))
+        self._covs = Rows((4, 4))
+        self._poses.append(np.asarray(pose0, dtype=np.float64))
+        self._covs.append(np.asarray(cov0, dtype=np.float64))
+        self._steps = Rows((4,))
+        self._counters = Rows((), np.int64)
+        self._swing_times = Rows(())
+        self._moving = 0  # summed steps that moved the foot (is_motion_step)
         self.distance: float = 0.0  #: sum of the horizontal step lengths [m]
         self.gaps: list[GapEvent] = []  #: every gap in the step counter, in order
 
     def append(self, pose: np.ndarray, cov: np.ndarray, dx: np.ndarray, counter: int,
                swing_time: float = math.nan) -> None:
         """Add the pose *pose* (4,) and covariance *cov* (4×4) after a step *dx* (4,) numbered
-        *counter*, with its swing time [s] (NaN: none); the arrays are kept, not copied."""
+        *counter*, with its swing time [s] (NaN: none); the numbers are copied into the track."""
         self._poses.append(pose)
         self._covs.append(cov)
         self._steps.append(dx)
         self._counters.append(counter)
         self._swing_times.append(float(swing_time))
+        self._moving += is_motion_step(dx)
         self.distance += math.hypot(float(dx[0]), float(dx[1]))
 
     def replace_last(self, pose: np.ndarray, cov: np.ndarray) -> None:
-        """The last pose and covariance as a filter corrected them (copies are kept)."""
-        self._poses[-1] = np.array(pose, dtype=np.float64)
-        self._covs[-1] = np.array(cov, dtype=np.float64)
+        """The last pose and covariance as a filter corrected them (copied into the track)."""
+        self._poses.set_last(pose)
+        self._covs.set_last(cov)
 
     def rotate_about_start(self, turn: float) -> None:
         """Turn every pose about the start by *turn* [rad]: positions about the first one, every
         heading by *turn*, and each covariance with them (an aid aligned the frame)."""
         r = rotation_z(turn)
-        start = self._poses[0][:3].copy()
-        for k in range(len(self._poses)):
-            p = self._poses[k].copy()
+        poses, covs = self._poses.writable(), self._covs.writable()
+        start = poses[0, :3].copy()
+        for k in range(len(poses)):
+            p = poses[k].copy()
             p[:3] = start + r @ (p[:3] - start)
             p[3] += turn
-            self._poses[k] = p
-            c = self._covs[k].copy()
+            poses[k] = p
+            c = covs[k].copy()
             c[:3, :3] = r @ c[:3, :3] @ r.T
             c[:3, 3] = r @ c[:3, 3]
             c[3, :3] = c[:3, 3]
-            self._covs[k] = c
+            covs[k] = c
 
     @classmethod
     def from_arrays(
@@ -267,19 +286,17 @@ class Track:
         for k in range(n):
             if prev is not None and counter_delta(prev, cnt[k]) > 1:
                 track.gaps.append(GapEvent(prev, cnt[k], counter_delta(prev, cnt[k]) - 1, k + 1))
-            track.append(poses[k + 1].copy(), covs[k + 1].copy(), steps[k].copy(), cnt[k], swings[k])
+            track.append(poses[k + 1], covs[k + 1], steps[k], cnt[k], swings[k])
             prev = cnt[k]
         return track
 
     def copy(self) -> Track:
         """An independent copy (take it under the owner's lock while steps are being added)."""
         t = Track(self._poses[0], self._covs[0], self.start_counter)
-        n = len(self._steps)
-        t._poses = [p.copy() for p in self._poses[: n + 1]]
-        t._covs = [c.copy() for c in self._covs[: n + 1]]
-        t._steps = [s.copy() for s in self._steps[:n]]
-        t._counters = list(self._counters[:n])
-        t._swing_times = list(self._swing_times[:n])
+        t._poses, t._covs = Rows.of(self._poses.view()), Rows.of(self._covs.view())
+        t._steps, t._counters = Rows.of(self._steps.view()), Rows.of(self._counters.view())
+        t._swing_times = Rows.of(self._swing_times.view())
+        t._moving = self._moving
         t.distance = self.distance
         t.gaps = list(self.gaps)
         return t
@@ -291,12 +308,12 @@ class Track:
     @property
     def poses(self) -> np.ndarray:
         """(n+1, 4) float64: initial pose, then the pose after each step."""
-        return np.array(self._poses)
+        return self._poses.copy()
 
     @property
     def covariances(self) -> np.ndarray:
         """(n+1, 4, 4) float64: covariance of each row of :attr:`poses`."""
-        return np.array(self._covs)
+        return self._covs.copy()
 
     @property
     def positions(self) -> np.ndarray:
@@ -311,28 +328,28 @@ class Track:
     @property
     def steps(self) -> np.ndarray:
         """(n, 4) float64: the summed steps' dx as received."""
-        return np.array(self._steps).reshape(-1, 4)
+        return self._steps.copy()
 
     @property
     def last_step(self) -> np.ndarray | None:
         """The last summed step's dx (4,) as received (None: no step yet)."""
-        return self._steps[-1] if self._steps else None
+        return self._steps[-1].copy() if len(self._steps) else None
 
     @property
     def counters(self) -> np.ndarray:
         """(n,) uint16: the summed steps' counters."""
-        return np.array(self._counters, dtype=np.uint16)
+        return self._counters.view().astype(np.uint16)
 
     @property
     def swing_times(self) -> np.ndarray:
         """(n,) float64: each summed step's swing time [s] (state 0x34), NaN where it had none."""
-        return np.array(self._swing_times, dtype=np.float64)
+        return self._swing_times.copy()
 
     @property
     def motion_steps(self) -> int:
         """How many summed steps moved the foot (:func:`is_motion_step`); the rest are the
         module's resets while the wearer stood still."""
-        return sum(is_motion_step(dx) for dx in self._steps)
+        return self._moving
 
     @property
     def sigmas(self) -> np.ndarray:
@@ -384,8 +401,7 @@ class Track:
         The square root of the largest eigenvalue of the final x–y covariance
         minus the initial one (the uncertainty the walk added).
         """
-        c = self._covs[-1][:2, :2] - self._covs[0][:2, :2]
-        return float(math.sqrt(max(0.0, float(np.linalg.eigvalsh(c).max()))))
+        return closure_sigma(self._covs[0], self._covs[-1])
 
     def __repr__(self) -> str:
         x, y, z, chi = self._poses[-1]
