@@ -127,11 +127,12 @@ from ..aids.compass import StanceReading
 from ..calibration.drift import DriftCalibration
 from ..calibration.magcal import MagCalibration
 from ..events import StepOutcome
-from ..track.steps import Track, is_motion_step, rotation_z
+from ..track.steps import Track, closure_sigma, is_motion_step, rotation_z
 from .aid_states import add_aid_states
 from .aided import AidedFilter
 from .constraint import project_separation
 from .core import StateFilter
+from .joint_history import JointHistory, body_pose_rows
 from .settings import FusionSettings
 from .tracker import FusionTracker
 
@@ -273,20 +274,13 @@ class TwoFeetTracker(AidedFilter):
         # each foot's steps' times as its module's heading drift sees them (with the errors held)
         self._drift_clocks = {side: errors.clock() for side in FOOT_SIDES} if errors is not None else {}
         self._fused = {side: 0 for side in FOOT_SIDES}  # steps of each foot through the filter
-        self._states: list[np.ndarray] = []  # the joint state after each step (row 0: the start)
-        # the two feet's poses' covariance (the pose blocks, first in the state: all the body and each
-        # foot's σ need; the error and aid blocks' would grow a long walk's history tenfold)
-        self._poses = slice(self.filter.slice("left").start, self.filter.slice("right").stop)  # side by side
-        self._covs: list[np.ndarray] = []
-        self._stale: list[int] = []  # 0: both feet fresh; 1: the left foot stale; 2: the right
-        self._counts: list[tuple[int, int]] = []  # each foot's steps through the filter
-        # the body's pose and covariance of each recorded row, made once when first asked for (a
-        # live page asks after every step: a long walk's body is not made anew each time)
-        self._body_poses: list[np.ndarray] = []
-        self._body_covs: list[np.ndarray] = []
-        self._sides: list[str] = []
+        # the two feet's poses, side by side and first in the state: the history keeps their
+        # covariance (all the body and each foot's σ need), not the error and aid blocks'
+        self._poses = slice(self.filter.slice("left").start, self.filter.slice("right").stop)
+        #: a row per fused step for the whole walk, a few hundred bytes each (its module docstring)
+        self.history = JointHistory(len(self.filter), self._poses, self._body_rows())
         self._init_aids()
-        self._record()
+        self._record(None)
         #: how often the constraint was violated and projected; steps fused without it because the
         #: other foot had not stepped since this foot's previous step, or because the step was
         #: longer than twice the bound (the other foot moved meanwhile: module docstring)
@@ -340,7 +334,7 @@ class TwoFeetTracker(AidedFilter):
 
     def _take(self, step: FootStep) -> None:
         i = FOOT_SIDES.index(step.side)
-        if step.after_gap and len(self._sides) > 0:
+        if step.after_gap and len(self) > 0:
             self._restart_at_other(i)
         # the stepping foot's block through the summation map, its cross terms through its Jacobian
         # (and through its module's errors, held)
@@ -355,7 +349,6 @@ class TwoFeetTracker(AidedFilter):
         self._correct_drift(step)
         self._since[step.side] = 0
         self._since[FOOT_SIDES[1 - i]] += 1
-        self._sides.append(step.side)
         self._fused[step.side] += 1
         if math.isfinite(step.time_s):
             self._time = max(self._time, step.time_s)
@@ -373,7 +366,7 @@ class TwoFeetTracker(AidedFilter):
         elif self.settings.constraint:
             self.projections += project_separation(self.filter, "left", "right",
                                                    self.settings.max_separation_m)
-        self._record()
+        self._record(step.side)
 
     def _correct_drift(self, step: FootStep) -> None:
         calibration = self.drift.get(step.side)
@@ -403,13 +396,13 @@ class TwoFeetTracker(AidedFilter):
                                     + [self.settings.restart_heading_sigma_rad ** 2])
         if self._drift_clocks:
             self._drift_clocks[FOOT_SIDES[i]].lose_previous()
-        self.restarts.append((FOOT_SIDES[i], len(self._sides) + 1))
+        self.restarts.append((FOOT_SIDES[i], len(self) + 1))
 
-    def _record(self) -> None:
-        self._states.append(self.filter.x.copy())
-        self._covs.append(self.filter.P[self._poses, self._poses].copy())
-        self._stale.append(self._stale_foot())
-        self._counts.append((self._fused["left"], self._fused["right"]))
+    def _record(self, side: str | None) -> None:
+        """The history's row of the step *side* made (None: the start); the frame is settled once
+        the heading is aligned (the alignment is the one turn of it)."""
+        self.history.record(self.filter.x, self.filter.P[self._poses, self._poses], self._stale_foot(),
+                            (self._fused["left"], self._fused["right"]), side, self._aligned)
 
     # -- what the aids need of the joint state ----------------------------------------------
 
@@ -420,7 +413,7 @@ class TwoFeetTracker(AidedFilter):
         return self._body_rows()[self._stale_foot()][:2]
 
     def _travelled(self) -> np.ndarray:
-        return self._gps_rows() @ (self.filter.x - self._states[0])
+        return self._gps_rows() @ (self.filter.x - self.history.start)
 
     def _rotate_frame(self, turn: float) -> None:
         """Turn both feet, now and in every recorded row, about the origin (the body's start)."""
@@ -430,10 +423,7 @@ class TwoFeetTracker(AidedFilter):
             position = self.filter.index(side)
             t[position: position + 3, position: position + 3] = rotation_z(turn)
             shift[self.filter.index(side, 3)] = turn
-        self._states = [t @ s + shift for s in self._states]
-        tp = t[self._poses, self._poses]  # t turns only the pose blocks
-        self._covs = [tp @ c @ tp.T for c in self._covs]
-        self._body_poses, self._body_covs = [], []
+        self.history.turn(t, shift)  # t turns only the pose blocks
         self.filter.transform(t, shift)
         self._frame_heading += turn
 
@@ -468,7 +458,8 @@ class TwoFeetTracker(AidedFilter):
     @property
     def sides(self) -> list[str]:
         """Which foot made each fused step."""
-        return list(self._sides)
+        with self._lock:
+            return self.history.sides()
 
     @property
     def body(self) -> Track:
@@ -477,25 +468,24 @@ class TwoFeetTracker(AidedFilter):
         return Track.from_arrays(*self.body_poses())
 
     def body_poses(self) -> tuple[np.ndarray, np.ndarray]:
-        """:attr:`body`'s (n + 1, 4) poses and (n + 1, 4, 4) covariances, without the track: each
-        row is made once, the first time it is asked for."""
-        rows = self._body_rows()
+        """:attr:`body`'s (n + 1, 4) poses and (n + 1, 4, 4) covariances, without the track (each
+        row is made once: :class:`~hostlib.fusion.joint_history.JointHistory`)."""
         with self._lock:
-            done = len(self._body_poses)
-            if done < len(self._states):
-                poses, covs = _body_pose_rows(np.array(self._states[done:])[:, self._poses],
-                                              np.array(self._covs[done:]),
-                                              rows[np.array(self._stale[done:])][:, :, self._poses])
-                self._body_poses.extend(poses)
-                self._body_covs.extend(covs)
-            return np.array(self._body_poses), np.array(self._body_covs)
+            return self.history.body()
+
+    def body_end(self) -> tuple[np.ndarray, float]:
+        """The body's last pose and its closure σ (:meth:`~hostlib.track.steps.Track.closure_sigma`)
+        without the rest of :attr:`body` (a status line's, after every step)."""
+        with self._lock:
+            (pose, cov), (_, cov0) = self.history.body_row(-1), self.history.body_row(0)
+        return pose, closure_sigma(cov0, cov)
 
     @property
     def average(self) -> Track:
         """The baseline: the midpoint of the two single-module tracks after each fused step (each
         with its own aids and drift correction)."""
         with self._lock:
-            counts, stale = np.array(self._counts), np.array(self._stale)
+            counts, stale = self.history.counts(), self.history.stale()
         single = [self._single_poses(side)[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
         covs = [self.foot(side).track.covariances[counts[:, i]] for i, side in enumerate(FOOT_SIDES)]
         n = len(self.filter)
@@ -503,7 +493,7 @@ class TwoFeetTracker(AidedFilter):
         for side, poses, cov in zip(FOOT_SIDES, single, covs, strict=True):
             b = self.filter.slice(side)
             states[:, b], joint[:, b, b] = poses, cov
-        return Track.from_arrays(*_body_pose_rows(states, joint, self._body_rows()[stale]))
+        return Track.from_arrays(*body_pose_rows(states, joint, self._body_rows()[stale]))
 
     def _body_rows(self) -> np.ndarray:
         """(3, 4, n): the body pose from the joint state — the midpoint; the right foot while the
@@ -542,37 +532,31 @@ class TwoFeetTracker(AidedFilter):
         """(n + 1, 4) the fused poses of *side* after each fused step (row 0: the start)."""
         b = self.filter.slice(side)
         with self._lock:
-            return np.array([s[b] for s in self._states])
+            return self.history.states()[:, b].copy()
 
     def fused_foot_sigmas(self, side: str) -> np.ndarray:
         """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
         b = self.filter.slice(side)
         b = slice(b.start - self._poses.start, b.stop - self._poses.start)
         with self._lock:
-            var = np.array([np.diagonal(c)[b] for c in self._covs])
+            var = self.history.variances()[:, b]
         return np.sqrt(np.clip(var, 0.0, None))
 
     def separation(self) -> np.ndarray:
         """(n + 1,) the fused feet's distance apart after each fused step [m]."""
         with self._lock:
-            feet = np.array(self._states)
+            feet = self.history.states()
         left, right = self.filter.index("left"), self.filter.index("right")
         return np.linalg.norm(feet[:, left:left + 3] - feet[:, right:right + 3], axis=1)
 
     def __len__(self) -> int:
-        return len(self._sides)
+        return len(self.history) - 1
 
     def __repr__(self) -> str:
         return (f"TwoFeetTracker({len(self)} steps: left {len(self.left)}, right {len(self.right)}; "
                 f"{self.projections} projections, {self.stale_steps} steps with a stale foot, "
                 f"{self.long_steps} steps longer than twice the bound, "
                 f"{len(self.restarts)} restarts)")
-
-
-def _body_pose_rows(states: np.ndarray, covs: np.ndarray, m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The body's (n, 4) poses and (n, 4, 4) covariances from (n, k) joint states, their (n, k, k)
-    covariances and each row's (4, k) body rows *m* (:meth:`TwoFeetTracker._body_rows`)."""
-    return np.einsum("kij,kj->ki", m, states), m @ covs @ np.transpose(m, (0, 2, 1))
 
 
 def _time_order(steps: list[FootStep]) -> list[FootStep]:

@@ -80,8 +80,8 @@ def feet_summary_line(tracker: TwoFeetTracker, devices: Mapping[str, Device],
         state = " FAILED" if side in failed else ("" if dev.link_up else " LINK DOWN")
         parts.append(f"{side} {len(tr):4d}/{tr.motion_steps:4d} steps {tr.distance:7.2f} m "
                      f"gaps {len(tr.gaps)} (missing {tr.missing}){state}")
-    body = tracker.body
-    return " | ".join(parts) + f" | body {pose_text(body.final_pose, body.closure_sigma())}"
+    pose, sigma = tracker.body_end()
+    return " | ".join(parts) + f" | body {pose_text(pose, sigma)}"
 
 
 def aids_status(aids: AidSetup | None, receiver: GpsStream | None = None) -> str:

@@ -55,11 +55,14 @@ def _walk_steps(seed: int, strides: int = 60) -> list[tuple[str, np.ndarray, flo
     return steps
 
 
-def _feed(feet: TwoFeetTracker, steps) -> None:
+def _feed(feet: TwoFeetTracker, steps, after=None) -> None:
+    """Each step to its foot's tracker, then *after()* (if given)."""
     counter = dict.fromkeys(FOOT_SIDES, 0)
     for side, dx, time_s in steps:
         counter[side] += 1
         feet.foot(side).add_step(dx, DP, counter[side], 0.4, time_s=time_s)
+        if after is not None:
+            after()
 
 
 # -- without aids ---------------------------------------------------------------------------
@@ -75,8 +78,9 @@ def test_without_aids_the_errors_leave_both_feet_and_widen_each_as_its_single_mo
     errors stay uncorrelated, each with its prior."""
     steps = _walk_steps(seed=5)
     held, plain = TwoFeetTracker(aids=FusionSettings(module_errors=errors)), TwoFeetTracker()
-    for feet in (held, plain):
-        _feed(feet, steps)
+    covs = [held.covariance.copy()]  # the feet's poses' covariance after each step (row 0: the start)
+    _feed(held, steps, after=lambda: covs.append(held.covariance.copy()))
+    _feed(plain, steps)
     assert held.projections == plain.projections == 0 and len(held) == len(steps)
     assert held.filter.P.shape == (8 + 2 * errors.states + 1,) * 2
     for i, side in enumerate(FOOT_SIDES):
@@ -85,7 +89,7 @@ def test_without_aids_the_errors_leave_both_feet_and_widen_each_as_its_single_mo
         for k, (_, dx, time_s) in enumerate(s for s in steps if s[0] == side):
             single.add_step(dx, DP, k + 1, time_s=time_s)
         rows = [0] + [n + 1 for n, stepped in enumerate(held.sides) if stepped == side]  # row 0: the start
-        np.testing.assert_allclose(np.array(held._covs)[rows][:, 4 * i: 4 * i + 4, 4 * i: 4 * i + 4],
+        np.testing.assert_allclose(np.array(covs)[rows][:, 4 * i: 4 * i + 4, 4 * i: 4 * i + 4],
                                    single.track.covariances, rtol=1e-12, atol=1e-18)
         e = _errors(held, side)
         np.testing.assert_allclose(held.filter.P[e, e], errors.prior, rtol=0,
