@@ -461,6 +461,11 @@ class TwoFeetTracker(AidedFilter):
         with self._lock:
             return self.history.sides()
 
+    def rows_of(self, side: str) -> np.ndarray:
+        """The rows of :meth:`fused_foot` (and :attr:`body`) that steps of *side* made, in order."""
+        with self._lock:
+            return self.history.rows_of(FOOT_SIDES.index(side))
+
     @property
     def body(self) -> Track:
         """The fused body track: the feet's midpoint after each fused step (row 0: the start);

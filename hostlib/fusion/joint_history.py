@@ -156,6 +156,10 @@ class JointHistory:
         """Which foot made each fused step."""
         return [FOOT_SIDES[i] for i in self._sides.view().tolist()]
 
+    def rows_of(self, foot: int) -> np.ndarray:
+        """The rows (1…n) that steps of foot *foot* (its index in FOOT_SIDES) made."""
+        return np.flatnonzero(self._sides.view() == foot) + 1
+
     @property
     def nbytes(self) -> int:
         """The bytes its arrays take (filled or not)."""

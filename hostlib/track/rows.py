@@ -1,12 +1,11 @@
 """A walk's history kept compactly: :class:`Rows`, rows of one shape and dtype appended one at a time
-into one numpy array that grows by doubling.
+into one numpy array that grows by half when full.
 
 A host keeps a row per step for the whole walk (a live page opened late shows all of it, the CSV
 at the end writes every pose). As Python objects — a list of small arrays, each a header of about
 100 bytes around its 32 or 128 bytes of numbers — a long walk's history weighs several times its
-numbers and scatters them over the heap. Kept here, a row costs its numbers' bytes (and at most as
-many again of room not filled yet: the array doubles when full), and reading the history is one
-copy of a contiguous block.
+numbers and scatters them over the heap. Kept here, a row costs its numbers' bytes (and at most half
+as many again of room not filled yet), and reading the history is one copy of a contiguous block.
 """
 
 from __future__ import annotations
@@ -39,7 +38,8 @@ class Rows:
     def append(self, row) -> None:
         """Add *row* (copied) at the end."""
         if self._n == len(self._data):
-            grown = np.empty((2 * len(self._data), *self.shape), dtype=self._data.dtype)
+            size = len(self._data) + len(self._data) // 2 + 1
+            grown = np.empty((size, *self.shape), dtype=self._data.dtype)
             grown[:self._n] = self._data
             self._data = grown
         self._data[self._n] = row

@@ -53,7 +53,6 @@ from protocol.board import FOOT_SIDES
 
 from ..fusion.aided import AidedFilter
 from ..fusion.feet import TwoFeetTracker
-from ..track.steps import is_motion_step
 from .model import LiveModel
 
 if TYPE_CHECKING:
@@ -96,7 +95,7 @@ class _Snapshot:
     poses: np.ndarray  # (n + 1, 4) the track's (or the body's)
     covs: np.ndarray  # (n + 1, 4, 4)
     feet: dict[str, np.ndarray]  # side → (n + 1, 4) fused poses (two feet)
-    sides: list[str]  # which foot made each fused step (two feet)
+    stepped: dict[str, np.ndarray]  # side → the rows its steps made (two feet)
     links: list[dict[str, Any]]
     aids: dict[str, Any] | None
     arrivals: list[float]
@@ -133,7 +132,6 @@ class WalkFeed:
         self._callbacks: list[tuple[Any, Callable[..., object]]] = []
         self._thread: threading.Thread | None = None
         self._ended = False
-        self._motion: dict[int, tuple[int, int]] = {}  # device → (steps looked at, of them moving the foot)
 
     # -- hearing of news ----------------------------------------------------------------
 
@@ -242,31 +240,27 @@ class WalkFeed:
                 self._arrivals.clear()
                 self._events.clear()
             feet: dict[str, np.ndarray] = {}
-            sides: list[str] = []
+            stepped: dict[str, np.ndarray] = {}
             if isinstance(tracker, TwoFeetTracker):
                 poses, covs = tracker.body_poses()
                 feet = {side: tracker.fused_foot(side) for side in FOOT_SIDES}
-                sides = tracker.sides
+                stepped = {side: tracker.rows_of(side) for side in FOOT_SIDES}
             else:
                 track = tracker.track.copy()
                 poses, covs = track.poses, track.covariances
             links = [self._link(m) for m in run.modules]
             aids = self._aids()
         n = min([len(poses)] + [len(rows) for rows in feet.values()])
-        return _Snapshot(poses[:n], covs[:n], {s: rows[:n] for s, rows in feet.items()}, sides[:n - 1], links,
-                         aids, arrivals, events)
+        return _Snapshot(poses[:n], covs[:n], {s: rows[:n] for s, rows in feet.items()},
+                         {s: ks[ks < n] for s, ks in stepped.items()}, links, aids, arrivals, events)
 
     def _link(self, m) -> dict[str, Any]:
         dev = m.dev
         track = dev.tracker.track
         stats = dev.session.stats
-        seen, moved = self._motion.get(id(dev), (0, 0))
-        if len(track) > seen:  # the steps that moved the foot, counted once each
-            moved += sum(is_motion_step(dx) for dx in track.steps[seen:])
-            self._motion[id(dev)] = (len(track), moved)
         return {"name": dev.name, "side": m.side, "up": dev.link_up, "failed": None if m.failure is None
                 else str(m.failure), "packets": stats.packets, "step_packets": len(track),
-                "steps": moved, "gaps": len(track.gaps), "missing": track.missing,
+                "steps": track.motion_steps, "gaps": len(track.gaps), "missing": track.missing,
                 "garbage": stats.garbage_bytes, "bad_frames": stats.bad_frames, "distance": track.distance,
                 "link_drops": dev.link_drops}
 
@@ -301,13 +295,12 @@ class WalkFeed:
 
     def _track(self, snap: _Snapshot, append: dict[str, list], replace: dict[str, list]) -> None:
         poses, covs = snap.poses, snap.covs
-        dist = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T)))).tolist()
-        rows = poses.tolist()
+        dist = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))))
 
         def point(k: int) -> list[float]:
-            x, y, z, chi = rows[k]
+            x, y, z, chi = poses[k].tolist()
             a, b, angle = ellipse(covs[k][:2, :2])
-            return [k, x, y, -z, math.degrees(chi) % 360.0, a, b, angle, dist[k]]
+            return [k, x, y, -z, math.degrees(chi) % 360.0, a, b, angle, float(dist[k])]
 
         kept = self.model.points("track")
         if _same(kept, poses):
@@ -317,14 +310,13 @@ class WalkFeed:
 
     def _foot(self, snap: _Snapshot, side: str, append: dict[str, list], replace: dict[str, list]) -> None:
         rows = snap.feet[side]
-        ks = [0] + [k for k, s in enumerate(snap.sides, start=1) if s == side]
+        ks = np.concatenate(([0], snap.stepped[side]))
         kept = self.model.points(side)
         if _same(kept, rows):
-            last = int(kept[-1][0])
-            ks = [k for k in ks if k > last]
-            append[side] = [[k, *rows[k, :2].tolist()] for k in ks]
+            ks = ks[ks > int(kept[-1][0])]
+            append[side] = [[k, *rows[k, :2].tolist()] for k in ks.tolist()]
         else:
-            replace[side] = [[k, *rows[k, :2].tolist()] for k in ks]
+            replace[side] = [[k, *rows[k, :2].tolist()] for k in ks.tolist()]
 
     def _aid_points(self, snap: _Snapshot, append: dict[str, list], replace: dict[str, list]) -> None:
         fixes = [[e.reading[0], e.reading[1], FIX_OUTCOMES[e.outcome], e.time_s] for e in snap.events
