@@ -75,7 +75,8 @@ from protocol.stream import StreamDecoder
 from .progress import progress_bar, say
 from .truth_files import write_truth_files
 
-__all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "ReplayResult", "run_replay",
+__all__ = ["HOSTS", "MODULE_HELP", "START_STEPWISE", "STANCE_SWAY_HELP", "LosslessHost", "ReplayResult",
+           "run_replay", "source_length", "start_replay",
            "stance_note", "add_arguments", "add_receiver_arguments", "add_stance_sway_argument",
            "check_arguments", "error_text", "load_walk", "main", "module_number", "rate_hz", "seed_number"]
 
@@ -100,7 +101,7 @@ class ReplayResult(bytes):
     module: Module | None = None  #: the module after the run (its counters, clock and states)
 
 
-def _source_length(source: SensorSource) -> int | None:
+def source_length(source: SensorSource) -> int | None:
     try:
         return len(source)  # type: ignore[arg-type]
     except TypeError:
@@ -125,6 +126,18 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
     (:data:`HOSTS`); *height_compensation*: it turns height compensation on at the first step;
     *calibrate_mag* (the fusion host only): it runs the in-situ magnetometer calibration.
     """
+    replayed = start_replay(source, config=config, announce=announce, bt_port=bt_port, host=host,
+                            height_compensation=height_compensation, calibrate_mag=calibrate_mag)
+    replayed.run_source(source_length(source), progress, progress_every)
+    replayed.drain()
+    return replayed.result()
+
+
+def start_replay(source: SensorSource, *, config: ModuleConfig | None = None,
+                 announce: Announce | None = to_stderr, bt_port: Port | None = None, host: str = "plain",
+                 height_compensation: bool = False, calibrate_mag: bool = False) -> LosslessHost:
+    """:func:`run_replay`'s module on *source* with its host, the start command sent, before its first
+    loop (the arguments as :func:`run_replay`'s); :mod:`firmware_sim.app.replay_group` runs many so."""
     if host not in HOSTS:
         raise ValueError(f"host must be one of {', '.join(HOSTS)}, not {host!r}")
     if calibrate_mag and host != "fusion":
@@ -135,20 +148,11 @@ def run_replay(source: SensorSource, *, config: ModuleConfig | None = None,
         config = profile_for(source).configure(config)
     module = build_module(config, sensors=source, bt_port=bt_port)
     prepare_module(module, announce)
-    replayed = _LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation,
-                             calibrate_mag=calibrate_mag)
-    replayed.run_source(_source_length(source), progress, progress_every)
-    replayed.drain()
-    result = ReplayResult(bytes(replayed.out))
-    result.ticks = replayed.ticks
-    result.packets = replayed.packets
-    total = _source_length(source)
-    result.samples = replayed.ticks if total is None else min(total, replayed.ticks)
-    result.module = module
-    return result
+    return LosslessHost(module, fusion=host == "fusion", height_compensation=height_compensation,
+                        calibrate_mag=calibrate_mag)
 
 
-class _LosslessHost:
+class LosslessHost:
     """The host side of a batch replay: starts step-wise tracking over Bluetooth, keeps every
     byte the module sends and acknowledges each state packet, as a lossless host does.
 
@@ -180,7 +184,11 @@ class _LosslessHost:
         """Run up to *max_ticks* loops (quiet stretches compiled, when available), then read and
         acknowledge; returns the number of bytes read."""
         module = self.module
-        self.ticks += module.advance(max_ticks) if max_ticks > 1 else _step(module)
+        return self.after_loops(module.advance(max_ticks) if max_ticks > 1 else _step(module))
+
+    def after_loops(self, loops: int) -> int:
+        """Count *loops* the module ran, then read and acknowledge what it sent; returns the bytes read."""
+        self.ticks += loops
         data = self.port.host_read()
         if not data:
             return 0
@@ -199,17 +207,32 @@ class _LosslessHost:
     def run_source(self, total: int | None, progress: Callable[[int, int | None], None] | None,
                    progress_every: int) -> None:
         """Loop until the source's *total* samples ran or it is exhausted."""
-        module = self.module
         next_progress = progress_every
         while True:
-            if total is not None and module.clock.ticks >= total:
+            loops = self.source_loops(total, progress_every)
+            if not loops:
                 break
-            self.loop_once(min(total - module.clock.ticks, progress_every) if total is not None else 1)
-            if module.sensors_exhausted:
-                break
+            self.loop_once(loops)
             if progress is not None and self.ticks >= next_progress:
                 progress(self.ticks, total)
                 next_progress += progress_every
+
+    def source_loops(self, total: int | None, most: int) -> int:
+        """:meth:`run_source`'s next loops (at most *most*); 0 once *total* samples ran or it ended."""
+        module = self.module
+        if (total is not None and module.clock.ticks >= total) or module.sensors_exhausted:
+            return 0
+        return min(total - module.clock.ticks, most) if total is not None else 1
+
+    def result(self) -> ReplayResult:
+        """The bytes the module sent, with the run's counters."""
+        result = ReplayResult(bytes(self.out))
+        result.ticks = self.ticks
+        result.packets = self.packets
+        total = source_length(self.module.sensors)
+        result.samples = self.ticks if total is None else min(total, self.ticks)
+        result.module = self.module
+        return result
 
     def drain(self) -> None:
         """The source has ended: stop processing and let the queue drain (at most DRAIN_TICKS)."""
@@ -563,7 +586,7 @@ def _replay_to(args: argparse.Namespace, source: SensorSource, name: str, module
         print(f"{name}: {profile.summary()}", file=sys.stderr)
     prepare_compiled_path(announce)  # before the clock: the time below is the replay's own
     t0 = time.monotonic()
-    with progress_bar(_source_length(source), name, "samples", quiet=args.quiet,
+    with progress_bar(source_length(source), name, "samples", quiet=args.quiet,
                       unit_scale=True) as bar:
         config = profile.configure(ModuleConfig(rate_hz=float(source.rate_hz),
                                                 mcu_serial=module_serial(module)))

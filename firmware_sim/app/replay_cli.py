@@ -7,8 +7,9 @@ every seed A … B−1 (with ``--module N``, one module walked with every seed: 
 each run writes ``DIR/<name>.bin`` (a scenario also ``<name>.bin.truth.csv``),
 byte for byte what a replay of it alone writes, and a table of the runs goes to stdout: steps,
 distance, closure (for closed loops) and time (:mod:`firmware_sim.app.runs`). The compiled
-tracking path is prepared once, before the first run; a reader thread reads the next file
-while the current one runs. ``--host fusion``, ``--height-compensation`` and ``--calibrate-mag``
+tracking path is prepared once, before the first run; the runs go 16 at a time in lockstep
+(:mod:`firmware_sim.app.replay_group`), a reader thread reading the next group's files while the
+current group runs. ``--host fusion``, ``--height-compensation`` and ``--calibrate-mag``
 apply to every run, and ``--stance-sway`` to every run of a scenario.
 """
 
@@ -63,10 +64,13 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     recording that cannot be read, an unknown scenario: before it, nothing is written, not even
     *wire_dir*).
 
-    A reader thread loads the next run's recording while the current one runs (numba's compiled
-    reader and navigation kernels release the GIL: with more than one run they are used rather
-    than the ones built ahead of time, which hold it), and the first while the compiled tracking
-    path is prepared.
+    The runs go in groups of :data:`~firmware_sim.app.replay_group.LOCKSTEP_RUNS`, each group's
+    replays in lockstep (:func:`firmware_sim.app.runs.run_group`; every file's bytes those of its
+    replay alone). A reader thread loads the next group's recordings while the current group runs
+    (numba's compiled reader and navigation kernels release the GIL: with more than one run they
+    are used rather than the ones built ahead of time, which hold it), and the first group's while
+    the compiled tracking path is prepared. A recording that cannot be read stops the batch before
+    its group runs.
     """
     from concurrent.futures import ThreadPoolExecutor
 
@@ -74,29 +78,35 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import RecordingFormatError
 
-    from .runs import finish, load, summary_lines, write_csv
+    from .replay_group import LOCKSTEP_RUNS
+    from .runs import load, run_group, summary_lines, write_csv
 
     if len(runs) > 1:
         aot.decline()
+    groups = [runs[i:i + LOCKSTEP_RUNS] for i in range(0, len(runs), LOCKSTEP_RUNS)]
     rows: list[dict[str, Any]] = []
     with ThreadPoolExecutor(1, thread_name_prefix="openshoe-reader") as reader, \
             progress_bar(len(runs), "replay", "runs", quiet=quiet) as bar:
-        pending = reader.submit(load, runs[0])
+        pending = [reader.submit(load, spec) for spec in groups[0]]
         prepare_compiled_path(None if quiet else say)
         t0 = time.perf_counter()  # the runs' wall time, from here: start-up is the rest
-        for i, spec in enumerate(runs):
-            try:
-                loaded = pending.result()
-            except (OSError, RecordingFormatError, KeyError, ValueError) as e:
-                text = error_text(e)  # a recording's own error names it already
-                where = "" if text.startswith(spec.source) else f"{spec.source}: "
-                print(f"openshoe-emu replay: {where}{text}", file=sys.stderr)
-                return 2
+        for g, group in enumerate(groups):
+            loaded = []
+            for spec, future in zip(group, pending, strict=True):
+                try:
+                    loaded.append(future.result())
+                except (OSError, RecordingFormatError, KeyError, ValueError) as e:
+                    text = error_text(e)  # a recording's own error names it already
+                    where = "" if text.startswith(spec.source) else f"{spec.source}: "
+                    print(f"openshoe-emu replay: {where}{text}", file=sys.stderr)
+                    for later in pending:
+                        later.cancel()
+                    return 2
             wire_dir.mkdir(parents=True, exist_ok=True)  # once a run has something to write
-            if i + 1 < len(runs):
-                pending = reader.submit(load, runs[i + 1])
-            rows.append(finish(spec, loaded, wire_dir))
-            bar.update(1)
+            if g + 1 < len(groups):
+                pending = [reader.submit(load, spec) for spec in groups[g + 1]]
+            rows.extend(run_group(group, loaded, wire_dir))
+            bar.update(len(group))
     wall = time.perf_counter() - t0
     for line in summary_lines(rows):
         print(line)

@@ -38,7 +38,7 @@ from typing import Any
 from . import settings as run_settings
 
 __all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "file_runs", "finish", "load",
-           "parse_seeds", "run_one", "scenario_runs", "summary_lines", "write_csv", "write_rows"]
+           "parse_seeds", "run_group", "run_one", "scenario_runs", "summary_lines", "write_csv", "write_rows"]
 
 #: The columns every row has, after the run's identity and its settings.
 METRICS = ("samples", "filled_samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct",
@@ -218,33 +218,50 @@ def run_one(spec: RunSpec, wire_dir: Path | None = None) -> dict[str, Any]:
 
 def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[str, Any]:
     """The rest of :func:`run_one` once the source is :func:`load`-ed: run, write, measure."""
+    return run_group([spec], [loaded], wire_dir)[0]
+
+
+def run_group(specs: Sequence[RunSpec], loaded: Sequence[Loaded], wire_dir: Path | None = None
+              ) -> list[dict[str, Any]]:
+    """:func:`finish` of K runs, their replays in lockstep (:mod:`firmware_sim.app.replay_group`: each
+    run's bytes those of its replay alone); a row each, in order. A run's ``nav_s`` is its share
+    of the group's navigation (the group's time / K)."""
     from firmware_sim.mcu.module import ModuleConfig
     from firmware_sim.transports.factory import module_serial
 
-    from .batch import run_replay
+    from .batch import start_replay
+    from .replay_group import run_replays
     from .truth_files import write_truth_files
 
     t1 = time.perf_counter()
-    source, truth, applied = loaded.source, loaded.truth, loaded.applied
-    config = ModuleConfig(rate_hz=float(source.rate_hz), initial_states=applied.initial_states,
-                          mcu_serial=module_serial(spec.module))
-    data = run_replay(source, config=config, announce=None, bt_port=applied.make_link(spec.seed),
-                      host=spec.host, height_compensation=spec.height_compensation,
-                      calibrate_mag=spec.calibrate_mag)
-    t2 = time.perf_counter()
-    if wire_dir is not None:
-        wire = Path(wire_dir) / f"{spec.name}.bin"
-        wire.write_bytes(data)
-        if truth is not None:
-            write_truth_files(source, wire, config.mcu_serial)
-    t3 = time.perf_counter()
-    row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
-                           "module": spec.walking_module}
-    row.update(spec.settings)
-    row.update(_metrics(data, data.samples, truth, getattr(source, "filled_samples", 0)))
-    row.update(parse_s=loaded.parse_s, nav_s=t2 - t1, write_s=t3 - t2,
-               time_s=loaded.parse_s + time.perf_counter() - t1)
-    return row
+    configs, hosts = [], []
+    for spec, run in zip(specs, loaded, strict=True):
+        states = run.applied.initial_states
+        configs.append(ModuleConfig(rate_hz=float(run.source.rate_hz), initial_states=states,
+                                    mcu_serial=module_serial(spec.module)))
+        hosts.append(start_replay(run.source, config=configs[-1], announce=None,
+                                  bt_port=run.applied.make_link(spec.seed), host=spec.host,
+                                  height_compensation=spec.height_compensation,
+                                  calibrate_mag=spec.calibrate_mag))
+    results = run_replays(hosts)
+    nav_s = (time.perf_counter() - t1) / len(hosts)
+    rows = []
+    for spec, run, config, data in zip(specs, loaded, configs, results, strict=True):
+        t2 = time.perf_counter()
+        if wire_dir is not None:
+            wire = Path(wire_dir) / f"{spec.name}.bin"
+            wire.write_bytes(data)
+            if run.truth is not None:
+                write_truth_files(run.source, wire, config.mcu_serial)
+        t3 = time.perf_counter()
+        row: dict[str, Any] = {"name": spec.name, "kind": spec.kind, "source": spec.source, "seed": spec.seed,
+                               "module": spec.walking_module}
+        row.update(spec.settings)
+        row.update(_metrics(data, data.samples, run.truth, getattr(run.source, "filled_samples", 0)))
+        row.update(parse_s=run.parse_s, nav_s=nav_s, write_s=t3 - t2,
+                   time_s=run.parse_s + nav_s + time.perf_counter() - t2)
+        rows.append(row)
+    return rows
 
 
 # ---------------------------------------------------------------------------------------------

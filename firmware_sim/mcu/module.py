@@ -203,6 +203,11 @@ class Module:
         self._compiled = False
         self._fast = None
 
+    def compiled_runner(self) -> CompiledSequence | None:
+        """This module's compiled runner (made on first use), None when it runs the pure path; e.g. to
+        step it together with other modules in one compiled call (``firmware_sim.nav.lockstep``)."""
+        return self._fastnav() if self._compiled else None
+
     def _fastnav(self) -> CompiledSequence:
         fast = self._fast
         if fast is None:

@@ -29,10 +29,11 @@ from firmware_sim.sensors import openshoe_scan
 
 from .kernel_sources import pure_requested, sources_stamp
 
-__all__ = ["build", "decline", "module_path", "run_loops", "wanted"]
+__all__ = ["build", "decline", "module_path", "run_group", "run_loops", "wanted"]
 
 _HERE = Path(__file__).resolve().parent
 _loaded: list[Callable[..., int] | None] = []  #: the loop once looked for (one element)
+_loaded_group: list[Callable[..., int] | None] = []  #: the loop of K modules once looked for
 
 
 def wanted() -> bool:
@@ -59,6 +60,16 @@ def run_loops() -> Callable[..., int] | None:
     return _loaded[0]
 
 
+def run_group() -> Callable[..., int] | None:
+    """The built loop of K modules in one call (:func:`firmware_sim.nav.driver.run_group`), from the
+    same module as :func:`run_loops`; None when that one is None."""
+    if run_loops() is None:
+        return None
+    if not _loaded_group:
+        _loaded_group.append(prebuilt.load(module_path(), "run_group"))
+    return _loaded_group[0]
+
+
 def decline() -> None:
     """Run numba's loop and walk reader in this process, not the ones built ahead of time, when
     numba is there: numba's release the GIL while they run, so a reader thread overlaps the runs of
@@ -81,11 +92,13 @@ def build() -> bool:
 def _compile(folder: Path) -> None:
     from numba.pycc import CC
 
-    from .driver import RUN_LOOPS_SIGNATURE
+    from .driver import RUN_GROUP_SIGNATURE, RUN_LOOPS_SIGNATURE
+    from .driver import run_group as group
     from .driver import run_loops as loop
 
     cc: Any = CC(_name())
     cc.output_dir = str(folder)
     cc.verbose = False
     cc.export("run_loops", RUN_LOOPS_SIGNATURE)(getattr(loop, "py_func", loop))
+    cc.export("run_group", RUN_GROUP_SIGNATURE)(getattr(group, "py_func", group))
     cc.compile()

@@ -58,7 +58,7 @@ from .ins_kernels import (
     time_update,
     zupt_update,
 )
-from .jit import compiled_reference, kernel
+from .jit import bytes_at, compiled_reference, kernel
 from .loop_kinds import (
     ALIGNMENT,
     FULL_RATE_INS,
@@ -70,8 +70,9 @@ from .loop_kinds import (
 )
 from .records import STATE_RECORD
 
-__all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "RUN_LOOPS_SIGNATURE",
-           "TRACKING", "TRACKING_HEIGHT", "finish_alignment", "run_loops"]
+__all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "RECORD_SIZES",
+           "RUN_GROUP_SIGNATURE", "RUN_LOOPS_SIGNATURE", "TRACKING", "TRACKING_HEIGHT", "finish_alignment",
+           "run_group", "run_loops"]
 
 #: The argument types every caller gives :func:`run_loops` (the loop built ahead of time takes
 #: exactly these: :mod:`firmware_sim.nav.aot`).
@@ -82,6 +83,15 @@ _latch_registers = compiled_reference(latch_registers)
 #: The work records' types (compiled code takes a dtype, not a class).
 _FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK = FrontendWork.DTYPE, InsWork.DTYPE, InertialWork.DTYPE
 _HEIGHT_WORK = HeightWork.DTYPE
+#: The bytes of each record :func:`run_loops` takes, in its order (:func:`run_group` reaches them by
+#: address).
+RECORD_SIZES = tuple(d.itemsize for d in (STATE_RECORD, _FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK,
+                                          _HEIGHT_WORK))
+_STATE_SIZE, _FRONTEND_SIZE, _INS_SIZE, _INERTIAL_SIZE, _HEIGHT_SIZE = RECORD_SIZES
+#: The bytes of one loop's registers (NR_IMUS × 6 int16).
+_SAMPLE_SIZE = NR_IMUS * 6 * 2
+#: :func:`run_group`'s argument types (exported by the loop built ahead of time too).
+RUN_GROUP_SIGNATURE = "int64(int64[::1], int64[::1], int64[:, ::1], int64[:, ::1], int64[::1])"
 
 
 @kernel
@@ -196,3 +206,24 @@ def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work
         else:
             navigation(s, iw)
     return n
+
+
+@kernel
+def run_group(kinds, ns, clocks, addresses, done):
+    """:func:`run_loops` of K modules in one call, one module after the other: each module's loops
+    exactly as it runs them alone (the same kernels, in the same order, on its own records).
+
+    Module k runs up to ``ns[k]`` (at least 1) loops of the sequence ``kinds[k]``; ``clocks[k]`` is
+    its ``(first_wake, period, ts_offset)``; ``addresses[k]`` the addresses of its register block
+    (``ns[k]`` × NR_IMUS × 6 int16, C order) and of its five records, in :func:`run_loops`'s order
+    (sizes :data:`RECORD_SIZES`). ``done[k]`` receives the loops module k ran. Returns K.
+    """
+    for k in range(len(kinds)):
+        a = addresses[k]
+        n = ns[k]
+        imu = bytes_at(a[0], n * _SAMPLE_SIZE).view(np.int16).reshape((n, NR_IMUS, 6))
+        done[k] = run_loops(kinds[k], n, imu, clocks[k, 0], clocks[k, 1], clocks[k, 2],
+                            bytes_at(a[1], _STATE_SIZE), bytes_at(a[2], _FRONTEND_SIZE),
+                            bytes_at(a[3], _INS_SIZE), bytes_at(a[4], _INERTIAL_SIZE),
+                            bytes_at(a[5], _HEIGHT_SIZE))
+    return len(kinds)

@@ -64,8 +64,8 @@ if TYPE_CHECKING:  # pragma: no cover
     from firmware_sim.mcu.module import Module
 
 __all__ = ["ALIGNMENT_SLOTS", "COMPILED_PATH", "FULL_RATE_INS_SLOTS", "TRACKING_HEIGHT_SLOTS",
-           "TRACKING_SLOTS", "FastNav", "ahead_of_time", "available", "disable", "numba_version",
-           "pure_requested", "reason_unavailable"]
+           "TRACKING_SLOTS", "FastNav", "QuietRun", "ahead_of_time", "available", "disable", "group_loop",
+           "numba_version", "pure_requested", "reason_unavailable"]
 
 P = ProcId
 _FRONT_END = (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST,
@@ -107,6 +107,23 @@ _WRITTEN = frozenset(
     | set(range(PS_DT_BASE, PS_DT_BASE + NR_SLOTS)))
 _U32 = 0xFFFFFFFF
 
+#: Per function table (by id, the table kept alive beside): the known sequences whose every slot is
+#: the reference function in it (a table is immutable: checked once, not in every loop).
+_CHECKED: dict[int, tuple[Any, dict[int, bool]]] = {}
+
+
+def _references(functions: Any, seq: KnownSequence) -> bool:
+    """Whether every occupied slot of *seq* is its reference function in the table *functions*."""
+    entry = _CHECKED.get(id(functions))
+    if entry is None or entry[0] is not functions:
+        entry = _CHECKED[id(functions)] = (functions, {})
+    known = entry[1].get(seq.kind)
+    if known is None:
+        known = entry[1][seq.kind] = all(
+            (pf := functions.get(pid)) is not None and pf.fn is _REFERENCE[pid] for pid in seq.slots if pid)
+    return known
+
+
 pure_requested = kernel_sources.pure_requested
 _disabled = ""  #: why the compiled path was switched off in this process ("" = it was not)
 
@@ -130,6 +147,19 @@ def _loop() -> tuple[Callable[..., int], bool]:
     from .driver import run_loops
 
     return run_loops, _jit().COMPILING
+
+
+def group_loop() -> Callable[..., int] | None:
+    """The compiled loop of K modules in one call (:func:`~firmware_sim.nav.driver.run_group`), built
+    ahead of time or numba's; None when the loop is not compiled (plain Python)."""
+    built = aot.run_group()
+    if built is not None:
+        return built
+    if aot.run_loops() is not None or not _jit().COMPILING:
+        return None  # a loop built before the group existed, or no numba: module by module
+    from .driver import run_group
+
+    return run_group  # type: ignore[no-any-return]
 
 
 def ahead_of_time() -> bool:
@@ -209,6 +239,8 @@ class FastNav:
         as_bytes = (lambda r: r.view(np.ndarray).view(np.uint8)) if compiled else (
             lambda r: r.view(np.ndarray).view(np.uint8).view(np.recarray))
         self._records = tuple(as_bytes(r) for r in records)
+        #: The records' addresses, for the loop of K modules (:func:`group_loop`).
+        self.addresses = tuple(r.ctypes.data for r in self._records)
         self._sequences = {seq.kind: seq for seq in SEQUENCES}
         self._timings: dict[int, _Timing] = {}
         #: Loops run compiled, loop by loop and in quiet runs (for the benchmark).
@@ -221,6 +253,11 @@ class FastNav:
         loop built ahead of time is ready as it is."""
         if not self._ahead:
             _jit().load(self._run, ALIGNMENT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
+        group = group_loop()
+        if group is not None and group is not aot.run_group():
+            one = np.ones(1, dtype=np.int64)
+            rows = np.zeros((1, 3), dtype=np.int64), np.zeros((1, 6), dtype=np.int64)
+            _jit().load(group, one, one, *rows, one)
 
     # -------------------------------------------------------------- eligibility
     @staticmethod
@@ -228,16 +265,10 @@ class FastNav:
         """Which known sequence runs (TRACKING, TRACKING_HEIGHT, FULL_RATE_INS or ALIGNMENT) with the
         reference functions registered, else 0 (the pure-Python sequence runs)."""
         slots = module.sequence.slots
-        seq = next((s for s in SEQUENCES if s.slots == slots), None)
-        if seq is None:
-            return 0
-        funcs = module.firmware.functions
-        for pid in slots:
-            if pid:
-                pf = funcs.get(pid)
-                if pf is None or pf.fn is not _REFERENCE[pid]:
-                    return 0
-        return seq.kind
+        for seq in SEQUENCES:
+            if seq.slots == slots:
+                return seq.kind if _references(module.firmware.functions, seq) else 0
+        return 0
 
     def _timing(self, module: Module, kind: int) -> _Timing:
         timing = self._timings.get(kind)
@@ -350,26 +381,45 @@ class FastNav:
         completes the alignment (the sequence then switches); that loop's Python slots and
         transmit_data() run here. The caller checked :meth:`quiet_ticks` and :meth:`kind`.
         """
-        seq, timing = self._sequences[kind], self._timing(module, kind)
+        run = self.quiet_run(module, max_ticks, kind)
+        if run is None:
+            return 0
+        return self.finish_quiet(module, run, self.run_loops(run))
+
+    def run_loops(self, run: QuietRun) -> int:
+        """The compiled loop of *run* on this module's records (nothing booked); the loops run."""
+        return self._run(run.kind, len(run.imu), run.imu, run.first, run.period, run.ts_offset,
+                         *self._records)
+
+    def quiet_run(self, module: Module, max_ticks: int, kind: int) -> QuietRun | None:
+        """What the compiled loop needs for :meth:`run_quiet`'s loops (None: the source has no register
+        block from here; run loop by loop)."""
         clock = module.clock
         start = clock.ticks  # sample index of the first loop
         imu = imu_block(module.sensors, start, max_ticks)
         if imu is None:
-            return 0
+            return None
         # the loop takes C-ordered registers (its one signature; the one built ahead of time reads
         # them so): a source's view in another order is copied
-        imu = np.ascontiguousarray(imu)
         c = module.costs
-        period = clock.cycles_per_tick
         first = clock.now_cycles + clock.cycles_until_next_tick()
-        ts_offset = c.loop_overhead + 2 * c.rx_poll
-        done = self._run(kind, len(imu), imu, first, period, ts_offset, *self._records)
+        return QuietRun(kind, start, np.ascontiguousarray(imu), first, clock.cycles_per_tick,
+                        c.loop_overhead + 2 * c.rx_poll)
+
+    def finish_quiet(self, module: Module, run: QuietRun, done: int) -> int:
+        """After the compiled loop ran *done* loops of *run*: book them on the module (clock, PS_DT,
+        the last sample's temperature and magnetometer, the ports, the ending loop's Python slots);
+        returns *done*."""
+        kind = run.kind
+        seq, timing = self._sequences[kind], self._timing(module, kind)
         if kind == ALIGNMENT:
             finish_alignment(self._ins_work, self._quaternion)
-        last = module.account_loops(done, ts_offset + timing.total)
+        c = module.costs
+        first, period = run.first, run.period
+        last = module.account_loops(done, run.ts_offset + timing.total)
         memory = module.memory
         memory.ps_dt[timing.ps_slots] = timing.ps_values
-        sample = module.sensors.read(start + done - 1)  # temperature, magnetometer of the last read
+        sample = module.sensors.read(run.start + done - 1)  # temperature, magnetometer of the last read
         if sample is not None:
             memory.imu_temp[:NR_IMUS] = sample.temp
             memory.imu_mag[:NR_IMUS] = sample.mag
@@ -391,6 +441,18 @@ class FastNav:
             module.finish_loop()
         self.ticks_quiet += done
         return done
+
+
+@dataclass(frozen=True)
+class QuietRun:
+    """One module's quiet loops as the compiled loop takes them (:meth:`FastNav.quiet_run`)."""
+
+    kind: int
+    start: int  #: the sample index of the first loop
+    imu: np.ndarray  #: the loops' registers, C order (loops × NR_IMUS × 6 int16)
+    first: int  #: the cycle at which the first loop wakes
+    period: int  #: cycles per tick
+    ts_offset: int  #: cycles from a wake-up to READ_INERTIAL's time stamp
 
 
 class _CompiledPath:

@@ -10,6 +10,8 @@ which is how the kernel tests run in every job.
   calls by name replaced by their kernels (compiled code calls only compiled functions).
 * :func:`plain` gives a kernel back as plain Python, with every kernel it calls plain too.
 * :data:`objmode` is numba's object-mode block (a no-op context without numba).
+* :func:`bytes_at` is the bytes at an address as an array (the lockstep loop reaches each
+  module's records so: :func:`firmware_sim.nav.driver.run_group`).
 
 The on-disk cache: numba renews a cached function when its own source file changes, not when
 a function it calls — and compiled into itself — changes in another file. The kernels of one
@@ -24,15 +26,18 @@ compile needs (a compile still sets it up itself): that set-up is most of a cach
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import functools
 import types
 from collections.abc import Callable, Iterator
 from typing import Any, TypeVar
 
+import numpy as np
+
 from .kernel_sources import SOURCES, pure_requested
 from .kernel_sources import sources_stamp as _sources_stamp
 
-__all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "compilations", "compiled_reference", "kernel",
+__all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "bytes_at", "compilations", "compiled_reference", "kernel",
            "load", "load_cached", "numba_version", "objmode", "plain", "pure_requested"]
 
 F = TypeVar("F", bound=Callable[..., Any])
@@ -171,3 +176,32 @@ def _no_objmode(**_types: str) -> Iterator[None]:
 #: ``with objmode(out="float32[::1]"): out = reference(…)`` runs the reference function from
 #: compiled code (numba's object mode); a no-op block without numba.
 objmode = numba.objmode if numba is not None else _no_objmode
+
+
+def _bytes_at(address: int, size: int) -> np.ndarray:
+    """The *size* bytes at *address* as a uint8 array (no copy): plain Python's :func:`bytes_at`."""
+    return np.ctypeslib.as_array((ctypes.c_uint8 * size).from_address(address))
+
+
+if numba is not None:
+    from numba.core import types as _types
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def _byte_pointer(typingctx: Any, address: Any) -> Any:
+        """An int64 address as a uint8 pointer (compiled code only)."""
+        sig = _types.CPointer(_types.uint8)(_types.int64)
+
+        def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+            return builder.inttoptr(args[0], context.get_value_type(signature.return_type))
+
+        return sig, codegen
+
+    def _compiled_bytes_at(address, size):  # type: ignore[no-untyped-def]
+        return numba.carray(_byte_pointer(address), size)
+
+    _compiled_bytes_at.__doc__ = _bytes_at.__doc__
+    bytes_at = kernel(_compiled_bytes_at)
+    _PLAIN[bytes_at] = _bytes_at
+else:  # pragma: no cover - without numba
+    bytes_at = _bytes_at
