@@ -235,3 +235,13 @@ SIGMA_SLOPE_HEIGHT = F32(0.01)
 #: Largest |innovation| [m] the slope measurement is applied with: the rise of a step of
 #: stairs is ≥ 0.15 m by building codes, and the slope model does not hold there.
 SLOPE_GATE_M = F32(0.10)
+#: Shortest step [m] whose stance can teach THETA_INIT the walking posture: over a shorter one
+#: (a shuffle, a turn on the spot) the INS's rise says little about the ground's slope.
+MIN_POSTURE_STEP_M = F32(0.5)
+#: Level stances THETA_INIT's walking posture averages over (1/n of the way for the n-th, then
+#: 1/POSTURE_STANCES): the foot's angle varies by about 0.5° from stance to stance, so the posture
+#: is known to about 0.1° after them (0.2 m over 100 m walked).
+POSTURE_STANCES = F32(32.0)
+#: Largest difference [rad] along the step between the foot's walking and standing angles taken
+#: as posture: 5°; the shared walks' is about 1° (the heel's rocking, the shoe); more is ground.
+MAX_POSTURE = F32(5.0 * math.pi / 180.0)

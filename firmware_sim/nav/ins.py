@@ -87,6 +87,8 @@ __all__ = [
     "stepwise_reset",
     "foot_angles",
     "slope_height_update",
+    "note_step",
+    "learn_posture",
     "height_compensation",
     "clear_stance",
     "start_stance",
@@ -153,12 +155,18 @@ class HeightWork(WorkRecord):
     ``t_sum`` [s] (the time it covers), ``f_prev`` / ``f_block`` (the last complete block of
     SLOPE_TRIM_S and the one being summed, not yet in ``f_sum``), ``t_block`` [s] (the current
     block's time), ``t_stance`` [s] (the stance's duration so far) and ``t_moving`` [s] (the time
-    without ZUPT since the last stance)."""
+    without ZUPT since the last stance); ``step_dir`` (the last step's horizontal direction in
+    the foot's angles: along and −across over its length), ``step_slope`` (its rise over its
+    length, as the INS saw it before the slope measurement) and ``step_seen`` (a step of
+    MIN_POSTURE_STEP_M or more is noted and its stance not yet judged); ``posture_n`` (the level
+    stances THETA_INIT learnt from since the alignment, at most POSTURE_STANCES)."""
 
     FIELDS = (("in_stance", np.bool_, (1,)), ("f_sum", np.float32, (3,)), ("t_sum", np.float32, (1,)),
               ("f_prev", np.float32, (3,)), ("t_prev", np.float32, (1,)), ("f_block", np.float32, (3,)),
               ("t_block", np.float32, (1,)),
-              ("t_stance", np.float32, (1,)), ("t_moving", np.float32, (1,)))
+              ("t_stance", np.float32, (1,)), ("t_moving", np.float32, (1,)),
+              ("step_dir", np.float32, (2,)), ("step_slope", np.float32, (1,)), ("step_seen", np.bool_, (1,)),
+              ("posture_n", np.float32, (1,)))
 
     def __repr__(self) -> str:
         return f"HeightWork(in_stance={bool(self.in_stance[0])}, t_stance={float(self.t_stance[0]):.3f} s)"
@@ -390,6 +398,43 @@ def slope_height_update(pos: np.ndarray, vel: np.ndarray, quat: np.ndarray, p45:
     pack_p(updated, p45)
 
 
+def note_step(pos: np.ndarray, quat: np.ndarray, w: HeightWork) -> None:
+    """The step that ends at this stance, as the INS tracked it (before the slope measurement):
+    its direction in the foot's angles and its slope, for :func:`learn_posture`; noted only for a
+    step of MIN_POSTURE_STEP_M or more (a shorter one's slope is mostly the INS's noise)."""
+    yaw = rot_to_yaw(quat_to_rot(quat))
+    c, s = _cosf(yaw), _sinf(yaw)
+    along = pos[0] * c + pos[1] * s
+    across = pos[1] * c - pos[0] * s
+    length = np.sqrt(along * along + across * across)
+    if length >= cfg.MIN_POSTURE_STEP_M:
+        w.step_dir[0] = along / length
+        w.step_dir[1] = -across / length
+        w.step_slope[0] = -pos[2] / length
+        w.step_seen[0] = True
+
+
+def learn_posture(w: HeightWork, pitch: np.float32, roll: np.float32, theta_init: np.ndarray) -> None:
+    """THETA_INIT learns the foot's walking posture from a level stance: it moves 1/n of the way to
+    this stance's pitch and roll (n the level stances since the alignment, at most POSTURE_STANCES),
+    so that level ground reads level however the foot stands while walking.
+
+    The stance is level when the INS's own slope of the step that led to it is nearer level than
+    to the slope the foot reads there against THETA_INIT (on a ramp both read it; a posture only
+    the foot), and the foot's reading along the step is at most MAX_POSTURE.
+    """
+    d0, d1 = w.step_dir[0], w.step_dir[1]
+    off = d0 * (pitch - theta_init[0]) + d1 * (roll - theta_init[1])
+    foot = d0 * _tanf(pitch - theta_init[0]) + d1 * _tanf(roll - theta_init[1])
+    ins_slope = w.step_slope[0]
+    if abs(ins_slope) <= abs(foot - ins_slope) and abs(off) <= cfg.MAX_POSTURE:
+        if w.posture_n[0] < cfg.POSTURE_STANCES:
+            w.posture_n[0] = w.posture_n[0] + _1
+        gain = _1 / w.posture_n[0]
+        theta_init[0] = theta_init[0] + gain * (pitch - theta_init[0])
+        theta_init[1] = theta_init[1] + gain * (roll - theta_init[1])
+
+
 def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork, pos: np.ndarray,
                         vel: np.ndarray, quat: np.ndarray, p45: np.ndarray, pm: np.ndarray,
                         theta_init: np.ndarray, theta_ground: np.ndarray) -> None:
@@ -411,6 +456,7 @@ def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork
         if not w.in_stance[0]:
             w.in_stance[0] = True
             if w.t_moving[0] >= cfg.MIN_SLOPE_SWING_S:
+                note_step(pos, quat, w)
                 slope_height_update(pos, vel, quat, p45, pm, theta_ground)
             start_stance(w)
         w.f_block[:] = w.f_block + f
@@ -433,6 +479,9 @@ def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork
         w.in_stance[0] = False
         if w.t_sum[0] >= cfg.MIN_SLOPE_STANCE_S:
             pitch, roll = foot_angles(w.f_sum)
+            if w.step_seen[0]:
+                w.step_seen[0] = False
+                learn_posture(w, pitch, roll, theta_init)
             slope, side = pitch - theta_init[0], roll - theta_init[1]
             if abs(slope) <= cfg.MAX_SLOPE and abs(side) <= cfg.MAX_SLOPE:
                 alpha = cfg.SLOPE_LOWPASS
@@ -459,6 +508,8 @@ def frontend_initial_alignment(module: Module) -> None:
 def clear_stance(w: HeightWork) -> None:
     """A new alignment: HEIGHT_COMPENSATION starts with no stance (its work cleared)."""
     w.in_stance[0] = False
+    w.step_seen[0] = False
+    w.posture_n[0] = _0
     start_stance(w)
 
 

@@ -104,8 +104,12 @@ slope_height_update = compiled_reference(ins.slope_height_update, quat_to_rot=qu
                                          _mm=_mm, pack_p=pack_p)
 start_stance = compiled_reference(ins.start_stance)
 clear_stance = compiled_reference(ins.clear_stance, start_stance=start_stance)
+note_step = compiled_reference(ins.note_step, quat_to_rot=quat_to_rot, rot_to_yaw=rot_to_yaw, _cosf=_cosf,
+                               _sinf=_sinf)
+learn_posture = compiled_reference(ins.learn_posture, _tanf=_tanf)
 height_compensation = compiled_reference(ins.height_compensation, slope_height_update=slope_height_update,
-                                         foot_angles=foot_angles, start_stance=start_stance)
+                                         foot_angles=foot_angles, start_stance=start_stance,
+                                         note_step=note_step, learn_posture=learn_posture)
 
 
 @kernel

@@ -32,7 +32,8 @@ def test_float_constants_are_single_precision():
     names = ["GRAVITY", "SIGMA_ACC", "SIGMA_GYRO", "SIGMA_ZUPT", "SIGMA_P0", "SIGMA_V0", "SIGMA_TH0",
              "RESET_COV_THRESHOLD", "MIN_TIME_BETWEEN_RESETS", "MAX_TIME_RESET_PENDING", "NOMINAL_PERIOD",
              "ACC_SCALE", "GYRO_SCALE", "CPU_HZ", "BIAS_P0", "BIAS_Q", "BIAS_R", "MIN_SLOPE_STANCE_S",
-             "MIN_SLOPE_SWING_S", "SLOPE_LOWPASS", "SIGMA_SLOPE_HEIGHT", "SLOPE_GATE_M"]
+             "MIN_SLOPE_SWING_S", "SLOPE_LOWPASS", "SIGMA_SLOPE_HEIGHT", "SLOPE_GATE_M", "MIN_POSTURE_STEP_M",
+             "POSTURE_STANCES", "MAX_POSTURE"]
     for n in names:
         assert type(getattr(cfg, n)) is np.float32, n
 
@@ -302,3 +303,41 @@ def test_height_compensation_learns_the_slope_from_stances():
         learnt.append(float(slope[0]))
     np.testing.assert_allclose(learnt, [a / 2, 3 * a / 4, 7 * a / 8], rtol=1e-5)
     assert slope[1] == 0
+
+
+def _walk_stances(foot_deg: float, rise_deg: float, n: int):
+    """*n* steps of 1.4 m: in each the INS climbs *rise_deg* (z down) and the foot then stands
+    *foot_deg* nose-up in its stance; THETA_INIT level at first. Returns THETA_INIT and THETA_GROUND
+    [deg] after each stance."""
+    a = math.radians(foot_deg)
+    f = np.array([G * math.sin(a), 0, -G * math.cos(a)], F32)
+    w, theta_init, slope = ins.HeightWork(), np.zeros(2, F32), np.zeros(2, F32)
+    dt, out = F32(0.004), []
+    for _ in range(n):
+        pos, vel, q, p45, pm, _ = _step_on_a_slope(-1.4 * math.tan(math.radians(rise_deg)), 0.0, heading=0.0)
+        state = (pos, vel, q, p45, pm, theta_init, slope)
+        for _ in range(100):  # swing
+            ins.height_compensation(False, f, dt, w, *state)
+        for _ in range(100):  # stance
+            ins.height_compensation(True, f, dt, w, *state)
+        ins.height_compensation(False, f, dt, w, *state)
+        out.append((math.degrees(theta_init[0]), math.degrees(slope[0])))
+    return np.array(out)
+
+
+def test_height_compensation_learns_the_walking_posture_on_level_ground():
+    """The foot stands 1.4° nose-up in its walking stances while the INS's steps stay level: THETA_INIT
+    takes that as the foot's walking posture (from the first such stance), and the ground reads level."""
+    out = _walk_stances(1.4, 0.0, 5)
+    np.testing.assert_allclose(out[:, 0], 1.4, atol=1e-3)
+    np.testing.assert_allclose(out[:, 1], 0.0, atol=1e-3)
+
+
+def test_height_compensation_keeps_the_posture_on_a_ramp():
+    """On a 2.5° ramp the INS's steps climb as the foot reads: that is ground, not posture — THETA_INIT
+    stays and the slope is learnt. A reading steeper than MAX_POSTURE on steps the INS finds level
+    is not taken as posture either."""
+    out = _walk_stances(2.5, 2.5, 5)
+    assert not out[:, 0].any()
+    assert out[-1, 1] == pytest.approx(2.5 * (1 - 0.5 ** 5), abs=1e-3)
+    assert not _walk_stances(6.0, 0.0, 3)[:, 0].any()

@@ -278,6 +278,17 @@ def test_convcomp_kernel_matches_the_reference_across_the_counter_wrap(compiled,
                      np.array([t_prev], np.uint32), np.zeros(6, np.float32), np.zeros((), np.float32))
 
 
+@pytest.mark.parametrize("compiled", FORMS)
+@kernel_settings
+@given(imu=saturated_registers(), raw=ints(np.int16, (32, 6)), prev=ints(np.int16, (NR_IMUS, 3)),
+       have_prev=st.booleans())
+def test_the_loops_register_latch_matches_read_inertials(compiled, imu, raw, prev, have_prev):
+    from firmware_sim.nav import driver, inertial
+
+    assert_same_call(inertial.latch_registers, form(driver.latch, compiled), imu, raw, prev,
+                     np.array([have_prev]))
+
+
 # ---------------------------------------------------------------------------------------- INS
 @pytest.mark.parametrize("compiled", FORMS)
 @kernel_settings
@@ -436,6 +447,10 @@ def stances(draw):
     w.f_sum[...] = draw(f32_arrays(3, -500, 500, specials=1))
     w.t_stance[0] = draw(st.one_of(_floats32(0.045, 0.055), f32_scalar(0, 1)))
     w.t_moving[0] = draw(st.one_of(_floats32(0.045, 0.055), f32_scalar(0, 1)))
+    w.step_seen[0] = draw(st.booleans())
+    w.step_dir[...] = draw(f32_arrays(2, -1, 1))
+    w.step_slope[0] = draw(f32_scalar(-0.1, 0.1))
+    w.posture_n[0] = draw(st.sampled_from([0.0, 1.0, 31.0, 32.0]))
     return w
 
 
