@@ -132,6 +132,7 @@ from .aid_states import add_aid_states
 from .aided import AidedFilter
 from .constraint import project_separation
 from .core import StateFilter
+from .feet_settings import FeetSettings
 from .joint_history import JointHistory, body_pose_rows
 from .settings import FusionSettings
 from .tracker import FusionTracker
@@ -147,27 +148,6 @@ DISAGREEMENT_SIGMAS = 3.0
 #: A foot is stale — the body follows the other foot alone — once the other foot has summed this
 #: many steps since its last one (one more than a transition from standing to walking can make).
 STALE_AFTER_STEPS = 3
-
-
-@dataclass(frozen=True)
-class FeetSettings:
-    """How the :class:`TwoFeetTracker` fuses the two feet."""
-
-    #: apply the inter-foot constraint (off: the joint filter is the two single tracks)
-    constraint: bool = True
-    #: γ [m]: the feet's last rests are never farther apart (module docstring)
-    max_separation_m: float = 1.0
-    #: lateral distance between the feet at the start [m]: the left foot starts half of it to the
-    #: left of the body, the right foot to the right (the host's frame starts at the body)
-    step_width_m: float = 0.12
-    #: heading uncertainty of a foot restarted at the other foot after a gap [rad]
-    restart_heading_sigma_rad: float = math.radians(5.0)
-
-    def __post_init__(self) -> None:
-        if not self.max_separation_m > 0:
-            raise ValueError(f"the feet's maximum separation must be > 0 m, got {self.max_separation_m}")
-        if not self.step_width_m >= 0:
-            raise ValueError(f"the step width must be ≥ 0 m, got {self.step_width_m}")
 
 
 @dataclass(frozen=True)
@@ -537,7 +517,7 @@ class TwoFeetTracker(AidedFilter):
         """(n + 1, 4) the fused poses of *side* after each fused step (row 0: the start)."""
         b = self.filter.slice(side)
         with self._lock:
-            return self.history.states()[:, b].copy()
+            return self.history.feet()[:, b.start - self._poses.start:b.stop - self._poses.start].copy()
 
     def fused_foot_sigmas(self, side: str) -> np.ndarray:
         """(n + 1, 4) the 1σ of :meth:`fused_foot`'s rows: x, y, z [m] and χ [rad]."""
@@ -550,8 +530,8 @@ class TwoFeetTracker(AidedFilter):
     def separation(self) -> np.ndarray:
         """(n + 1,) the fused feet's distance apart after each fused step [m]."""
         with self._lock:
-            feet = self.history.states()
-        left, right = self.filter.index("left"), self.filter.index("right")
+            feet = self.history.feet()
+        left, right = (self.filter.index(side) - self._poses.start for side in ("left", "right"))
         return np.linalg.norm(feet[:, left:left + 3] - feet[:, right:right + 3], axis=1)
 
     def __len__(self) -> int:

@@ -5,13 +5,13 @@ A live page opened late draws the whole walk, and the CSV at the end writes ever
 step leaves a row; a long walk must not make the host grow by more than a few hundred bytes a
 step. Kept per step, in growing arrays (:class:`~hostlib.track.rows.Rows`):
 
-* the joint state after the step (float64, the whole state: the feet's poses are read from it —
-  each foot's fused track, their separation — and the state at the start is what the GPS course's
-  alignment measures the way walked from);
+* the feet's poses after the step (8 float64: each foot's fused track, their separation; of the
+  rest of the joint state — the modules' errors, the aid states — only the start's is kept, what
+  the GPS course's alignment measures the way walked from);
 * the body's pose (4) and its 4×4 covariance (what the body track, its ellipses and its CSV
   columns read), and the variances of the two feet's poses (8: each foot's 1σ columns);
 * whether a foot was stale, each foot's steps fused so far, which foot stepped (one byte each,
-  two int64; the baseline of the two single-module tracks is built from them).
+  two int32; the baseline of the two single-module tracks is built from them).
 
 The 8×8 covariance of the feet's poses, which the body's covariance and the feet's variances are
 made from, is kept only while the walk's frame may still turn: until the aids align the heading
@@ -43,9 +43,11 @@ class JointHistory:
         self.poses = poses
         self._body_rows = np.asarray(body_rows, dtype=np.float64)
         width = poses.stop - poses.start
-        self._states = Rows((size,))
+        self._size = size
+        self._start: np.ndarray | None = None  # the joint state at the start (row 0), turned with the rows
+        self._feet = Rows((width,))  # the feet's poses, side by side
         self._stale = Rows((), np.int8)  # 0: both feet fresh; 1: the left foot stale; 2: the right
-        self._counts = Rows((2,), np.int64)  # each foot's steps through the filter
+        self._counts = Rows((2,), np.int32)  # each foot's steps through the filter
         self._sides = Rows((), np.int8)  # which foot made each step (its index in FOOT_SIDES)
         # the feet's poses' covariance of the rows not reduced yet (the frame may still turn)
         self._covs = Rows((width, width))
@@ -58,7 +60,9 @@ class JointHistory:
         """One row: the joint *state* after a step of *side* (None: the start), the feet's poses'
         covariance *poses_cov*, which foot is *stale* and the *counts* of each foot's steps; with the
         frame *settled* (it turns no more) the body's row is made now and the covariance let go."""
-        self._states.append(state)
+        if self._start is None:
+            self._start = np.array(state, dtype=np.float64)
+        self._feet.append(state[self.poses])
         self._covs.append(poses_cov)
         self._stale.append(stale)
         self._counts.append(counts)
@@ -70,9 +74,11 @@ class JointHistory:
     def turn(self, t: np.ndarray, shift: np.ndarray) -> None:
         """Every recorded row through the joint state's linear map ``s ← t s + shift`` (a turn of the
         frame: *t* turns only the feet's poses), each covariance by its pose block."""
-        states = self._states.writable()
-        for k in range(len(states)):
-            states[k] = t @ states[k] + shift
+        self._start = t @ self._start + shift
+        feet, state = self._feet.writable(), np.zeros(self._size)
+        for k in range(len(feet)):  # each row as a joint state (t is the identity off the poses)
+            state[self.poses] = feet[k]
+            feet[k] = (t @ state + shift)[self.poses]
         tp = t[self.poses, self.poses]
         covs = self._covs.writable()
         for k in range(len(covs)):
@@ -88,9 +94,9 @@ class JointHistory:
         """Make the body's rows of the rows not reduced yet, keep the feet's variances, let the
         covariances go."""
         done = len(self._body_poses)
-        if done == len(self._states):
+        if done == len(self._feet):
             return
-        poses, covs = self._body_of(done, len(self._states))
+        poses, covs = self._body_of(done, len(self._feet))
         for pose, cov in zip(poses, covs, strict=True):
             self._body_poses.append(pose)
             self._body_covs.append(cov)
@@ -104,27 +110,27 @@ class JointHistory:
         done = len(self._body_poses)
         stale = self._stale.view()[lo:hi].astype(np.int64)
         covs = self._covs.view()[lo - done:hi - done].copy()
-        return body_pose_rows(self._states.view()[lo:hi][:, self.poses], covs,
-                              self._body_rows[stale][:, :, self.poses])
+        return body_pose_rows(self._feet.view()[lo:hi], covs, self._body_rows[stale][:, :, self.poses])
 
     # -- reading ------------------------------------------------------------------------------
 
     def __len__(self) -> int:
         """Rows recorded (the start's and one a fused step)."""
-        return len(self._states)
+        return len(self._feet)
 
     @property
     def start(self) -> np.ndarray:
         """The joint state at the start (row 0), as turned since (a copy)."""
-        return self._states[0].copy()
+        return self._start.copy()
 
-    def states(self) -> np.ndarray:
-        """(n + 1, size) the joint state after each step (row 0: the start), read-only."""
-        return self._states.view()
+    def feet(self) -> np.ndarray:
+        """(n + 1, width) the feet's poses after each step (row 0: the start), side by side as in
+        the joint state from :attr:`poses`' start; read-only."""
+        return self._feet.view()
 
     def body(self) -> tuple[np.ndarray, np.ndarray]:
         """(n + 1, 4) the body's poses and (n + 1, 4, 4) their covariances (copies)."""
-        done, n = len(self._body_poses), len(self._states)
+        done, n = len(self._body_poses), len(self._feet)
         if done == n:
             return self._body_poses.copy(), self._body_covs.copy()
         poses, covs = self._body_of(done, n)
@@ -133,7 +139,7 @@ class JointHistory:
 
     def body_row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The body's pose and covariance at row *k* (negative: from the end), made alone (copies)."""
-        k = range(len(self._states))[k]
+        k = range(len(self._feet))[k]
         if k < len(self._body_poses):
             return self._body_poses[k].copy(), self._body_covs[k].copy()
         poses, covs = self._body_of(k, k + 1)
@@ -163,7 +169,7 @@ class JointHistory:
     @property
     def nbytes(self) -> int:
         """The bytes its arrays take (filled or not)."""
-        return sum(r.nbytes for r in (self._states, self._stale, self._counts, self._sides, self._covs,
+        return sum(r.nbytes for r in (self._feet, self._stale, self._counts, self._sides, self._covs,
                                       self._body_poses, self._body_covs, self._variances))
 
 

@@ -205,7 +205,7 @@ class Track:
         self._poses.append(np.asarray(pose0, dtype=np.float64))
         self._covs.append(np.asarray(cov0, dtype=np.float64))
         self._steps = Rows((4,))
-        self._counters = Rows((), np.int64)
+        self._counters = Rows((), np.uint16)
         self._swing_times = Rows(())
         self._moving = 0  # summed steps that moved the foot (is_motion_step)
         self.distance: float = 0.0  #: sum of the horizontal step lengths [m]
