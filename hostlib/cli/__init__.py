@@ -54,10 +54,26 @@ The package has a module per command (:mod:`~hostlib.cli.track`, :mod:`~hostlib.
 modules is a :class:`~hostlib.run.tracking_run.TrackingRun`.
 """
 
-from ..run.status import feet_summary_line, heading_deg, summary_line
+from importlib import import_module
+from typing import TYPE_CHECKING
+
 from .app import build_parser, main
 from .options import usage_refusal
-from .outputs import feet_summary
+
+if TYPE_CHECKING:  # type checkers see the functions the lazy __getattr__ below hands out
+    from ..run.status import feet_summary_line, heading_deg, summary_line
+    from .outputs import feet_summary
+
+#: What the lazy names come from: ``openshoe-host --help`` imports neither the fusion nor a walk's
+#: status (a command imports its own module: :data:`~hostlib.cli.app.COMMANDS`).
+_LAZY = {"feet_summary_line": "..run.status", "heading_deg": "..run.status", "summary_line": "..run.status",
+         "feet_summary": ".outputs"}
 
 __all__ = ["build_parser", "feet_summary", "feet_summary_line", "heading_deg", "main", "summary_line",
            "usage_refusal"]
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name], __name__), name)
+    raise AttributeError(f"module 'hostlib.cli' has no attribute {name!r}")

@@ -11,20 +11,19 @@ import argparse
 import math
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
-
-from protocol.board import FOOT_SIDES
+from typing import TYPE_CHECKING, Any
 
 from ..errors import HostError
-from ..fusion.deviation import CompassDeviation
-from ..fusion.feet import FeetSettings
-from ..fusion.gps_bias import GpsBias
-from ..fusion.hard_iron import HardIron
-from ..fusion.module_errors import ModuleErrors
-from ..link.device import Device
-from ..link.device_options import DeviceOptions
-from ..run.options import AUTO, AidOptions, RunOptions
+from ..fusion.feet_settings import FeetSettings
 from .checks import baud_rate, compass_sigma, declination, port_url, seconds, value_refusal
+
+if TYPE_CHECKING:  # the fusion, the link and the run: imported by the functions that use them, so
+    # that a command imports only what it uses and ``openshoe-host --help`` none of them
+    from ..fusion.deviation import CompassDeviation
+    from ..fusion.hard_iron import HardIron
+    from ..fusion.module_errors import ModuleErrors
+    from ..link.device import Device
+    from ..run.options import AidOptions, RunOptions
 
 __all__ = ["NO_FILE", "add_aid_options", "add_common", "add_feet_options", "add_log_calibration_options",
            "add_setup_options", "aid_options", "compass_deviation_type", "feet_settings", "log_refusal",
@@ -66,6 +65,8 @@ def step_count(text: str) -> int:
 def module_errors_type(text: str) -> ModuleErrors:
     """The argparse type of ``--module-errors`` (:meth:`ModuleErrors.parse
     <hostlib.fusion.module_errors.ModuleErrors.parse>`)."""
+    from ..fusion.module_errors import ModuleErrors
+
     try:
         return ModuleErrors.parse(text)
     except ValueError as exc:
@@ -74,6 +75,8 @@ def module_errors_type(text: str) -> ModuleErrors:
 
 def hard_iron_type(text: str) -> str | HardIron:
     """The argparse type of ``--hard-iron``: a prior σ [µT], or "auto" (by the calibration)."""
+    from ..fusion.hard_iron import HardIron
+
     if text == "auto":
         return text
     try:
@@ -86,6 +89,8 @@ def hard_iron_type(text: str) -> str | HardIron:
 def compass_deviation_type(text: str) -> CompassDeviation:
     """The argparse type of ``--compass-deviation`` (:meth:`CompassDeviation.parse
     <hostlib.fusion.deviation.CompassDeviation.parse>`)."""
+    from ..fusion.deviation import CompassDeviation
+
     try:
         return CompassDeviation.parse(text)
     except ValueError as exc:
@@ -328,12 +333,17 @@ def log_refusal(args: argparse.Namespace) -> str | None:
 
 def per_foot(files: Sequence[str] | None) -> dict[str, str]:
     """Side → each foot's file of a per-module option (none: -)."""
+    from protocol.board import FOOT_SIDES
+
     return {side: path for side, path in zip(FOOT_SIDES, files or (), strict=False) if path != NO_FILE}
 
 
 def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | None) -> AidOptions:
     """The aids and calibrations the options of ``track`` or ``replay`` ask for (*origin*: the
     parsed ``--origin``). ``track --gps`` names a receiver read as it talks, unless it is a file."""
+    from ..fusion.gps_bias import GpsBias
+    from ..run.options import AidOptions
+
     two = second(args) is not None
     live = args.cmd == "track" and bool(args.gps) and not Path(args.gps).is_file()
     return AidOptions(
@@ -354,11 +364,15 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
 def _held(given: Any, off: bool) -> Any:
     """A model's option for :class:`~hostlib.run.options.AidOptions`: *given* (a model), None where
     *off* (its ``--no-`` switch), else :data:`~hostlib.run.options.AUTO`, the default's to resolve."""
+    from ..run.options import AUTO
+
     return None if off else AUTO if given is None else given
 
 
 def run_options(args: argparse.Namespace) -> RunOptions:
     """How ``track`` drives its modules and when the walk ends."""
+    from ..run.options import RunOptions
+
     return RunOptions(attach=args.attach, fusion=args.fusion, height_compensation=args.height_compensation,
                       heading_deg=args.heading, duration_s=args.duration, steps=args.steps,
                       leave_running=args.leave_running)
@@ -374,6 +388,9 @@ def open_device(args: argparse.Namespace, url: str, *, queue_packets: bool = Tru
     """The device at *url*, talking as the link options say (*queue_packets*: to
     :class:`DeviceOptions`, *kw*: to :class:`Device`); a port that does not open is a
     :class:`~hostlib.errors.HostError` naming it (one of two feet's)."""
+    from ..link.device import Device
+    from ..link.device_options import DeviceOptions
+
     try:
         return Device(url, DeviceOptions(command_set=args.command_set, baudrate=args.baudrate,
                                          ack_timeout=args.ack_timeout, queue_packets=queue_packets), **kw)
