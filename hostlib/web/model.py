@@ -18,6 +18,10 @@ A page subscribes (:meth:`LiveModel.subscribe`) and is given, atomically, the wh
   update only, never kept (e.g. when the steps it carries arrived).
 
 A page that applies these messages holds exactly what the model holds: never more than the caps.
+
+Each point is kept as its JSON text, made once when it comes (about 60 bytes for a track's point
+against 300 as a list of Python numbers): a message or a reset splices the texts in, and
+:meth:`LiveModel.points` reads them back in one parse.
 """
 
 from __future__ import annotations
@@ -90,9 +94,10 @@ class LiveModel:
         return self.caps.get(name, self.default_cap)
 
     def points(self, name: str) -> list:
-        """A copy of series *name*'s points (empty if it has none)."""
+        """A copy of series *name*'s points (empty if it has none), as :func:`clean` made them."""
         with self._lock:
-            return list(self._series.get(name, ()))
+            texts = self._series.get(name, ())
+            return json.loads("[" + ",".join(texts) + "]")
 
     def value(self, name: str, default: Any = None) -> Any:
         with self._lock:
@@ -110,12 +115,12 @@ class LiveModel:
         *values*, and tell every subscriber in one message (with *transient*, which is not kept).
         Nothing changed and nothing transient: no message."""
         with self._lock:
-            replaced: dict[str, list] = {}
-            appended: dict[str, list] = {}
+            replaced: dict[str, list[str]] = {}
+            appended: dict[str, list[str]] = {}
             for name, pts in (replace or {}).items():
-                replaced[name] = self._series[name] = thin(clean(list(pts)), self.cap(name))
+                replaced[name] = self._series[name] = thin(_texts(pts), self.cap(name))
             for name, pts in (append or {}).items():
-                new = clean(list(pts))
+                new = _texts(pts)
                 if not new:
                     continue
                 old = self._series.setdefault(name, [])
@@ -130,16 +135,16 @@ class LiveModel:
             if not (replaced or appended or changed or transient):
                 return
             self.seq += 1
-            message: dict[str, Any] = {"seq": self.seq}
+            parts = [f'{{"seq":{self.seq}']
             if appended:
-                message["append"] = appended
+                parts.append(f',"append":{_series_json(appended)}')
             if replaced:
-                message["series"] = replaced
+                parts.append(f',"series":{_series_json(replaced)}')
             if changed:
-                message["values"] = changed
+                parts.append(f',"values":{_json(changed)}')
             if transient:
-                message["transient"] = clean(dict(transient), 6)
-            text = json.dumps(message, separators=(",", ":"), allow_nan=False)
+                parts.append(f',"transient":{_json(clean(dict(transient), 6))}')
+            text = "".join(parts) + "}"
             for listener in list(self._listeners):
                 listener(text)
 
@@ -149,8 +154,8 @@ class LiveModel:
             return self._snapshot()
 
     def _snapshot(self) -> str:
-        return json.dumps({"seq": self.seq, "reset": True, "series": self._series, "values": self._values},
-                          separators=(",", ":"), allow_nan=False)
+        return (f'{{"seq":{self.seq},"reset":true,"series":{_series_json(self._series)},'
+                f'"values":{_json(self._values)}}}')
 
     def subscribe(self, listener: Listener) -> str:
         """Tell *listener* every message from now on; returns the whole model as it is now, so that the
@@ -169,3 +174,18 @@ class LiveModel:
     def subscribers(self) -> int:
         with self._lock:
             return len(self._listeners)
+
+
+def _json(value: Any) -> str:
+    """*value* (already :func:`clean`) as compact JSON text."""
+    return json.dumps(value, separators=(",", ":"), allow_nan=False)
+
+
+def _texts(points: Iterable) -> list[str]:
+    """Each of *points*, cleaned, as its JSON text."""
+    return [_json(p) for p in clean(list(points))]
+
+
+def _series_json(series: Mapping[str, list[str]]) -> str:
+    """Series of point texts as one JSON object: name → the list of its points."""
+    return "{" + ",".join(f'{json.dumps(name)}:[{",".join(texts)}]' for name, texts in series.items()) + "}"
