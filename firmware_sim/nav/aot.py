@@ -4,8 +4,9 @@ Importing numba and loading the compiled loop (:func:`firmware_sim.nav.driver.ru
 its cache take most of a fresh process's start: about 0.15 s and 0.1 s of a 0.5 s replay. So the
 preparation that compiles or loads the loop with numba (:mod:`firmware_sim.nav.warmup`) also
 builds it once with numba's ahead-of-time compiler (``numba.pycc``), for the argument types every
-caller gives it (:data:`~firmware_sim.nav.driver.RUN_LOOPS_SIGNATURE`): the same kernels, an
-extension module of its own (about 7 s, once). Later processes import that module in well under
+caller gives it (:data:`~firmware_sim.nav.driver.RUN_LOOPS_SIGNATURE`), and beside it the loop of K
+modules in one call (:func:`~firmware_sim.nav.driver.run_group`, :func:`run_group`): the same kernels,
+an extension module of its own (about 7 s, once). Later processes import that module in well under
 a millisecond and never import numba (:func:`run_loops`); tests check its bytes against numba's
 loop.
 

@@ -45,7 +45,7 @@ from protocol.ids import NR_IMUS
 
 from .frontend import FrontendWork
 from .frontend_kernels import biasest, convcomp, preproc, statdet
-from .inertial import InertialWork, latch_registers
+from .inertial import InertialWork
 from .ins import HeightWork, InsWork
 from .ins import initial_alignment as _reference_alignment
 from .ins_kernels import (
@@ -79,7 +79,20 @@ __all__ = ["ALIGNMENT", "FULL_RATE_INS", "HEIGHT_AFTER_OUTPUT", "NO_SAMPLES", "R
 RUN_LOOPS_SIGNATURE = ("int64(int64, int64, int16[:, :, ::1], int64, int64, int64, uint8[::1], uint8[::1], "
                        "uint8[::1], uint8[::1], uint8[::1])")
 
-_latch_registers = compiled_reference(latch_registers)
+
+
+@kernel
+def latch(imu, raw, prev_acc, have_prev):
+    """:func:`~firmware_sim.nav.inertial.latch_registers` element by element (the same int16 copies,
+    without the slices' array views, which cost as much as the copies): the gyro as read, the
+    accelerometer the previous read's, or on the very first read the current one."""
+    first = not have_prev[0]
+    for c in range(NR_IMUS):
+        for a in range(3):
+            raw[c, a] = imu[c, a] if first else prev_acc[c, a]
+            prev_acc[c, a] = imu[c, a]
+            raw[c, 3 + a] = imu[c, 3 + a]
+    have_prev[0] = True
 #: The work records' types (compiled code takes a dtype, not a class).
 _FRONTEND_WORK, _INS_WORK, _INERTIAL_WORK = FrontendWork.DTYPE, InsWork.DTYPE, InertialWork.DTYPE
 _HEIGHT_WORK = HeightWork.DTYPE
@@ -190,7 +203,7 @@ def run_loops(kind, n, imu, first_wake, period, ts_offset, memory, frontend_work
         return 1
     for i in range(n):
         if len(imu):
-            _latch_registers(imu[i], s.imu_raw, rw.prev_acc, rw.have_prev)
+            latch(imu[i], s.imu_raw, rw.prev_acc, rw.have_prev)
             s.imu_ts[0] = (first_wake + i * period + ts_offset) & 0xFFFFFFFF
         front_end(s, fw)
         if kind == ALIGNMENT:

@@ -65,7 +65,7 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["ALIGNMENT_SLOTS", "COMPILED_PATH", "FULL_RATE_INS_SLOTS", "TRACKING_HEIGHT_SLOTS",
            "TRACKING_SLOTS", "FastNav", "QuietRun", "ahead_of_time", "available", "disable", "group_loop",
-           "numba_version", "pure_requested", "reason_unavailable"]
+           "group_releases_gil", "numba_version", "pure_requested", "reason_unavailable"]
 
 P = ProcId
 _FRONT_END = (P.READ_INERTIAL, P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST,
@@ -160,6 +160,13 @@ def group_loop() -> Callable[..., int] | None:
     from .driver import run_group
 
     return run_group  # type: ignore[no-any-return]
+
+
+def group_releases_gil() -> bool:
+    """Whether :func:`group_loop` releases the GIL while it runs (numba's does; the one built ahead
+    of time holds it)."""
+    group = group_loop()
+    return group is not None and group is not aot.run_group()
 
 
 def ahead_of_time() -> bool:

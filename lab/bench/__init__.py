@@ -12,7 +12,11 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
 * ``latency`` — one module served in real time on a pty: time from a command written on
   the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 2 ms.
 * ``files`` — ``--walks`` (100) walk files through one ``openshoe-emu replay`` command, start-up
-  included: walks/s (target 22) and the time split (:mod:`lab.bench.files`).
+  included: walks/s (target 60) and the time split (:mod:`lab.bench.files`).
+* ``lockstep`` — ``--walks`` (64 here) replays of the six shared walks navigated K at a time
+  (K = 1, 4, 16, 64), compiled: samples/s (target 1.5 M at K = 16, the batch replay's), per CPU
+  second and the compiled loop's share, every walk's bytes the same at every K
+  (:mod:`lab.bench.lockstep`).
 * ``sweep`` — a sweep of ``--runs`` (64) runs on 1, then 2 local Dask workers: the speed-up
   (target 1.7) and identical tables (:mod:`lab.bench.sweep`).
 * ``startup`` — fresh processes, ``--repeats`` (7) of each kind in turn: one walk replayed
@@ -49,7 +53,7 @@ from .result import Result
 
 __all__ = ["Result", "main", "machine_info"]
 
-TARGETS = ("batch", "realtime", "latency", "memory", "files", "sweep", "startup", "hostile")
+TARGETS = ("batch", "realtime", "latency", "memory", "files", "lockstep", "sweep", "startup", "hostile")
 #: --modules when not given, by target.
 DEFAULT_MODULES = {"realtime": 50, "hostile": 10}
 #: 24 h at 1 kHz.
@@ -113,10 +117,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
     p.add_argument("--cycles", type=float, default=FULL_CYCLES,
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
-    p.add_argument("--walks", type=int, default=100, help="files: walk files replayed (default 100)")
+    p.add_argument("--walks", type=int,
+                   help="files: walk files replayed (default 100); lockstep: replays (default 64)")
     p.add_argument("--runs", type=int, default=64, help="sweep: runs in the sweep (default 64)")
-    p.add_argument("--repeats", type=int, default=7,
-                   help="startup: fresh processes of each kind (default 7); the medians are reported")
+    p.add_argument("--repeats", type=int, default=None,
+                   help="startup: fresh processes of each kind (default 7); the medians are reported; "
+                        "lockstep: runs of each K (default 3), the best reported")
     p.add_argument("--baseline", choices=("side-by-side", "before"), default="side-by-side",
                    help="hostile: the run without hostile clients runs beside the hostile one (default) "
                         "or before it")
@@ -170,7 +176,11 @@ def main(argv: list[str] | None = None) -> int:
         elif name == "files":
             from .files import bench_files, default_walks_dir
 
-            r = bench_files(args.walks, default_walks_dir(), _say)
+            r = bench_files(100 if args.walks is None else args.walks, default_walks_dir(), _say)
+        elif name == "lockstep":
+            from .lockstep import bench_lockstep
+
+            r = bench_lockstep(64 if args.walks is None else args.walks, args.repeats or 3, _say)
         elif name == "sweep":
             from .sweep import bench_sweep
 
@@ -178,7 +188,7 @@ def main(argv: list[str] | None = None) -> int:
         elif name == "startup":
             from .startup import bench_startup
 
-            r = bench_startup(args.repeats, _say)
+            r = bench_startup(7 if args.repeats is None else args.repeats, _say)
         else:
             r = t.bench_memory(int(args.cycles), _say, quiet=args.quiet)
         r.details["wall_s"] = round(time.monotonic() - t0, 1)

@@ -278,6 +278,17 @@ def test_convcomp_kernel_matches_the_reference_across_the_counter_wrap(compiled,
                      np.array([t_prev], np.uint32), np.zeros(6, np.float32), np.zeros((), np.float32))
 
 
+@pytest.mark.parametrize("compiled", FORMS)
+@kernel_settings
+@given(imu=saturated_registers(), raw=ints(np.int16, (32, 6)), prev=ints(np.int16, (NR_IMUS, 3)),
+       have_prev=st.booleans())
+def test_the_loops_register_latch_matches_read_inertials(compiled, imu, raw, prev, have_prev):
+    from firmware_sim.nav import driver, inertial
+
+    assert_same_call(inertial.latch_registers, form(driver.latch, compiled), imu, raw, prev,
+                     np.array([have_prev]))
+
+
 # ---------------------------------------------------------------------------------------- INS
 @pytest.mark.parametrize("compiled", FORMS)
 @kernel_settings
