@@ -2,11 +2,13 @@
 
 * :func:`open_client` — a :class:`distributed.LocalCluster` of *workers* processes with one
   thread each, or a client of an existing cluster (``tcp://HOST:PORT``).
-* :func:`execute` — every run, in order of the specs, one task each. Dask retries a task that
-  raised (``retries``) and reschedules the tasks of a worker that died (the scheduler's
-  ``allowed-failures``, 3 by default): each run's row comes back exactly once. With no client,
-  the runs go one after the other in this process. The rows do not depend on where a run went:
-  a run is a pure function of its spec.
+* :func:`execute` — every run, in order of the specs: with the default runner in groups replayed in
+  lockstep (:func:`~firmware_sim.app.runs.run_many`: :data:`TASK_RUNS` runs a task on a cluster,
+  :data:`~firmware_sim.app.replay_group.LOCKSTEP_RUNS` at a time here), with another runner one
+  task a run. Dask retries a task that raised (``retries``) and reschedules the tasks of a worker
+  that died (the scheduler's ``allowed-failures``, 3 by default): each run's row comes back
+  exactly once. With no client, the runs go one after the other in this process. The rows do not
+  depend on where a run went, nor on its group: a run is a pure function of its spec.
 * :class:`PrepareWorker` — a worker plugin: every worker, a restarted one too, loads the
   compiled tracking kernels and the walk reader from numba's on-disk cache
   (:func:`firmware_sim.nav.warmup.prepare_compiled_path`) before its first task, instead of
@@ -25,13 +27,15 @@ from typing import Any
 from distributed.diagnostics.plugin import WorkerPlugin
 
 from .progress import progress_bar
-from .runs import RunSpec, run_one
+from .runs import RunSpec, run_many, run_one
 
 __all__ = ["PrepareWorker", "execute", "open_client", "prepare_process"]
 
 Runner = Callable[[RunSpec], dict[str, Any]]
 #: Retries of a task that raised (a worker that died is the scheduler's business).
 RETRIES = 2
+#: Runs in one task of a cluster, replayed in lockstep (few: the tasks still spread over the workers).
+TASK_RUNS = 4
 
 
 def prepare_process() -> None:
@@ -92,23 +96,31 @@ def local_worker_environment() -> Iterator[None]:
 def execute(runs: Sequence[RunSpec], client: Any | None = None, *, runner: Runner = run_one,
             retries: int = RETRIES, quiet: bool = False) -> list[dict[str, Any]]:
     """The row of every run, in the order of *runs*: on *client*'s cluster, or here in turn."""
+    from .replay_group import LOCKSTEP_RUNS
+
+    grouped = runner is run_one
+    size = 1 if not grouped else LOCKSTEP_RUNS if client is None else TASK_RUNS
+    groups = [list(runs[i:i + size]) for i in range(0, len(runs), size)]
+    task: Callable[[list[RunSpec]], list[dict[str, Any]]] = run_many if grouped else (
+        lambda group: [runner(spec) for spec in group])
     with progress_bar(len(runs), "sweep", "runs", quiet=quiet) as bar:
         if client is None:
             rows = []
-            for spec in runs:
-                rows.append(runner(spec))
-                bar.update(1)
+            for group in groups:
+                rows.extend(task(group))
+                bar.update(len(group))
             return rows
         from distributed import as_completed
 
-        keys = [f"openshoe-run-{i}-{_token(spec)}" for i, spec in enumerate(runs)]
-        futures = client.map(runner, list(runs), key=keys, retries=retries, pure=False)
-        for _ in as_completed(futures):
-            bar.update(1)
-        return client.gather(futures)
+        keys = [f"openshoe-runs-{i}-{_token(group)}" for i, group in enumerate(groups)]
+        futures = client.map(task, groups, key=keys, retries=retries, pure=False)
+        sizes = {key: len(group) for key, group in zip(keys, groups, strict=True)}
+        for future in as_completed(futures):
+            bar.update(sizes[future.key])
+        return [row for rows in client.gather(futures) for row in rows]
 
 
-def _token(spec: RunSpec) -> str:
+def _token(group: list[RunSpec]) -> str:
     from dask.base import tokenize
 
-    return tokenize(spec.kind, spec.source, spec.seed, spec.module, spec.rate_hz, spec.settings)
+    return tokenize([(s.kind, s.source, s.seed, s.module, s.rate_hz, s.settings) for s in group])

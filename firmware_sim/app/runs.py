@@ -38,7 +38,8 @@ from typing import Any
 from . import settings as run_settings
 
 __all__ = ["METRICS", "TIMINGS", "Loaded", "RunSpec", "columns", "end_errors", "file_runs", "finish", "load",
-           "parse_seeds", "run_group", "run_one", "scenario_runs", "summary_lines", "write_csv", "write_rows"]
+           "parse_seeds", "run_group", "run_many", "run_one", "scenario_runs", "summary_lines", "write_csv",
+           "write_rows"]
 
 #: The columns every row has, after the run's identity and its settings.
 METRICS = ("samples", "filled_samples", "step_packets", "steps", "distance_m", "closure_m", "closure_pct",
@@ -214,6 +215,11 @@ def run_one(spec: RunSpec, wire_dir: Path | None = None) -> dict[str, Any]:
     """Replay *spec* (writing ``wire_dir/<name>.bin`` and, for a scenario, its ``.truth.csv``);
     returns its row: name, kind, source, seed, the settings, :data:`METRICS`, :data:`TIMINGS`."""
     return finish(spec, load(spec), wire_dir)
+
+
+def run_many(specs: Sequence[RunSpec], wire_dir: Path | None = None) -> list[dict[str, Any]]:
+    """:func:`run_one` of every spec, their replays in lockstep (:func:`run_group`); the rows in order."""
+    return run_group(specs, [load(spec) for spec in specs], wire_dir)
 
 
 def finish(spec: RunSpec, loaded: Loaded, wire_dir: Path | None = None) -> dict[str, Any]:

@@ -11,7 +11,7 @@ import pytest
 
 from firmware_sim.app import cli
 from firmware_sim.app.batch import run_replay
-from firmware_sim.app.runs import file_runs, parse_seeds, run_one, scenario_runs
+from firmware_sim.app.runs import TIMINGS, file_runs, parse_seeds, run_many, run_one, scenario_runs
 from firmware_sim.sensors.imu_array import make_source
 from tests.conftest import walk_path
 from tests.e2e.test_wire_golden import WALK_SHA256
@@ -67,6 +67,12 @@ def test_a_run_row_has_identity_metrics_and_timings():
     assert 0 <= row["closure_pct"] < 10 and not math.isnan(row["closure_m"]), "a rectangle is a closed loop"
     assert row["time_s"] >= row["parse_s"] + row["nav_s"]
     assert len(row["wire_sha256"]) == 64
+
+
+def test_runs_replayed_in_lockstep_give_the_rows_each_gives_alone():
+    specs = scenario_runs([RECIPE], [0, 1, 2], rate_hz=250.0)
+    untimed = [{k: v for k, v in row.items() if k not in TIMINGS} for row in run_many(specs)]
+    assert untimed == [{k: v for k, v in run_one(s).items() if k not in TIMINGS} for s in specs]
 
 
 def test_file_runs_name_repeated_stems_apart():
