@@ -141,7 +141,7 @@ def _declared(fn: ProcessingFn) -> ProcessingFunction:
 class ProcessSequence:
     """The 12 running slots and the 12-slot storage of one module."""
 
-    __slots__ = ("slots", "storage", "runs", "functions")
+    __slots__ = ("slots", "storage", "runs", "functions", "fast")
 
     def __init__(self, functions: FunctionTable) -> None:
         #: The firmware's processing functions: ids not in it cannot occupy a slot.
@@ -152,6 +152,11 @@ class ProcessSequence:
         self.storage: list[int] = [0] * NR_SLOTS
         #: Times :meth:`run` was called.
         self.runs = 0
+        #: A faster run of the sequence with the same states, clock and bytes, installed by the
+        #: firmware (``fast(module)``: whether it ran this loop's sequence; when False, or None, the
+        #: functions run one by one here), e.g. the navigation's compiled slots
+        #: (:mod:`firmware_sim.nav.any_sequence`).
+        self.fast: Callable[[Any], bool] | None = None
 
     # ------------------------------------------------------------------ edits
     def set_slot(self, slot: int, proc_id: int) -> None:
@@ -188,23 +193,26 @@ class ProcessSequence:
     # -------------------------------------------------------------------- run
     def run(self, module: SequenceOwner) -> None:
         """run_process_sequence(): call every occupied slot in order, live (see module doc)."""
+        fast = self.fast
+        if fast is not None and fast(module):
+            return
         self.runs += 1
         slots = self.slots  # the live list: edits by a function are seen by later slots
-        funcs = self.functions
-        clock = module.clock
-        ps_dt = module.memory.ps_dt
-        call = module.costs.slot_call
         for j in range(NR_SLOTS):
-            pid = slots[j]
-            if pid:
-                pf = funcs.get(pid)
-                if pf is None:  # not in this firmware: an empty slot
-                    slots[j] = 0
-                    continue
-                pf.fn(module)
-                cost = pf.cycles + call
-                clock.now_cycles += cost
-                ps_dt[j] = cost
+            if slots[j]:
+                self.call_slot(module, j)
+
+    def call_slot(self, module: SequenceOwner, j: int) -> None:
+        """Slot *j*'s function (occupied), its cycles spent and written to PS_DT*j*; a slot whose id
+        this firmware has no function for is emptied instead."""
+        pf = self.functions.get(self.slots[j])
+        if pf is None:  # not in this firmware: an empty slot
+            self.slots[j] = 0
+            return
+        pf.fn(module)
+        cost = pf.cycles + module.costs.slot_call
+        module.clock.now_cycles += cost
+        module.memory.ps_dt[j] = cost
 
     def __repr__(self) -> str:
         def fmt(ids: list[int]) -> str:

@@ -5,7 +5,8 @@ sequence control (0x01–0x07), READ_INERTIAL, the integer front end
 (0x10–0x15), the ZUPT-aided INS (0x20–0x24), the emulator's slope height
 compensation (0x25, in no default sequence: docs/protocol-extensions.md), the
 front end's power-on thresholds, and the compiled path of the tracking sequences
-(:mod:`firmware_sim.nav.fastpath`). :func:`build_module` is a
+(:mod:`firmware_sim.nav.fastpath`) and of any other sequence's numeric slots
+(:mod:`firmware_sim.nav.any_sequence`). :func:`build_module` is a
 :class:`~firmware_sim.mcu.module.Module` running it — what every user of the
 emulator means by "a module".
 """
@@ -19,7 +20,7 @@ from firmware_sim.mcu.port import Port
 from firmware_sim.mcu.sequence import FunctionTable
 from firmware_sim.mcu.sequence_control import RUNTIME_FUNCTIONS
 
-from . import fastpath, frontend, ins
+from . import any_sequence, fastpath, frontend, ins
 from .inertial import read_inertial
 
 __all__ = ["NAVIGATION_FUNCTIONS", "OPENSHOE", "build_module"]
@@ -42,7 +43,7 @@ def _front_end_defaults(module: Module) -> None:
 #: The MIMU22BT's tracking firmware.
 OPENSHOE = Firmware(
     functions=FunctionTable.of(*RUNTIME_FUNCTIONS, *NAVIGATION_FUNCTIONS),
-    boot_hooks=(_front_end_defaults,),
+    boot_hooks=(_front_end_defaults, any_sequence.install),
     compiled_path=fastpath.COMPILED_PATH,
     name="OpenShoe tracking firmware",
 )

@@ -19,7 +19,8 @@ library, no typing), and then builds the loop ahead of time for the next
 processes. It happens once per process. While it takes longer than a moment, *announce* is
 told why the first start is slower. If the compiled path cannot be had (numba
 missing, or a compile that fails), modules fall back to the pure-Python
-reference — the same bytes, slower — and *announce* is told that too, once.
+reference — the same bytes, slower — and *announce* is told that too, once. The numeric slots of
+any other sequence (:mod:`firmware_sim.nav.slot_loop`) are prepared and built alike.
 """
 
 from __future__ import annotations
@@ -33,7 +34,7 @@ from dataclasses import dataclass
 from firmware_sim.mcu.module import Module, ModuleConfig
 from firmware_sim.nav.firmware import build_module
 
-from . import aot, fastpath
+from . import aot, fastpath, slot_loop
 
 __all__ = ["FIRST_RUN_NOTICE", "CompiledPath", "prepare_compiled_path", "prepare_module", "to_stderr"]
 
@@ -72,7 +73,9 @@ _fallback_said = False
 
 def _warm_up() -> None:
     fastpath.FastNav(build_module(ModuleConfig(compiled=True))).load()
+    slot_loop.load()  # the numeric slots of any other sequence (firmware_sim.nav.any_sequence)
     aot.build()  # for the next processes (nothing when built)
+    slot_loop.build()
 
 
 def prepare_compiled_path(announce: Announce | None = to_stderr,
