@@ -1,7 +1,8 @@
 # The two commands a fresh clone needs:
 #   make demo   set up .venv and run the main job (emulated walk tracked through a pty)
 #   make test   set up .venv, lint with ruff, run the per-kernel equivalence tests with
-#               OPENSHOE_PURE=1 (kernels as plain Python), then every test on two processes
+#               OPENSHOE_PURE=1 (kernels as plain Python) and the docs site's build while the
+#               kernels compile, then every other test on two processes
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -27,15 +28,18 @@ lint: $(STAMP)
 # environment asks Python not to write it (PYTHONDONTWRITEBYTECODE, empty here: unset).
 test: export PYTHONDONTWRITEBYTECODE =
 
-# test: the per-kernel tests as plain Python run on one core while the compiled kernels go into
-# numba's on-disk cache on the other (once, not in each worker); then every test on two workers,
-# whatever the first run gave (make fails if either failed).
+# test: while the compiled kernels go into numba's on-disk cache on one core (once, not in each
+# worker), the other runs what needs no compiled kernel: the per-kernel tests' plain-Python forms
+# (OPENSHOE_PURE=1) and the docs site's build. Then every other test on two workers, whatever the
+# first run gave (make fails if either failed).
+FIRST_TESTS := tests/nav/test_kernels.py tests/docs/test_docs.py::test_the_site_builds_without_warnings
+NOT_FIRST   := -k 'not (test_kernels and python)' --deselect tests/docs/test_docs.py::test_the_site_builds_without_warnings
 test: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/python -c '$(FILL_KERNEL_CACHE)' & cache=$$!; \
-	  OPENSHOE_PURE=1 $(BIN)/python -m pytest -q tests/nav/test_kernels.py; pure=$$?; \
+	  OPENSHOE_PURE=1 $(BIN)/python -m pytest -q $(FIRST_TESTS); first=$$?; \
 	  wait $$cache; \
-	  $(BIN)/python -m pytest -q -n 2 --dist worksteal && exit $$pure
+	  $(BIN)/python -m pytest -q -n 2 --dist worksteal $(NOT_FIRST) && exit $$first
 
 demo: $(STAMP)
 	$(BIN)/python -m firmware_sim.app.demo
