@@ -316,7 +316,7 @@ class FastNav:
             self._run(HEIGHT_AFTER_OUTPUT, 1, NO_SAMPLES, 0, 0, 0, *self._records)
 
     # ------------------------------------------------------------------ quiet runs
-    def quiet_ticks(self, module: Module, max_ticks: int) -> int:
+    def quiet_ticks(self, module: Module, max_ticks: int, kind: int | None = None) -> int:
         """How many of the next loops (at most *max_ticks*) run with nothing but the sequence
         happening (see the module doc); 0 = the next loop is not quiet.
 
@@ -325,8 +325,8 @@ class FastNav:
         (:meth:`~firmware_sim.mcu.port.IdealPort.quiet_until`): a link model with bytes in flight
         is quiet until the first of them could reach the µC or the host, and a scheduled
         disconnect or reconnect ends the run before it; the loop of such an event then runs
-        loop by loop as usual."""
-        kind = self.kind(module)
+        loop by loop as usual. *kind*: :meth:`kind`, when the caller has it."""
+        kind = self.kind(module) if kind is None else kind
         src = module.sensors
         if not kind or module.sensors_exhausted or not (hasattr(src, "imu_block") or hasattr(src, "imu")):
             return 0  # (whether it has a block now, run_quiet asks)

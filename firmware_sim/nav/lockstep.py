@@ -98,7 +98,7 @@ class Lockstep:
         if not isinstance(runner, fastpath.FastNav):
             return None
         kind = fastpath.FastNav.kind(module)
-        quiet = kind and runner.quiet_ticks(module, limit)
+        quiet = kind and runner.quiet_ticks(module, limit, kind)
         run = runner.quiet_run(module, quiet, kind) if quiet else None
         return None if run is None else (runner, run)
 
