@@ -57,6 +57,11 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
                "; hard iron at the end [{:+.2f}, {:+.2f}, {:+.2f}] ± [{:.2f}, {:.2f}, {:.2f}] µT".format(
                    *tracker.filter.mean("hard_iron"),
                    *np.sqrt(np.clip(np.diagonal(tracker.filter.covariance("hard_iron")), 0.0, None))))
+            + ("" if tracker.compass_swing is None else
+               "; compass swing at the end B {:+.2f} ± {:.2f}°, C {:+.2f} ± {:.2f}°".format(
+                   *(math.degrees(float(v)) for pair in zip(tracker.compass_swing,
+                                                            tracker.compass_swing_sigma, strict=True)
+                     for v in pair)))
             + ("" if tracker.gps_bias is None else
                "; GPS bias at the end N {:+.2f} ± {:.2f} m, E {:+.2f} ± {:.2f} m".format(
                    *(float(v) for pair in zip(tracker.gps_bias, tracker.gps_bias_sigma, strict=True)

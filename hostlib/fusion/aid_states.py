@@ -10,6 +10,9 @@ states its :class:`~hostlib.fusion.settings.FusionSettings` hold, in the order o
 * ``"hard_iron"`` — the shoe's hard iron ``[b_x, b_y, b_z]`` in the board's frame
   (:mod:`hostlib.fusion.hard_iron`), held with
   :attr:`~hostlib.fusion.settings.FusionSettings.hard_iron`; prior 0 with σ_b² on each axis;
+* ``"swing"`` — a calibrated compass's swing ``[B, C]`` (:mod:`hostlib.fusion.compass_swing`), held
+  with the compass and :attr:`~hostlib.fusion.settings.FusionSettings.compass_swing` but not with
+  the hard iron; prior 0 with σ² on each term (used only while the compass reads calibrated);
 * ``"deviation"`` — the compass's local deviation ``d`` (:mod:`hostlib.fusion.deviation`), held
   with :attr:`~hostlib.fusion.settings.FusionSettings.compass_deviation`; prior 0 with σ_d²;
 * ``"declination"`` — the declination ``D``, always held, last: prior the settings' D₀, with
@@ -56,6 +59,12 @@ def _hard_iron_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
     return np.zeros(3), s.hard_iron.variance * np.eye(3)
 
 
+def _swing_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
+    if s.compass_swing is None or not s.compass or s.hard_iron is not None:
+        return None
+    return np.zeros(2), s.compass_swing.variance * np.eye(2)
+
+
 def _deviation_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
     if s.compass_deviation is None:
         return None
@@ -71,6 +80,7 @@ def _declination_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray]:
 AID_STATES: tuple[AidState, ...] = (
     AidState("gps_bias", _gps_bias_prior),
     AidState("hard_iron", _hard_iron_prior),
+    AidState("swing", _swing_prior),
     AidState("deviation", _deviation_prior),
     AidState("declination", _declination_prior),
 )

@@ -38,6 +38,7 @@ from ..aids.compass import wrap_angle
 from ..aids.field_check import level_field
 from ..calibration.magcal import MagCalibration
 from .aid_events import AidEvent, AidObserver
+from .compass_swing import swing_basis
 from .compass_trust import disturbance_ut, field_check, weighs_uncalibrated
 from .core import StateFilter
 from .gauss_markov import transition
@@ -333,6 +334,10 @@ class AidedFilter(ABC):
             innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
         else:
             innovation = wrap_angle(psi - (x[k] - x[dec]))
+        swing = self._swing_basis(pose, float(x[k] - x[dec]))
+        if swing is not None:  # the reading is less the swing B sin ψ_m + C cos ψ_m, too
+            weights.update({("swing", i): -float(swing[i]) for i in range(2)})
+            innovation = wrap_angle(innovation + float(swing @ f.mean("swing")))
         h, r = f.row(weights), self._reading_variance()
         gate = s.compass_gate_sigmas
         if gate is not None and innovation ** 2 > gate ** 2 * (float(h @ f.P @ h) + r):
@@ -343,6 +348,25 @@ class AidedFilter(ABC):
         f.update(h, innovation, r)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
+
+    def _swing_basis(self, pose: str, magnetic_heading: float) -> np.ndarray | None:
+        """[sin ψ_m, cos ψ_m] at *magnetic_heading* when block *pose*'s compass reads with a
+        calibration and its swing is held (:mod:`hostlib.fusion.compass_swing`); else None."""
+        if "swing" not in self.filter or self._compass_calibration(pose) is None:
+            return None
+        return swing_basis(magnetic_heading)
+
+    @property
+    def compass_swing(self) -> np.ndarray | None:
+        """The estimate of a calibrated compass's swing [B, C] [rad] (None: not held)."""
+        return self.filter.mean("swing") if "swing" in self.filter else None
+
+    @property
+    def compass_swing_sigma(self) -> np.ndarray | None:
+        """The 1σ of :attr:`compass_swing` [rad] (None: not held)."""
+        if "swing" not in self.filter:
+            return None
+        return np.sqrt(np.clip(np.diagonal(self.filter.covariance("swing")), 0.0, None))
 
     def _reading_variance(self) -> float:
         """A compass reading's own variance σ_c², plus an uncalibrated compass's weight when the
@@ -366,6 +390,9 @@ class AidedFilter(ABC):
         if sigma is None:
             sigma = math.sqrt(self._reading_variance())
         k = f.index(pose, 3)
+        swing = self._swing_basis(pose, psi)
+        if swing is not None:  # its estimate is 0 until a reading used it: its variance only
+            sigma = math.sqrt(sigma ** 2 + float(swing @ f.covariance("swing") @ swing))
         if "deviation" in f:
             dev = f.index("deviation")
             var_dev, cov = float(p[dev, dev]), float(p[dev, dec])

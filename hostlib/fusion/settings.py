@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 from ..aids.declination import MagneticField
 from ..calibration.magcal import MagCalibration
 from ..track.rows import Rows
+from .compass_swing import CompassSwing
 from .deviation import CompassDeviation
 from .gps_bias import GpsBias
 from .hard_iron import HardIron
@@ -41,6 +42,11 @@ class FusionSettings:
     #: (:mod:`hostlib.fusion.hard_iron`: :data:`~hostlib.fusion.hard_iron.UNCALIBRATED`,
     #: :data:`~hostlib.fusion.hard_iron.CALIBRATED`; None: not held, the iron is the calibration's)
     hard_iron: HardIron | None = None
+    #: a calibrated compass's swing B sin ψ + C cos ψ (what the calibration's iron and the level at
+    #: the end of the stance leave) as two states, used while the compass reads with a calibration
+    #: (:mod:`hostlib.fusion.compass_swing`: :data:`~hostlib.fusion.compass_swing.CALIBRATED_SWING`;
+    #: None: not held; not with :attr:`hard_iron` held, which models the same)
+    compass_swing: CompassSwing | None = None
     #: an uncompensated compass weighed for this unknown hard iron: with no :attr:`mag_calibration`
     #: and :attr:`hard_iron` not held, the local deviation's variance (or, not held, each reading's)
     #: gains atan(σ_b / H)² (:mod:`hostlib.fusion.compass_trust`); None: the readings weighed as if

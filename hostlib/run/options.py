@@ -41,6 +41,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ..calibration.magcal import MagCalibration
+from ..fusion.compass_swing import CALIBRATED_SWING, CompassSwing
 from ..fusion.deviation import INDOORS, OUTDOORS, WHITE_SIGMA_RAD, CompassDeviation
 from ..fusion.gps_bias import GpsBias
 from ..fusion.hard_iron import CALIBRATED, UNCALIBRATED, HardIron
@@ -54,7 +55,7 @@ __all__ = ["AUTO", "DEFAULTED", "AidOptions", "RunOptions"]
 AUTO = "auto"
 #: The options :data:`AUTO` may stand for, and the command line's switch that turns each off.
 DEFAULTED = {"module_errors": "--no-module-errors", "compass_deviation": "--no-compass-deviation",
-             "gps_bias": "--no-gps-bias"}
+             "gps_bias": "--no-gps-bias", "compass_swing": "--no-compass-swing"}
 
 
 @dataclass(frozen=True)
@@ -90,6 +91,10 @@ class AidOptions:
     #: :data:`AUTO` (:data:`~hostlib.fusion.hard_iron.UNCALIBRATED`, or
     #: :data:`~hostlib.fusion.hard_iron.CALIBRATED` with a calibration); None: not held (the default)
     hard_iron: HardIron | str | None = None
+    #: a calibrated compass's swing B sin ψ + C cos ψ held as two states, used while the compass
+    #: reads with a calibration (:mod:`hostlib.fusion.compass_swing`); :data:`AUTO`: with the compass
+    #: and one module, :data:`~hostlib.fusion.compass_swing.CALIBRATED_SWING`; None: not held
+    compass_swing: CompassSwing | str | None = AUTO
     #: the receiver's correlated error held as a state (:mod:`hostlib.fusion.gps_bias`); :data:`AUTO`:
     #: with GPS, :class:`~hostlib.fusion.gps_bias.GpsBias`' defaults; None: not held
     gps_bias: GpsBias | str | None = AUTO
@@ -155,6 +160,8 @@ class AidOptions:
             compass_deviation=_model(self.compass_deviation, deviation if self.compass else None,
                                      CompassDeviation.parse),
             hard_iron=_model(self.hard_iron, iron, _no_word("hard_iron", "a HardIron")),
+            compass_swing=_model(self.compass_swing, CALIBRATED_SWING if self.compass and not feet else None,
+                                 _no_word("compass_swing", "a CompassSwing")),
             gps_bias=_model(self.gps_bias, GpsBias() if self.uses_gps else None,
                             _no_word("gps_bias", "a GpsBias")))
 
@@ -199,6 +206,8 @@ class AidOptions:
             changes["gps_interval_s"] = o.gps_interval_s
         if not o.compass_gate:
             changes["compass_gate_sigmas"] = None
+        if o.compass_swing is not None:
+            changes["compass_swing"] = o.compass_swing
         if o.hard_iron is not None:
             changes["hard_iron"] = o.hard_iron
         elif o.compass and o.uncalibrated_weight:
