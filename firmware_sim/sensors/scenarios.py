@@ -66,7 +66,7 @@ from .gait import WALKING, GaitParams, Trajectory
 from .gait_builder import GaitBuilder
 from .recipes import PIECE_SPECS, RecipeError
 
-__all__ = ["SCENARIOS", "PIECES", "Environment", "RecipeError", "check", "environment", "feet",
+__all__ = ["OUTAGE_LOOP", "SCENARIOS", "PIECES", "Environment", "RecipeError", "check", "environment", "feet",
            "list_scenarios", "recipe", "trajectory"]
 
 _LAP = (
@@ -75,6 +75,12 @@ _LAP = (
 )
 
 #: name → recipe.
+#: NavShoe's outage loop after its start (aids.md §2): a hilly closed loop of about 1 km. Sides of
+#: 300 m (a 3° hill up and down; a 2° hill and 99.7 m of flat, the same 299.6 m across) and 200 m
+#: joined by 5 m arcs: 1031 m, back at the start within centimetres
+OUTAGE_LOOP = ("walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90+walk:100:2+walk:100:-2+walk:99.71"
+               "+arc:5:90+walk:200+arc:5:90+stand:5")
+
 SCENARIOS: dict[str, str] = {
     # the demo: align, two laps (≈ 233 m) of a 40 × 20 m block over a footbridge, stand
     "default": f"stand:5+{_LAP}+{_LAP}+stand:5",
@@ -103,12 +109,13 @@ SCENARIOS: dict[str, str] = {
     # the diagonal walks: 50 m up a 7.8° road at 45° to its fall line (uphill ahead-left),
     # a half turn on the slope, and back the same way
     "ramp_diagonal": "stand:3+ramp:50:7.8:45+turn:180+ramp:50:7.8:-135+stand:2",
-    # NavShoe's outage experiment (aids.md §2): a hilly closed loop of about 1 km outdoors, started
-    # facing north-east; the receiver gives no fix after the first 400 m (ENVIRONMENTS). Sides of
-    # 300 m (a 3° hill up and down; a 2° hill and 99.7 m of flat, the same 299.6 m across) and 200 m
-    # joined by 5 m arcs: 1031 m, back at the start within centimetres
-    "navshoe-outage": "face:50+stand:5+walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90"
-                      "+walk:100:2+walk:100:-2+walk:99.71+arc:5:90+walk:200+arc:5:90+stand:5",
+    # NavShoe's outage experiment (aids.md §2): the loop outdoors (OUTAGE_LOOP), started facing
+    # north-east; the receiver gives no fix after the first 400 m (ENVIRONMENTS)
+    "navshoe-outage": "face:50+stand:5+" + OUTAGE_LOOP,
+    # the same loop with NavShoe's in-situ calibration first (aids.md §3): the wearer wiggles the
+    # shoe for 30 s where the loop starts, stands, and walks off; the first stride ends the
+    # calibration, and one capture calibrates and navigates (openshoe-host replay --calibrate-mag)
+    "navshoe-wiggle-outage": "face:50+stand:5+wiggle:30+stand:3+" + OUTAGE_LOOP,
     # NavShoe's in-situ magnetometer calibration (aids.md §3): standing outdoors facing 30°, the
     # wearer wiggles the shoe for 30 s, stands, then walks 76 m with three turns; the first stride
     # (1.5 m) ends the calibration
@@ -151,6 +158,7 @@ class Environment:
 #: name → environment of the scenarios not walked indoors with the sky always in view.
 ENVIRONMENTS: dict[str, Environment] = {
     "navshoe-outage": Environment(outdoors=True, gps_outage_after_m=400.0),
+    "navshoe-wiggle-outage": Environment(outdoors=True, gps_outage_after_m=400.0),
     # outdoors: the field is the same within the few centimetres the wiggle moves the module
     # (open ground varies over tens of metres, a building's over a few), so the readings lie on
     # one ellipsoid, and the compass on the walk after it measures the calibration, not a building

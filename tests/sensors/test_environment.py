@@ -47,3 +47,15 @@ def test_the_scripted_outage_starts_where_the_walker_has_gone_400_m():
     errors = scenario_errors(GpsErrors(), "navshoe-outage", t, pos)
     assert errors.in_outage(300.0) and not errors.in_outage(200.0)
     assert scenario_errors(GpsErrors(), "walk", t, pos) == GpsErrors()
+
+
+def test_the_wiggle_then_the_outage_loop_is_the_loop_after_a_calibration_in_one_place():
+    """One capture calibrates the magnetometers in situ and walks NavShoe's loop: the wiggle moves
+    the shoe by centimetres where the loop starts, then the loop is walked as without it."""
+    loop = trajectory("navshoe-outage").sample(10.0)
+    wiggled = trajectory("navshoe-wiggle-outage").sample(10.0)
+    assert wiggled.t[-1] == pytest.approx(loop.t[-1] + 33.0, abs=0.5)  # the 30 s wiggle and 3 s stand
+    assert np.hypot(*wiggled.pos[-1, :2]) < 0.01
+    early = wiggled.t < 38.0  # the stand and the wiggle before the first stride
+    assert np.hypot(*wiggled.pos[early, :2].T).max() < 0.3
+    assert environment("navshoe-wiggle-outage") == environment("navshoe-outage")
