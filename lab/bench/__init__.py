@@ -10,7 +10,7 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
   processes (one per core), each on its own pty with a host that starts step-wise dead
   reckoning and acknowledges every step, for ``--minutes`` (10); target: no overrun.
 * ``latency`` — one module served in real time on a pty: time from a command written on
-  the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 2 ms.
+  the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 1 ms.
 * ``files`` — ``--walks`` (100) walk files through one ``openshoe-emu replay`` command, start-up
   included: walks/s (target 60) and the time split (:mod:`lab.bench.files`).
 * ``lockstep`` — ``--walks`` (64 here) replays of the six shared walks navigated K at a time

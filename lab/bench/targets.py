@@ -37,7 +37,7 @@ Say = Callable[[str], None]
 
 BATCH_TARGET = 340_000.0
 REALTIME_MINUTES = 10.0
-LATENCY_TARGET_MS = 2.0
+LATENCY_TARGET_MS = 1.0
 MEMORY_GROWTH_TARGET_MB = 5.0
 #: PING in the current numbering (protocol.md §3) and its ack.
 PING = bytes.fromhex("030003")

@@ -10,7 +10,8 @@ make them fight over the GIL).
 
 Tick *n* is run at or after its wall-clock deadline ``t0 + n / (rate · speed)``
 — never before, so no module is ever ahead of real time, except by the
-*lookahead* of its links (below), which no host can see. A multi-pacer wakes a
+*lookahead* of its links (below), which no host can see, and by the tick a host's
+bytes arrived in (below). A multi-pacer wakes a
 module once per *frame* of ``frame_ticks`` ticks (default 1) and runs the
 frame's ticks back to back with :meth:`Module.advance
 <firmware_sim.mcu.module.Module.advance>` — so the compiled path runs a quiet frame
@@ -19,7 +20,12 @@ hosts then. So a frame of F ticks lets output leave up to F − 1 ticks later
 than tick by tick (a few ms, inside the Bluetooth link's own 0–20 ms jitter),
 for a fraction of the CPU. A host's bytes do not wait for the frame: when an
 endpoint's fd turns readable, its module at once runs the ticks already due, so
-a command is answered as soon as tick by tick. In a multi-pacer each module
+a command is answered as soon as tick by tick. A module that does not run ahead (no
+lookahead: an ideal or a USB link) then also runs the tick under way — the loop that
+takes the bytes on the module, whose receive_command() comes first — before its
+interrupt rather than at it: a command is answered in the time of its own loop, not
+up to a tick later, and the module is at most that tick ahead until its deadline
+(the bytes and the module's time are those of tick by tick). In a multi-pacer each module
 has a *phase*: ``phases`` groups (default: one per module) due evenly spread
 over the frame, at ``t0 + (f + 1) · F · period + k · F · period / phases`` for
 group *k* — like real modules, whose timers were started at different moments.
@@ -51,19 +57,20 @@ is real time, 10 is ten times faster, 0 (or ``inf``) as fast as the CPU allows
 (endpoints are then pumped every ``asap_pump_ticks`` ticks).
 
 Endpoints (TCP server, pty, in-process queues) implement ``pump()`` (move bytes
-between the host and their port, connect/disconnect the port as hosts come
-and go; non-blocking), optional ``fds`` (file descriptors worth waking up for)
-and ``close()``. A lone pacer pumps every endpoint on every pass of its loop. A
-multi-pacer pumps an endpoint only when one of its fds is readable, when its
-port has bytes for the host (``port.host_pending()``; a port without it counts
-as always pending), or when ``idle_pump_s`` passed since its last pump (to
-notice a host that comes or goes without a readable fd) — so a quiet module
-costs its tick and nothing else. Optionally (``spin_load``, off by default) a
-multi-pacer whose steps take more than that fraction of the period busy-waits
-between deadlines instead of sleeping: on this VM a step after a sleep costs
-~30 % more than back to back (cold caches), but a spinning loop takes a whole
-core from the other processes, and measured end to end it did not win. A lone
-pacer always sleeps.
+between the host and their port, connect/disconnect the port as hosts come and go;
+non-blocking), optional ``fds`` (file descriptors worth waking up for) and
+``close()``. A lone pacer pumps every endpoint on every pass of its loop. A
+multi-pacer pumps an endpoint only when one of its fds is readable, when its port
+has bytes for the host (``port.host_pending()``; a port without it counts as always
+pending), or when ``idle_pump_s`` passed since its last pump (to notice a host that
+comes or goes without a readable fd: a pty nobody holds) — ten times that for an
+endpoint whose fds are watched, since a host's bytes or its leaving wake the loop
+through them — so a quiet module costs its tick and nothing else. Optionally
+(``spin_load``, off by default) a multi-pacer whose steps take more than that
+fraction of the period busy-waits between deadlines instead of sleeping: on this VM
+a step after a sleep costs ~30 % more than back to back (cold caches), but a
+spinning loop takes a whole core from the other processes, and measured end to end
+it did not win. A lone pacer always sleeps.
 
 Another thread waits on a running module's ticks, not on the clock:
 :meth:`~.single.Pacer.wait_ticks` (*n* more ticks ran) and :meth:`~.single.Pacer.wait_until` (a

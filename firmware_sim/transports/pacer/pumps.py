@@ -8,6 +8,11 @@ from collections.abc import Callable
 from .endpoints import Endpoint
 from .member import PacedModule
 
+#: How many times *poll* frames pass between two pumps of a quiet endpoint whose fds are watched: a
+#: host's bytes or its leaving wake the loop through them, so such a pump only catches what else an
+#: endpoint keeps (a TCP host's bytes the socket did not take yet).
+WATCHED_POLL = 10
+
 
 class Pumps:
     """Every endpoint of the modules of a loop, numbered in the modules' order.
@@ -15,8 +20,8 @@ class Pumps:
     :meth:`pump` pumps one and keeps its fds registered with the selector (whose
     key data is the endpoint's number). An endpoint of a module is pumped after the
     module's frame (:meth:`pump_owned`) only if its port has bytes for the host, or
-    *poll* frames passed since its last pump (see the package doc); *idle_pump_s* 0:
-    always."""
+    *poll* frames passed since its last pump (:data:`WATCHED_POLL` times that for one whose fds
+    are watched; see the package doc); *idle_pump_s* 0: always."""
 
     def __init__(self, members: list[PacedModule], idle_pump_s: float, poll: int):
         self.members = members
@@ -86,10 +91,11 @@ class Pumps:
 
     def pump_owned(self, k: int, force: bool, f: int) -> None:
         """Pump module *k*'s endpoints that are worth it in frame *f* (*force*: all of them)."""
-        pending, last, poll = self.pending, self.last, self.poll
+        pending, last, registered = self.pending, self.last, self._registered
+        poll, watched = self.poll, self.poll * WATCHED_POLL
         for i in range(self._lo[k], self._hi[k]):
             has = pending[i]
-            if force or has is None or has() or f - last[i] >= poll:
+            if force or has is None or has() or f - last[i] >= (watched if registered[i] else poll):
                 self.pump(i, f)
 
     def select(self, timeout: float) -> list[int] | None:

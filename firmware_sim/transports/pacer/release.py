@@ -16,6 +16,7 @@ class Releases:
 
     def __init__(self, n_mod: int):
         self.at = [math.inf] * n_mod
+        self._first = math.inf  # min(at), kept as at changes (a loop of many modules asks every frame)
         self.links: list[list[Any]] = [[] for _ in range(n_mod)]
         self._clocks: list[HostClock | None] = [None] * n_mod
 
@@ -35,7 +36,15 @@ class Releases:
 
     def earliest(self) -> float:
         """When the next bytes reach a host, of any module."""
-        return min(self.at)
+        return self._first
+
+    def _set(self, k: int, t: float) -> None:
+        old = self.at[k]
+        self.at[k] = t
+        if t < self._first:
+            self._first = t
+        elif old == self._first and t != old:
+            self._first = min(self.at)
 
     def update(self, k: int) -> None:
         """Look again at when module *k*'s links next have bytes reaching a host."""
@@ -48,17 +57,17 @@ class Releases:
                     w = clock.wall_time(t)
                     if w < best:
                         best = w
-        self.at[k] = best
+        self._set(k, best)
 
     def release_due(self, now: float, hand_over: Callable[[int], None]) -> None:
         """Hand over (``hand_over(k)``: pump module *k*'s endpoints, then :meth:`update`) the
         bytes that reach a host by *now* on their link model's clock."""
         at = self.at
-        if min(at) <= now:
+        if self._first <= now:
             for k in range(len(at)):
                 if at[k] <= now:
                     hand_over(k)
                     if at[k] <= now:
                         # no endpoint took them (no host on it yet): look again after the
                         # module's next frame instead of spinning on them
-                        at[k] = math.inf
+                        self._set(k, math.inf)

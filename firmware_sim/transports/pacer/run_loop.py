@@ -223,10 +223,12 @@ class RunLoop:
             k = self.pumps.owner[i]
             if self.releases.links[k]:
                 self.releases.update(k)
-            if sched.frame_ticks > 1:
-                # a host wrote: its module catches up with the wall clock now (the
-                # ticks already due), so the command is not held to the frame's end
-                due = sched.ticks_due(k, now)
+            on_time = self.ahead[k] <= 0
+            if sched.frame_ticks > 1 or on_time:
+                # a host wrote: its module catches up with the wall clock now (the ticks already
+                # due), so the command is not held to the frame's end; a module that does not run
+                # ahead also runs the tick under way, whose loop takes the bytes (the package doc)
+                due = sched.ticks_due(k, now, under_way=on_time)
                 if due > self.done[k]:
                     self._run_to(k, due)
                     self._pump_module(k, True)

@@ -63,7 +63,8 @@ class Schedule:
             return True
         return False
 
-    def ticks_due(self, k: int, now: float) -> int:
-        """The ticks module *k* should have run by *now* (at most to the end of its next frame)."""
-        return min(int((now - self.t0 - self.due_offs[k]) / self.period),
+    def ticks_due(self, k: int, now: float, under_way: bool = False) -> int:
+        """The ticks module *k* should have run by *now* (at most to the end of its next frame);
+        *under_way*: and the tick whose interval *now* is in (its interrupt still to come)."""
+        return min(int((now - self.t0 - self.due_offs[k]) / self.period) + under_way,
                    (self.f + (1 if k >= self.j else 2)) * self.frame_ticks)

@@ -1,0 +1,105 @@
+"""The pacer's parts that decide what a loop of many modules does between frames, in frames and
+wall times given by the test (no clock): which quiet endpoints are pumped, when bytes are due."""
+
+from __future__ import annotations
+
+import math
+import socket
+from types import SimpleNamespace
+
+from firmware_sim.transports.pacer.pumps import WATCHED_POLL, Pumps
+from firmware_sim.transports.pacer.release import Releases
+
+
+class _QuietEndpoint:
+    """An endpoint whose port never has bytes for the host; counts its pumps."""
+
+    def __init__(self, fds: tuple[int, ...] = ()):
+        self.fds = fds
+        self.pumps = 0
+        self.port = SimpleNamespace(host_pending=lambda: 0)
+
+    def pump(self) -> None:
+        self.pumps += 1
+
+    def close(self) -> None:
+        pass
+
+
+def test_a_quiet_endpoint_whose_fd_is_watched_is_pumped_ten_times_less_often():
+    """A pty a host holds (its fd wakes the loop on the host's bytes or leaving) needs the idle pump
+    only for what the endpoint keeps; one without an fd (a pty nobody holds) needs it to notice a
+    host that comes."""
+    a, b = socket.socketpair()
+    try:
+        watched, unwatched = _QuietEndpoint((a.fileno(),)), _QuietEndpoint()
+        pumps = Pumps([SimpleNamespace(endpoints=[watched]), SimpleNamespace(endpoints=[unwatched])],
+                      idle_pump_s=0.005, poll=2)
+        pumps.pump_all(0)
+        frames = 200
+        for f in range(1, frames + 1):
+            pumps.pump_owned(0, False, f)
+            pumps.pump_owned(1, False, f)
+        assert unwatched.pumps == 1 + frames // 2
+        assert watched.pumps == 1 + frames // (2 * WATCHED_POLL)
+        pumps.pump_owned(0, True, frames + 1)  # bytes due: pumped at once
+        assert watched.pumps == 2 + frames // (2 * WATCHED_POLL)
+    finally:
+        pumps.close()
+        a.close()
+        b.close()
+
+
+class _Clock:
+    """A host clock whose wall time is the cycle itself."""
+
+    @staticmethod
+    def wall_time(cycle: float) -> float:
+        return cycle
+
+
+def test_the_earliest_bytes_due_follow_every_module_s_links():
+    """Of three modules' links, the earliest arrival at a host is the loop's next wake-up; bytes
+    handed over (or that no host took) no longer count."""
+    arrivals = [[5.0], [3.0], [None]]
+    links = [[SimpleNamespace(next_host_arrival=lambda k=k: arrivals[k][0])] for k in range(3)]
+    rel = Releases(3)
+    for k in range(3):
+        rel.attach(k, _Clock(), links[k], 0)  # type: ignore[arg-type]
+        rel.update(k)
+    assert rel.earliest() == 3.0
+    arrivals[1][0] = 9.0
+    rel.update(1)
+    assert rel.earliest() == 5.0
+    handed = []
+
+    def hand_over(k: int) -> None:
+        handed.append(k)
+        arrivals[k][0] = None
+        rel.update(k)
+
+    rel.release_due(4.0, hand_over)
+    assert handed == [] and rel.earliest() == 5.0
+    rel.release_due(6.0, hand_over)
+    assert handed == [0] and rel.earliest() == 9.0
+    rel.release_due(9.5, lambda k: None)  # nobody took module 1's bytes: not looked at again
+    assert rel.earliest() == math.inf
+    arrivals[2][0] = 1.0
+    rel.update(2)
+    assert rel.earliest() == 1.0
+
+
+def test_a_host_s_bytes_take_the_loop_of_the_tick_under_way():
+    """A host wrote 2.4 ticks after the start: two ticks are due; the module that does not run
+    ahead runs the third too (the loop that takes the bytes), never past the end of its next frame."""
+    from firmware_sim.transports.pacer.schedule import Schedule
+
+    one = Schedule(1, 1000.0, 1.0, 1, None)
+    one.f = 2  # ticks 1 and 2 ran, at 1 and 2 ms
+    assert one.ticks_due(0, 0.0024) == 2
+    assert one.ticks_due(0, 0.0024, under_way=True) == 3
+    assert one.ticks_due(0, 0.0054, under_way=True) == 3  # late: at most the next frame (tick 3)
+    framed = Schedule(1, 1000.0, 1.0, 4, None)
+    framed.f = 1  # frame 0 ran: ticks 1–4, at 4 ms
+    assert framed.ticks_due(0, 0.0054, under_way=True) == 6
+    assert framed.ticks_due(0, 0.0094, under_way=True) == 8
