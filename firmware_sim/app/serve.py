@@ -184,6 +184,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).
 MANY_MODULES_FRAME_MS = 4.0
+#: The most modules of a process advanced together at one phase of the frame (in one compiled call:
+#: :class:`~firmware_sim.nav.lockstep.Lockstep`); more modules are spread over more phases.
+GROUP_MODULES = 16
 #: The most modules one ``serve`` runs (all in one loop and one thread; run more processes for more).
 MAX_MODULES = 64
 #: The longest frame a module runs per wake-up [ms] (--frame-ms).
@@ -350,7 +353,8 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
     """One loop for every module's pacer, prepared (compiled path) and started."""
     rate_hz = served.modules[0].module.clock.rate_hz
     served.loop = MultiPacer([m.pacer for m in served.modules], frame_ticks=frame_ticks(settings, rate_hz),
-                             overrun_s=None if settings.overrun_ms is None else settings.overrun_ms / 1000.0)
+                             overrun_s=None if settings.overrun_ms is None else settings.overrun_ms / 1000.0,
+                             phases=-(-len(served.modules) // GROUP_MODULES))
     served.loop.prepare(announce=lambda text: print(text, file=err, flush=True))
     gc.collect()
     gc.freeze()  # what exists now is never scanned again: no long collections in the loop

@@ -1,5 +1,7 @@
-"""The pacer's parts that decide what a loop of many modules does between frames, in frames and
-wall times given by the test (no clock): which quiet endpoints are pumped, when bytes are due."""
+"""The pacer's parts that decide what a loop of many modules does, in frames and wall times given by
+the test (no clock): which quiet endpoints are pumped, when bytes are due, which ticks a host's bytes
+make run, which modules are advanced together — and that a group advanced together sends what each
+module sends alone."""
 
 from __future__ import annotations
 
@@ -7,8 +9,16 @@ import math
 import socket
 from types import SimpleNamespace
 
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import lockstep
+from firmware_sim.nav.firmware import build_module
+from firmware_sim.sensors.imu_array import make_source
+from firmware_sim.transports.pacer import MultiPacer, PacedModule, run_loop
 from firmware_sim.transports.pacer.pumps import WATCHED_POLL, Pumps
 from firmware_sim.transports.pacer.release import Releases
+from firmware_sim.transports.pacer.schedule import Schedule
+from protocol.frames import build_command
+from protocol.ids import Command, StateId
 
 
 class _QuietEndpoint:
@@ -92,8 +102,6 @@ def test_the_earliest_bytes_due_follow_every_module_s_links():
 def test_a_host_s_bytes_take_the_loop_of_the_tick_under_way():
     """A host wrote 2.4 ticks after the start: two ticks are due; the module that does not run
     ahead runs the third too (the loop that takes the bytes), never past the end of its next frame."""
-    from firmware_sim.transports.pacer.schedule import Schedule
-
     one = Schedule(1, 1000.0, 1.0, 1, None)
     one.f = 2  # ticks 1 and 2 ran, at 1 and 2 ms
     assert one.ticks_due(0, 0.0024) == 2
@@ -103,3 +111,44 @@ def test_a_host_s_bytes_take_the_loop_of_the_tick_under_way():
     framed.f = 1  # frame 0 ran: ticks 1–4, at 4 ms
     assert framed.ticks_due(0, 0.0054, under_way=True) == 6
     assert framed.ticks_due(0, 0.0094, under_way=True) == 8
+
+
+def test_modules_of_one_phase_form_a_group():
+    """Five modules over two phases: modules 0–2 due at once, then 3–4; one per module: no group."""
+    assert Schedule(5, 1000.0, 1.0, 4, 2).phase_groups() == [3, 3, 3, 5, 5]
+    assert Schedule(3, 1000.0, 1.0, 4, None).phase_groups() == [1, 2, 3]
+    apart = Schedule(2, 1000.0, 1.0, 4, 1)
+    apart.run_ahead([19.0, 0.0])  # one runs ahead, the other not: due at other times
+    assert apart.phase_groups() == [1, 2]
+
+
+def test_a_phase_group_advanced_together_sends_what_each_module_sends_alone(monkeypatch):
+    """Three modules tracking at one phase, paced at 20× real time: each one's bytes, states and
+    clock are those of the same module stepped alone for as many loops."""
+    calls = []
+
+    class Counted(lockstep.Lockstep):
+        def advance(self, max_ticks):  # type: ignore[no-untyped-def]
+            calls.append(len(self.modules))
+            return super().advance(max_ticks)
+
+    monkeypatch.setattr(run_loop, "Lockstep", Counted)
+
+    def module(seed: int):  # type: ignore[no-untyped-def]
+        m = build_module(ModuleConfig(), sensors=make_source("stand:3+walk:4", seed=seed))
+        m.usb.port.host_write(build_command(Command.STEPWISE_DEAD_RECKONING))
+        return m
+
+    paced = [module(s) for s in range(3)]
+    loop = MultiPacer([PacedModule(m, speed=20.0) for m in paced], phases=1, frame_ticks=4)
+    with loop:
+        for i in range(3):
+            assert loop.wait_until(i, lambda m: m.clock.ticks >= 6000, timeout=120)
+    assert calls and set(calls) == {3}
+    for s, m in enumerate(paced):
+        alone = module(s)
+        alone.run(m.clock.ticks)
+        assert m.usb.port.host_read() == alone.usb.port.host_read()
+        assert bytes(m.memory.arena) == bytes(alone.memory.arena)
+        assert m.clock.now_cycles == alone.clock.now_cycles
+        assert m.memory.read_wire(StateId.STEP_COUNTER) != b"\x00\x00"  # it tracked steps

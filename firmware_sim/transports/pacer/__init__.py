@@ -30,7 +30,10 @@ has a *phase*: ``phases`` groups (default: one per module) due evenly spread
 over the frame, at ``t0 + (f + 1) · F · period + k · F · period / phases`` for
 group *k* — like real modules, whose timers were started at different moments.
 So the work is spread over the frame instead of a burst at its start, and a
-module's lateness is its own, not the sum of the modules run before it.
+module's lateness is its own, not the sum of the modules run before it. The modules
+of one phase (a *phase group*: ``phases`` fewer than the modules) are advanced
+together (:class:`~firmware_sim.nav.lockstep.Lockstep`: the same loops as one by one,
+their quiet stretches in one compiled call), and share the group's lateness and busy time.
 
 In real time a module behind link models (:class:`~firmware_sim.links.link.Link`)
 runs *ahead* of the wall clock by its *lookahead*: the links' one-way latency

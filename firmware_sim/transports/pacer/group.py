@@ -42,7 +42,8 @@ class MultiPacer:
     every tick, as a lone pacer does). *spin_load*: poll instead of sleeping while a
     round of frames takes more than this fraction of a frame (None, the default: always sleep).
     *phases*: how many evenly spaced deadlines the modules are spread over (None = one
-    per module; 1 = all at the start of the frame). *frame_ticks*: ticks a module runs per
+    per module; 1 = all at the start of the frame); the modules of one phase are advanced together.
+    *frame_ticks*: ticks a module runs per
     wake-up (see the package doc). *overrun_s*: a frame later than this (in module time)
     counts an overrun; None = later than a host could see (the package doc; at least one frame).
     """

@@ -7,6 +7,8 @@ import threading
 import time
 from typing import Protocol
 
+from firmware_sim.nav.lockstep import Lockstep
+
 from .endpoints import links_of, lookahead_cycles
 from .host_clock import HostClock
 from .member import PacedModule
@@ -58,6 +60,12 @@ class RunLoop:
         for p, a, lim in zip(members, self.ahead, self.limits, strict=True):
             p.lookahead_s, p.overrun_limit_s = a, lim
         self.bounds = [ms / 1000.0 / (1.0 if sched.asap else owner.speed) for ms in LAG_BOUNDS_MS[:-1]]
+        #: Per module, the module after its phase group's last; each group of two or more is
+        #: advanced together (:meth:`_run_group`).
+        self.group_end = sched.phase_groups()
+        self.locksteps = {j: Lockstep([p.module for p in members[j:end]])
+                          for j, end in enumerate(self.group_end)
+                          if end - j > 1 and (j == 0 or self.group_end[j - 1] != end)}
         self.spin_busy = None if owner.spin_load is None or sched.asap else owner.spin_load * sched.frame
         self.spinning = False
         self.polled = -1  # the frame whose hosts a spinning loop looked at last
@@ -160,10 +168,14 @@ class RunLoop:
                     p.rebases += 1
                 sched.rebase(now)
                 deadline = now
-            self._run_frame(now - deadline)
+            end = self.group_end[sched.j]
+            if end - sched.j > 1:
+                self._run_group(sched.j, end, now - deadline)
+            else:
+                self._run_frame(now - deadline)
             now = self.perf()
             stepped = True
-            if sched.next_module() and self._end_round():
+            if sched.next_module(end) and self._end_round():
                 break  # look at the hosts now and then while catching up
         if not stepped:
             self.ran = 0
@@ -175,6 +187,40 @@ class RunLoop:
         self.round_busy += self._run_to(j, self.sched.frame_end())
         # what the frame sent leaves now, not a frame later
         self._pump_module(j, False)
+
+    def _run_group(self, j0: int, j1: int, late: float) -> None:
+        """The frames of modules *j0* … *j1* − 1 (a phase group), which start *late* [s] after
+        their deadline, advanced together (:class:`~firmware_sim.nav.lockstep.Lockstep`: the same
+        loops as one by one, the quiet stretches of all in one compiled call); each module's busy
+        time is its share of the group's."""
+        members, done = self.members, self.done
+        ks = range(j0, j1)
+        for k in ks:
+            members[k].count_frame_start(late, self.limits[k], self.bounds)
+        target = self.sched.frame_end()
+        lock = self.locksteps[j0]
+        s = self.perf()
+        try:
+            while True:
+                limits = [target - done[k] for k in ks]
+                if max(limits) <= 0:
+                    break
+                for k, n in zip(ks, lock.advance(limits), strict=True):
+                    done[k] += n
+                    members[k].ticks += n
+        except BaseException as e:  # not known which of the group's modules raised: all stop
+            for k in ks:
+                members[k].error = members[k].error or e
+            raise
+        dt = self.perf() - s
+        self.round_busy += dt
+        for k in ks:
+            p = members[k]
+            p.count_busy(dt / len(ks))
+            p.check_numbers()
+            p.waits.check()
+            # what the frame sent leaves now, not a frame later
+            self._pump_module(k, False)
 
     def _end_round(self) -> bool:
         """Every module ran its frame; True after 8 such rounds back to back."""

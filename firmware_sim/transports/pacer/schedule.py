@@ -54,9 +54,19 @@ class Schedule:
         """The ticks a module has run by the end of frame ``f``."""
         return (self.f + 1) * self.frame_ticks
 
-    def next_module(self) -> bool:
-        """On to the next module of the frame; True when that ends a round (on to the next frame)."""
-        self.j += 1
+    def phase_groups(self) -> list[int]:
+        """For each module j, the module after the last one of its *phase group*: the modules
+        from j on whose frames are due at the same time (the same phase and lookahead)."""
+        ends = [self.n_mod] * self.n_mod
+        due = self.due_offs
+        for j in range(self.n_mod - 2, -1, -1):
+            ends[j] = ends[j + 1] if due[j + 1] == due[j] else j + 1
+        return ends
+
+    def next_module(self, after: int | None = None) -> bool:
+        """On to the next module of the frame (*after*: on to that one, past a group run together);
+        True when that ends a round (on to the next frame)."""
+        self.j = self.j + 1 if after is None else after
         if self.j == self.n_mod:
             self.j = 0
             self.f += 1

@@ -21,7 +21,7 @@ class PacerStatus:
     virtual_s: float  #: the module's clock
     wall_s: float  #: wall time since start
     loop_us_mean: float  #: mean wall time of one tick (module.step)
-    loop_us_max: float  #: longest wall time of one frame's ticks
+    loop_us_max: float  #: longest wall time of one frame's ticks (in a phase group: its share)
     overruns: int  #: frames that started later than the overrun limit (see the package doc)
     rebases: int  #: times the schedule was moved forward after falling far behind
     lag_ms: float  #: how far the last frame ran behind its deadline
