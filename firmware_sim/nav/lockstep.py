@@ -22,6 +22,12 @@ modules' stretches of a call while the caller runs the earlier ones (split at ha
 modules share nothing in the loop, so the bytes stay the same; the wall time of the compiled part
 nearly halves, the Python around it does not.
 
+Not vectorised across modules: a SIMD lane per module would do each module's float32 operations
+in the reference's order (the bytes could stay), but it needs the states laid out module by
+module in each field and every branch (ZUPT, a step's end, the detector's ring buffers) taken by
+all lanes alike; the per-sample cost of the compiled loop itself (TIME_UPDATE's 9×9 products
+about half of it) is what such a layout would attack, and it is left as it is here.
+
 Modules that share state outside their own memory (a sensor source, a port) must not be stepped
 together unless the order in which they run within one call does not matter to them.
 """
