@@ -167,11 +167,10 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "(hostlib.fusion.hard_iron): GPS and the walk's turns make it observable, and "
                         "until then the compass counts for as little as the iron's uncertainty says; "
                         "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration)")
-    g.add_argument("--no-compass-swing", action="store_true",
-                   help="do not hold a calibrated compass's swing B sin ψ + C cos ψ "
-                        "(hostlib.fusion.compass_swing; default with --compass and one module: σ 4° on each "
-                        "term, learned while the compass reads with a calibration, from GPS and the walk's "
-                        "turns)")
+    g.add_argument("--compass-swing", action="store_true",
+                   help="hold a calibrated compass's swing B sin ψ + C cos ψ as two states of the filter "
+                        "(hostlib.fusion.compass_swing; with --compass and one module: σ 4° on each term, "
+                        "learned while the compass reads with a calibration, from GPS and the walk's turns)")
     g.add_argument("--gps-bias", action="store_true",
                    help="hold the receiver's correlated error as a state of the filter "
                         "(hostlib.fusion.gps_bias): "
@@ -355,7 +354,7 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
         compass=args.compass, compass_sigma_deg=args.compass_sigma,
         compass_deviation=_held(args.compass_deviation, args.no_compass_deviation),
         compass_gate=args.compass_gate, uncalibrated_weight=args.uncalibrated_weight,
-        hard_iron=args.hard_iron, compass_swing=_held(None, args.no_compass_swing),
+        hard_iron=args.hard_iron, compass_swing=_held(None, not args.compass_swing),
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=_held(GpsBias() if args.gps_bias else None, args.no_gps_bias),
         module_errors=_held(args.module_errors, args.no_module_errors),

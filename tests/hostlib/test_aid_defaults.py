@@ -73,12 +73,12 @@ def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
 def test_the_reasons_say_what_is_held_by_default_given_or_turned_off():
     options = AidOptions(compass=True, gps_log="walk.nmea", gps_bias=None, module_errors="emulated")
     assert options.defaulted() == {"module_errors": "given", "compass_deviation": "by default",
-                                   "gps_bias": "off", "compass_swing": "by default"}
+                                   "gps_bias": "off"}
     assert AidOptions().defaulted() == {}  # nothing an aid-less walk would hold
     assert AidOptions().defaulted(feet=True) == {"module_errors": "by default"}
 
 
-OFF = {"module_errors": None, "compass_deviation": None, "gps_bias": None, "compass_swing": None}
+OFF = {"module_errors": None, "compass_deviation": None, "gps_bias": None}
 #: ``replay``'s options, and the AidOptions a user of the API writes for the same walk
 CASES = [
     ([], {}),
@@ -86,13 +86,14 @@ CASES = [
     (["--gps", "walk.nmea"], {"gps_log": "walk.nmea"}),
     (["--compass", "--gps", "walk.nmea"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea"}),
-    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-gps-bias",
-      "--no-compass-swing"],
+    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-gps-bias"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", **OFF}),
     (["--compass", "--gps", "walk.nmea", "--module-errors", "emulated", "--compass-deviation", "indoors",
       "--hard-iron", "3", "--gps-bias"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "module_errors": "emulated",
       "compass_deviation": "indoors", "hard_iron": HardIron(3.0), "gps_bias": GpsBias()}),
+    (["--compass", "--gps", "walk.nmea", "--compass-swing"],
+     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "compass_swing": AUTO}),
     (["--compass", "--no-compass-deviation", "--compass-sigma", "5", "--hard-iron"],
      {"compass": True, "saved_calibration": True, "compass_deviation": None, "compass_sigma_deg": 5.0,
       "hard_iron": AUTO}),
@@ -125,19 +126,18 @@ def test_the_aids_line_says_what_is_held_by_default_and_what_was_turned_off():
     assert "local deviation held by default (outdoors: σ 3° over 9 m)" in held
     assert "GPS receiver's bias held by default (σ 2.1 m per axis" in held
     assert "hard iron" not in held
-    assert "a calibrated compass's swing held by default (σ 4° on B sin ψ + C cos ψ" in held
+    assert "swing" not in held  # only when asked for
     assert "module errors held by default (mimu22bt): step-length scale σ 0.0013, climb σ 0.002 m/m" in held
     off = prepare_aids(compass=True, gps_receiver="socket://gps:1", **OFF).describe()
     for text in ("local deviation not held (off: --no-compass-deviation)",
                  "GPS receiver's bias not held (off: --no-gps-bias)",
-                 "module errors not held (off: --no-module-errors)",
-                 "calibrated compass's swing not held (off: --no-compass-swing)"):
+                 "module errors not held (off: --no-module-errors)"):
         assert text in off
     assert "by default" not in off and "compass σ 20° per step" in off
     given = prepare_aids(compass=True, compass_deviation="indoors", module_errors="emulated",
                          compass_swing=CALIBRATED_SWING).describe()
     assert "local deviation held (indoors: σ 20° over 0.5 m)" in given
-    assert "a calibrated compass's swing held (σ 4°" in given
+    assert "a calibrated compass's swing held (σ 4° on B sin ψ + C cos ψ, while it reads" in given
     assert "module errors held (emulated)" in given and "by default" not in given
 
 
