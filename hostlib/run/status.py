@@ -55,19 +55,30 @@ def summary_line(dev: Device, drift: DriftCalibration | None = None) -> str:
     With *drift* the position is the drift-corrected one (refused for another module, or a
     step without a swing time: :class:`~hostlib.calibration.drift.DriftError`).
     """
+    if drift is None:  # what the line shows, read under the session's lock (no copy of the walk)
+        with dev.session_lock:
+            tr = dev.track
+            x, y, z, chi = tr.final_pose
+            count, moving, distance, sigma = len(tr), tr.motion_steps, tr.distance, tr.closure_sigma()
+            gaps, missing = len(tr.gaps), tr.missing
+        return _summary(dev, (count, moving, distance, gaps, missing), pose_text((x, y, z, chi), sigma))
     tr = dev.track_snapshot()
     x, y, z, chi = tr.final_pose
     corrected = ""
-    if drift is not None and len(tr):
+    if len(tr):
         drift.check_module(dev.session.mcu_serial)
         x, y, z = tr.final_pose[:3] + drift.offsets(tr)[-1]
         corrected = " (drift-corrected)"
-    st = dev.stats
-    return (
-        f"packets {len(tr):5d} | steps {tr.motion_steps:5d} | {tr.distance:8.2f} m "
-        f"| {pose_text((x, y, z, chi), tr.closure_sigma(), corrected)} "
-        f"| gaps {len(tr.gaps)} (missing {tr.missing}) | garbage {st['garbage_bytes']}"
-    )
+    text = pose_text((x, y, z, chi), tr.closure_sigma(), corrected)
+    return _summary(dev, (len(tr), tr.motion_steps, tr.distance, len(tr.gaps), tr.missing), text)
+
+
+def _summary(dev: Device, counts: tuple[int, int, float, int, int], pose: str) -> str:
+    """:func:`summary_line` from the track's step packets, steps that moved, distance, gaps and steps
+    missing (*counts*) and its *pose* text."""
+    packets, moving, distance, gaps, missing = counts
+    return (f"packets {packets:5d} | steps {moving:5d} | {distance:8.2f} m | {pose} "
+            f"| gaps {gaps} (missing {missing}) | garbage {dev.stats['garbage_bytes']}")
 
 
 def feet_summary_line(tracker: TwoFeetTracker, devices: Mapping[str, Device],
@@ -76,10 +87,13 @@ def feet_summary_line(tracker: TwoFeetTracker, devices: Mapping[str, Device],
     whether its link is down, or its walk failed: the *failed* sides), then the fused body."""
     parts = []
     for side, dev in devices.items():
-        tr = dev.track_snapshot()
+        with dev.session_lock:  # read under the lock the steps are summed under (no copy of the walk)
+            tr = dev.track
+            packets, moving, distance, gaps, missing = (len(tr), tr.motion_steps, tr.distance, len(tr.gaps),
+                                                        tr.missing)
         state = " FAILED" if side in failed else ("" if dev.link_up else " LINK DOWN")
-        parts.append(f"{side} {len(tr):4d}/{tr.motion_steps:4d} steps {tr.distance:7.2f} m "
-                     f"gaps {len(tr.gaps)} (missing {tr.missing}){state}")
+        parts.append(f"{side} {packets:4d}/{moving:4d} steps {distance:7.2f} m "
+                     f"gaps {gaps} (missing {missing}){state}")
     pose, sigma = tracker.body_end()
     return " | ".join(parts) + f" | body {pose_text(pose, sigma)}"
 
