@@ -74,13 +74,13 @@ _LAP = (
     "+arc:2:90+walk:16+arc:2:90"
 )
 
-#: name → recipe.
 #: NavShoe's outage loop after its start (aids.md §2): a hilly closed loop of about 1 km. Sides of
 #: 300 m (a 3° hill up and down; a 2° hill and 99.7 m of flat, the same 299.6 m across) and 200 m
 #: joined by 5 m arcs: 1031 m, back at the start within centimetres
 OUTAGE_LOOP = ("walk:150:3+walk:150:-3+arc:5:90+walk:200+arc:5:90+walk:100:2+walk:100:-2+walk:99.71"
                "+arc:5:90+walk:200+arc:5:90+stand:5")
 
+#: name → recipe.
 SCENARIOS: dict[str, str] = {
     # the demo: align, two laps (≈ 233 m) of a 40 × 20 m block over a footbridge, stand
     "default": f"stand:5+{_LAP}+{_LAP}+stand:5",
