@@ -73,22 +73,25 @@ class JointHistory:
 
     def turn(self, t: np.ndarray, shift: np.ndarray) -> None:
         """Every recorded row through the joint state's linear map ``s ← t s + shift`` (a turn of the
-        frame: *t* turns only the feet's poses), each covariance by its pose block."""
+        frame: *t* turns only the feet's poses), each covariance by its pose block. The turned rows
+        are new arrays: what :meth:`views` handed out before stays as it was."""
         self._start = t @ self._start + shift
-        feet, state = self._feet.writable(), np.zeros(self._size)
+        feet, state = self._feet.copy(), np.zeros(self._size)
         for k in range(len(feet)):  # each row as a joint state (t is the identity off the poses)
             state[self.poses] = feet[k]
             feet[k] = (t @ state + shift)[self.poses]
+        self._feet = Rows.of(feet)
         tp = t[self.poses, self.poses]
-        covs = self._covs.writable()
+        covs = self._covs.copy()
         for k in range(len(covs)):
             covs[k] = tp @ covs[k] @ tp.T
+        self._covs = Rows.of(covs)
         if len(self._body_poses):  # rows made before a turn: turned as a pose is (x, y by t's turn)
             body = t[self.poses.start:self.poses.start + 4, self.poses.start:self.poses.start + 4]
             turn = shift[self.poses.start + 3]
-            poses, body_covs = self._body_poses.writable(), self._body_covs.writable()
-            poses[:] = poses @ body.T + np.array([0.0, 0.0, 0.0, turn])
-            body_covs[:] = body @ body_covs @ body.T
+            poses, body_covs = self._body_poses.view(), self._body_covs.view()
+            self._body_poses = Rows.of(poses @ body.T + np.array([0.0, 0.0, 0.0, turn]))
+            self._body_covs = Rows.of(body @ body_covs @ body.T)
 
     def _reduce(self) -> None:
         """Make the body's rows of the rows not reduced yet, keep the feet's variances, let the
@@ -136,6 +139,17 @@ class JointHistory:
         poses, covs = self._body_of(done, n)
         return (np.concatenate([self._body_poses.view(), poses]),
                 np.concatenate([self._body_covs.view(), covs]))
+
+    def views(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The body's (n + 1, 4) poses and (n + 1, 4, 4) covariances and the feet's (n + 1, width)
+        poses, read-only and not copied (the rows not reduced yet made now): for a reader that
+        takes them under the lock steps are fused under and reads them after it (the rows recorded
+        later, and a turn of the frame, do not show in them)."""
+        if len(self._body_poses) < len(self._feet):
+            poses, covs = self.body()
+        else:
+            poses, covs = self._body_poses.view(), self._body_covs.view()
+        return poses, covs, self._feet.view()
 
     def body_row(self, k: int) -> tuple[np.ndarray, np.ndarray]:
         """The body's pose and covariance at row *k* (negative: from the end), made alone (copies)."""

@@ -230,9 +230,10 @@ class Track:
 
     def rotate_about_start(self, turn: float) -> None:
         """Turn every pose about the start by *turn* [rad]: positions about the first one, every
-        heading by *turn*, and each covariance with them (an aid aligned the frame)."""
+        heading by *turn*, and each covariance with them (an aid aligned the frame). The turned rows
+        are new arrays: what :meth:`views` handed out before stays as it was."""
         r = rotation_z(turn)
-        poses, covs = self._poses.writable(), self._covs.writable()
+        poses, covs = self._poses.copy(), self._covs.copy()
         start = poses[0, :3].copy()
         for k in range(len(poses)):
             p = poses[k].copy()
@@ -244,6 +245,7 @@ class Track:
             c[:3, 3] = r @ c[:3, 3]
             c[3, :3] = c[:3, 3]
             covs[k] = c
+        self._poses, self._covs = Rows.of(poses), Rows.of(covs)
 
     @classmethod
     def from_arrays(
@@ -300,6 +302,12 @@ class Track:
         t.distance = self.distance
         t.gaps = list(self.gaps)
         return t
+
+    def views(self) -> tuple[np.ndarray, np.ndarray]:
+        """:attr:`poses` and :attr:`covariances` read-only and not copied: for a reader that takes them
+        under the lock steps are summed under and reads them after it (later steps, and a turn of
+        the track, do not show in them)."""
+        return self._poses.view(), self._covs.view()
 
     def __len__(self) -> int:
         """Number of summed steps."""

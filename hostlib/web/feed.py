@@ -132,6 +132,7 @@ class WalkFeed:
         self._callbacks: list[tuple[Any, Callable[..., object]]] = []
         self._thread: threading.Thread | None = None
         self._ended = False
+        self._walked = (-1, 0.0)  # the track's last point drawn: its row and the distance to it [m]
 
     # -- hearing of news ----------------------------------------------------------------
 
@@ -241,13 +242,15 @@ class WalkFeed:
                 self._events.clear()
             feet: dict[str, np.ndarray] = {}
             stepped: dict[str, np.ndarray] = {}
+            # the rows as they are now, not copied (a later step or turn does not change them)
             if isinstance(tracker, TwoFeetTracker):
-                poses, covs = tracker.body_poses()
-                feet = {side: tracker.fused_foot(side) for side in FOOT_SIDES}
-                stepped = {side: tracker.rows_of(side) for side in FOOT_SIDES}
+                history = tracker.history
+                poses, covs, rows = history.views()
+                at = {side: tracker.filter.slice(side).start - history.poses.start for side in FOOT_SIDES}
+                feet = {side: rows[:, at[side]:at[side] + 4] for side in FOOT_SIDES}
+                stepped = {side: history.rows_of(i) for i, side in enumerate(FOOT_SIDES)}
             else:
-                track = tracker.track.copy()
-                poses, covs = track.poses, track.covariances
+                poses, covs = tracker.track.views()
             links = [self._link(m) for m in run.modules]
             aids = self._aids()
         n = min([len(poses)] + [len(rows) for rows in feet.values()])
@@ -295,18 +298,29 @@ class WalkFeed:
 
     def _track(self, snap: _Snapshot, append: dict[str, list], replace: dict[str, list]) -> None:
         poses, covs = snap.poses, snap.covs
-        dist = np.concatenate(([0.0], np.cumsum(np.hypot(*np.diff(poses[:, :2], axis=0).T))))
+        kept = self.model.points("track")
+        start = int(kept[-1][0]) + 1 if _same(kept, poses) and self._walked[0] == int(kept[-1][0]) else 0
+        dist = self._distances(poses, start)
 
         def point(k: int) -> list[float]:
             x, y, z, chi = poses[k].tolist()
             a, b, angle = ellipse(covs[k][:2, :2])
-            return [k, x, y, -z, math.degrees(chi) % 360.0, a, b, angle, float(dist[k])]
+            return [k, x, y, -z, math.degrees(chi) % 360.0, a, b, angle, float(dist[k - start])]
 
-        kept = self.model.points("track")
-        if _same(kept, poses):
-            append["track"] = [point(k) for k in range(int(kept[-1][0]) + 1, len(poses))]
+        points = [point(k) for k in range(start, len(poses))]
+        if start:
+            append["track"] = points
         else:
-            replace["track"] = [point(k) for k in range(len(poses))]
+            replace["track"] = points
+        if len(dist):
+            self._walked = (len(poses) - 1, float(dist[-1]))
+
+    def _distances(self, poses: np.ndarray, start: int) -> np.ndarray:
+        """The distance walked to each row of *poses* from *start* on [m]: summed on from the last
+        point drawn (:attr:`_walked`), not from the start again — an update reads only the rows it
+        adds, the same sums in the same order."""
+        steps = np.hypot(*np.diff(poses[max(start - 1, 0):, :2], axis=0).T)
+        return np.cumsum(np.concatenate(([self._walked[1] if start else 0.0], steps)))[1 if start else 0:]
 
     def _foot(self, snap: _Snapshot, side: str, append: dict[str, list], replace: dict[str, list]) -> None:
         rows = snap.feet[side]
