@@ -6,9 +6,16 @@ the metric (Simon and Chia 2002), the nearest point of that sphere exactly: with
 ``p_a − p_b``, ``d = D x`` and ``C = D P Dᵀ``, ``x ← x − μ P Dᵀ (I + μ C)⁻¹ d``, the multiplier
 μ ≥ 0 found (bisected on C's eigenvalues) so that ``‖(I + μ C)⁻¹ d‖ = γ``. The covariance stays:
 the bound is an inequality the truth keeps well inside, not a measurement of the separation.
+
+With *differential* pairs of blocks (the feet's poses, their modules' errors) only the difference
+of each pair's correction is kept, half to each with opposite signs, and every other state stays:
+the feet move apart or together and turn towards each other, their midpoint, mean heading and
+mean errors do not. ``p_a − p_b`` ends where the full projection puts it, so the bound holds.
 """
 
 from __future__ import annotations
+
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -17,9 +24,11 @@ from .core import StateFilter
 __all__ = ["project_separation"]
 
 
-def project_separation(core: StateFilter, a: str, b: str, gamma: float) -> bool:
+def project_separation(core: StateFilter, a: str, b: str, gamma: float,
+                       differential: Sequence[tuple[str, str]] = ()) -> bool:
     """Project *core*'s estimate so that the positions of pose blocks *a* and *b* are at most
-    *gamma* [m] apart (module docstring); True if it moved it."""
+    *gamma* [m] apart (module docstring; *differential*: the pairs of blocks whose correction is
+    kept to its difference); True if it moved it."""
     x, p = core.x, core.P
     ia, ib = core.slice(a), core.slice(b)
     pa, pb = slice(ia.start, ia.start + 3), slice(ib.start, ib.start + 3)
@@ -45,5 +54,13 @@ def project_separation(core: StateFilter, a: str, b: str, gamma: float) -> bool:
         if mid in (lo, hi):
             break
         lo, hi = (mid, hi) if float(np.linalg.norm(apart_at(mid))) > gamma else (lo, mid)
-    core.project(x - hi * (p_d @ apart_at(hi)))
+    step = -hi * (p_d @ apart_at(hi))
+    if differential:
+        kept = np.zeros_like(step)
+        for block_a, block_b in differential:
+            sa, sb = core.slice(block_a), core.slice(block_b)
+            half = 0.5 * (step[sa] - step[sb])
+            kept[sa], kept[sb] = half, -half
+        step = kept
+    core.project(x + step)
     return True

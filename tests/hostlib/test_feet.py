@@ -94,6 +94,20 @@ def test_the_constraint_bounds_the_heading_drift_between_the_feet():
     assert held.projections > 0
 
 
+def test_without_an_aid_the_constraint_turns_the_feet_towards_each_other_not_the_walker():
+    """The bound does not change when both feet turn or move together, and without an aid nothing
+    sees that: the projection turns the splaying feet towards each other and leaves their mean
+    heading where the steps put it (the free feet's: 0)."""
+    drift = math.radians(0.5)
+    free = TwoFeetTracker(FeetSettings(constraint=False))
+    held = TwoFeetTracker()
+    for tracker in (free, held):
+        _alternate(tracker, _walk(200, left_turn=drift, right_turn=-drift))
+    assert held.projections > 0
+    assert abs(held.state[3] - held.state[7]) < 0.5 * abs(free.state[3] - free.state[7])
+    assert held.state[3] + held.state[7] == pytest.approx(free.state[3] + free.state[7], abs=1e-9)
+
+
 def test_the_bound_holds_exactly_when_the_feet_are_uncertain_far_across_their_difference():
     """800 steps with 1.8° of heading σ each: the feet's lateral σ grows to about 190 m, and the
     left foot's steps, 10 % short, pull the feet apart along the walk. Projecting onto the bound
