@@ -99,18 +99,21 @@ def test_the_earliest_bytes_due_follow_every_module_s_links():
     assert rel.earliest() == 1.0
 
 
-def test_a_host_s_bytes_take_the_loop_of_the_tick_under_way():
-    """A host wrote 2.4 ticks after the start: two ticks are due; the module that does not run
-    ahead runs the third too (the loop that takes the bytes), never past the end of its next frame."""
+def test_a_host_s_bytes_are_taken_by_the_module_s_next_loop_at_once():
+    """A host wrote 2.4 ticks after the start, when ticks 1 and 2 had run: the module that does not
+    run ahead runs tick 3 at once (the loop that takes the bytes); a second command in the same
+    tick, tick 4; a third waits for tick 3's interrupt — never more than two ticks past it."""
     one = Schedule(1, 1000.0, 1.0, 1, None)
     one.f = 2  # ticks 1 and 2 ran, at 1 and 2 ms
     assert one.ticks_due(0, 0.0024) == 2
-    assert one.ticks_due(0, 0.0024, under_way=True) == 3
-    assert one.ticks_due(0, 0.0054, under_way=True) == 3  # late: at most the next frame (tick 3)
+    assert one.taking_bytes(0, 0.0024, 2, 2) == 3
+    assert one.taking_bytes(0, 0.0026, 3, 2) == 4
+    assert one.taking_bytes(0, 0.0028, 4, 2) == 4
+    assert one.taking_bytes(0, 0.0031, 4, 2) == 5
     framed = Schedule(1, 1000.0, 1.0, 4, None)
-    framed.f = 1  # frame 0 ran: ticks 1–4, at 4 ms
-    assert framed.ticks_due(0, 0.0054, under_way=True) == 6
-    assert framed.ticks_due(0, 0.0094, under_way=True) == 8
+    framed.f = 1  # frame 0 ran: ticks 1–4, at 4 ms; a host writes at 5.4 ms
+    assert framed.taking_bytes(0, 0.0054, 4, 2) == 5  # the tick due, which takes the bytes
+    assert framed.taking_bytes(0, 0.0094, 4, 2) == 8  # late: the ticks due, to the frame's end
 
 
 def test_modules_of_one_phase_form_a_group():

@@ -21,11 +21,13 @@ than tick by tick (a few ms, inside the Bluetooth link's own 0–20 ms jitter),
 for a fraction of the CPU. A host's bytes do not wait for the frame: when an
 endpoint's fd turns readable, its module at once runs the ticks already due, so
 a command is answered as soon as tick by tick. A module that does not run ahead (no
-lookahead: an ideal or a USB link) then also runs the tick under way — the loop that
-takes the bytes on the module, whose receive_command() comes first — before its
-interrupt rather than at it: a command is answered in the time of its own loop, not
-up to a tick later, and the module is at most that tick ahead until its deadline
-(the bytes and the module's time are those of tick by tick). In a multi-pacer each module
+lookahead: an ideal or a USB link) then also runs its next loop — the one that takes
+the bytes on the module, whose receive_command() comes first — at once rather than at
+its interrupt, if that interrupt is at most two ticks away (``COMMAND_LEAD_TICKS``;
+two, so that a host's next command, sent in the same tick, is taken at once too): a
+command is answered in the time of its own loop, not up to a tick later, and the
+module is less than two ticks ahead until their deadlines (the bytes and the
+module's time are those of tick by tick). In a multi-pacer each module
 has a *phase*: ``phases`` groups (default: one per module) due evenly spread
 over the frame, at ``t0 + (f + 1) · F · period + k · F · period / phases`` for
 group *k* — like real modules, whose timers were started at different moments.

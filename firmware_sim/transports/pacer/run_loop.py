@@ -17,6 +17,10 @@ from .release import Releases
 from .schedule import Schedule
 from .status import LAG_BOUNDS_MS
 
+#: How far [ticks] past its last timer interrupt a module that does not run ahead (no link latency)
+#: may run the loop that takes a host's bytes, at once rather than at that loop's interrupt.
+COMMAND_LEAD_TICKS = 2
+
 
 class RunOwner(Protocol):
     """What a run reads of the loop it runs (a :class:`~.group.MultiPacer`), and reports there."""
@@ -273,8 +277,10 @@ class RunLoop:
             if sched.frame_ticks > 1 or on_time:
                 # a host wrote: its module catches up with the wall clock now (the ticks already
                 # due), so the command is not held to the frame's end; a module that does not run
-                # ahead also runs the tick under way, whose loop takes the bytes (the package doc)
-                due = sched.ticks_due(k, now, under_way=on_time)
+                # ahead also runs its next loop, which takes the bytes, up to COMMAND_LEAD_TICKS
+                # ahead of its last interrupt (the package doc)
+                due = (sched.taking_bytes(k, now, self.done[k], COMMAND_LEAD_TICKS) if on_time
+                       else sched.ticks_due(k, now))
                 if due > self.done[k]:
                     self._run_to(k, due)
                     self._pump_module(k, True)

@@ -73,8 +73,16 @@ class Schedule:
             return True
         return False
 
-    def ticks_due(self, k: int, now: float, under_way: bool = False) -> int:
-        """The ticks module *k* should have run by *now* (at most to the end of its next frame);
-        *under_way*: and the tick whose interval *now* is in (its interrupt still to come)."""
-        return min(int((now - self.t0 - self.due_offs[k]) / self.period) + under_way,
-                   (self.f + (1 if k >= self.j else 2)) * self.frame_ticks)
+    def ticks_due(self, k: int, now: float) -> int:
+        """The ticks module *k* should have run by *now* (at most to the end of its next frame)."""
+        return min(self.interrupts(k, now), (self.f + (1 if k >= self.j else 2)) * self.frame_ticks)
+
+    def interrupts(self, k: int, now: float) -> int:
+        """The timer interrupts of module *k* by *now* (the ticks whose loops may have started)."""
+        return int((now - self.t0 - self.due_offs[k]) / self.period)
+
+    def taking_bytes(self, k: int, now: float, done: int, lead: int) -> int:
+        """The ticks module *k*, which has run *done*, runs when a host's bytes arrive at *now*: those
+        due, and its next loop (which takes the bytes) if that is at most *lead* ticks past its
+        last interrupt."""
+        return max(self.ticks_due(k, now), min(done + 1, self.interrupts(k, now) + lead))
