@@ -198,6 +198,7 @@ class TrackingRun:
         #: the modules being tracked, once started
         self.modules: list[TrackedModule] = []
         self._stack = ExitStack()
+        self._tracking_line: str | None = None
 
     # -- stage 1: prepare -------------------------------------------------------------
 
@@ -297,7 +298,8 @@ class TrackingRun:
             m.setup.after_start()
         names = " and ".join(m.label for m in self.modules)
         numbering = "/".join(dict.fromkeys(m.dev.session.command_set.name for m in self.modules))
-        self.messages.say(f"tracking on {names} ({numbering} commands); Ctrl-C to stop")
+        # said when the walk is followed, where Ctrl-C is caught (a Ctrl-C just after the line ends it)
+        self._tracking_line = f"tracking on {names} ({numbering} commands); Ctrl-C to stop"
         return self.modules
 
     def _feed_receiver(self, devices: Mapping[str | None, Device]) -> None:
@@ -348,6 +350,9 @@ class TrackingRun:
         duration = self.options.duration_s
         deadline = None if duration is None else time.monotonic() + duration
         try:
+            if self._tracking_line is not None:
+                self.messages.say(self._tracking_line)
+                self._tracking_line = None
             self._check_calibrations()
             show(*self.status())
             while deadline is None or time.monotonic() < deadline:
