@@ -128,7 +128,7 @@ class JointHistory:
 
     def feet(self) -> np.ndarray:
         """(n + 1, width) the feet's poses after each step (row 0: the start), side by side as in
-        the joint state from :attr:`poses`' start; read-only."""
+        the joint state from the slice ``poses``' start; read-only."""
         return self._feet.view()
 
     def body(self) -> tuple[np.ndarray, np.ndarray]:
