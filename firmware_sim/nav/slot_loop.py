@@ -3,7 +3,7 @@
 The compiled loop (:mod:`~firmware_sim.nav.driver`) runs the four sequences it knows as a whole. A
 module may run any other sequence — a host's plain IMU mode (READ_INERTIAL, PREPROC), the front end
 alone (0x32), a RUN_MULT_PROC of its own — which the processing functions then run in Python, at
-some hundred µs a loop. :func:`run_slots` runs a stretch of such a sequence's slots compiled instead:
+some hundred µs a loop. ``slot_kernels.run_slots`` runs a stretch of such a sequence's slots compiled instead:
 each slot's kernel on the module's records (the state memory and the works of the front end, the
 INS, READ_INERTIAL and HEIGHT_COMPENSATION, as their bytes), reading and writing the states exactly
 as its processing function does around the same kernels (:mod:`~firmware_sim.nav.frontend_kernels`,
@@ -37,12 +37,12 @@ __all__ = ["COMPILED_SLOTS", "RUN_SLOTS_SIGNATURE", "build", "kernel_run_slots",
            "slots_runner"]
 
 P = ProcId
-#: The processing functions :func:`run_slots` runs (by id).
+#: The processing functions ``slot_kernels.run_slots`` runs (by id).
 COMPILED_SLOTS = frozenset(int(p) for p in (
     P.FRONTEND_PREPROC, P.FRONTEND_STATDET, P.FRONTEND_BIASEST, P.FRONTEND_CONVCOMP,
     P.FRONTEND_INITIAL_ALIGNMENT, P.MECHANIZATION, P.TIME_UPDATE, P.ZUPT_UPDATE, P.STEPWISE_SYSTEM_RESET,
     P.HEIGHT_COMPENSATION))
-#: The argument types every caller gives :func:`run_slots` (the built one takes exactly these).
+#: The argument types every caller gives ``slot_kernels.run_slots`` (the built one takes exactly these).
 RUN_SLOTS_SIGNATURE = "int64(int64[::1], int64, int64, uint8[::1], uint8[::1], uint8[::1], uint8[::1])"
 
 _HERE = Path(__file__).resolve().parent
@@ -66,8 +66,8 @@ def module_path() -> Path:
 
 
 def slots_runner() -> Callable[..., int] | None:
-    """The compiled :func:`run_slots`: built ahead of time, else numba's; None without either (or with
-    ``OPENSHOE_PURE=1``). Looked for once per process."""
+    """The compiled ``slot_kernels.run_slots``: built ahead of time, else numba's; None without either (or
+    with ``OPENSHOE_PURE=1``). Looked for once per process."""
     if not _found:
         run = None if pure_requested() else prebuilt.load(module_path(), "run_slots")
         ahead = run is not None
@@ -91,7 +91,7 @@ def load() -> None:
 
 
 def build() -> bool:
-    """Build :func:`run_slots` ahead of time for the present sources unless it is there, unwanted
+    """Build ``slot_kernels.run_slots`` ahead of time for the present sources unless it is there, unwanted
     (``OPENSHOE_AOT=0``, ``OPENSHOE_PURE=1``) or failed before; whether it is there now. Needs numba
     (its ``pycc``) and a C compiler."""
     if not prebuilt.enabled() or pure_requested():

@@ -65,7 +65,7 @@ class RunLoop:
             p.lookahead_s, p.overrun_limit_s = a, lim
         self.bounds = [ms / 1000.0 / (1.0 if sched.asap else owner.speed) for ms in LAG_BOUNDS_MS[:-1]]
         #: Per module, the module after its phase group's last; each group of two or more is
-        #: advanced together (:meth:`_run_group`).
+        #: advanced together (``_run_group``).
         self.group_end = sched.phase_groups()
         self.locksteps = {j: Lockstep([p.module for p in members[j:end]])
                           for j, end in enumerate(self.group_end)
