@@ -184,8 +184,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).
 MANY_MODULES_FRAME_MS = 4.0
-#: The most modules of a process advanced together at one phase of the frame (in one compiled call:
-#: :class:`~firmware_sim.nav.lockstep.Lockstep`); more modules are spread over more phases.
+#: Modules per phase of the frame at most, advanced in one call (:mod:`~firmware_sim.nav.lockstep`).
 GROUP_MODULES = 16
 #: The most modules one ``serve`` runs (all in one loop and one thread; run more processes for more).
 MAX_MODULES = 64
