@@ -8,8 +8,6 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import TextIO
 
-import numpy as np
-
 from protocol.board import FOOT_SIDES
 
 from ..errors import HostError
@@ -56,7 +54,7 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
             + ("" if "hard_iron" not in tracker.filter else
                "; hard iron at the end [{:+.2f}, {:+.2f}, {:+.2f}] ± [{:.2f}, {:.2f}, {:.2f}] µT".format(
                    *tracker.filter.mean("hard_iron"),
-                   *np.sqrt(np.clip(np.diagonal(tracker.filter.covariance("hard_iron")), 0.0, None))))
+                   *tracker.filter.sigmas("hard_iron")))
             + ("" if tracker.compass_swing is None else
                "; compass swing at the end B {:+.2f} ± {:.2f}°, C {:+.2f} ± {:.2f}°".format(
                    *(math.degrees(float(v)) for pair in zip(tracker.compass_swing,

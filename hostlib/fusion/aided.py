@@ -149,7 +149,7 @@ class AidedFilter(ABC):
         """The 1σ [m] of :attr:`gps_bias`, north and east (None: not held)."""
         if "gps_bias" not in self.filter:
             return None
-        return np.sqrt(np.clip(np.diagonal(self.filter.covariance("gps_bias")), 0.0, None))
+        return self.filter.sigmas("gps_bias")
 
     @property
     def heading_aligned(self) -> bool:
@@ -366,7 +366,7 @@ class AidedFilter(ABC):
         """The 1σ of :attr:`compass_swing` [rad] (None: not held)."""
         if "swing" not in self.filter:
             return None
-        return np.sqrt(np.clip(np.diagonal(self.filter.covariance("swing")), 0.0, None))
+        return self.filter.sigmas("swing")
 
     def _reading_variance(self) -> float:
         """A compass reading's own variance σ_c², plus an uncalibrated compass's weight when the

@@ -140,6 +140,10 @@ class StateFilter:
         s = self.slice(name)
         return self.P[s, s].copy()
 
+    def sigmas(self, name: str) -> np.ndarray:
+        """The 1σ of every element of block *name* (a negative variance's rounding reads 0)."""
+        return np.sqrt(np.clip(np.diagonal(self.covariance(name)), 0.0, None))
+
     def sigma(self, name: str, k: int = 0) -> float:
         """The 1σ of element *k* of block *name*."""
         i = self.index(name, k)

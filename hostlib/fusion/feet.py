@@ -445,7 +445,7 @@ class TwoFeetTracker(AidedFilter):
         if self.aids.module_errors is None:
             return None
         with self._lock:
-            return np.sqrt(np.clip(np.diagonal(self.filter.covariance(f"errors.{side}")), 0.0, None))
+            return self.filter.sigmas(f"errors.{side}")
 
     @property
     def sides(self) -> list[str]:
