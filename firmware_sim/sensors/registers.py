@@ -20,14 +20,24 @@ def saturate_int16(lsb: np.ndarray) -> np.ndarray:
     return np.clip(np.rint(lsb), INT16_MIN, INT16_MAX).astype(np.int16)
 
 
+def accel_counts(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Specific force [g] in accelerometer LSB, before rounding and saturation."""
+    return np.asarray(acc_g, dtype=np.float64) * config.accel.lsb_per_g
+
+
 def accel_to_lsb(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
     """Specific force [g] → accelerometer registers (int16)."""
-    return saturate_int16(np.asarray(acc_g, dtype=np.float64) * config.accel.lsb_per_g)
+    return saturate_int16(accel_counts(acc_g, config))
+
+
+def gyro_counts(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Angular rate [rad/s] in gyro LSB, before rounding and saturation."""
+    return np.asarray(rate_rad_s, dtype=np.float64) * (config.gyro.lsb_per_dps / DEG)
 
 
 def gyro_to_lsb(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
     """Angular rate [rad/s] → gyro registers (int16)."""
-    return saturate_int16(np.asarray(rate_rad_s, dtype=np.float64) * (config.gyro.lsb_per_dps / DEG))
+    return saturate_int16(gyro_counts(rate_rad_s, config))
 
 
 def lsb_to_accel(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
@@ -52,11 +62,15 @@ def lsb_to_temp(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.nd
     return np.asarray(lsb, dtype=np.float64) / t.lsb_per_c + t.offset_c
 
 
+def mag_counts(field_ut: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
+    """Magnetic field [µT] in AK8975 LSB, before rounding and saturation."""
+    return np.asarray(field_ut, dtype=np.float64) / config.mag.ut_per_lsb
+
+
 def mag_to_lsb(field_ut: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
     """Magnetic field [µT] → AK8975 registers (int16 holding ±4095)."""
-    m = config.mag
-    lsb = np.rint(np.asarray(field_ut, dtype=np.float64) / m.ut_per_lsb)
-    return np.clip(lsb, -m.full_scale_lsb, m.full_scale_lsb).astype(np.int16)
+    full_scale = config.mag.full_scale_lsb
+    return np.clip(np.rint(mag_counts(field_ut, config)), -full_scale, full_scale).astype(np.int16)
 
 
 def lsb_to_mag(lsb: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:

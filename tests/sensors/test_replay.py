@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 
 from firmware_sim.board import MIMU22BT
 from firmware_sim.mcu.imu_bus import SensorSource
-from firmware_sim.sensors.registers import lsb_to_accel, lsb_to_gyro
+from firmware_sim.sensors.registers import accel_to_lsb, gyro_to_lsb, lsb_to_accel, lsb_to_gyro
 from firmware_sim.sensors.replay import (
     CSV_HEADER,
     OPENSHOE_HEADER,
@@ -224,6 +224,23 @@ def test_quantisation_saturates_at_int16(tmp_path):
                     mag=np.full((1, 3), np.nan), rate_hz=250.0)
     s = ReplaySource(rec).read(0)
     assert list(s.imu[0]) == [32767, -32768, 0, 32767, 0, 0]
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(2, 40), st.data())
+def test_each_chip_gets_its_own_axes_registers_saturated_as_its_own(n, data):
+    values = st.floats(-20.0, 20.0, allow_nan=False)
+    edges = st.sampled_from([15.99975, -15.99975, 16.0, -16.0, 16.00025, -16.00025, 0.0, -0.0])
+    acc = np.reshape(data.draw(st.lists(st.one_of(values, edges), min_size=3 * n, max_size=3 * n)), (n, 3))
+    gyro = np.reshape(data.draw(st.lists(values, min_size=3 * n, max_size=3 * n)), (n, 3))
+    rec = Recording(t=np.arange(n) / 250.0, acc_g=acc, gyro=gyro, mag=np.full((n, 3), np.nan), rate_hz=250.0,
+                    body_to_board=np.diag([1.0, -1.0, -1.0]))
+    src = ReplaySource(rec)
+    for k, mount in enumerate(np.asarray(MIMU22BT.mounting, dtype=np.float64)):
+        chip_acc = half_sample_ahead(rec.board_acc_g() @ mount.T)
+        chip_gyro = rec.board_gyro() @ mount.T
+        assert np.array_equal(src.imu[:, k, :3], accel_to_lsb(chip_acc))
+        assert np.array_equal(src.imu[:, k, 3:], gyro_to_lsb(chip_gyro))
 
 
 def test_a_simulated_walk_written_as_csv_replays_as_its_board_signals(tmp_path):
