@@ -78,7 +78,7 @@ def handles(*meanings: Command) -> Callable[[Handler], Handler]:
 def execute(module: Module, iface: ExternalInterface, spec: CommandSpec, raw: bytes) -> None:
     """Run a complete, checksum-verified command frame *raw* received on *iface*."""
     handler = HANDLERS[spec.command]
-    fields = spec.payload.parse(raw[1:-2]) if spec.payload_len else None
+    fields = spec.parse_payload(raw[1:-2]) if spec.payload_len else None
     handler(module, iface, fields, raw)
 
 

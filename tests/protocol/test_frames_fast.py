@@ -1,11 +1,13 @@
 """The module-side frame builders (plain bytes, on every module's hot path) write exactly
-the bytes of the construct declarations that define the layouts (protocol.md §2)."""
+the bytes of the construct declarations that define the layouts (protocol.md §2), and a
+command's payload parses to the declaration's fields."""
 
 from __future__ import annotations
 
 from hypothesis import given
 from hypothesis import strategies as st
 
+from protocol.commands import CURRENT, LEGACY_2014, CommandSpec
 from protocol.frames import (
     COMMAND_ACK_FRAME,
     MAX_PAYLOAD,
@@ -61,3 +63,12 @@ def test_out_of_range_refused() -> None:
         build_command_ack(256)
     with pytest.raises(ValueError):
         build_packet_ack(-1)
+
+
+COMMANDS = [spec for numbering in (CURRENT, LEGACY_2014) for spec in numbering.values()]
+
+
+@given(st.sampled_from(COMMANDS), st.data())
+def test_command_payload_parses_to_the_declarations_fields(spec: CommandSpec, data: st.DataObject) -> None:
+    payload = data.draw(st.binary(min_size=spec.payload_len, max_size=spec.payload_len))
+    assert spec.parse_payload(payload) == spec.payload.parse(payload)
