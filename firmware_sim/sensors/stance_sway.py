@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from .polynomials import eval3, smoothstep
+from .sines import sum_of_sines
 from .truth import euler_to_matrix
 
 __all__ = ["StanceSway", "STANCE_SWAY", "STANCE_SWAY_DEFAULT", "STANCE_SWAY_ENV", "stance_sway_on",
@@ -148,29 +149,6 @@ def stance_sway_on(stance_sway: bool | None) -> bool:
     return env == "1"
 
 
-#: Rows of :func:`_sum_of_sines` evaluated at a time: its (rows, 3, components) temporaries then
-#: stay in the cache (each row's sums are the same, row by row, whatever the chunk).
-_SINES_CHUNK = 2048
-
-
-def _sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray, u: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Σ a·sin(ω u + φ) over the last axis and its first two derivatives in u, (rows, 3) each, row r
-    with stance j[r]'s (stances, 3, components) *freq*, *phase* and *amp*."""
-    amp_freq = amp * freq
-    amp_freq2 = amp_freq * freq
-    out = tuple(np.empty((len(u), 3)) for _ in range(3))
-    for a in range(0, len(u), _SINES_CHUNK):
-        b = a + _SINES_CHUNK
-        jj = j[a:b]
-        arg = freq[jj] * u[a:b, None, None] + phase[jj]
-        sin = np.sin(arg)
-        out[0][a:b] = np.sum(amp[jj] * sin, axis=2)
-        out[1][a:b] = np.sum(amp_freq[jj] * np.cos(arg), axis=2)
-        out[2][a:b] = -np.sum(amp_freq2[jj] * sin, axis=2)
-    return out
-
-
 class SwayDraw:
     """One walk's stance motion (:class:`StanceSway`): per swaying stance its span, and per motion
     and axis the components' angular frequencies [rad/s], phases and amplitudes (angle [rad],
@@ -232,7 +210,7 @@ class SwayDraw:
         w, w1, w2 = w[:, None], w1[:, None], w2[:, None]
 
         def tapered(freq, phase, amp, chord):
-            s, s1, s2 = _sum_of_sines(freq, phase, amp, j, u)
+            s, s1, s2 = sum_of_sines(freq, phase, amp, j, u)
             c0, c1 = chord[0][j], chord[1][j]
             s = s - c0 - (c1 - c0) * (u / d)[:, None]
             s1 = s1 - (c1 - c0) / d[:, None]
