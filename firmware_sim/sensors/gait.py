@@ -57,7 +57,7 @@ from numpy.polynomial import polynomial as P
 
 from .polynomials import eval3, max_abs, normalised, poly_from_roots, smoothstep
 from .stance_sway import STANCE_SWAY, StanceSway, SwayDraw
-from .truth import GroundTruth, Kinematics
+from .truth import GroundTruth, Kinematics, body_rate
 
 __all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS_UP", "STAIRS_DOWN", "SHUFFLE", "SHORT_STEPS", "WIGGLE",
            "Pose", "Swing", "Trajectory", "flat_on", "ramp_normal"]
@@ -329,54 +329,60 @@ class Trajectory:
 
     def evaluate(self, t: np.ndarray, gravity: float = 9.81) -> Kinematics:
         """Exact kinematics at times *t* [s] (held at the end pose after the end)."""
+        t, seg, swing = self._segments(t)
+        pos, vel, acc = self._translation(t, seg, swing)
+        ang, dang, ddang = self._attitude(t, seg, swing)
+        if self._sway is not None:  # the walking stances' residual motion
+            self._sway.add(t, pos, vel, acc, ang, dang, ddang)
+        return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
+
+    def body_rate(self, t: np.ndarray) -> np.ndarray:
+        """The angular rate ω_b [rad/s] at times *t*, (n, 3): ``evaluate(t).omega_b`` bit for bit,
+        without the foot's translation and the rest of its kinematics (a gyro's delay evaluates
+        the walk earlier only for its rate)."""
+        t, seg, swing = self._segments(t)
+        ang, dang, _ = self._attitude(t, seg, swing, second=False)
+        if self._sway is not None:
+            self._sway.add(t, None, None, None, ang, dang, None)
+        return body_rate(ang, dang)
+
+    def _segments(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Times *t* as float64, each one's segment and whether it is a swing's."""
         t = np.atleast_1d(np.asarray(t, dtype=np.float64))
-        n = len(t)
         seg = np.clip(np.searchsorted(self._t0, t, side="right") - 1, 0, len(self._t0) - 1)
-        swing = self._kind[seg] == SWING
-        A = self._A[seg]
-        pos = A[:, :3].copy()
-        ang = A[:, 3:].copy()
-        vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
-        dang, ddang = np.zeros((n, 3)), np.zeros((n, 3))
+        return t, seg, self._kind[seg] == SWING
+
+    def _swing_times(self, t: np.ndarray, seg: np.ndarray, swing: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The swing samples (rows), their segments, 1/T and 1/T² and their normalised times τ."""
         sw = np.flatnonzero(swing)  # a stance is A = B, still: only swing samples move
+        i = seg[sw]
+        k1 = 1.0 / self._dur[i]
+        k2 = k1 * k1
+        tau = np.clip((t[sw] - self._t0[i]) * k1, 0.0, 1.0)
+        return sw, i, k1, k2, tau
+
+    def _translation(self, t: np.ndarray, seg: np.ndarray, swing: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Position, velocity and acceleration at times *t* without the stance sway."""
+        n = len(t)
+        pos = self._A[seg, :3]
+        vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
+        sw, i, k1, k2, tau = self._swing_times(t, seg, swing)
         if len(sw):
-            i = seg[sw]
-            ts = t[sw]
-            k1 = 1.0 / self._dur[i]
-            k2 = k1 * k1
-            tau = np.clip((ts - self._t0[i]) * k1, 0.0, 1.0)
-            d = self._B[i] - self._A[i]
+            d = self._B[i, :3] - self._A[i, :3]
             S, S1, S2 = eval3(_S, tau)
-            pos[sw] += d[:, :3] * S[:, None]
-            vel[sw] = d[:, :3] * (S1 * k1)[:, None]
-            acc[sw] = d[:, :3] * (S2 * k2)[:, None]
-            ang[sw] += d[:, 3:] * S[:, None]
-            dang[sw] = d[:, 3:] * (S1 * k1)[:, None]
-            ddang[sw] = d[:, 3:] * (S2 * k2)[:, None]
+            pos[sw] += d * S[:, None]
+            vel[sw] = d * (S1 * k1)[:, None]
+            acc[sw] = d * (S2 * k2)[:, None]
             C, C1, C2 = eval3(_C, tau)
             h = self._clear[i]
             pos[sw, 2] -= h * C
             vel[sw, 2] -= h * C1 * k1
             acc[sw, 2] -= h * C2 * k2
-            for coeffs, amp in ((_G1, self._toe[i]), (_G2, self._heel[i])):
-                G, G1, G2 = eval3(coeffs, tau)
-                ang[sw, 1] += amp * G
-                dang[sw, 1] += amp * G1 * k1
-                ddang[sw, 1] += amp * G2 * k2
-            # the sole's roll and the toe's yaw on the way, only where a swing has them (every other
-            # swing's samples stay exactly as without them)
-            turning = (self._roll[i] != 0.0) | (self._yaw[i] != 0.0)
-            if np.any(turning):
-                rows, it, tt = sw[turning], i[turning], tau[turning]
-                kt1, kt2 = k1[turning], k2[turning]
-                for coeffs, amp, axis in ((_G1, self._roll[it], 0), (_C, self._yaw[it], 2)):
-                    G, G1, G2 = eval3(coeffs, tt)
-                    ang[rows, axis] += amp * G
-                    dang[rows, axis] += amp * G1 * kt1
-                    ddang[rows, axis] += amp * G2 * kt2
             # heel-strike impact bump
             w = self._imp_w[i]
-            u = (ts - self._t0[i] - self._imp_t0[i]) / w
+            u = (t[sw] - self._t0[i] - self._imp_t0[i]) / w
             hit = (self._imp_amp[i] > 0) & (u > 0.0) & (u < 1.0)
             if np.any(hit):
                 rows = sw[hit]
@@ -388,9 +394,40 @@ class Trajectory:
                 pos[rows] += (amp * Bv)[:, None] * direction
                 vel[rows] += (amp * B1 / wh)[:, None] * direction
                 acc[rows] += (amp * B2 / wh**2)[:, None] * direction
-        if self._sway is not None:  # the walking stances' residual motion
-            self._sway.add(t, pos, vel, acc, ang, dang, ddang)
-        return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
+        return pos, vel, acc
+
+    def _attitude(self, t: np.ndarray, seg: np.ndarray, swing: np.ndarray, second: bool = True
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """Euler angles and their first (and, if *second*, second) derivatives at times *t* without
+        the stance sway."""
+        n = len(t)
+        ang = self._A[seg, 3:]
+        dang = np.zeros((n, 3))
+        ddang = np.zeros((n, 3)) if second else None
+        sw, i, k1, k2, tau = self._swing_times(t, seg, swing)
+        if len(sw):
+            d = self._B[i, 3:] - self._A[i, 3:]
+            S, S1, S2 = eval3(_S, tau)
+            ang[sw] += d * S[:, None]
+            dang[sw] = d * (S1 * k1)[:, None]
+            if ddang is not None:
+                ddang[sw] = d * (S2 * k2)[:, None]
+            # the toe-off and heel-strike pitch; the sole's roll and the toe's yaw on the way, only
+            # where a swing has them (every other swing's samples stay exactly as without them)
+            bumps = [(_G1, self._toe[i], 1, None), (_G2, self._heel[i], 1, None)]
+            turning = (self._roll[i] != 0.0) | (self._yaw[i] != 0.0)
+            if np.any(turning):
+                bumps += [(_G1, self._roll[i], 0, turning), (_C, self._yaw[i], 2, turning)]
+            for coeffs, amp, axis, where in bumps:
+                rows, tt, a1, a2 = sw, tau, k1, k2
+                if where is not None:
+                    rows, tt, amp, a1, a2 = sw[where], tau[where], amp[where], k1[where], k2[where]
+                G, G1, G2 = eval3(coeffs, tt)
+                ang[rows, axis] += amp * G
+                dang[rows, axis] += amp * G1 * a1
+                if ddang is not None:
+                    ddang[rows, axis] += amp * G2 * a2
+        return ang, dang, ddang
 
     def sample(self, rate_hz: float, gravity: float = 9.81, duration: float | None = None) -> GroundTruth:
         """Ground truth at t_k = k / rate_hz, k = 0 … ⌊duration·rate⌋."""

@@ -209,22 +209,23 @@ class SimulatedSource:
     def __len__(self) -> int:
         return self._n
 
-    def _kinematics(self, delays: tuple[float, ...], lo: int, hi: int
-                    ) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Per delay [s], rate, angular acceleration and specific force (body frame) of samples
-        *lo*:*hi* evaluated that much earlier (every sample on its own: the trajectory is
-        evaluated once, at the times of every delay that is not 0)."""
+    def _kinematics(self, delay_acc: float, delay_gyro: float, lo: int, hi: int
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rate, angular acceleration and specific force (body frame) of samples *lo*:*hi* evaluated
+        *delay_acc* [s] earlier, and the rate *delay_gyro* earlier (every sample on its own: the
+        trajectory is evaluated at the times of a delay that is not 0, for the gyro's only its rate)."""
         k = self.truth.kinematics
-        now = (k.omega_b[lo:hi], k.alpha_b[lo:hi], k.f_b[lo:hi])
-        earlier = sorted({d for d in delays if d != 0.0})
-        if not earlier:
-            return [now for _ in delays]
         t = self.truth.t[lo:hi]
-        e = self.trajectory.evaluate(np.concatenate([t - d for d in earlier]), gravity=self.config.gravity)
-        m = hi - lo
-        at = {d: (e.omega_b[j * m:(j + 1) * m], e.alpha_b[j * m:(j + 1) * m], e.f_b[j * m:(j + 1) * m])
-              for j, d in enumerate(earlier)}
-        return [at[d] if d != 0.0 else now for d in delays]
+        gravity = self.config.gravity
+        if delay_acc == 0.0:
+            omega, alpha, f_b = k.omega_b[lo:hi], k.alpha_b[lo:hi], k.f_b[lo:hi]
+        else:
+            e = self.trajectory.evaluate(t - delay_acc, gravity=gravity)
+            omega, alpha, f_b = e.omega_b, e.alpha_b, e.f_b
+        if delay_gyro == delay_acc:
+            return omega, alpha, f_b, omega
+        rate = k.omega_b[lo:hi] if delay_gyro == 0.0 else self.trajectory.body_rate(t - delay_gyro)
+        return omega, alpha, f_b, rate
 
     def chip_motion(self, delay_acc: float = 0.0, delay_gyro: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
         """Error-free chip signals: specific force [m/s²] and rate [rad/s], (n, chips, 3), chip axes.
@@ -236,7 +237,7 @@ class SimulatedSource:
     def _chip_motion(self, delay_acc: float, delay_gyro: float, lo: int, hi: int
                      ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`chip_motion` of samples *lo*:*hi* (each sample's values do not depend on the others)."""
-        (omega, alpha, f_b), (omega_g, _, _) = self._kinematics((delay_acc, delay_gyro), lo, hi)
+        omega, alpha, f_b, omega_g = self._kinematics(delay_acc, delay_gyro, lo, hi)
         r = self.geometry.lever_arms[None, :, :]  # (1, chips, 3)
         w = omega[:, None, :]
         al = alpha[:, None, :]

@@ -189,10 +189,11 @@ class SwayDraw:
         self.rot_chord = ends(self.rot_freq, self.rot_phase, self.rot_amp)
         self.vib_chord = ends(self.vib_freq, self.vib_phase, self.vib_amp)
 
-    def add(self, t: np.ndarray, pos: np.ndarray, vel: np.ndarray, acc: np.ndarray, ang: np.ndarray,
-            dang: np.ndarray, ddang: np.ndarray) -> None:
+    def add(self, t: np.ndarray, pos: np.ndarray | None, vel: np.ndarray | None, acc: np.ndarray | None,
+            ang: np.ndarray, dang: np.ndarray, ddang: np.ndarray | None) -> None:
         """Add the motion at times *t* to the position, the Euler angles and their derivatives (in
-        place)."""
+        place). Without *pos*, *vel* and *acc* (None) the vibration is left out, and without
+        *ddang* the angles' second derivative: what is added to the others stays the same."""
         if not len(self.start):
             return
         i = np.clip(np.searchsorted(self.start, t, side="right") - 1, 0, None)
@@ -209,18 +210,19 @@ class SwayDraw:
                 w[near], w1[near], w2[near] = r, sign * r1 / tau[near], r2 / tau[near] ** 2
         w, w1, w2 = w[:, None], w1[:, None], w2[:, None]
 
-        def tapered(freq, phase, amp, chord):
+        def tapered(freq, phase, amp, chord, second):
             s, s1, s2 = sum_of_sines(freq, phase, amp, j, u)
             c0, c1 = chord[0][j], chord[1][j]
             s = s - c0 - (c1 - c0) * (u / d)[:, None]
             s1 = s1 - (c1 - c0) / d[:, None]
-            return w * s, w1 * s + w * s1, w2 * s + 2.0 * w1 * s1 + w * s2
+            return w * s, w1 * s + w * s1, w2 * s + 2.0 * w1 * s1 + w * s2 if second else None
 
-        rotation = tapered(self.rot_freq, self.rot_phase, self.rot_amp, self.rot_chord)
+        rotation = tapered(self.rot_freq, self.rot_phase, self.rot_amp, self.rot_chord, ddang is not None)
         for out, value in zip((ang, dang, ddang), rotation, strict=True):
-            out[rows] += value
-        if self.vibrates:
+            if out is not None:
+                out[rows] += value
+        if self.vibrates and pos is not None:
             foot = self.foot[j]
-            vibration = tapered(self.vib_freq, self.vib_phase, self.vib_amp, self.vib_chord)
+            vibration = tapered(self.vib_freq, self.vib_phase, self.vib_amp, self.vib_chord, True)
             for out, value in zip((pos, vel, acc), vibration, strict=True):
                 out[rows] += np.einsum("rij,rj->ri", foot, value)

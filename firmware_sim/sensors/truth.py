@@ -25,17 +25,20 @@ from pathlib import Path
 import numpy as np
 
 __all__ = [
-    "Kinematics", "GroundTruth", "euler_to_matrix", "mul_transposed", "rotate", "rotation", "cross",
-    "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
+    "Kinematics", "GroundTruth", "body_rate", "euler_to_matrix", "mul_transposed", "rotate", "rotation",
+    "cross", "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
 ]
 
 
 def euler_to_matrix(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """R = Rz(yaw) Ry(pitch) Rx(roll), body → navigation, shape (n, 3, 3)."""
-    cr, sr = np.cos(roll), np.sin(roll)
-    cp, sp = np.cos(pitch), np.sin(pitch)
-    cy, sy = np.cos(yaw), np.sin(yaw)
-    R = np.empty(np.shape(roll) + (3, 3))
+    return _matrix_of(np.cos(roll), np.sin(roll), np.cos(pitch), np.sin(pitch), np.cos(yaw), np.sin(yaw))
+
+
+def _matrix_of(cr: np.ndarray, sr: np.ndarray, cp: np.ndarray, sp: np.ndarray, cy: np.ndarray, sy: np.ndarray
+               ) -> np.ndarray:
+    """:func:`euler_to_matrix` of the angles' cosines and sines."""
+    R = np.empty(np.shape(cr) + (3, 3))
     R[..., 0, 0] = cy * cp
     R[..., 0, 1] = cy * sp * sr - sy * cr
     R[..., 0, 2] = cy * sp * cr + sy * sr
@@ -46,6 +49,24 @@ def euler_to_matrix(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.
     R[..., 2, 1] = cp * sr
     R[..., 2, 2] = cp * cr
     return R
+
+
+def body_rate(ang: np.ndarray, dang: np.ndarray) -> np.ndarray:
+    """The body's angular rate ω_b (n, 3) of ZYX Euler angles *ang* (roll, pitch, yaw; n, 3) and
+    their rates *dang*."""
+    phi, th = ang[:, 0], ang[:, 1]
+    return _body_rate(dang, np.sin(phi), np.cos(phi), np.sin(th), np.cos(th))
+
+
+def _body_rate(dang: np.ndarray, sf: np.ndarray, cf: np.ndarray, st: np.ndarray, ct: np.ndarray
+               ) -> np.ndarray:
+    """:func:`body_rate` of the roll's and the pitch's sines and cosines."""
+    dphi, dth, dpsi = dang.T
+    return np.stack([
+        dphi - dpsi * st,
+        dth * cf + dpsi * ct * sf,
+        -dth * sf + dpsi * ct * cf,
+    ], axis=1)
 
 
 def walked_distance(pos: np.ndarray) -> np.ndarray:
@@ -145,21 +166,17 @@ class Kinematics:
     @classmethod
     def from_euler(cls, t, pos, vel, acc, ang, dang, ddang, stance, gravity: float = 9.81) -> Kinematics:
         """Build from Euler angles and their first two time derivatives."""
-        phi, th, _ = ang.T
+        phi, th, psi = ang.T
         dphi, dth, dpsi = dang.T
         ddphi, ddth, ddpsi = ddang.T
         sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(th), np.cos(th)
-        omega = np.stack([
-            dphi - dpsi * st,
-            dth * cf + dpsi * ct * sf,
-            -dth * sf + dpsi * ct * cf,
-        ], axis=1)
+        omega = _body_rate(dang, sf, cf, st, ct)
         alpha = np.stack([
             ddphi - ddpsi * st - dpsi * dth * ct,
             ddth * cf - dth * dphi * sf + ddpsi * ct * sf - dpsi * dth * st * sf + dpsi * dphi * ct * cf,
             -ddth * sf - dth * dphi * cf + ddpsi * ct * cf - dpsi * dth * st * cf - dpsi * dphi * ct * sf,
         ], axis=1)
-        R = euler_to_matrix(*ang.T)
+        R = _matrix_of(cf, sf, ct, st, np.cos(psi), np.sin(psi))  # euler_to_matrix(*ang.T)
         a_minus_g = acc - np.array([0.0, 0.0, gravity])
         f_b = mul_transposed(R, a_minus_g)
         return cls(t, pos, vel, acc, ang, R, omega, alpha, f_b, np.asarray(stance, dtype=bool), gravity)
