@@ -69,6 +69,7 @@ class StateFilter:
         self.x = np.zeros(0)
         self.P = np.zeros((0, 0))
         self.blocks: dict[str, Block] = {}
+        self._others: dict[str, np.ndarray] = {}  #: others(name), for the blocks held now
 
     # -- registration -----------------------------------------------------------------
 
@@ -91,6 +92,7 @@ class StateFilter:
         p[n:, n:] = cov
         self.P = p
         self.blocks[name] = block
+        self._others.clear()
         return block
 
     def __contains__(self, name: str) -> bool:
@@ -117,10 +119,14 @@ class StateFilter:
         return [i for name in names if name in self.blocks for i in self.blocks[name].indices]
 
     def others(self, name: str) -> np.ndarray:
-        """Every index of ``x`` but block *name*'s, in order."""
-        keep = np.ones(len(self.x), dtype=bool)
-        keep[self.slice(name)] = False
-        return np.flatnonzero(keep)
+        """Every index of ``x`` but block *name*'s, in order (read-only: kept until a block is added)."""
+        found = self._others.get(name)
+        if found is None:
+            keep = np.ones(len(self.x), dtype=bool)
+            keep[self.slice(name)] = False
+            found = self._others[name] = np.flatnonzero(keep)
+            found.flags.writeable = False
+        return found
 
     def row(self, weights: Mapping[str | tuple[str, int], float]) -> np.ndarray:
         """A measurement row ``h`` (n,): *weights* maps a block name (its element 0) or a
@@ -170,7 +176,7 @@ class StateFilter:
         b, rest = self.slice(pose), self.others(pose)
         chi = float(self.x[b][3])
         f = step_jacobian(chi, dx)
-        new, cov = propagate(self.x[b], self.P[b, b], dx, dp)
+        new, cov = propagate(self.x[b], self.P[b, b], dx, dp, f)
         if errors is None:
             cross = f @ self.P[b, rest]
         else:

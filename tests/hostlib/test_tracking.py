@@ -17,6 +17,7 @@ from hostlib.track.steps import (
     is_motion_step,
     propagate,
     rotation_z,
+    step_problem,
 )
 
 
@@ -297,6 +298,36 @@ def test_a_step_with_impossible_numbers_is_counted_and_never_summed(dx, dp, why)
     assert t.add_step(dx, dp, 2) is StepOutcome.DUPLICATE  # its resend is a resend
     assert t.add_step([1.0, 0.0, 0.0, 0.0], np.eye(4) * 1e-4, 3) is StepOutcome.SUMMED  # no gap: it was seen
     assert t.pose[0] == 2.0 and not t.gaps
+
+
+def _verdict_by_eigenvalues(dx: np.ndarray, dp: np.ndarray) -> bool:
+    """Whether a step may be summed by the definition: finite, dP symmetric (relative 1e-5), its
+    symmetric part's smallest eigenvalue not below −1e-5 of the largest in size."""
+    if not (np.isfinite(dx).all() and np.isfinite(dp).all()):
+        return False
+    if not (np.abs(dp - dp.T) <= 1e-5 * np.abs(dp.T)).all():
+        return False
+    with np.errstate(over="ignore"):
+        eig = np.linalg.eigvalsh(0.5 * (dp + dp.T))
+    return not eig[0] < -1e-5 * max(abs(eig[-1]), abs(eig[0]))
+
+
+@settings(max_examples=400, deadline=None)
+@given(a=st.lists(st.floats(-1.0, 1.0), min_size=16, max_size=16), shift=st.floats(-1.0, 1.0),
+       asym=st.floats(-3e-5, 3e-5), dx=st.lists(st.floats(-2.0, 2.0), min_size=4, max_size=4),
+       odd=st.one_of(st.none(), st.tuples(st.integers(0, 19), st.sampled_from([math.nan, math.inf, -math.inf,
+                                                                             1e300, 0.0]))))
+def test_a_step_is_summed_exactly_when_its_numbers_are_possible(a, shift, asym, dx, odd):
+    """The quick test of every step (finite, symmetric, positive definite) never passes a step the
+    definition refuses, and refuses none it passes: indefinite, near-singular, barely asymmetric
+    and non-finite dPs included."""
+    dp = np.array(a).reshape(4, 4) @ np.array(a).reshape(4, 4).T + shift * np.eye(4)
+    dp[1, 2] *= 1.0 + asym
+    dxa = np.array(dx)
+    if odd is not None:
+        k, value = odd
+        (dxa if k >= 16 else dp.reshape(-1))[k % 16 if k < 16 else k - 16] = value
+    assert (step_problem(dxa, dp) is None) == _verdict_by_eigenvalues(dxa, dp)
 
 
 def test_a_float32_covariance_rounded_below_zero_is_still_summed():
