@@ -9,12 +9,14 @@
   that died (the scheduler's ``allowed-failures``, 3 by default): each run's row comes back
   exactly once. With no client, the runs go one after the other in this process. The rows do not
   depend on where a run went, nor on its group: a run is a pure function of its spec.
-* :class:`PrepareWorker` — a worker plugin: every worker, a restarted one too, loads the
-  compiled tracking kernels and the walk reader from numba's on-disk cache
-  (:func:`firmware_sim.nav.warmup.prepare_compiled_path`) before its first task, instead of
-  compiling them again. :func:`open_client` prepares this process first, so that a local
+* :class:`~firmware_sim.app.cluster_plugin.PrepareWorker` — a worker plugin: every worker, a
+  restarted one too, loads the compiled tracking kernels and the walk reader from numba's
+  on-disk cache (:func:`firmware_sim.nav.warmup.prepare_compiled_path`) before its first task,
+  instead of compiling them again. :func:`open_client` prepares this process first, so that a local
   cluster's workers find the cache filled (``NUMBA_CACHE_DIR`` if set, else ``__pycache__``
   beside the sources; the workers inherit the environment).
+
+``distributed`` is imported only where a cluster is used: runs in this process start without it.
 """
 
 from __future__ import annotations
@@ -24,12 +26,10 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
-from distributed.diagnostics.plugin import WorkerPlugin
-
 from .progress import progress_bar
 from .runs import RunSpec, run_many, run_one
 
-__all__ = ["PrepareWorker", "execute", "open_client", "prepare_process"]
+__all__ = ["execute", "open_client", "prepare_process"]
 
 Runner = Callable[[RunSpec], dict[str, Any]]
 #: Retries of a task that raised (a worker that died is the scheduler's business).
@@ -47,20 +47,14 @@ def prepare_process() -> None:
     openshoe_scan.warm_up()
 
 
-class PrepareWorker(WorkerPlugin):
-    """Prepares each worker process once, when it joins (:func:`prepare_process`)."""
-
-    name = "openshoe-prepare"
-
-    def setup(self, worker: Any) -> None:
-        prepare_process()
-
-
 @contextlib.contextmanager
 def open_client(workers: int = 2, scheduler: str | None = None) -> Iterator[Any]:
     """A Dask client: of the cluster at *scheduler*, or of a new local cluster of *workers*
-    processes (1 thread each, no dashboard), closed on exit. Workers get :class:`PrepareWorker`."""
+    processes (1 thread each, no dashboard), closed on exit. Workers get
+    :class:`~firmware_sim.app.cluster_plugin.PrepareWorker`."""
     from distributed import Client, LocalCluster
+
+    from .cluster_plugin import PrepareWorker
 
     with local_worker_environment():
         if scheduler is not None:

@@ -64,3 +64,13 @@ def test_serving_and_tracking_import_the_web_stack_only_for_a_page(module):
 def test_a_subcommands_help_and_usage_errors_import_no_numba_and_no_web_stack(argv):
     loaded = loaded_after("firmware_sim.app.cli", argv)
     assert [m for m in loaded if not m.startswith("firmware_sim.nav")] == []
+
+
+def test_runs_in_this_process_load_no_dask_distributed():
+    """A sweep with ``--workers 0`` and the lab's serial runs start without Dask's distributed stack
+    (it loads for a cluster only)."""
+    code = ("import sys, firmware_sim.app.cluster, firmware_sim.app.sweep, lab.runner\n"
+            "print(sorted(m for m in sys.modules if m.startswith('distributed')))")
+    out = subprocess.run([sys.executable, "-c", code], cwd=REPO, capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
