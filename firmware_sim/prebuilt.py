@@ -7,7 +7,9 @@ package it is built for) and is named by the digest of its sources: an edit name
 is built whole or not at all (in a temporary folder, then moved), so processes beside see either
 nothing or the module. A build that fails (no C compiler, a numba without ``pycc``) is remembered
 beside it (``.failed``) and not tried again for those sources. ``OPENSHOE_AOT=0`` turns the built
-modules off.
+modules off. A built function releases the GIL while it runs (:func:`compile_releasing_gil`), as
+numba's ``nogil`` functions do: a reader thread reads walk files while the runs go on, and a
+helper thread runs part of a lockstep's modules, without numba imported.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from importlib.machinery import EXTENSION_SUFFIXES
 from pathlib import Path
 from typing import Any
 
-__all__ = ["build_once", "enabled", "load", "module_path"]
+__all__ = ["build_once", "compile_releasing_gil", "enabled", "load", "module_path"]
 
 
 def enabled() -> bool:
@@ -49,6 +51,27 @@ def load(path: Path, attr: str) -> Callable[..., Any] | None:
         return getattr(module, attr)  # type: ignore[no-any-return]
     except Exception:  # noqa: BLE001 - an unusable file: the caller's numba or Python path
         return None
+
+
+def compile_releasing_gil(cc: Any) -> None:
+    """``cc.compile()`` of a numba ``pycc.CC`` whose exported functions release the GIL while they
+    run (their Python wrappers take the arguments, let other threads run during the call and take
+    the GIL back for the result, as ``njit(nogil=True)``'s do). ``pycc`` has no option for it: its
+    compilation flags are made with ``release_gil`` set, for this build only."""
+    from numba.core.compiler import Flags
+    from numba.pycc import compiler
+
+    class ReleasingGil(Flags):  # type: ignore[misc]
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            super().__init__(*args, **kwargs)
+            self.release_gil = True
+
+    plain = compiler.Flags
+    compiler.Flags = ReleasingGil
+    try:
+        cc.compile()
+    finally:
+        compiler.Flags = plain
 
 
 def build_once(path: Path, compile_into: Callable[[Path], None]) -> bool:

@@ -8,7 +8,9 @@ caller gives it (:data:`~firmware_sim.nav.driver.RUN_LOOPS_SIGNATURE`), and besi
 modules in one call (:func:`~firmware_sim.nav.driver.run_group`, :func:`run_group`): the same kernels,
 an extension module of its own (about 7 s, once). Later processes import that module in well under
 a millisecond and never import numba (:func:`run_loops`); tests check its bytes against numba's
-loop.
+loop. Like numba's, the built loops release the GIL while they run
+(:func:`firmware_sim.prebuilt.compile_releasing_gil`): a batch of many replays reads its next walks
+in a thread beside them, and a lockstep's helper thread runs half of its modules.
 
 The module lives beside numba's cache (``NUMBA_CACHE_DIR`` when set, else the ``__pycache__``
 of this package) and is named by the digest of the kernels' sources
@@ -20,7 +22,6 @@ numba's. ``OPENSHOE_AOT=0`` turns the built loop off, and so does ``OPENSHOE_PUR
 
 from __future__ import annotations
 
-import importlib.util
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -30,7 +31,7 @@ from firmware_sim.sensors import openshoe_scan
 
 from .kernel_sources import pure_requested, sources_stamp
 
-__all__ = ["build", "decline", "module_path", "run_group", "run_loops", "wanted"]
+__all__ = ["build", "module_path", "run_group", "run_loops", "wanted"]
 
 _HERE = Path(__file__).resolve().parent
 _loaded: list[Callable[..., int] | None] = []  #: the loop once looked for (one element)
@@ -71,15 +72,6 @@ def run_group() -> Callable[..., int] | None:
     return _loaded_group[0]
 
 
-def decline() -> None:
-    """Run numba's loop and walk reader in this process, not the ones built ahead of time, when
-    numba is there: numba's release the GIL while they run, so a reader thread overlaps the runs of
-    a long batch (the built ones hold it). Call before the first module is made."""
-    if importlib.util.find_spec("numba") is not None:
-        _loaded[:] = [None]
-        openshoe_scan.decline_built()
-
-
 def build() -> bool:
     """Build the loop for the present sources unless it is there, unwanted, or failed before, and
     the walk reader likewise (:func:`firmware_sim.sensors.openshoe_scan.build`); whether the loop
@@ -102,4 +94,4 @@ def _compile(folder: Path) -> None:
     cc.verbose = False
     cc.export("run_loops", RUN_LOOPS_SIGNATURE)(getattr(loop, "py_func", loop))
     cc.export("run_group", RUN_GROUP_SIGNATURE)(getattr(group, "py_func", group))
-    cc.compile()
+    prebuilt.compile_releasing_gil(cc)

@@ -163,10 +163,9 @@ def group_loop() -> Callable[..., int] | None:
 
 
 def group_releases_gil() -> bool:
-    """Whether :func:`group_loop` releases the GIL while it runs (numba's does; the one built ahead
-    of time holds it)."""
-    group = group_loop()
-    return group is not None and group is not aot.run_group()
+    """Whether :func:`group_loop` releases the GIL while it runs (numba's and the one built ahead of
+    time do: whenever there is one)."""
+    return group_loop() is not None
 
 
 def ahead_of_time() -> bool:

@@ -16,8 +16,8 @@ loop costs about a microsecond, some 700 calls for the six walks. So paying the 
 modules saves little in a batch; what it gives is one call per group of modules that a caller steps
 together (a batch of walks, a sweep's runs, a process's served modules).
 
-On a machine of more than one core, with the compiled loop that releases the GIL (numba's: a batch
-of many replays uses it, :func:`firmware_sim.nav.aot.decline`), a helper thread runs the later
+On a machine of more than one core, with the compiled loop that releases the GIL (numba's, and the
+one built ahead of time: :mod:`firmware_sim.nav.aot`), a helper thread runs the later
 modules' stretches of a call while the caller runs the earlier ones (split at half the loops): the
 modules share nothing in the loop, so the bytes stay the same; the wall time of the compiled part
 nearly halves, the Python around it does not.

@@ -43,7 +43,7 @@ import numpy as np
 
 from firmware_sim import prebuilt
 
-__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "build", "built_path", "decline_built", "scan_rows", "warm_up"]
+__all__ = ["AVAILABLE", "COLUMNS", "KEPT", "build", "built_path", "scan_rows", "warm_up"]
 
 
 def built_path() -> Path:
@@ -240,14 +240,6 @@ def _compiled() -> Callable[..., tuple[int, int]] | None:
     return _reader[0]
 
 
-def decline_built() -> None:
-    """Read with numba's reader in this process (it releases the GIL, the built one holds it), when
-    numba is there."""
-    scan = _numba_scan() if AVAILABLE else None
-    if scan is not None:
-        _reader[:] = [scan]
-
-
 def _built() -> Callable[..., tuple[int, int]] | None:
     return prebuilt.load(built_path(), "scan")
 
@@ -306,7 +298,7 @@ def _compile(folder: Path) -> None:
     cc.export("scan", types.UniTuple(types.int64, 2)(
         types.Array(types.uint8, 1, "C", readonly=True), types.int64, types.int64, i8, i8,
         types.Array(types.float64, 2, "C")))(scan.py_func)
-    cc.compile()
+    prebuilt.compile_releasing_gil(cc)  # a reader thread reads while the runs go on
 
 
 def scan_rows(data: bytes, start: int, end: int) -> np.ndarray | None:

@@ -3,6 +3,8 @@ numba's give: the wire bytes and every state, and every number of a walk file.""
 
 from __future__ import annotations
 
+import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -54,3 +56,35 @@ def test_the_reader_built_ahead_of_time_reads_what_numbas_reads():
            for scan, out in zip((built, numbas), outs, strict=True)]
     assert got[0] == got[1] and got[0][0] > 0
     assert outs[0][:got[0][0]].tobytes() == outs[1][:got[1][0]].tobytes()
+
+
+def test_the_reader_built_ahead_of_time_lets_other_threads_run_while_it_reads():
+    """A batch's reader thread reads the next walks while the runs go on: the built reader lets go
+    of the GIL for its scan. The GIL is never taken from a thread here (a switch interval of 100 s),
+    so this thread can run during the scan only if the scan lets it go."""
+    assert openshoe_scan.build(), "built for this reader (or there already)"
+    built = openshoe_scan._built()
+    assert built is not None
+    rows = 300_000  # a tenth of a second's scan and more: long enough for this thread to wake meanwhile
+    data = openshoe_scan._SAMPLE_ROW * rows
+    buf = np.frombuffer(data, dtype=np.uint8)
+    out = np.empty((rows, openshoe_scan.N_KEPT))
+    started, finished, seen = threading.Event(), threading.Event(), []
+
+    def read() -> None:
+        started.set()
+        seen.append(built(buf, 0, len(data), openshoe_scan.COLUMNS, openshoe_scan.KEPT, out))
+        finished.set()
+
+    interval = sys.getswitchinterval()
+    sys.setswitchinterval(100.0)
+    try:
+        reader = threading.Thread(target=read)
+        reader.start()
+        started.wait()
+        ran_during_the_scan = not finished.is_set()
+        reader.join()
+    finally:
+        sys.setswitchinterval(interval)
+    assert seen == [(rows, openshoe_scan.OK)]
+    assert ran_during_the_scan
