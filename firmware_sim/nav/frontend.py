@@ -162,10 +162,9 @@ def _add_sample(ab: np.ndarray, cd: np.ndarray, s16: np.ndarray, norm: np.ndarra
     ``cd`` (uint32) the low and high 16 bits of its two squared norms. Both wrap
     modulo 2^32 like C (64-bit intermediate, narrowed by truncation).
     """
-    ab[:n] = (ab[:n].astype(np.int64) + sign * s16[:n].astype(np.int64)).astype(np.int32)
-    nn = norm.astype(np.int64)
-    parts = np.concatenate((nn & 0xFFFF, nn >> 16))
-    cd[:] = (cd.astype(np.int64) + sign * parts).astype(np.uint32)
+    add = np.add if sign > 0 else np.subtract  # numpy's int32 and uint32 arithmetic wraps as C's
+    add(ab[:n], s16[:n], out=ab[:n])
+    add(cd, np.concatenate((norm & 0xFFFF, norm >> 16)), out=cd)
 
 
 def _sumsq3(v: np.ndarray, off: int) -> int:
