@@ -150,14 +150,20 @@ class SimulatedSource:
         sa = white_sigma(cfg.accel.noise_density_g, self.rate_hz) if cfg.noise else 0.0
         sg = white_sigma(cfg.gyro.noise_density_rad_s, self.rate_hz) if cfg.noise else 0.0
         sm = cfg.mag.noise_ut if cfg.noise else 0.0
-        noise_acc = rng.standard_normal((n, chips, 3)) * sa
-        noise_gyro = rng.standard_normal((n, chips, 3)) * sg
+        noise_acc = rng.standard_normal((n, chips, 3))
+        noise_acc *= sa
+        noise_gyro = rng.standard_normal((n, chips, 3))
+        noise_gyro *= sg
         rw_a = cfg.accel.bias_random_walk_g_per_sqrt_s if cfg.drift else 0.0
         rw_g = cfg.gyro.bias_random_walk_rad_s_per_sqrt_s if cfg.drift else 0.0
         step = np.sqrt(1.0 / self.rate_hz)
-        # random part of each register before the DLPF: white noise + bias random walk
-        noise_acc += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_a * step), axis=0)
-        noise_gyro += np.cumsum(rng.standard_normal((n, chips, 3)) * (rw_g * step), axis=0)
+        # random part of each register before the DLPF: white noise + bias random walk (each
+        # walk's steps drawn, scaled and summed in one array)
+        walk = np.empty((n, chips, 3))
+        for noise, rw in ((noise_acc, rw_a), (noise_gyro, rw_g)):
+            rng.standard_normal(out=walk)
+            walk *= rw * step
+            noise += np.cumsum(walk, axis=0, out=walk)
         # + bias instability (first-order Gauss–Markov)
         gm_a = gauss_markov(rng, (n, chips, 3), cfg.accel.bias_instability_g, cfg.accel.bias_correlation_s,
                             self.rate_hz)

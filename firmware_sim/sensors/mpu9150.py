@@ -134,10 +134,11 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
     scan as :func:`dlpf_filter`. Draws ``shape`` normals from *rng* even when
     *sigma* is 0, so that the draws after it do not depend on it.
     """
-    w = rng.standard_normal(shape)
+    x = rng.standard_normal(shape)
     phi = float(np.exp(-1.0 / (correlation_s * rate_hz)))
-    x = w * (sigma * np.sqrt(1.0 - phi * phi))
-    x[0] = w[0] * sigma
+    first = x[0] * sigma
+    x *= sigma * np.sqrt(1.0 - phi * phi)
+    x[0] = first
     return _first_order_scan(x, phi)
 
 
@@ -145,8 +146,11 @@ def _first_order_scan(y: np.ndarray, beta: float) -> np.ndarray:
     """In place: y[k] ← y[k] + β·y[k−1] for every k, in order (y[k] = Σ_j β^j x[k−j])."""
     d, bd = 1, beta
     n = len(y)
+    earlier = np.empty_like(y[1:])  # β^d·y[k−d] of each pass (numpy adds it as the same numbers)
     while d < n and bd > 1e-18:
-        y[d:] += bd * y[:-d].copy()
+        part = earlier[:n - d]
+        np.multiply(y[:-d], bd, out=part)
+        y[d:] += part
         d *= 2
         bd *= bd
     return y

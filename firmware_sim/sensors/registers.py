@@ -17,7 +17,9 @@ INT16_MAX = 32767
 
 def saturate_int16(lsb: np.ndarray) -> np.ndarray:
     """Round to nearest (ties to even, as numpy) and clip to int16, like the registers."""
-    return np.clip(np.rint(lsb), INT16_MIN, INT16_MAX).astype(np.int16)
+    rounded = np.rint(lsb)
+    within = rounded if isinstance(rounded, np.ndarray) else None  # clipped in place: no more memory
+    return np.clip(rounded, INT16_MIN, INT16_MAX, out=within).astype(np.int16)
 
 
 def accel_counts(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
