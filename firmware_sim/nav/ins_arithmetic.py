@@ -73,17 +73,19 @@ def _mv(a: np.ndarray, x: np.ndarray) -> np.ndarray:
     """a @ x for a small float32 matrix: y_i = a_i0·x_0 + a_i1·x_1 + … left to right, every
     product and sum rounded to float32 (not BLAS, whose order and fused multiply-adds depend
     on the machine): the same bytes everywhere, and what the compiled path computes."""
-    y = a[:, 0] * x[0]
+    p = a * x  # every product a_ik·x_k, rounded to float32
+    y = p[:, 0].copy()
     for k in range(1, a.shape[1]):
-        y = y + a[:, k] * x[k]
+        y += p[:, k]
     return y
 
 
 def _mm(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a @ b for small float32 matrices, in the order of :func:`_mv` (no BLAS)."""
-    c = a[:, 0:1] * b[0:1, :]
+    p = a[:, :, None] * b[None, :, :]  # every product a_ik·b_kj, rounded to float32
+    c = p[:, 0, :].copy()
     for k in range(1, a.shape[1]):
-        c = c + a[:, k:k + 1] * b[k:k + 1, :]
+        c += p[:, k, :]
     return c
 
 
