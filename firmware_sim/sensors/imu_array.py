@@ -247,7 +247,9 @@ class SimulatedSource:
         r = self.geometry.lever_arms[None, :, :]  # (1, chips, 3)
         w = omega[:, None, :]
         al = alpha[:, None, :]
-        f = f_b[:, None, :] + cross(w, cross(w, r)) + cross(al, r)
+        f = cross(w, cross(w, r))  # f_b + ω×(ω×r) + α×r, summed in that order
+        f += f_b[:, None, :]
+        f += cross(al, r)
         f_chip = np.stack([mount(f[:, k]) for k, mount in enumerate(self._mounted)], axis=1)
         w_chip = np.stack([mount(omega_g) for mount in self._mounted], axis=1)
         return f_chip, w_chip
@@ -258,7 +260,8 @@ class SimulatedSource:
         c = self.config
         d_acc, d_gyro = dlpf_delays(c, cfg, self.rate_hz)
         f_chip, w_chip = self._chip_motion(d_acc, d_gyro, lo, hi)
-        a_true = f_chip / G0
+        a_true = f_chip
+        a_true /= G0
         if c.impacts:
             ring_acc, ring_gyro = self._ringing
             ring_acc, ring_gyro = ring_acc[lo:hi], ring_gyro[lo:hi]

@@ -121,7 +121,11 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for stacks of vectors (broadcasting over leading axes)."""
     ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
     bx, by, bz = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx], axis=-1)
+    out = np.empty(np.broadcast_shapes(np.shape(a), np.shape(b)), dtype=np.result_type(a, b))
+    for k, (p, q, r, s) in enumerate(((ay, bz, az, by), (az, bx, ax, bz), (ax, by, ay, bx))):
+        np.multiply(p, q, out=out[..., k])  # p q − r s, each component where it is kept
+        out[..., k] -= r * s
+    return out
 
 
 def euler_to_quat(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
