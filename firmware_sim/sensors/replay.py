@@ -565,11 +565,14 @@ class ReplaySource:
                                        INT16_RANGE)
         self.imu = imu
         # magnetometer: gauss → µT; a missing reading holds the previous one (0 before the first)
-        board_mag = recording.board_mag() * GAUSS_TO_UT
-        valid = ~np.isnan(board_mag).any(axis=1)
-        last = np.where(valid, np.arange(n), -1)
-        np.maximum.accumulate(last, out=last)
-        held = np.where((last >= 0)[:, None], board_mag[np.maximum(last, 0)], 0.0)
+        held = recording.board_mag() * GAUSS_TO_UT
+        valid = ~np.isnan(held).any(axis=1)
+        missing = np.flatnonzero(~valid)
+        if len(missing):  # each from the last valid reading before it (only valid rows are read)
+            last = np.where(valid, np.arange(n), -1)
+            np.maximum.accumulate(last, out=last)
+            last = last[missing]
+            held[missing] = np.where((last >= 0)[:, None], held[np.maximum(last, 0)], 0.0)
         mag_axes = np.asarray(config.mag.axes, dtype=np.float64)
         full_scale = config.mag.full_scale_lsb
         self.mag = _chip_registers(np.einsum("ij,kjl->kil", mag_axes, mount), held,
