@@ -28,6 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .compiled import compiled
 from .config import G0, SensorConfig
 from .truth import rotate
 
@@ -143,17 +144,36 @@ def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float,
 
 
 def _first_order_scan(y: np.ndarray, beta: float) -> np.ndarray:
-    """In place: y[k] ← y[k] + β·y[k−1] for every k, in order (y[k] = Σ_j β^j x[k−j])."""
+    """In place: y[k] ← y[k] + β·y[k−1] for every k, in order (y[k] = Σ_j β^j x[k−j]).
+
+    Passes of doubling span d: y[k] += β^d·y[k−d] for every k ≥ d at once, until β^d underflows
+    below 1e-18. A pass is numpy's two operations on the whole array, or compiled (:mod:`.compiled`)
+    one loop from the last sample down (each y[k − d] read before the pass writes it): the same
+    numbers, without the scaled copy's memory."""
     d, bd = 1, beta
     n = len(y)
-    earlier = np.empty_like(y[1:])  # β^d·y[k−d] of each pass (numpy adds it as the same numbers)
+    step = compiled(_scan_pass) if n and y.dtype == np.float64 and y.flags.c_contiguous else None
+    rows = y.reshape(n, -1) if step is not None else None
+    earlier = np.empty_like(y[1:]) if step is None else None  # β^d·y[k−d] of a numpy pass
     while d < n and bd > 1e-18:
-        part = earlier[:n - d]
-        np.multiply(y[:-d], bd, out=part)
-        y[d:] += part
+        if step is not None:
+            step(rows, d, bd)
+        else:
+            part = earlier[:n - d]
+            np.multiply(y[:-d], bd, out=part)
+            y[d:] += part
         d *= 2
         bd *= bd
     return y
+
+
+def _scan_pass(y, d, bd):  # type: ignore[no-untyped-def]
+    """One pass of :func:`_first_order_scan` on rows *y* (n, m): y[k] += bd·y[k − d], k from the
+    last row down to d."""
+    n, m = y.shape
+    for k in range(n - 1, d - 1, -1):
+        for c in range(m):
+            y[k, c] += bd * y[k - d, c]
 
 
 def _scan_reach(beta: float) -> int:

@@ -5,26 +5,25 @@ amplitudes (one block per stance, ``j[row]`` its index), Σ a·sin(ω u + φ) an
 derivatives in u — the :class:`~firmware_sim.sensors.stance_sway.StanceSway` of every walking
 stance of a simulated walk, a few million sines per walk and most of its simulation's time.
 
-:func:`reference_sum_of_sines` is the definition, in numpy. Compiled with numba (the optional
-``fast`` extra; cached on disk, compiled on the first call in a process that finds no cache) the
-same numbers come about twice as fast, bit for bit: each sine and cosine is the C library's (as
-numpy's are), each product and sum the same IEEE operation in the same order (numpy sums the last
-axis pairwise: :func:`_pairwise`), and the compiled loop takes a stance's rows one component
-after the other, so the C library's sine meets arguments that grow steadily from one call to the
-next (about twice as fast as the same arguments in numpy's order, whose branches it mispredicts).
-Without numba, or with ``OPENSHOE_PURE=1``, the reference runs.
+:func:`reference_sum_of_sines` is the definition, in numpy. Compiled (:mod:`.compiled`: numba, the
+optional ``fast`` extra, cached on disk) the same numbers come about twice as fast, bit for bit:
+each sine and cosine is the C library's (as numpy's are), each product and sum the same IEEE
+operation in the same order (numpy sums the last axis pairwise: :func:`_pairwise`), and the
+compiled loop takes a stance's rows one component after the other, so the C library's sine meets
+arguments that grow steadily from one call to the next (about twice as fast as the same arguments
+in numpy's order, whose branches it mispredicts). Without numba, or with ``OPENSHOE_PURE=1``, the
+reference runs.
 """
 
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
-__all__ = ["compiled", "reference_sum_of_sines", "sum_of_sines", "warm_up"]
+from .compiled import compiled
+
+__all__ = ["reference_sum_of_sines", "sum_of_sines"]
 
 Sums = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -117,49 +116,10 @@ def _sines_loop(freq, phase, amp, amp_freq, amp_freq2, j, u, s0, s1, s2):  # typ
         lo = hi
 
 
-_loop: list[Callable[..., None] | None] = []  #: the compiled loop once found (one element)
-
-
-def _wanted() -> bool:
-    return os.environ.get("OPENSHOE_PURE", "") != "1" and os.environ.get("NUMBA_DISABLE_JIT", "") in ("", "0")
-
-
-def compiled() -> Callable[..., None] | None:
-    """The compiled :func:`_sines_loop` (from numba's cache, or compiled now), or None without
-    numba or with ``OPENSHOE_PURE=1``. Found once per process."""
-    if not _loop:
-        _loop.append(_compile() if _wanted() else None)
-    return _loop[0]
-
-
-def _compile() -> Callable[..., None] | None:
-    global _pairwise
-    try:
-        import numba
-        from numba.core import caching
-
-        from firmware_sim.nav.jit import load_cached
-    except ImportError:  # pragma: no cover - depends on the environment
-        return None
-    options = {"cache": True, "nogil": True, "error_model": "numpy"}
-    _pairwise = numba.njit(inline="always", **options)(_pairwise)
-    loop = numba.njit(**options)(_sines_loop)
-
-    class QuickLoadCache(caching.FunctionCache):
-        """numba's cache of the loop, loaded with only numba's runtime started
-        (:func:`firmware_sim.nav.jit.load_cached`)."""
-
-        def load_overload(self, sig: Any, target_context: Any) -> Any:
-            return load_cached(self, sig, target_context)
-
-    loop._cache = QuickLoadCache(loop.py_func)
-    return loop  # type: ignore[no-any-return]
-
-
 def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray, u: np.ndarray
                  ) -> Sums:
     """:func:`reference_sum_of_sines`, bit for bit, compiled when numba is there."""
-    loop = compiled() if freq.shape[2] <= _PAIRWISE_BLOCK else None
+    loop = compiled(_sines_loop, _pairwise) if freq.shape[2] <= _PAIRWISE_BLOCK else None
     if loop is None:
         return reference_sum_of_sines(freq, phase, amp, j, u)
     freq, phase, amp = (np.ascontiguousarray(x, dtype=np.float64) for x in (freq, phase, amp))
@@ -169,11 +129,3 @@ def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.nda
     loop(freq, phase, amp, amp_freq, amp_freq2, np.ascontiguousarray(j, dtype=np.int64),
          np.ascontiguousarray(u, dtype=np.float64), *out)
     return out  # type: ignore[return-value]
-
-
-def warm_up() -> bool:
-    """Compile the loop, or load it from numba's cache, now rather than in the first walk;
-    whether it is compiled."""
-    z = np.zeros((1, 3, 1))
-    sum_of_sines(z, z, z, np.zeros(1, dtype=np.int64), np.zeros(1))
-    return compiled() is not None

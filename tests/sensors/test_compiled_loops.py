@@ -1,11 +1,12 @@
-"""The stance sway's sums of sines: compiled, the same bits as numpy's definition."""
+"""The simulation's compiled loops (the stance sway's sums of sines, the bias instability's and the
+DLPF's prefix scan): the same bits as their numpy forms."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from firmware_sim.sensors import sines
+from firmware_sim.sensors import compiled, mpu9150, sines
 from firmware_sim.sensors.scenarios import trajectory
 
 
@@ -14,9 +15,14 @@ def rows_of(starts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return j, t - starts[j]
 
 
-@pytest.mark.skipif(sines.compiled() is None, reason="numba is not installed (or OPENSHOE_PURE=1)")
+def needs_compiled_loops():
+    if not compiled.warm_up():
+        pytest.skip("numba is not installed (or OPENSHOE_PURE=1): the numpy forms run")
+
+
 @pytest.mark.parametrize("components", [1, 5, 8, 16, 21, 128])
 def test_compiled_sums_are_numpys_bit_for_bit(components):
+    needs_compiled_loops()
     rng = np.random.default_rng(components)
     blocks = 40
     freq = 2.0 * np.pi * rng.uniform(0.5, 130.0, (blocks, 3, components))
@@ -36,7 +42,18 @@ def test_a_swaying_walk_is_the_same_with_or_without_the_compiled_sums(monkeypatc
     walk = trajectory("stand:1+walk:8").with_stance_sway(seed=3)
     t = np.arange(9000) / 1000.0
     fast = walk.evaluate(t)
-    monkeypatch.setattr(sines, "compiled", lambda: None)
+    monkeypatch.setattr(sines, "compiled", lambda *loop: None)
     plain = walk.evaluate(t)
     for name in ("pos", "vel", "acc", "euler", "omega_b", "alpha_b", "f_b"):
         assert getattr(fast, name).tobytes() == getattr(plain, name).tobytes(), name
+
+
+@pytest.mark.parametrize("beta", [0.3, 0.97, 1.0 - 1e-5])
+@pytest.mark.parametrize("shape", [(1,), (2, 3), (5000,), (3001, 4, 3)])
+def test_the_compiled_scan_is_numpys_bit_for_bit(monkeypatch, beta, shape):
+    needs_compiled_loops()
+    x = np.random.default_rng(len(shape)).standard_normal(shape)
+    fast = mpu9150._first_order_scan(x.copy(), beta)
+    monkeypatch.setattr(mpu9150, "compiled", lambda *loop: None)
+    assert fast.tobytes() == mpu9150._first_order_scan(x.copy(), beta).tobytes()
+    assert fast.tobytes() == mpu9150._first_order_scan(np.asfortranarray(x), beta).tobytes()  # numpy's

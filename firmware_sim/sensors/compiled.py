@@ -1,0 +1,73 @@
+"""The simulation's compiled loops: numba's, cached on disk, each the same numbers as its numpy form.
+
+A simulated walk spends most of its time in a few loops over its samples (the stance sway's sums of
+sines, :mod:`.sines`; the prefix scan of the bias instability and the DLPF, :mod:`.mpu9150`). Each
+is written twice: its numpy form, the definition, and a loop of plain Python for numba's nopython
+mode that performs the same IEEE operations on the same numbers in the same order (so the same
+bits; each loop's tests compare the two). :func:`compiled` gives such a loop compiled — loaded from
+numba's cache, or compiled on its first call in a process that finds none (seconds, once) — or
+None without numba (the optional ``fast`` extra), with ``OPENSHOE_PURE=1`` or ``NUMBA_DISABLE_JIT``;
+its caller then runs the numpy form. :func:`warm_up` readies every loop of the simulation at once.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from collections.abc import Callable
+from typing import Any
+
+__all__ = ["compiled", "warm_up", "wanted"]
+
+#: Each loop's compiled form once found (None: none in this process).
+_found: dict[Callable[..., Any], Callable[..., Any] | None] = {}
+
+
+def wanted() -> bool:
+    """Whether this process compiles (numba not refused by ``OPENSHOE_PURE`` or ``NUMBA_DISABLE_JIT``)."""
+    return os.environ.get("OPENSHOE_PURE", "") != "1" and os.environ.get("NUMBA_DISABLE_JIT", "") in ("", "0")
+
+
+def compiled(loop: Callable[..., Any], *inlined: Callable[..., Any]) -> Callable[..., Any] | None:
+    """*loop* compiled (nopython, releasing the GIL, C's float division), the helpers *inlined* that
+    it calls by name compiled into it; None when this process does not compile."""
+    if loop not in _found:
+        _found[loop] = _compile(loop, inlined) if wanted() else None
+    return _found[loop]
+
+
+def _compile(loop: Callable[..., Any], inlined: tuple[Callable[..., Any], ...]) -> Callable[..., Any] | None:
+    try:
+        import numba
+        from numba.core.runtime import rtsys
+    except ImportError:  # pragma: no cover - depends on the environment
+        return None
+    options = {"cache": True, "nogil": True, "error_model": "numpy"}
+    module = sys.modules[loop.__module__]
+    for helper in inlined:  # the loop finds its helpers by name in its module: compiled ones
+        setattr(module, helper.__name__, numba.njit(inline="always", **options)(helper))
+    dispatcher = numba.njit(**options)(loop)
+    cache = dispatcher._cache
+
+    def load_overload(sig: Any, target_context: Any) -> Any:
+        """numba's cache load with only its runtime started: not the typing and lowering registries
+        numba's own load refreshes first, which only a compile needs (and sets up itself)."""
+        rtsys.initialize(target_context)
+        return cache._load_overload(sig, target_context)
+
+    cache.load_overload = load_overload
+    return dispatcher  # type: ignore[no-any-return]
+
+
+def warm_up() -> bool:
+    """Ready every compiled loop of the simulation now (from numba's cache, or compiled) rather than
+    in the first walk; whether they are compiled."""
+    import numpy as np
+
+    from .mpu9150 import gauss_markov
+    from .sines import sum_of_sines
+
+    z = np.zeros((1, 3, 1))
+    sum_of_sines(z, z, z, np.zeros(1, dtype=np.int64), np.zeros(1))
+    gauss_markov(np.random.default_rng(0), (3, 2), 1.0, 1.0, 1.0)
+    return bool(_found) and all(f is not None for f in _found.values())
