@@ -159,14 +159,20 @@ class HeightWork(WorkRecord):
     the foot's angles: along and −across over its length), ``step_slope`` (its rise over its
     length, as the INS saw it before the slope measurement) and ``step_seen`` (a step of
     MIN_POSTURE_STEP_M or more is noted and its stance not yet judged); ``posture_n`` (the level
-    stances THETA_INIT learnt from since the alignment, at most POSTURE_STANCES)."""
+    stances THETA_INIT learnt from since the alignment, at most POSTURE_STANCES); ``last_angles``,
+    ``last_slope`` and ``last_reading`` (the last stance of a noted step: its pitch and roll, the INS's
+    slope of that step, and the foot's slope along it against THETA_INIT), ``before_reading`` (the
+    foot's slope along its step at the stance before that one) and ``stances_seen`` (how many of the
+    two there are since the alignment)."""
 
     FIELDS = (("in_stance", np.bool_, (1,)), ("f_sum", np.float32, (3,)), ("t_sum", np.float32, (1,)),
               ("f_prev", np.float32, (3,)), ("t_prev", np.float32, (1,)), ("f_block", np.float32, (3,)),
               ("t_block", np.float32, (1,)),
               ("t_stance", np.float32, (1,)), ("t_moving", np.float32, (1,)),
               ("step_dir", np.float32, (2,)), ("step_slope", np.float32, (1,)), ("step_seen", np.bool_, (1,)),
-              ("posture_n", np.float32, (1,)))
+              ("posture_n", np.float32, (1,)), ("last_angles", np.float32, (2,)),
+              ("last_slope", np.float32, (1,)), ("last_reading", np.float32, (1,)),
+              ("before_reading", np.float32, (1,)), ("stances_seen", np.int32, (1,)))
 
     def __repr__(self) -> str:
         return f"HeightWork(in_stance={bool(self.in_stance[0])}, t_stance={float(self.t_stance[0]):.3f} s)"
@@ -415,24 +421,38 @@ def note_step(pos: np.ndarray, quat: np.ndarray, w: HeightWork) -> None:
 
 
 def learn_posture(w: HeightWork, pitch: np.float32, roll: np.float32, theta_init: np.ndarray) -> None:
-    """THETA_INIT learns the foot's walking posture from a level stance: it moves 1/n of the way to
-    this stance's pitch and roll (n the level stances since the alignment, at most POSTURE_STANCES),
+    """THETA_INIT learns the foot's walking posture from level stances: it moves 1/n of the way to a
+    level stance's pitch and roll (n the level stances since the alignment, at most POSTURE_STANCES),
     so that level ground reads level however the foot stands while walking.
 
-    The stance is level when the INS's own slope of the step that led to it is nearer level than
-    to the slope the foot reads there against THETA_INIT (on a ramp both read it; a posture only
-    the foot), and the foot's reading along the step is at most MAX_POSTURE.
+    Called at each stance that ends a noted step, it judges the stance *before* this one: level when
+    the INS's own slope of the step to it is strictly nearer 0 than to the slopes the foot read
+    (against THETA_INIT) at the stances either side of it — on a ramp the INS climbs as the foot
+    reads, a posture the foot reads alone — and its own reading is at most MAX_POSTURE. A stance's
+    own reading never decides whether it is learnt: else THETA_INIT would be the mean of the stances
+    whose reading lay away from the INS's slope, a subset their own noise chose, off the foot's mean.
     """
     d0, d1 = w.step_dir[0], w.step_dir[1]
-    off = d0 * (pitch - theta_init[0]) + d1 * (roll - theta_init[1])
-    foot = d0 * _tanf(pitch - theta_init[0]) + d1 * _tanf(roll - theta_init[1])
-    ins_slope = w.step_slope[0]
-    if abs(ins_slope) <= abs(foot - ins_slope) and abs(off) <= cfg.MAX_POSTURE:
-        if w.posture_n[0] < cfg.POSTURE_STANCES:
-            w.posture_n[0] = w.posture_n[0] + _1
-        gain = _1 / w.posture_n[0]
-        theta_init[0] = theta_init[0] + gain * (pitch - theta_init[0])
-        theta_init[1] = theta_init[1] + gain * (roll - theta_init[1])
+    reading = d0 * _tanf(pitch - theta_init[0]) + d1 * _tanf(roll - theta_init[1])
+    if w.stances_seen[0] == 2:
+        last_slope = w.last_slope[0]
+        beside = abs(last_slope) < abs(reading - last_slope) and \
+            abs(last_slope) < abs(w.before_reading[0] - last_slope)
+        last_pitch, last_roll = w.last_angles[0], w.last_angles[1]
+        off = d0 * (last_pitch - theta_init[0]) + d1 * (last_roll - theta_init[1])
+        if beside and abs(off) <= cfg.MAX_POSTURE:
+            if w.posture_n[0] < cfg.POSTURE_STANCES:
+                w.posture_n[0] = w.posture_n[0] + _1
+            gain = _1 / w.posture_n[0]
+            theta_init[0] = theta_init[0] + gain * (last_pitch - theta_init[0])
+            theta_init[1] = theta_init[1] + gain * (last_roll - theta_init[1])
+    else:
+        w.stances_seen[0] = w.stances_seen[0] + 1
+    w.before_reading[0] = w.last_reading[0]
+    w.last_reading[0] = reading
+    w.last_angles[0] = pitch
+    w.last_angles[1] = roll
+    w.last_slope[0] = w.step_slope[0]
 
 
 def height_compensation(zupt: bool, f: np.ndarray, dt: np.float32, w: HeightWork, pos: np.ndarray,
@@ -509,6 +529,7 @@ def clear_stance(w: HeightWork) -> None:
     """A new alignment: HEIGHT_COMPENSATION starts with no stance (its work cleared)."""
     w.in_stance[0] = False
     w.step_seen[0] = False
+    w.stances_seen[0] = 0
     w.posture_n[0] = _0
     start_stance(w)
 

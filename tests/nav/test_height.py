@@ -16,6 +16,7 @@ from firmware_sim.mcu.module import ModuleConfig
 from firmware_sim.nav import config as cfg
 from firmware_sim.nav.fastpath import TRACKING_HEIGHT_SLOTS
 from firmware_sim.nav.firmware import OPENSHOE, build_module
+from firmware_sim.nav.ins import HeightWork, clear_stance, learn_posture
 from firmware_sim.sensors.imu_array import make_source
 from protocol.codec import decode_states
 from protocol.extensions import fusion_output_setup, fusion_step_ids
@@ -92,6 +93,31 @@ def test_theta_init_is_the_standing_foot_angle_and_a_host_may_set_it() -> None:
     learnt = run.module.memory[StateId.THETA_INIT]
     assert np.all(np.abs(learnt - theta_init) < 0.01), (learnt, theta_init)
     assert abs(run.module.memory[StateId.THETA_GROUND][0]) < 0.01
+
+
+def test_the_walking_posture_is_learnt_from_stances_judged_by_their_neighbours() -> None:
+    """THETA_INIT learns from level stances, each judged at the stance after it by the INS's slope of
+    the step to it against the foot's readings at the stances either side (so that no stance's own
+    reading decides whether it is learnt); a ramp's stances, where the INS climbs as the foot reads,
+    are never learnt — the first and the last of them included."""
+    w = HeightWork()
+    clear_stance(w)
+    theta_init = np.zeros(2, dtype=np.float32)
+    w.step_dir[:] = (1.0, 0.0)  # steps along the foot's x: its pitch is the slope along the step
+
+    def stance(pitch: float, ins_slope: float) -> float:
+        w.step_slope[0] = ins_slope
+        learn_posture(w, np.float32(pitch), np.float32(0.0), theta_init)
+        return float(theta_init[0])
+
+    ramp = float(np.tan(0.1))
+    assert stance(0.021, 0.001) == stance(0.019, 0.0) == 0.0  # no stance on either side yet
+    assert stance(0.022, 0.001) == pytest.approx(0.019, abs=1e-6)  # the 0.019 stance: level
+    assert stance(0.119, ramp) == pytest.approx(0.0205, abs=1e-6)  # the 0.022 stance, level (n = 2)
+    assert stance(0.120, ramp) == pytest.approx(0.0205, abs=1e-6)  # the first ramp stance: not learnt
+    assert stance(0.020, 0.0) == pytest.approx(0.0205, abs=1e-6)  # nor the last
+    assert stance(0.021, 0.0) == pytest.approx(0.0205 + (0.020 - 0.0205) / 3, abs=1e-6)  # level again
+    assert int(w.posture_n[0]) == 3
 
 
 # ------------------------------------------------------------------------------------ the height

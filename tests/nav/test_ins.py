@@ -327,10 +327,12 @@ def _walk_stances(foot_deg: float, rise_deg: float, n: int):
 
 def test_height_compensation_learns_the_walking_posture_on_level_ground():
     """The foot stands 1.4° nose-up in its walking stances while the INS's steps stay level: THETA_INIT
-    takes that as the foot's walking posture (from the first such stance), and the ground reads level."""
+    takes that as the foot's walking posture from the second such stance on, judged at the third (the
+    first with a stance on either side of one), and from then on the ground reads level: the slope
+    read before (the posture, as a climb) decays by SLOPE_LOWPASS per stance."""
     out = _walk_stances(1.4, 0.0, 5)
-    np.testing.assert_allclose(out[:, 0], 1.4, atol=1e-3)
-    np.testing.assert_allclose(out[:, 1], 0.0, atol=1e-3)
+    np.testing.assert_allclose(out[:, 0], [0.0, 0.0, 1.4, 1.4, 1.4], atol=1e-3)
+    np.testing.assert_allclose(out[:, 1], [0.7, 1.05, 0.525, 0.2625, 0.13125], atol=1e-3)
 
 
 def test_height_compensation_keeps_the_posture_on_a_ramp():
