@@ -130,7 +130,7 @@ def _walks(args: argparse.Namespace, out) -> int:
     if _missing_recordings(args.files):
         return 2
     results = walks.walk_results(args.files, workers=args.workers, scheduler=args.scheduler)
-    for line in walks.table_lines(results):
+    for line in (*walks.table_lines(results), "", *walks.height_lines(results)):
         print(line, file=out)
     first = results[0]
     png = plot_heights(args.out / "height-walk.png", f"{first.name}: a closed loop's height (returns to 0)",

@@ -5,6 +5,8 @@ tracks by default, and with height compensation on. Drift correction is leave-on
 is corrected with :func:`hostlib.calibration.drift.calibrate` of the other walks' tracks (of the same kind,
 plain or height-compensated), so no walk ever calibrates itself. Closures are those of
 :meth:`hostlib.track.steps.Track.relative_closure_error`, in % of the horizontal distance walked.
+The walks are closed loops on level ground, so the height should stay 0: :func:`height_lines`
+gives each track's height at its end and its RMS over the track's poses (:func:`.runs.height_profile`).
 """
 
 from __future__ import annotations
@@ -18,9 +20,9 @@ import numpy as np
 
 from lab.runner import map_runs
 
-from .runs import Replayed, replay_track
+from .runs import Replayed, height_profile, replay_track
 
-__all__ = ["VARIANTS", "WalkResult", "replay_walk", "walk_results", "table_lines"]
+__all__ = ["VARIANTS", "WalkResult", "replay_walk", "walk_results", "table_lines", "height_lines"]
 
 #: The four ways a walk is tracked: (name, height compensation in the module, drift correction).
 VARIANTS = (("plain", False, False), ("height", True, False), ("drift", False, True), ("both", True, True))
@@ -36,13 +38,16 @@ def replay_walk(job: tuple[str, bool]) -> Replayed:
 
 @dataclass
 class WalkResult:
-    """One walk: its name, distance and, per variant, the corrected track's closures [%]."""
+    """One walk: its name, distance and, per variant, the corrected track's closures [%] and
+    height [m] (up positive: at the end, and the RMS over its poses)."""
 
     name: str
     distance_m: float
     horizontal_pct: dict[str, float]
     closure_3d_pct: dict[str, float]
     tracks: dict[str, Any]  #: variant → the (corrected) Track
+    end_height_m: dict[str, float]
+    rms_height_m: dict[str, float]
 
 
 def walk_results(paths: Sequence[str | Path], workers: int = 2, scheduler: str | None = None
@@ -67,11 +72,13 @@ def walk_results(paths: Sequence[str | Path], workers: int = 2, scheduler: str |
                 tracks[name] = cal.apply(own.track, module_serial=own.serial, what=Path(path).stem)
             else:
                 tracks[name] = own.track
+        heights = {k: height_profile(t)[1] for k, t in tracks.items()}
         out.append(WalkResult(
             Path(path).stem, float(tracks["plain"].distance),
             {k: 100.0 * t.relative_closure_error() for k, t in tracks.items()},
             {k: 100.0 * t.relative_closure_error(horizontal=False) for k, t in tracks.items()},
-            tracks))
+            tracks, {k: float(h[-1]) for k, h in heights.items()},
+            {k: float(np.sqrt(np.mean(h * h))) for k, h in heights.items()}))
     return out
 
 
@@ -94,6 +101,21 @@ def table_lines(results: Sequence[WalkResult]) -> list[str]:
     return lines
 
 
+def height_lines(results: Sequence[WalkResult], variants: Sequence[str] = ("plain", "height")) -> list[str]:
+    """Per walk, each of *variants*' height at the end and its RMS over the walk [m], and the means."""
+    lines = [f"{'walk':<16}" + "".join(f"{v + ': end / RMS height [m]':>30}  " for v in variants)]
+
+    def cells(end: dict[str, float], rms: dict[str, float]) -> str:
+        return "".join(f"{end[v]:>+21.3f} /{rms[v]:>7.3f}  " for v in variants)
+
+    for r in results:
+        lines.append(f"{r.name:<16}" + cells(r.end_height_m, r.rms_height_m))
+    lines.append(f"{'mean':<16}" + cells(
+        {v: float(np.mean([r.end_height_m[v] for r in results])) for v in variants},
+        {v: float(np.mean([r.rms_height_m[v] for r in results])) for v in variants}))
+    return lines
+
+
 def rows(results: Sequence[WalkResult]) -> list[dict[str, Any]]:
     """The table as rows for a CSV."""
     out = []
@@ -102,5 +124,7 @@ def rows(results: Sequence[WalkResult]) -> list[dict[str, Any]]:
         for n, _, _ in VARIANTS:
             row[f"{n}_horizontal_pct"] = r.horizontal_pct[n]
             row[f"{n}_3d_pct"] = r.closure_3d_pct[n]
+            row[f"{n}_end_height_m"] = r.end_height_m[n]
+            row[f"{n}_rms_height_m"] = r.rms_height_m[n]
         out.append(row)
     return out

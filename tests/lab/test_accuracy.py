@@ -18,7 +18,7 @@ from lab.accuracy.speeds import (
     table_row,
     table_runs,
 )
-from lab.accuracy.walks import VARIANTS, table_lines, walk_results
+from lab.accuracy.walks import VARIANTS, height_lines, table_lines, walk_results
 from tests.conftest import WALK_IDS, requires_walks, walk_path
 
 
@@ -94,6 +94,12 @@ def test_each_walk_is_corrected_by_the_others_and_never_by_itself(tmp_path):
     assert all(r.closure_3d_pct["drift"] > 0.01 for r in results)
     table = table_lines(results)
     assert table[-2].startswith("mean") and len(table) == len(results) + 3
+    # closed loops on level ground: with height compensation the height ends nearer 0 and stays nearer
+    heights = height_lines(results)
+    assert heights[-1].startswith("mean") and len(heights) == len(results) + 2
+    for r in results:
+        assert abs(r.end_height_m["height"]) < abs(r.end_height_m["plain"])
+        assert r.rms_height_m["height"] < r.rms_height_m["plain"]
 
 
 @requires_walks
