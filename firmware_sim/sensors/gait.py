@@ -287,6 +287,7 @@ class Trajectory:
             setattr(self, "_" + name, np.array([s[name] for s in segments], dtype=float))
         self._A = np.array([s["A"].as_array() for s in segments])
         self._B = np.array([s["B"].as_array() for s in segments])
+        self._D = self._B - self._A  # each segment's move
         self.stances = stances  #: each stance's start and end [s] and the foot's pose in it
         self.duration = float(self._t0[-1] + self._dur[-1])
         self._sway: SwayDraw | None = None
@@ -330,8 +331,9 @@ class Trajectory:
     def evaluate(self, t: np.ndarray, gravity: float = 9.81) -> Kinematics:
         """Exact kinematics at times *t* [s] (held at the end pose after the end)."""
         t, seg, swing = self._segments(t)
-        pos, vel, acc = self._translation(t, seg, swing)
-        ang, dang, ddang = self._attitude(t, seg, swing)
+        swings = self._swing_times(t, seg, swing)
+        pos, vel, acc = self._translation(t, seg, swings)
+        ang, dang, ddang = self._attitude(t, seg, swings)
         if self._sway is not None:  # the walking stances' residual motion
             self._sway.add(t, pos, vel, acc, ang, dang, ddang)
         return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
@@ -341,7 +343,7 @@ class Trajectory:
         without the foot's translation and the rest of its kinematics (a gyro's delay evaluates
         the walk earlier only for its rate)."""
         t, seg, swing = self._segments(t)
-        ang, dang, _ = self._attitude(t, seg, swing, second=False)
+        ang, dang, _ = self._attitude(t, seg, self._swing_times(t, seg, swing), second=False)
         if self._sway is not None:
             self._sway.add(t, None, None, None, ang, dang, None)
         return body_rate(ang, dang)
@@ -362,15 +364,16 @@ class Trajectory:
         tau = np.clip((t[sw] - self._t0[i]) * k1, 0.0, 1.0)
         return sw, i, k1, k2, tau
 
-    def _translation(self, t: np.ndarray, seg: np.ndarray, swing: np.ndarray
+    def _translation(self, t: np.ndarray, seg: np.ndarray, swings: tuple[np.ndarray, ...]
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Position, velocity and acceleration at times *t* without the stance sway."""
+        """Position, velocity and acceleration at times *t* (in segments *seg*; the swings'
+        :meth:`_swing_times`) without the stance sway."""
         n = len(t)
         pos = self._A[seg, :3]
         vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
-        sw, i, k1, k2, tau = self._swing_times(t, seg, swing)
+        sw, i, k1, k2, tau = swings
         if len(sw):
-            d = self._B[i, :3] - self._A[i, :3]
+            d = self._D[i, :3]
             S, S1, S2 = eval3(_S, tau)
             pos[sw] += d * S[:, None]
             vel[sw] = d * (S1 * k1)[:, None]
@@ -396,17 +399,17 @@ class Trajectory:
                 acc[rows] += (amp * B2 / wh**2)[:, None] * direction
         return pos, vel, acc
 
-    def _attitude(self, t: np.ndarray, seg: np.ndarray, swing: np.ndarray, second: bool = True
+    def _attitude(self, t: np.ndarray, seg: np.ndarray, swings: tuple[np.ndarray, ...], second: bool = True
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
-        """Euler angles and their first (and, if *second*, second) derivatives at times *t* without
-        the stance sway."""
+        """Euler angles and their first (and, if *second*, second) derivatives at times *t* (as
+        :meth:`_translation`'s) without the stance sway."""
         n = len(t)
         ang = self._A[seg, 3:]
         dang = np.zeros((n, 3))
         ddang = np.zeros((n, 3)) if second else None
-        sw, i, k1, k2, tau = self._swing_times(t, seg, swing)
+        sw, i, k1, k2, tau = swings
         if len(sw):
-            d = self._B[i, 3:] - self._A[i, 3:]
+            d = self._D[i, 3:]
             S, S1, S2 = eval3(_S, tau)
             ang[sw] += d * S[:, None]
             dang[sw] = d * (S1 * k1)[:, None]
