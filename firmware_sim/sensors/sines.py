@@ -39,12 +39,13 @@ _PAIRWISE_BLOCK = 128
 
 
 def reference_sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray,
-                           u: np.ndarray) -> Sums:
+                           u: np.ndarray, second: bool = True) -> Sums:
     """Σ a·sin(ω u + φ) over the last axis and its first two derivatives in u, (rows, axes) each,
-    row r with block j[r]'s (blocks, axes, components) *freq*, *phase* and *amp*."""
+    row r with block j[r]'s (blocks, axes, components) *freq*, *phase* and *amp* (the second
+    derivative empty, (0, axes), unless *second*)."""
     amp_freq = amp * freq
     amp_freq2 = amp_freq * freq
-    out = tuple(np.empty((len(u), freq.shape[1])) for _ in range(3))
+    out = tuple(np.empty((len(u) if m < 2 or second else 0, freq.shape[1])) for m in range(3))
     for a in range(0, len(u), _SINES_CHUNK):
         b = a + _SINES_CHUNK
         jj = j[a:b]
@@ -52,7 +53,8 @@ def reference_sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray,
         sin = np.sin(arg)
         out[0][a:b] = np.sum(amp[jj] * sin, axis=2)
         out[1][a:b] = np.sum(amp_freq[jj] * np.cos(arg), axis=2)
-        out[2][a:b] = -np.sum(amp_freq2[jj] * sin, axis=2)
+        if second:
+            out[2][a:b] = -np.sum(amp_freq2[jj] * sin, axis=2)
     return out  # type: ignore[return-value]
 
 
@@ -85,10 +87,11 @@ def _pairwise(v: np.ndarray, row: int, n: int) -> float:
     return 0.0 + res
 
 
-def _sines_loop(freq, phase, amp, amp_freq, amp_freq2, j, u, s0, s1, s2):  # type: ignore[no-untyped-def]
-    """:func:`reference_sum_of_sines` into *s0*, *s1*, *s2* (amp_freq = amp·freq, amp_freq2 =
-    amp_freq·freq given): per run of rows of one block (at most :data:`_ROWS`), per axis and
-    component the sines of its rows, then each row's sums."""
+def _sines_loop(freq, phase, amp, j, u, s0, s1, s2):  # type: ignore[no-untyped-def]
+    """:func:`reference_sum_of_sines` into *s0*, *s1*, *s2* (*s2* with no rows: not computed): per
+    run of rows of one block (at most :data:`_ROWS`), per axis and component the sines of its rows,
+    then each row's sums."""
+    second = len(s2) > 0
     n, axes, k = len(u), freq.shape[1], freq.shape[2]
     v0 = np.empty((k, _ROWS))
     v1 = np.empty((k, _ROWS))
@@ -101,31 +104,32 @@ def _sines_loop(freq, phase, amp, amp_freq, amp_freq2, j, u, s0, s1, s2):  # typ
             hi += 1
         for a in range(axes):
             for c in range(k):
-                w, p = freq[b, a, c], phase[b, a, c]
-                am, af, af2 = amp[b, a, c], amp_freq[b, a, c], amp_freq2[b, a, c]
+                w, p, am = freq[b, a, c], phase[b, a, c], amp[b, a, c]
+                af = am * w  # the reference's amp_freq and amp_freq2
+                af2 = af * w
                 for q in range(hi - lo):
                     arg = w * u[lo + q] + p
                     sin = math.sin(arg)
                     v0[c, q] = am * sin
                     v1[c, q] = af * math.cos(arg)
-                    v2[c, q] = af2 * sin
+                    if second:
+                        v2[c, q] = af2 * sin
             for q in range(hi - lo):
                 s0[lo + q, a] = _pairwise(v0, q, k)
                 s1[lo + q, a] = _pairwise(v1, q, k)
-                s2[lo + q, a] = -_pairwise(v2, q, k)
+                if second:
+                    s2[lo + q, a] = -_pairwise(v2, q, k)
         lo = hi
 
 
-def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray, u: np.ndarray
-                 ) -> Sums:
+def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray, u: np.ndarray,
+                 second: bool = True) -> Sums:
     """:func:`reference_sum_of_sines`, bit for bit, compiled when numba is there."""
     loop = compiled(_sines_loop, _pairwise) if freq.shape[2] <= _PAIRWISE_BLOCK else None
     if loop is None:
-        return reference_sum_of_sines(freq, phase, amp, j, u)
+        return reference_sum_of_sines(freq, phase, amp, j, u, second)
     freq, phase, amp = (np.ascontiguousarray(x, dtype=np.float64) for x in (freq, phase, amp))
-    amp_freq = amp * freq
-    amp_freq2 = amp_freq * freq
-    out = tuple(np.empty((len(u), freq.shape[1])) for _ in range(3))
-    loop(freq, phase, amp, amp_freq, amp_freq2, np.ascontiguousarray(j, dtype=np.int64),
-         np.ascontiguousarray(u, dtype=np.float64), *out)
+    out = tuple(np.empty((len(u) if m < 2 or second else 0, freq.shape[1])) for m in range(3))
+    loop(freq, phase, amp, np.ascontiguousarray(j, dtype=np.int64), np.ascontiguousarray(u, dtype=np.float64),
+         *out)
     return out  # type: ignore[return-value]

@@ -211,7 +211,7 @@ class SwayDraw:
         w, w1, w2 = w[:, None], w1[:, None], w2[:, None]
 
         def tapered(freq, phase, amp, chord, second):
-            s, s1, s2 = sum_of_sines(freq, phase, amp, j, u)
+            s, s1, s2 = sum_of_sines(freq, phase, amp, j, u, second)
             c0, c1 = chord[0][j], chord[1][j]
             s = s - c0 - (c1 - c0) * (u / d)[:, None]
             s1 = s1 - (c1 - c0) / d[:, None]

@@ -36,6 +36,8 @@ def test_compiled_sums_are_numpys_bit_for_bit(components):
     got = sines.sum_of_sines(freq, phase, amp, j, u)
     for w, g in zip(want, got, strict=True):
         assert w.tobytes() == g.tobytes()
+    first = sines.sum_of_sines(freq, phase, amp, j, u, second=False)  # a rate needs no second derivative
+    assert [x.tobytes() for x in first[:2]] == [x.tobytes() for x in want[:2]] and first[2].size == 0
 
 
 def test_a_swaying_walk_is_the_same_with_or_without_the_compiled_sums(monkeypatch):
