@@ -61,13 +61,7 @@ def _compile(loop: Callable[..., Any], inlined: tuple[Callable[..., Any], ...]) 
 
 def warm_up() -> bool:
     """Ready every compiled loop of the simulation now (from numba's cache, or compiled) rather than
-    in the first walk; whether they are compiled."""
-    import numpy as np
+    in the first long walk; whether they are compiled."""
+    from . import mpu9150, sines
 
-    from .mpu9150 import gauss_markov
-    from .sines import sum_of_sines
-
-    z = np.zeros((1, 3, 1))
-    sum_of_sines(z, z, z, np.zeros(1, dtype=np.int64), np.zeros(1))
-    gauss_markov(np.random.default_rng(0), (3, 2), 1.0, 1.0, 1.0)
-    return bool(_found) and all(f is not None for f in _found.values())
+    return all([sines.warm_up(), mpu9150.warm_up_scan()])

@@ -152,7 +152,8 @@ def _first_order_scan(y: np.ndarray, beta: float) -> np.ndarray:
     numbers, without the scaled copy's memory."""
     d, bd = 1, beta
     n = len(y)
-    step = compiled(_scan_pass) if n and y.dtype == np.float64 and y.flags.c_contiguous else None
+    worth = y.size >= _SCAN_COMPILED_FROM and y.dtype == np.float64 and y.flags.c_contiguous
+    step = compiled(_scan_pass) if worth else None
     rows = y.reshape(n, -1) if step is not None else None
     earlier = np.empty_like(y[1:]) if step is None else None  # β^d·y[k−d] of a numpy pass
     while d < n and bd > 1e-18:
@@ -165,6 +166,20 @@ def _first_order_scan(y: np.ndarray, beta: float) -> np.ndarray:
         d *= 2
         bd *= bd
     return y
+
+
+#: The fewest numbers whose scan is worth the compiled pass (a walk of about 80 s at 1 kHz: four
+#: chips' three axes); fewer take numpy's, and a process with an empty cache of numba's compiles
+#: nothing for them.
+_SCAN_COMPILED_FROM = 1_000_000
+
+
+def warm_up_scan() -> bool:
+    """Load the scan's compiled pass from numba's cache, or compile it, now; whether it is compiled."""
+    step = compiled(_scan_pass)
+    if step is not None:
+        step(np.zeros((2, 1)), 1, 0.5)
+    return step is not None
 
 
 def _scan_pass(y, d, bd):  # type: ignore[no-untyped-def]

@@ -23,7 +23,7 @@ import numpy as np
 
 from .compiled import compiled
 
-__all__ = ["reference_sum_of_sines", "sum_of_sines"]
+__all__ = ["reference_sum_of_sines", "sum_of_sines", "warm_up"]
 
 Sums = tuple[np.ndarray, np.ndarray, np.ndarray]
 
@@ -36,6 +36,10 @@ _ROWS = 128
 #: numpy sums up to this many numbers in eight interleaved partial sums (its ``PW_BLOCKSIZE``);
 #: :func:`_pairwise` does the same, so a stance of more components takes the reference.
 _PAIRWISE_BLOCK = 128
+#: The fewest sines (rows × components) worth the compiled loop: a shorter walk's (a walk of about
+#: 20 s) take the reference, a few tens of milliseconds, and a process with an empty cache of
+#: numba's compiles nothing for it (the compile takes seconds: a new user's first short walk).
+_COMPILED_FROM = 200_000
 
 
 def reference_sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray,
@@ -125,7 +129,8 @@ def _sines_loop(freq, phase, amp, j, u, s0, s1, s2):  # type: ignore[no-untyped-
 def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.ndarray, u: np.ndarray,
                  second: bool = True) -> Sums:
     """:func:`reference_sum_of_sines`, bit for bit, compiled when numba is there."""
-    loop = compiled(_sines_loop, _pairwise) if freq.shape[2] <= _PAIRWISE_BLOCK else None
+    worth = freq.shape[2] <= _PAIRWISE_BLOCK and len(u) * freq.shape[2] >= _COMPILED_FROM
+    loop = compiled(_sines_loop, _pairwise) if worth else None
     if loop is None:
         return reference_sum_of_sines(freq, phase, amp, j, u, second)
     freq, phase, amp = (np.ascontiguousarray(x, dtype=np.float64) for x in (freq, phase, amp))
@@ -133,3 +138,12 @@ def sum_of_sines(freq: np.ndarray, phase: np.ndarray, amp: np.ndarray, j: np.nda
     loop(freq, phase, amp, np.ascontiguousarray(j, dtype=np.int64), np.ascontiguousarray(u, dtype=np.float64),
          *out)
     return out  # type: ignore[return-value]
+
+
+def warm_up() -> bool:
+    """Load the compiled loop from numba's cache, or compile it, now; whether it is compiled."""
+    loop = compiled(_sines_loop, _pairwise)
+    if loop is not None:
+        z = np.zeros((1, 3, 1))
+        loop(z, z, z, np.zeros(1, dtype=np.int64), np.zeros(1), *(np.empty((1, 3)) for _ in range(3)))
+    return loop is not None

@@ -15,14 +15,17 @@ def rows_of(starts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return j, t - starts[j]
 
 
-def needs_compiled_loops():
+def needs_compiled_loops(monkeypatch):
+    """The compiled loops, for any size of input (a short walk's take the numpy forms)."""
     if not compiled.warm_up():
         pytest.skip("numba is not installed (or OPENSHOE_PURE=1): the numpy forms run")
+    monkeypatch.setattr(sines, "_COMPILED_FROM", 0)
+    monkeypatch.setattr(mpu9150, "_SCAN_COMPILED_FROM", 0)
 
 
 @pytest.mark.parametrize("components", [1, 5, 8, 16, 21, 128])
-def test_compiled_sums_are_numpys_bit_for_bit(components):
-    needs_compiled_loops()
+def test_compiled_sums_are_numpys_bit_for_bit(monkeypatch, components):
+    needs_compiled_loops(monkeypatch)
     rng = np.random.default_rng(components)
     blocks = 40
     freq = 2.0 * np.pi * rng.uniform(0.5, 130.0, (blocks, 3, components))
@@ -43,6 +46,7 @@ def test_compiled_sums_are_numpys_bit_for_bit(components):
 def test_a_swaying_walk_is_the_same_with_or_without_the_compiled_sums(monkeypatch):
     walk = trajectory("stand:1+walk:8").with_stance_sway(seed=3)
     t = np.arange(9000) / 1000.0
+    monkeypatch.setattr(sines, "_COMPILED_FROM", 0)  # compiled however short, where numba is
     fast = walk.evaluate(t)
     monkeypatch.setattr(sines, "compiled", lambda *loop: None)
     plain = walk.evaluate(t)
@@ -53,7 +57,7 @@ def test_a_swaying_walk_is_the_same_with_or_without_the_compiled_sums(monkeypatc
 @pytest.mark.parametrize("beta", [0.3, 0.97, 1.0 - 1e-5])
 @pytest.mark.parametrize("shape", [(1,), (2, 3), (5000,), (3001, 4, 3)])
 def test_the_compiled_scan_is_numpys_bit_for_bit(monkeypatch, beta, shape):
-    needs_compiled_loops()
+    needs_compiled_loops(monkeypatch)
     x = np.random.default_rng(len(shape)).standard_normal(shape)
     fast = mpu9150._first_order_scan(x.copy(), beta)
     monkeypatch.setattr(mpu9150, "compiled", lambda *loop: None)
