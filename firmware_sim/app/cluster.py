@@ -39,12 +39,14 @@ TASK_RUNS = 4
 
 
 def prepare_process() -> None:
-    """Load (or compile once) the tracking kernels and the walk reader in this process."""
+    """Load (or compile once) the tracking kernels, the walk reader and the simulation's loops in
+    this process."""
     from firmware_sim.nav.warmup import prepare_compiled_path
-    from firmware_sim.sensors import openshoe_scan
+    from firmware_sim.sensors import compiled, openshoe_scan
 
     prepare_compiled_path(None)
     openshoe_scan.warm_up()
+    compiled.warm_up()
 
 
 @contextlib.contextmanager
