@@ -66,19 +66,23 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
 
     The runs go in groups of :data:`~firmware_sim.app.replay_group.LOCKSTEP_RUNS`, each group's
     replays in lockstep (:func:`firmware_sim.app.runs.run_group`; every file's bytes those of its
-    replay alone). A reader thread loads the next group's recordings while the current group runs
-    (the compiled reader and navigation kernels release the GIL), and the first group's while
-    the compiled tracking path is prepared. A recording that cannot be read stops the batch before
-    its group runs.
+    replay alone), a helper thread running half of each group's modules
+    (:func:`firmware_sim.nav.aot.share_cores`). A reader thread loads the next group's recordings
+    while the current group runs (the compiled reader and navigation kernels release the GIL),
+    and the first group's while the compiled tracking path is prepared. A recording that cannot be
+    read stops the batch before its group runs.
     """
     from concurrent.futures import ThreadPoolExecutor
 
+    from firmware_sim.nav import aot
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import RecordingFormatError
 
     from .replay_group import LOCKSTEP_RUNS
     from .runs import load, run_group, summary_lines, write_csv
 
+    if len(runs) > 1:
+        aot.share_cores()
     groups = [runs[i:i + LOCKSTEP_RUNS] for i in range(0, len(runs), LOCKSTEP_RUNS)]
     rows: list[dict[str, Any]] = []
     with ThreadPoolExecutor(1, thread_name_prefix="openshoe-reader") as reader, \

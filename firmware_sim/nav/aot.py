@@ -10,7 +10,9 @@ an extension module of its own (about 7 s, once). Later processes import that mo
 a millisecond and never import numba (:func:`run_loops`); tests check its bytes against numba's
 loop. Like numba's, the built loops release the GIL while they run
 (:func:`firmware_sim.prebuilt.compile_releasing_gil`): a batch of many replays reads its next walks
-in a thread beside them, and a lockstep's helper thread runs half of its modules.
+in a thread beside them, and, once it asks for it (:func:`share_cores`), a lockstep's helper
+thread runs half of its modules; a served process keeps its modules on its own thread, as it
+always did with the built loop.
 
 The module lives beside numba's cache (``NUMBA_CACHE_DIR`` when set, else the ``__pycache__``
 of this package) and is named by the digest of the kernels' sources
@@ -31,11 +33,12 @@ from firmware_sim.sensors import openshoe_scan
 
 from .kernel_sources import pure_requested, sources_stamp
 
-__all__ = ["build", "module_path", "run_group", "run_loops", "wanted"]
+__all__ = ["build", "module_path", "run_group", "run_loops", "share_cores", "shares_cores", "wanted"]
 
 _HERE = Path(__file__).resolve().parent
 _loaded: list[Callable[..., int] | None] = []  #: the loop once looked for (one element)
 _loaded_group: list[Callable[..., int] | None] = []  #: the loop of K modules once looked for
+_sharing: list[bool] = []  #: whether this process split the built loop of K modules (one element)
 
 
 def wanted() -> bool:
@@ -70,6 +73,18 @@ def run_group() -> Callable[..., int] | None:
     if not _loaded_group:
         _loaded_group.append(prebuilt.load(module_path(), "run_group"))
     return _loaded_group[0]
+
+
+def share_cores() -> None:
+    """Let a lockstep split each call of the built loop of K modules with a helper thread in this
+    process (:mod:`firmware_sim.nav.lockstep`; numba's is split anyway): for a batch of many
+    replays, which has the cores to itself."""
+    _sharing[:] = [True]
+
+
+def shares_cores() -> bool:
+    """Whether :func:`share_cores` was called in this process."""
+    return bool(_sharing and _sharing[0])
 
 
 def build() -> bool:

@@ -163,9 +163,11 @@ def group_loop() -> Callable[..., int] | None:
 
 
 def group_releases_gil() -> bool:
-    """Whether :func:`group_loop` releases the GIL while it runs (numba's and the one built ahead of
-    time do: whenever there is one)."""
-    return group_loop() is not None
+    """Whether a lockstep splits the calls of :func:`group_loop` with a helper thread: numba's loop
+    (it releases the GIL), and the one built ahead of time (which releases it too) in a process
+    that asked for it (:func:`~firmware_sim.nav.aot.share_cores`: a batch of many replays)."""
+    group = group_loop()
+    return group is not None and (group is not aot.run_group() or aot.shares_cores())
 
 
 def ahead_of_time() -> bool:

@@ -17,7 +17,8 @@ modules saves little in a batch; what it gives is one call per group of modules 
 together (a batch of walks, a sweep's runs, a process's served modules).
 
 On a machine of more than one core, with the compiled loop that releases the GIL (numba's, and the
-one built ahead of time: :mod:`firmware_sim.nav.aot`), a helper thread runs the later
+one built ahead of time in a batch of many replays: :func:`firmware_sim.nav.aot.share_cores`), a
+helper thread runs the later
 modules' stretches of a call while the caller runs the earlier ones (split at half the loops): the
 modules share nothing in the loop, so the bytes stay the same; the wall time of the compiled part
 nearly halves, the Python around it does not.

@@ -79,7 +79,7 @@ def bench_lockstep(walks: int, repeats: int, say: Callable[[str], None],
                    walks_dir: Path | None = None) -> Result:
     """*walks* replays of the shared walks, K at a time for each K of :data:`GROUP_SIZES`."""
     from firmware_sim.app.replay_group import LOCKSTEP_RUNS
-    from firmware_sim.nav import fastpath
+    from firmware_sim.nav import aot, fastpath
     from firmware_sim.nav.warmup import prepare_compiled_path
     from firmware_sim.sensors.replay import ReplaySource
 
@@ -90,6 +90,7 @@ def bench_lockstep(walks: int, repeats: int, say: Callable[[str], None],
     if not prepare_compiled_path(None).compiled or fastpath.group_loop() is None:
         say(f"lockstep: compiled path unavailable: {fastpath.reason_unavailable()}")
         return Result("lockstep", 0.0, "samples/s", LOCKSTEP_TARGET, note="no compiled path")
+    aot.share_cores()  # a helper thread runs half of each group, as in replay --wire-dir
     read = [ReplaySource.from_file(p) for p in shared]
     sources = [read[i % len(read)] for i in range(walks)]
     sizes = ", ".join(map(str, GROUP_SIZES))
