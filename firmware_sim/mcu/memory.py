@@ -129,6 +129,10 @@ class StateMemory:
         self._float_words = np.frombuffer(self.arena, dtype=np.float32, count=len(self.arena) // 4)
         self._float_index = np.concatenate([np.arange(off // 4, off // 4 + n) for _sid, off, n in floats])
         self._float_owner = np.concatenate([np.full(n, sid) for sid, _off, n in floats])
+        # the words from the first float state's to the last's (other states' words among them),
+        # and zeros to weigh them with: their dot product is 0 when every word is finite
+        self._float_span = self._float_words[self._float_index[0]:self._float_index[-1] + 1]
+        self._float_zeros = np.zeros(len(self._float_span), dtype=np.float32)
         self.set_mcu_serial(mcu_serial)
 
     # ------------------------------------------------------------------ access
@@ -188,7 +192,13 @@ class StateMemory:
 
     def nonfinite_states(self) -> tuple[int, ...]:
         """The float states (the navigation numbers: U_K, DT, POSITION, VELOCITY, QUATERNION, P,
-        DX, DP, …) that hold an inf or a NaN now, ascending; () when every one is finite. A few µs."""
+        DX, DP, …) that hold an inf or a NaN now, ascending; () when every one is finite. About a
+        µs when all are (as after nearly every frame)."""
+        if np.vdot(self._float_span, self._float_zeros) == 0:
+            # 0 × an inf or a NaN is a NaN, and it stays one through the sum: every word is finite
+            # (vdot, unlike dot, does not warn of the invalid products)
+            return ()
+        # some word is not finite: a float state's, or an integer state's whose bits read so
         values = self._float_words[self._float_index]
         bad = ~np.isfinite(values)
         if not bad.any():
