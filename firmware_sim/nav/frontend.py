@@ -145,11 +145,10 @@ def preproc(raw: np.ndarray, cal: np.ndarray, bias: np.ndarray, u_new: np.ndarra
     the four chips summed (64 bits), arithmetic ``>> 2``, narrowed to int32, bias
     subtracted with int32 wraparound (cannot wrap for a valid FrontendConfig).
     """
-    acc = np.einsum("kij,kj->i", cal[:, 0].astype(np.int64), raw[:, 0:3].astype(np.int64))
-    gyr = np.einsum("kij,kj->i", cal[:, 1].astype(np.int64), raw[:, 3:6].astype(np.int64))
-    for i in range(3):
-        u_new[i] = _i32(_i32(int(acc[i]) >> cfg.LOG2_NR_IMUS) - int(bias[i]))
-        u_new[3 + i] = _i32(_i32(int(gyr[i]) >> cfg.LOG2_NR_IMUS) - int(bias[3 + i]))
+    # (sensor, axis) sums over the chips and the row: integers, exact in any order
+    sums = np.einsum("ksij,ksj->si", cal.astype(np.int64), raw.reshape(-1, 2, 3).astype(np.int64)).ravel()
+    for i in range(6):
+        u_new[i] = _i32(_i32(int(sums[i]) >> cfg.LOG2_NR_IMUS) - int(bias[i]))
     u_k[0:3] = u_new[0:3].astype(np.float32) * cfg.ACC_SCALE
     u_k[3:6] = u_new[3:6].astype(np.float32) * cfg.GYRO_SCALE
 
