@@ -168,9 +168,14 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "until then the compass counts for as little as the iron's uncertainty says; "
                         "its prior 1σ per axis [µT] (default 10 uncalibrated, 1 with a calibration)")
     g.add_argument("--compass-swing", action="store_true",
-                   help="hold a calibrated compass's swing B sin ψ + C cos ψ as two states of the filter "
+                   help="learn a calibrated compass's swing B sin ψ + C cos ψ as two states of the filter "
                         "(hostlib.fusion.compass_swing; with --compass and one module: σ 4° on each term, "
-                        "learned while the compass reads with a calibration, from GPS and the walk's turns)")
+                        "learned while the compass reads with a calibration, from GPS and the walk's turns; "
+                        "by default the swing the module's warming builds is held, σ 0.6°, weighed and not "
+                        "learned)")
+    g.add_argument("--no-compass-swing", action="store_true",
+                   help="hold no swing of a calibrated compass (by default the swing the module's warming "
+                        "builds after the calibration is weighed, not learned)")
     g.add_argument("--gps-bias", action="store_true",
                    help="hold the receiver's correlated error as a state of the filter "
                         "(hostlib.fusion.gps_bias): "
@@ -295,7 +300,7 @@ def usage_refusal(args: argparse.Namespace) -> str | None:
     if args.gps_bias and not args.gps:
         return "--gps-bias needs --gps: it is the error of the receiver's fixes"
     for on, off in (("module_errors", "no_module_errors"), ("compass_deviation", "no_compass_deviation"),
-                    ("gps_bias", "no_gps_bias")):
+                    ("gps_bias", "no_gps_bias"), ("compass_swing", "no_compass_swing")):
         if getattr(args, on) not in (None, False) and getattr(args, off):
             return f"--{on.replace('_', '-')} or --{off.replace('_', '-')}: one or the other, not both"
     return _calibration_refusal(args, two)
@@ -345,6 +350,7 @@ def per_foot(files: Sequence[str] | None) -> dict[str, str]:
 def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | None) -> AidOptions:
     """The aids and calibrations the options of ``track`` or ``replay`` ask for (*origin*: the
     parsed ``--origin``). ``track --gps`` names a receiver read as it talks, unless it is a file."""
+    from ..fusion.compass_swing import CALIBRATED_SWING
     from ..fusion.gps_bias import GpsBias
     from ..run.options import AidOptions
 
@@ -354,7 +360,8 @@ def aid_options(args: argparse.Namespace, origin: tuple[float, float, float] | N
         compass=args.compass, compass_sigma_deg=args.compass_sigma,
         compass_deviation=_held(args.compass_deviation, args.no_compass_deviation),
         compass_gate=args.compass_gate, uncalibrated_weight=args.uncalibrated_weight,
-        hard_iron=args.hard_iron, compass_swing=_held(None, not args.compass_swing),
+        hard_iron=args.hard_iron,
+        compass_swing=_held(CALIBRATED_SWING if args.compass_swing else None, args.no_compass_swing),
         gps_log=None if live else args.gps, gps_receiver=args.gps if live else None,
         gps_bias=_held(GpsBias() if args.gps_bias else None, args.no_gps_bias),
         module_errors=_held(args.module_errors, args.no_module_errors),

@@ -12,7 +12,8 @@ states its :class:`~hostlib.fusion.settings.FusionSettings` hold, in the order o
   :attr:`~hostlib.fusion.settings.FusionSettings.hard_iron`; prior 0 with σ_b² on each axis;
 * ``"swing"`` — a calibrated compass's swing ``[B, C]`` (:mod:`hostlib.fusion.compass_swing`), held
   with the compass and :attr:`~hostlib.fusion.settings.FusionSettings.compass_swing` but not with
-  the hard iron; prior 0 with σ² on each term (used only while the compass reads calibrated);
+  the hard iron; prior 0 with σ² on each term (used only while the compass reads calibrated); a
+  consider block when the swing is not learned (:attr:`~hostlib.fusion.compass_swing.CompassSwing.learned`);
 * ``"deviation"`` — the compass's local deviation ``d`` (:mod:`hostlib.fusion.deviation`), held
   with :attr:`~hostlib.fusion.settings.FusionSettings.compass_deviation`; prior 0 with σ_d²;
 * ``"declination"`` — the declination ``D``, always held, last: prior the settings' D₀, with
@@ -45,6 +46,8 @@ class AidState:
 
     name: str
     prior: Callable[[FusionSettings], tuple[np.ndarray, np.ndarray] | None]
+    #: whether the settings hold it as a consider block (:class:`~hostlib.fusion.core.StateFilter`)
+    considered: Callable[[FusionSettings], bool] = lambda settings: False
 
 
 def _gps_bias_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray] | None:
@@ -80,7 +83,7 @@ def _declination_prior(s: FusionSettings) -> tuple[np.ndarray, np.ndarray]:
 AID_STATES: tuple[AidState, ...] = (
     AidState("gps_bias", _gps_bias_prior),
     AidState("hard_iron", _hard_iron_prior),
-    AidState("swing", _swing_prior),
+    AidState("swing", _swing_prior, lambda s: s.compass_swing is not None and not s.compass_swing.learned),
     AidState("deviation", _deviation_prior),
     AidState("declination", _declination_prior),
 )
@@ -91,4 +94,4 @@ def add_aid_states(core: StateFilter, settings: FusionSettings) -> None:
     for state in AID_STATES:
         prior = state.prior(settings)
         if prior is not None:
-            core.add_block(state.name, *prior)
+            core.add_block(state.name, *prior, consider=state.considered(settings))

@@ -79,6 +79,7 @@ class AidedFilter(ABC):
         #: weighed, but no horizontal field to work the weight out with until the first reading
         self.iron_weight_pending = False
         self._weigh_uncalibrated(None)
+        self._swing_start = math.nan  # module time of the compass's first calibrated reading [s]
 
     # -- what a tracker gives -----------------------------------------------------------
 
@@ -101,6 +102,10 @@ class AidedFilter(ABC):
     def _compass_calibration(self, pose: str) -> MagCalibration | None:
         """The magnetometer calibration the compass of block *pose* reads with."""
         return self.aid_settings.mag_calibration
+
+    def _module_seconds(self) -> float:
+        """The module time [s] of the step being fused (NaN: the tracker does not keep one)."""
+        return math.nan
 
     # -- where the aids look ------------------------------------------------------------
 
@@ -350,11 +355,19 @@ class AidedFilter(ABC):
         self.fusion.compass_innovations.append((len(self), innovation))
 
     def _swing_basis(self, pose: str, magnetic_heading: float) -> np.ndarray | None:
-        """[sin ψ_m, cos ψ_m] at *magnetic_heading* when block *pose*'s compass reads with a
-        calibration and its swing is held (:mod:`hostlib.fusion.compass_swing`); else None."""
+        """[sin ψ_m, cos ψ_m] at *magnetic_heading*, times what the swing has grown to since the
+        compass's first calibrated reading (:meth:`~hostlib.fusion.compass_swing.CompassSwing.warming`),
+        when block *pose*'s compass reads with a calibration and its swing is held
+        (:mod:`hostlib.fusion.compass_swing`); else None."""
         if "swing" not in self.filter or self._compass_calibration(pose) is None:
             return None
-        return swing_basis(magnetic_heading)
+        basis = swing_basis(magnetic_heading)
+        t = self._module_seconds()
+        if not math.isfinite(t):  # no time: the swing at its full size
+            return basis
+        if math.isnan(self._swing_start):
+            self._swing_start = t
+        return basis * self.aid_settings.compass_swing.warming(t - self._swing_start)
 
     @property
     def compass_swing(self) -> np.ndarray | None:

@@ -19,7 +19,9 @@ host needs:
   through a span (:meth:`~StateFilter.decay`), the whole state through a linear map
   (:meth:`~StateFilter.transform`: a turn of the frame);
 * **update** — a scalar measurement ``h x`` with its innovation and variance, in Joseph form
-  (:meth:`~StateFilter.update`);
+  (:meth:`~StateFilter.update`); a block added as a *consider* block keeps its estimate through
+  every update (its gain is zero: the Schmidt–Kalman filter) while its covariance and its
+  correlations go on, so that an error the filter cannot learn is weighed and not estimated;
 * **project** — a constraint moves the estimate and leaves ``P`` (:meth:`~StateFilter.project`).
 
 Everything is float64 and the operations are the trackers' own, in the same order, so a tracker
@@ -70,13 +72,15 @@ class StateFilter:
         self.P = np.zeros((0, 0))
         self.blocks: dict[str, Block] = {}
         self._others: dict[str, np.ndarray] = {}  #: others(name), for the blocks held now
+        self._considered: list[int] = []  #: the indices of the consider blocks
 
     # -- registration -----------------------------------------------------------------
 
     def add_block(self, name: str, mean: Sequence[float] | np.ndarray,
-                  cov: np.ndarray | None = None) -> Block:
+                  cov: np.ndarray | None = None, consider: bool = False) -> Block:
         """Append a block *name* with prior *mean* and covariance *cov* (default: zero,
-        uncorrelated with the rest until an operation correlates it)."""
+        uncorrelated with the rest until an operation correlates it); *consider*: no update changes
+        its estimate (module docstring)."""
         if name in self.blocks:
             raise ValueError(f"the filter already holds a block {name!r}")
         mean = np.asarray(mean, dtype=np.float64).reshape(-1)
@@ -93,6 +97,8 @@ class StateFilter:
         self.P = p
         self.blocks[name] = block
         self._others.clear()
+        if consider:
+            self._considered.extend(block.indices)
         return block
 
     def __contains__(self, name: str) -> bool:
@@ -204,7 +210,8 @@ class StateFilter:
 
     def update(self, h: np.ndarray, innovation: float, r: float) -> None:
         """A scalar Kalman update: the measurement ``h x`` with *innovation* and variance *r*, in
-        Joseph form (P stays symmetric and positive). A non-finite innovation or variance is
+        Joseph form (P stays symmetric and positive; with a consider block's gain zero, P is still
+        the covariance of the estimate the update makes). A non-finite innovation or variance is
         refused (:class:`NonFiniteUpdate`) and the state left as it was."""
         if not (math.isfinite(innovation) and math.isfinite(r) and np.isfinite(h).all()):
             raise NonFiniteUpdate(f"a measurement with innovation {innovation} and variance {r} "
@@ -212,6 +219,8 @@ class StateFilter:
         x, p = self.x, self.P
         ph = p @ h
         k = ph / (float(h @ ph) + r)
+        if self._considered:
+            k[self._considered] = 0.0
         x = x + k * innovation
         i_kh = np.eye(len(x)) - np.outer(k, h)
         p = i_kh @ p @ i_kh.T + r * np.outer(k, k)

@@ -179,6 +179,9 @@ class FusionTracker(AidedFilter, StepTracker):
             return iron_heading(*calibrated, self.filter.mean("hard_iron"))[0]
         return compass_heading(*calibrated)
 
+    def _module_seconds(self) -> float:
+        return self._time
+
     def calibrated_reading(self, reading: StanceReading | None) -> tuple[np.ndarray, np.ndarray] | None:
         """A stance *reading*'s board-frame field [µT] with the calibration applied
         (:attr:`FusionSettings.mag_calibration`), and its board → navigation rotation."""

@@ -89,8 +89,10 @@ class AidSetup:
         if s.compass and s.hard_iron is not None:
             parts.append(f"the shoe's hard iron learned ({s.hard_iron.describe()})")
         elif s.compass and s.compass_swing is not None:
-            parts.append(f"a calibrated compass's swing held ({s.compass_swing.describe()}, while it reads "
-                         "with a calibration)")
+            parts.append(f"a calibrated compass's swing held{self._why('compass_swing')} "
+                         f"({s.compass_swing.describe()}, while it reads with a calibration)")
+        elif s.compass:
+            parts += self._off("compass_swing", "a calibrated compass's swing")
         if s.module_errors is not None:
             e = s.module_errors
             preset = preset_name(e)

@@ -1,8 +1,9 @@
 """The host's defaults with an aid or two feet: the module's errors (a MIMU22BT-class module's
-priors), the compass's local deviation and the receiver's bias are held (the shoe's hard iron only
-when asked for); each ``--no-…`` switch turns one off; the command line and the Python API resolve
-them in one place (:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why
-each is on or off."""
+priors), the compass's local deviation, the receiver's bias and, with one module, the swing a
+calibrated compass gains as the module warms are held (the shoe's hard iron only when asked for);
+each ``--no-…`` switch turns one off; the command line and the Python API resolve them in one
+place (:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why each is on
+or off."""
 
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import pytest
 from hostlib.cli import main
 from hostlib.cli.app import build_parser
 from hostlib.cli.options import aid_options
-from hostlib.fusion.compass_swing import CALIBRATED_SWING
+from hostlib.fusion.compass_swing import CALIBRATED_SWING, WARMING_SWING
 from hostlib.fusion.deviation import INDOORS, OUTDOORS
 from hostlib.fusion.gps_bias import GpsBias
 from hostlib.fusion.hard_iron import CALIBRATED, UNCALIBRATED, HardIron
@@ -54,6 +55,9 @@ def test_the_defaults_hold_what_the_walk_has():
     assert settings.hard_iron is None
     assert settings.compass_sigma_rad == pytest.approx(math.radians(1.5))  # the deviation is a state
     assert settings.gps_update_interval_s == 0.0  # with the bias held, every fix
+    assert settings.compass_swing is WARMING_SWING and not WARMING_SWING.learned
+    assert AidOptions(compass=True).resolved(feet=True).compass_swing is None  # one module's only
+    assert AidOptions(gps_log="walk.nmea").resolved().compass_swing is None  # a compass's
 
 
 def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
@@ -73,12 +77,12 @@ def test_none_turns_a_default_off_and_a_word_or_a_model_chooses_another():
 def test_the_reasons_say_what_is_held_by_default_given_or_turned_off():
     options = AidOptions(compass=True, gps_log="walk.nmea", gps_bias=None, module_errors="emulated")
     assert options.defaulted() == {"module_errors": "given", "compass_deviation": "by default",
-                                   "gps_bias": "off"}
+                                   "gps_bias": "off", "compass_swing": "by default"}
     assert AidOptions().defaulted() == {}  # nothing an aid-less walk would hold
     assert AidOptions().defaulted(feet=True) == {"module_errors": "by default"}
 
 
-OFF = {"module_errors": None, "compass_deviation": None, "gps_bias": None}
+OFF = {"module_errors": None, "compass_deviation": None, "gps_bias": None, "compass_swing": None}
 #: ``replay``'s options, and the AidOptions a user of the API writes for the same walk
 CASES = [
     ([], {}),
@@ -86,14 +90,15 @@ CASES = [
     (["--gps", "walk.nmea"], {"gps_log": "walk.nmea"}),
     (["--compass", "--gps", "walk.nmea"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea"}),
-    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-gps-bias"],
+    (["--compass", "--gps", "walk.nmea", "--no-module-errors", "--no-compass-deviation", "--no-gps-bias",
+      "--no-compass-swing"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", **OFF}),
     (["--compass", "--gps", "walk.nmea", "--module-errors", "emulated", "--compass-deviation", "indoors",
       "--hard-iron", "3", "--gps-bias"],
      {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "module_errors": "emulated",
       "compass_deviation": "indoors", "hard_iron": HardIron(3.0), "gps_bias": GpsBias()}),
     (["--compass", "--gps", "walk.nmea", "--compass-swing"],
-     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "compass_swing": AUTO}),
+     {"compass": True, "saved_calibration": True, "gps_log": "walk.nmea", "compass_swing": CALIBRATED_SWING}),
     (["--compass", "--no-compass-deviation", "--compass-sigma", "5", "--hard-iron"],
      {"compass": True, "saved_calibration": True, "compass_deviation": None, "compass_sigma_deg": 5.0,
       "hard_iron": AUTO}),
@@ -113,9 +118,10 @@ def test_the_command_line_and_the_python_api_resolve_the_same_settings(argv, api
     assert cli.resolved(feet).uses_aids == options.resolved(feet).uses_aids
 
 
-@pytest.mark.parametrize("name", ["module-errors", "compass-deviation", "gps-bias"])
+@pytest.mark.parametrize("name", ["module-errors", "compass-deviation", "gps-bias", "compass-swing"])
 def test_a_model_and_its_off_switch_together_are_refused(name, capsys):
-    value = {"module-errors": ["emulated"], "compass-deviation": ["indoors"], "gps-bias": []}[name]
+    value = {"module-errors": ["emulated"], "compass-deviation": ["indoors"], "gps-bias": [],
+             "compass-swing": []}[name]
     argv = ["replay", "a.bin", "--compass", "--gps", "walk.nmea", f"--{name}", *value, f"--no-{name}"]
     assert main(argv, io.StringIO()) == 2
     assert f"--{name} or --no-{name}: one or the other" in capsys.readouterr().err
@@ -126,12 +132,14 @@ def test_the_aids_line_says_what_is_held_by_default_and_what_was_turned_off():
     assert "local deviation held by default (outdoors: σ 3° over 9 m)" in held
     assert "GPS receiver's bias held by default (σ 2.1 m per axis" in held
     assert "hard iron" not in held
-    assert "swing" not in held  # only when asked for
+    assert "a calibrated compass's swing held by default (σ 0.6° on B sin ψ + C cos ψ grown as the module " \
+           "warms (τ 120 s), weighed, not learned, while it reads with a calibration)" in held
     assert "module errors held by default (mimu22bt): step-length scale σ 0.0013, climb σ 0.002 m/m" in held
     off = prepare_aids(compass=True, gps_receiver="socket://gps:1", **OFF).describe()
     for text in ("local deviation not held (off: --no-compass-deviation)",
                  "GPS receiver's bias not held (off: --no-gps-bias)",
-                 "module errors not held (off: --no-module-errors)"):
+                 "module errors not held (off: --no-module-errors)",
+                 "a calibrated compass's swing not held (off: --no-compass-swing)"):
         assert text in off
     assert "by default" not in off and "compass σ 20° per step" in off
     given = prepare_aids(compass=True, compass_deviation="indoors", module_errors="emulated",

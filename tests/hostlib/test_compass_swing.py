@@ -11,7 +11,7 @@ import pytest
 
 from hostlib.aids.compass import compass_heading, wrap_angle
 from hostlib.calibration.magcal import MagCalibration
-from hostlib.fusion.compass_swing import CALIBRATED_SWING, swing_basis
+from hostlib.fusion.compass_swing import CALIBRATED_SWING, WARMING_SWING, swing_basis
 from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion.tracker import FusionSettings, FusionTracker
 from hostlib.track.steps import rotation_z
@@ -70,3 +70,32 @@ def test_the_swing_is_not_held_with_the_hard_iron_learned():
 
     tracker = FusionTracker(_settings(hard_iron=CALIBRATED), last_counter=0)
     assert "swing" not in tracker.filter and "hard_iron" in tracker.filter
+
+
+def test_the_warming_swing_is_weighed_and_not_learned_and_grows_from_the_first_calibrated_reading():
+    """The default's swing (the level the module's warming moves after its calibration): GPS and
+    the turns do not move its estimate, but its variance weighs the readings, from nothing at the
+    first calibrated reading to its σ as the module warms."""
+    swing = WARMING_SWING
+    assert not swing.learned and swing.warming(0.0) == 0.0
+    assert swing.warming(swing.warmup_tau_s) == pytest.approx(1.0 - math.exp(-1.0))
+    assert CALIBRATED_SWING.warming(0.0) == 1.0  # the learned swing is whole from the start
+    tracker = FusionTracker(_settings(compass_swing=swing), last_counter=0)
+    _walk_a_square(tracker, LEFT_UT, laps=2)
+    assert np.all(tracker.compass_swing == 0.0)
+    assert tracker.compass_swing_sigma == pytest.approx([swing.sigma_rad] * 2)
+    plain = FusionTracker(_settings(compass_swing=None), last_counter=0)
+    _walk_a_square(plain, LEFT_UT, laps=2)
+    assert not np.allclose(tracker.track.final_pose, plain.track.final_pose, rtol=0.0, atol=1e-9)
+
+
+def test_a_consider_block_keeps_its_estimate_through_updates_and_its_variance_stays():
+    from hostlib.fusion.core import StateFilter
+
+    f = StateFilter()
+    f.add_block("a", [0.0], np.array([[4.0]]))
+    f.add_block("b", [0.0], np.array([[1.0]]), consider=True)
+    f.update(np.array([1.0, 1.0]), 2.0, 1.0)  # measures a + b
+    assert f.mean("b")[0] == 0.0 and f.covariance("b")[0, 0] == pytest.approx(1.0)
+    assert f.mean("a")[0] == pytest.approx(2.0 * 4.0 / 6.0)  # the gain a gets with b's variance in S
+    assert f.covariance("a")[0, 0] < 4.0 and f.P[0, 1] != 0.0  # a learned, and now correlated with b
