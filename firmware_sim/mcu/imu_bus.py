@@ -66,9 +66,17 @@ def imu_block(source: object, start: int, n: int) -> np.ndarray | None:
         if not hasattr(source, "__len__") or not isinstance(imu, np.ndarray):
             return None
         imu = imu[start:start + n]
-    if imu is None or imu.dtype != np.int16 or imu.ndim != 3 or imu.shape[1:] != (NR_IMUS, 6) or not len(imu):
+    if imu is None:
+        return None
+    shape = imu.shape
+    if imu.dtype is _INT16 and len(shape) == 3 and shape[0] and shape[1] == NR_IMUS and shape[2] == 6:
+        return imu  # (the usual block: checked without making a dtype or a tuple, once a frame)
+    if imu.dtype != np.int16 or imu.ndim != 3 or imu.shape[1:] != (NR_IMUS, 6) or not len(imu):
         return None
     return imu
+
+
+_INT16 = np.dtype(np.int16)
 
 
 class ScriptedSource:
