@@ -115,16 +115,17 @@ class Lockstep:
         if self._group is None:
             return [fast.run_loops(run) for _, fast, run in quiet]
         n = len(quiet)
-        kinds = np.empty(n, dtype=np.int64)
-        counts = np.empty(n, dtype=np.int64)
-        clocks = np.empty((n, 3), dtype=np.int64)
-        addresses = np.empty((n, 6), dtype=np.int64)
-        for i, (_, fast, run) in enumerate(quiet):
-            kinds[i] = run.kind
-            counts[i] = len(run.imu)
-            clocks[i] = run.first, run.period, run.ts_offset
-            addresses[i, 0] = run.imu.ctypes.data
-            addresses[i, 1:] = fast.addresses
+        runs = [run for _, _, run in quiet]
+        kinds = np.array([run.kind for run in runs], dtype=np.int64)
+        counts = np.array([len(run.imu) for run in runs], dtype=np.int64)
+        clocks = np.array([(run.first, run.period, run.ts_offset) for run in runs], dtype=np.int64)
+        # the stretches' registers one after the other in one block (one address to ask numpy for,
+        # not one per module); each module's rows start where the ones before it end
+        imu = np.concatenate([run.imu for run in runs])
+        row = imu[:1].nbytes
+        starts = np.cumsum(counts) - counts
+        addresses = np.array([(0, *fast.addresses) for _, fast, _ in quiet], dtype=np.int64)
+        addresses[:, 0] = imu.ctypes.data + starts * row
         done = np.zeros(n, dtype=np.int64)
         half = int(np.searchsorted(np.cumsum(counts), counts.sum() / 2)) + 1 if self._helper else n
         later = None
