@@ -23,6 +23,16 @@ def check_speed(speed: float) -> None:
         raise ValueError(f"speed must be >= 0 (0 = as fast as possible), got {speed}")
 
 
+def lag_class(late: float, bounds: list[float]) -> int:
+    """The lateness class of a frame that started *late* [s] after its deadline, by *bounds* (the
+    upper bounds of the classes but the last)."""
+    b = 0
+    n_bounds = len(bounds)
+    while b < n_bounds and late >= bounds[b]:
+        b += 1
+    return b
+
+
 class Loop(Protocol):
     """What a module knows of the loop that runs it (a :class:`~.group.MultiPacer`)."""
 
@@ -150,16 +160,24 @@ class PacedModule:
     def count_frame_start(self, late: float, limit: float, bounds: list[float]) -> None:
         """A frame started *late* [s] after its deadline: an overrun past *limit*; its
         lateness class by *bounds* (the upper bounds of the classes but the last)."""
-        if late > limit:
+        self.count_frame(late, late > limit, lag_class(late, bounds))
+
+    def count_frame(self, late: float, overrun: bool, lag: int) -> None:
+        """A frame started *late* [s] after its deadline, an *overrun* or not, in lateness class
+        *lag* (:func:`lag_class`: the same for the modules of a phase group, found once)."""
+        if overrun:
             self.overruns += 1
         if late > self._lag_max:
             self._lag_max = late
-        b = 0
-        n_bounds = len(bounds)
-        while b < n_bounds and late >= bounds[b]:
-            b += 1
-        self._lag_counts[b] += 1
+        self._lag_counts[lag] += 1
         self._lag = late
+
+    def after_frame(self, dt: float) -> None:
+        """A frame's ticks ran, taking *dt* wall seconds: count them, look at the navigation
+        numbers, wake the threads whose wait is over."""
+        self.count_busy(dt)
+        self.check_numbers()
+        self.waits.check()
 
     def check_numbers(self) -> None:
         """After a frame: note whether the module's navigation numbers (its float states) are all

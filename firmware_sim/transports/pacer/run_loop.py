@@ -11,7 +11,7 @@ from firmware_sim.nav.lockstep import Lockstep
 
 from .endpoints import links_of, lookahead_cycles
 from .host_clock import HostClock
-from .member import PacedModule
+from .member import PacedModule, lag_class
 from .pumps import Pumps
 from .release import Releases
 from .schedule import Schedule
@@ -197,10 +197,11 @@ class RunLoop:
         their deadline, advanced together (:class:`~firmware_sim.nav.lockstep.Lockstep`: the same
         loops as one by one, the quiet stretches of all in one compiled call); each module's busy
         time is its share of the group's."""
-        members, done = self.members, self.done
+        members, done, over = self.members, self.done, self.limits
         ks = range(j0, j1)
+        lag = lag_class(late, self.bounds)
         for k in ks:
-            members[k].count_frame_start(late, self.limits[k], self.bounds)
+            members[k].count_frame(late, late > over[k], lag)
         target = self.sched.frame_end()
         lock = self.locksteps[j0]
         s = self.perf()
@@ -218,11 +219,9 @@ class RunLoop:
             raise
         dt = self.perf() - s
         self.round_busy += dt
+        share = dt / len(ks)
         for k in ks:
-            p = members[k]
-            p.count_busy(dt / len(ks))
-            p.check_numbers()
-            p.waits.check()
+            members[k].after_frame(share)
             # what the frame sent leaves now, not a frame later
             self._pump_module(k, False)
 
@@ -302,9 +301,7 @@ class RunLoop:
             p.ticks += d - self.done[k]
             self.done[k] = d
         dt = self.perf() - s
-        p.count_busy(dt)
-        p.check_numbers()
-        p.waits.check()
+        p.after_frame(dt)
         return dt
 
     def _pump_module(self, k: int, force: bool) -> None:
