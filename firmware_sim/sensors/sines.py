@@ -8,7 +8,7 @@ stance of a simulated walk, a few million sines per walk and most of its simulat
 :func:`reference_sum_of_sines` is the definition, in numpy. Compiled (:mod:`.compiled`: numba, the
 optional ``fast`` extra, cached on disk) the same numbers come about twice as fast, bit for bit:
 each sine and cosine is the C library's (as numpy's are), each product and sum the same IEEE
-operation in the same order (numpy sums the last axis pairwise: :func:`_pairwise`), and the
+operation in the same order (numpy sums the last axis pairwise: ``_pairwise``), and the
 compiled loop takes a stance's rows one component after the other, so the C library's sine meets
 arguments that grow steadily from one call to the next (about twice as fast as the same arguments
 in numpy's order, whose branches it mispredicts). Without numba, or with ``OPENSHOE_PURE=1``, the
@@ -34,7 +34,7 @@ _SINES_CHUNK = 2048
 #: in the first-level cache.
 _ROWS = 128
 #: numpy sums up to this many numbers in eight interleaved partial sums (its ``PW_BLOCKSIZE``);
-#: :func:`_pairwise` does the same, so a stance of more components takes the reference.
+#: ``_pairwise`` does the same, so a stance of more components takes the reference.
 _PAIRWISE_BLOCK = 128
 #: The fewest sines (rows × components) worth the compiled loop: a shorter walk's (a walk of about
 #: 20 s) take the reference, a few tens of milliseconds, and a process with an empty cache of
@@ -93,7 +93,7 @@ def _pairwise(v: np.ndarray, row: int, n: int) -> float:
 
 def _sines_loop(freq, phase, amp, j, u, s0, s1, s2):  # type: ignore[no-untyped-def]
     """:func:`reference_sum_of_sines` into *s0*, *s1*, *s2* (*s2* with no rows: not computed): per
-    run of rows of one block (at most :data:`_ROWS`), per axis and component the sines of its rows,
+    run of rows of one block (at most ``_ROWS``), per axis and component the sines of its rows,
     then each row's sums."""
     second = len(s2) > 0
     n, axes, k = len(u), freq.shape[1], freq.shape[2]
