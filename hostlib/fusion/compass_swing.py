@@ -81,8 +81,11 @@ class CompassSwing:
     ``1 − e^(−t/τ)``, t from the compass's first calibrated reading (:func:`warming`); *learned*
     False: weighed and not estimated (a consider block of :class:`~hostlib.fusion.core.StateFilter`)."""
 
+    #: 1σ of each term [rad]
     sigma_rad: float
+    #: the module's warm-up time constant [s] the swing grows with (None: whole from the start)
     warmup_tau_s: float | None = None
+    #: learned from the readings (True), or weighed and not estimated (a consider block)
     learned: bool = True
 
     def __post_init__(self) -> None:
