@@ -164,14 +164,12 @@ class SimulatedSource:
             rng.standard_normal(out=walk)
             walk *= rw * step
             noise += np.cumsum(walk, axis=0, out=walk)
-        # + bias instability (first-order Gauss–Markov)
-        gm_a = gauss_markov(rng, (n, chips, 3), cfg.accel.bias_instability_g, cfg.accel.bias_correlation_s,
-                            self.rate_hz)
-        gm_g = gauss_markov(rng, (n, chips, 3), cfg.gyro.bias_instability_rad_s, cfg.gyro.bias_correlation_s,
-                            self.rate_hz)
-        if cfg.drift:
-            noise_acc += gm_a
-            noise_gyro += gm_g
+        # + bias instability (first-order Gauss–Markov), each drawn into the walk's array in turn
+        for noise, sigma, tau in ((noise_acc, cfg.accel.bias_instability_g, cfg.accel.bias_correlation_s),
+                                  (noise_gyro, cfg.gyro.bias_instability_rad_s, cfg.gyro.bias_correlation_s)):
+            gauss_markov(rng, walk.shape, sigma, tau, self.rate_hz, out=walk)
+            if cfg.drift:
+                noise += walk
         self._random_acc, self._random_gyro = noise_acc, noise_gyro
 
         # --- temperature ----------------------------------------------------------------------

@@ -127,15 +127,16 @@ def small_rotation(angles: np.ndarray) -> np.ndarray:
 
 
 def gauss_markov(rng: np.random.Generator, shape: tuple[int, ...], sigma: float, correlation_s: float,
-                 rate_hz: float) -> np.ndarray:
+                 rate_hz: float, out: np.ndarray | None = None) -> np.ndarray:
     """A first-order Gauss–Markov process along axis 0, stationary with sd *sigma*.
 
     b[k] = φ·b[k−1] + σ√(1 − φ²)·w[k], φ = exp(−1/(τ·f_s)), b[0] ~ N(0, σ²):
     the bias instability of a MEMS sensor. The recursion runs as the same prefix
     scan as :func:`dlpf_filter`. Draws ``shape`` normals from *rng* even when
-    *sigma* is 0, so that the draws after it do not depend on it.
+    *sigma* is 0, so that the draws after it do not depend on it. Into *out* (float64, of that
+    shape) when given.
     """
-    x = rng.standard_normal(shape)
+    x = rng.standard_normal(shape) if out is None else rng.standard_normal(out=out)
     phi = float(np.exp(-1.0 / (correlation_s * rate_hz)))
     first = x[0] * sigma
     x *= sigma * np.sqrt(1.0 - phi * phi)
