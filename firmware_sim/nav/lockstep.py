@@ -123,7 +123,7 @@ class Lockstep:
         # not one per module); each module's rows start where the ones before it end
         imu = np.concatenate([run.imu for run in runs])
         row = imu[:1].nbytes
-        starts = np.cumsum(counts) - counts
+        starts = counts.cumsum() - counts
         addresses = np.array([(0, *fast.addresses) for _, fast, _ in quiet], dtype=np.int64)
         addresses[:, 0] = imu.ctypes.data + starts * row
         done = np.zeros(n, dtype=np.int64)
