@@ -26,6 +26,7 @@ import logging
 from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+from .prepare import prepare_process
 from .progress import progress_bar
 from .runs import RunSpec, run_many, run_one
 
@@ -36,17 +37,6 @@ Runner = Callable[[RunSpec], dict[str, Any]]
 RETRIES = 2
 #: Runs in one task of a cluster, replayed in lockstep (few: the tasks still spread over the workers).
 TASK_RUNS = 4
-
-
-def prepare_process() -> None:
-    """Load (or compile once) the tracking kernels, the walk reader and the simulation's loops in
-    this process."""
-    from firmware_sim.nav.warmup import prepare_compiled_path
-    from firmware_sim.sensors import compiled, openshoe_scan
-
-    prepare_compiled_path(None)
-    openshoe_scan.warm_up()
-    compiled.warm_up()
 
 
 @contextlib.contextmanager

@@ -11,14 +11,14 @@ from typing import Any
 
 from distributed.diagnostics.plugin import WorkerPlugin
 
-from .cluster import prepare_process
+from .prepare import prepare_process
 
 __all__ = ["PrepareWorker"]
 
 
 class PrepareWorker(WorkerPlugin):
     """Prepares each worker process once, when it joins, a restarted one too
-    (:func:`~firmware_sim.app.cluster.prepare_process`)."""
+    (:func:`~firmware_sim.app.prepare.prepare_process`)."""
 
     name = "openshoe-prepare"
 

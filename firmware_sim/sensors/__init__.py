@@ -6,7 +6,8 @@ They implement the µC's IMU bus (:mod:`firmware_sim.mcu.imu_bus`: ``SensorSourc
 Entry points: :func:`make_source` / :func:`list_scenarios` (simulation, with
 ground truth in ``source.truth``), :class:`ReplaySource` /
 :func:`load_recording` (recorded walks), :class:`SensorConfig` (every number
-of the sensor model; ``SensorConfig.ideal()`` switches all errors off).
+of the sensor model; ``SensorConfig.ideal()`` switches all errors off),
+:func:`warm_up_compiled_loops` (the simulation's compiled loops, :mod:`.compiled`, readied at once).
 Submodules are imported lazily, so importing one model does not load them all.
 """
 
@@ -24,10 +25,18 @@ _EXPORTS = {
     "load_recording": "replay", "save_csv": "replay",
 }  # fmt: skip
 
-__all__ = sorted(_EXPORTS)
+__all__ = sorted([*_EXPORTS, "warm_up_compiled_loops"])
 
 
 def __getattr__(name: str) -> Any:
     if name in _EXPORTS:
         return getattr(import_module(f"{__name__}.{_EXPORTS[name]}"), name)
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def warm_up_compiled_loops() -> bool:
+    """Ready every compiled loop of the simulation now (from numba's cache, or compiled) rather than
+    in the first long walk; whether they are compiled (:mod:`.compiled`)."""
+    from . import mpu9150, sines
+
+    return all([sines.warm_up(), mpu9150.warm_up_scan()])

@@ -7,7 +7,8 @@ mode that performs the same IEEE operations on the same numbers in the same orde
 bits; each loop's tests compare the two). :func:`compiled` gives such a loop compiled — loaded from
 numba's cache, or compiled on its first call in a process that finds none (seconds, once) — or
 None without numba (the optional ``fast`` extra), with ``OPENSHOE_PURE=1`` or ``NUMBA_DISABLE_JIT``;
-its caller then runs the numpy form. :func:`warm_up` readies every loop of the simulation at once.
+its caller then runs the numpy form. :func:`firmware_sim.sensors.warm_up_compiled_loops` readies
+every loop of the simulation at once.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-__all__ = ["compiled", "warm_up", "wanted"]
+__all__ = ["compiled", "wanted"]
 
 #: Each loop's compiled form once found (None: none in this process).
 _found: dict[Callable[..., Any], Callable[..., Any] | None] = {}
@@ -57,11 +58,3 @@ def _compile(loop: Callable[..., Any], inlined: tuple[Callable[..., Any], ...]) 
 
     cache.load_overload = load_overload
     return dispatcher  # type: ignore[no-any-return]
-
-
-def warm_up() -> bool:
-    """Ready every compiled loop of the simulation now (from numba's cache, or compiled) rather than
-    in the first long walk; whether they are compiled."""
-    from . import mpu9150, sines
-
-    return all([sines.warm_up(), mpu9150.warm_up_scan()])

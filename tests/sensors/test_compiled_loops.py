@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from firmware_sim.sensors import compiled, mpu9150, sines
+from firmware_sim.sensors import mpu9150, sines, warm_up_compiled_loops
 from firmware_sim.sensors.scenarios import trajectory
 
 
@@ -17,7 +17,7 @@ def rows_of(starts: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def needs_compiled_loops(monkeypatch):
     """The compiled loops, for any size of input (a short walk's take the numpy forms)."""
-    if not compiled.warm_up():
+    if not warm_up_compiled_loops():
         pytest.skip("numba is not installed (or OPENSHOE_PURE=1): the numpy forms run")
     monkeypatch.setattr(sines, "_COMPILED_FROM", 0)
     monkeypatch.setattr(mpu9150, "_SCAN_COMPILED_FROM", 0)
