@@ -27,6 +27,9 @@ lint: $(STAMP)
 # The tests start hundreds of fresh processes: each loads its modules' cached bytecode, also where the
 # environment asks Python not to write it (PYTHONDONTWRITEBYTECODE, empty here: unset).
 test: export PYTHONDONTWRITEBYTECODE =
+# Its two workers keep both cores busy: numpy's BLAS runs one thread in each (more only oversubscribe
+# the cores; the numbers are the same, as Dask's workers already run it).
+test: export OPENBLAS_NUM_THREADS = 1
 
 # test: while the compiled kernels go into numba's on-disk cache on one core (once, not in each
 # worker), the other runs what needs no compiled kernel: the per-kernel tests' plain-Python forms
