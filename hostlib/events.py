@@ -47,7 +47,7 @@ class StepOutcome(Enum):
     SUMMED_AFTER_GAP = "summed after gap"  #: summed, but steps before it were lost
     DUPLICATE = "duplicate"  #: a resend of a step already summed (or older): ignored
     #: a step whose numbers are not finite or whose covariance is no covariance: counted, left out
-    #: (:func:`hostlib.track.steps.step_problem` says why)
+    #: (:func:`hostlib.track.step_checks.step_problem` says why)
     REJECTED = "rejected"
 
     @property

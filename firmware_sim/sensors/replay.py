@@ -79,7 +79,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
 from functools import partial
 from pathlib import Path
@@ -90,9 +90,9 @@ from firmware_sim.board import MIMU22BT, BoardGeometry
 from firmware_sim.mcu.imu_bus import RawSample
 
 from . import openshoe_scan
+from .chip_registers import chip_registers
 from .config import DEFAULT_CONFIG, SensorConfig
 from .registers import INT16_MAX, INT16_MIN, accel_counts, gyro_counts, mag_counts, temp_to_lsb
-from .truth import is_signed_permutation, rotate
 
 __all__ = [
     "OPENSHOE_HEADER",
@@ -491,51 +491,6 @@ def load_recording(path: str | Path) -> Recording:
 # replay
 
 
-def _half_sample_ahead(v: np.ndarray) -> np.ndarray:
-    """*v* (n, …) half a sample later in time: the mean of each sample and the next (the last kept)."""
-    out = v.copy()
-    out[:-1] = 0.5 * (v[:-1] + v[1:])
-    return out
-
-
-def _to_chips(mount: np.ndarray, v: np.ndarray, *factors: np.ndarray) -> np.ndarray:
-    """(n, chips, 3): each board vector *v[n]* in each chip's axes, ``mount[k] @ v[n]``.
-
-    *mount* may be a product of *factors* (``einsum("ij,kjl,nl->nki", *factors, v)``). When every
-    matrix is a signed permutation, :func:`~.truth.rotate` picks and negates the values, which
-    gives the einsum's values exactly, many times faster.
-    """
-    factors = factors or (mount,)
-    if not all(is_signed_permutation(m) for m in factors):
-        spec = "kij,nj->nki" if len(factors) == 1 else "ij,kjl,nl->nki"
-        return np.einsum(spec, *factors, v)
-    return np.stack([rotate(m, v) for m in mount], axis=1)
-
-
-def _chip_registers(mount: np.ndarray, v: np.ndarray, counts: Callable[[np.ndarray], np.ndarray],
-                    full_scale: tuple[int, int], *factors: np.ndarray, ahead: bool = False) -> np.ndarray:
-    """(n, chips, 3) int16: the registers of each chip for the board vectors *v* (n, 3) —
-    ``clip(rint(counts(mount[k] @ v[n])), *full_scale)``, served half a sample ahead when *ahead*
-    (:func:`_half_sample_ahead` of the chips' vectors); *mount* and *factors* as in :func:`_to_chips`.
-
-    When every matrix is a signed permutation, the board's vectors are converted once and then
-    picked and negated for each chip: negating commutes exactly with the mean of two samples, the
-    scaling and the rounding (to nearest, ties to even), so the registers are the same numbers
-    as the chips' vectors converted one by one; only the saturation, whose range is not
-    symmetric, comes after the pick.
-    """
-    if all(is_signed_permutation(m) for m in factors or (mount,)):
-        cols = np.argmax(mount != 0, axis=2)  # (chips, 3): the board axis of each chip axis …
-        signs = np.take_along_axis(mount, cols[..., None], axis=2)[..., 0]  # … and its sign
-        board = np.rint(counts(_half_sample_ahead(v) if ahead else v))
-        chips = board[:, cols.ravel()] * signs.ravel()
-        chips = chips.reshape(len(v), *cols.shape)
-    else:
-        chips = _to_chips(mount, v, *factors)
-        chips = np.rint(counts(_half_sample_ahead(chips) if ahead else chips))
-    return np.clip(chips, *full_scale, out=chips).astype(np.int16)
-
-
 class ReplaySource:
     """A recording served as the raw registers of a replicated 4-chip board (module docstring).
 
@@ -559,9 +514,9 @@ class ReplaySource:
         mount = np.asarray(geometry.mounting, dtype=np.float64)  # (chips, 3, 3)
         n, chips = len(recording), mount.shape[0]
         imu = np.empty((n, chips, 6), dtype=np.int16)
-        imu[..., :3] = _chip_registers(mount, recording.board_acc_g(), partial(accel_counts, config=config),
+        imu[..., :3] = chip_registers(mount, recording.board_acc_g(), partial(accel_counts, config=config),
                                        INT16_RANGE, ahead=True)
-        imu[..., 3:] = _chip_registers(mount, recording.board_gyro(), partial(gyro_counts, config=config),
+        imu[..., 3:] = chip_registers(mount, recording.board_gyro(), partial(gyro_counts, config=config),
                                        INT16_RANGE)
         self.imu = imu
         # magnetometer: gauss → µT; a missing reading holds the previous one (0 before the first)
@@ -575,7 +530,7 @@ class ReplaySource:
             held[missing] = np.where((last >= 0)[:, None], held[np.maximum(last, 0)], 0.0)
         mag_axes = np.asarray(config.mag.axes, dtype=np.float64)
         full_scale = config.mag.full_scale_lsb
-        self.mag = _chip_registers(np.einsum("ij,kjl->kil", mag_axes, mount), held,
+        self.mag = chip_registers(np.einsum("ij,kjl->kil", mag_axes, mount), held,
                                    partial(mag_counts, config=config), (-full_scale, full_scale),
                                    mag_axes, mount)
         self.temp = np.full(chips, temp_to_lsb(config.temperature.reference_c, config), dtype=np.int16)

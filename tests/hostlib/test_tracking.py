@@ -11,13 +11,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from hostlib.events import GapEvent, StepOutcome
+from hostlib.track.step_checks import step_problem
 from hostlib.track.steps import (
     StepTracker,
     counter_delta,
     is_motion_step,
     propagate,
     rotation_z,
-    step_problem,
 )
 
 
