@@ -37,7 +37,7 @@ def chip_registers(mount: np.ndarray, v: np.ndarray, counts: Callable[[np.ndarra
                     full_scale: tuple[int, int], *factors: np.ndarray, ahead: bool = False) -> np.ndarray:
     """(n, chips, 3) int16: the registers of each chip for the board vectors *v* (n, 3) —
     ``clip(rint(counts(mount[k] @ v[n])), *full_scale)``, served half a sample ahead when *ahead*
-    (:func:`_half_sample_ahead` of the chips' vectors); *mount* and *factors* as in :func:`_to_chips`.
+    (``_half_sample_ahead`` of the chips' vectors); *mount* and *factors* as in ``_to_chips``.
 
     When every matrix is a signed permutation, the board's vectors are converted once and then
     picked and negated for each chip: negating commutes exactly with the mean of two samples, the
