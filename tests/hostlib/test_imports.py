@@ -50,7 +50,7 @@ def test_the_events_module_needs_nothing_but_numpy_and_the_standard_library():
     loaded = _third_party_modules_after("import hostlib.events")
     assert loaded["top"] == ["hostlib"]
     assert loaded["hostlib"] == ["hostlib", "hostlib.errors", "hostlib.events", "hostlib.track",
-                                 "hostlib.track.rows", "hostlib.track.steps"]
+                                 "hostlib.track.rows", "hostlib.track.step_checks", "hostlib.track.steps"]
 
 
 def test_summing_steps_loads_no_protocol_decoding_and_no_serial_port():
