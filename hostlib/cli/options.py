@@ -197,7 +197,8 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "1 %% of the angle turned, 20 °/h, and a vertical rate bias settling 0.05 °/s away "
                         "with a warm-up time constant of 120 s, counted from the first step; a drift or "
                         "warm-up of 0 or none: not held), or 'mimu22bt' for a MIMU22BT-class module's from "
-                        "its datasheet (the default with --compass, --gps or two modules), "
+                        "its datasheet (the default, with an aid or without; the warm-up counts only "
+                        "with the fusion set-up's step times), "
                         "'emulated' (also 'emulated-sway') for the "
                         "emulated module's on a real foot's swaying stance (openshoe-emu's default; its "
                         "warm-up from the sensors' physics), or 'emulated-still' for the emulated module "
@@ -205,7 +206,9 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
                         "then grows with the distance, the angle turned and the time walked, as a module's "
                         "systematic errors do; with two modules each foot's module holds its own")
     g.add_argument("--no-module-errors", action="store_true",
-                   help="do not hold the module's errors: the covariance is the steps' own")
+                   help="do not hold the module's errors: the covariance is the steps' own (over-"
+                        "confident: it leaves out the scale, climb, turn scale and warm-up every module "
+                        "has); without an aid, the plain step sum")
     where = "once tracking started" if live else "the capture's"
     g.add_argument("--calibrate-mag", action="store_true",
                    help=f"calibrate the magnetometers in situ (with --compass, one module): {where} wiggle "

@@ -25,7 +25,9 @@ def aids_summary(aids: AidSetup, out: TextIO) -> tuple[float, float, float] | No
     """What the aids did, at the end of a walk; returns the track's geographic origin (the first
     fix's place; None without one)."""
     print(f"aids: {aids.describe()}", file=out)
-    print(fusion_line(aids.tracker), file=out)
+    s = aids.tracker.aid_settings
+    if s.compass or s.gps or isinstance(aids.tracker, TwoFeetTracker):  # one module's errors alone: none
+        print(fusion_line(aids.tracker), file=out)
     return aids.origin if aids.gps_stats is not None else None
 
 

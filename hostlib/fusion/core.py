@@ -134,6 +134,16 @@ class StateFilter:
             found.flags.writeable = False
         return found
 
+    def _rest(self, name: str) -> slice | np.ndarray:
+        """:meth:`others` as a slice where they are one run (block *name* first or last: a view of ``x``
+        and ``P``, not a copy), else as the index array."""
+        block = self.slice(name)
+        if block.start == 0:
+            return slice(block.stop, len(self.x))
+        if block.stop == len(self.x):
+            return slice(0, block.start)
+        return self.others(name)
+
     def row(self, weights: Mapping[str | tuple[str, int], float]) -> np.ndarray:
         """A measurement row ``h`` (n,): *weights* maps a block name (its element 0) or a
         ``(name, k)`` to its coefficient."""
@@ -179,17 +189,18 @@ class StateFilter:
         (:func:`hostlib.fusion.module_errors.through_step`)."""
         from .module_errors import through_step
 
-        b, rest = self.slice(pose), self.others(pose)
-        chi = float(self.x[b][3])
+        b, rest = self.slice(pose), self._rest(pose)
+        chi = float(self.x[b.start + 3])
         f = step_jacobian(chi, dx)
         new, cov = propagate(self.x[b], self.P[b, b], dx, dp, f)
         if errors is None:
             cross = f @ self.P[b, rest]
         else:
             e = self.slice(errors)
-            start = int(np.searchsorted(rest, e.start))  # where the errors sit among the rest
-            new, cov, cross = through_step(new, cov, self.P[b, rest], f, error_jacobian, self.x[rest],
-                                           self.P[np.ix_(rest, rest)], slice(start, start + e.stop - e.start))
+            # where the errors sit among the rest
+            start = e.start - rest.start if isinstance(rest, slice) else int(np.searchsorted(rest, e.start))
+            new, cov, cross = through_step(new, cov, self.P[b, rest], f, error_jacobian, self.x[e],
+                                           self.P[e, rest], slice(start, start + e.stop - e.start))
         self.P[b, rest] = cross
         self.P[rest, b] = cross.T
         self.x[b] = new

@@ -188,6 +188,9 @@ class FootTracker(FusionTracker):
         self.side = side
         self.on_step = on_step
 
+    def _reads_stance(self) -> bool:
+        return True  # the joint filter's compass reads it from each foot's step (FootStep)
+
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *,
                  reading: StanceReading | None = None, time_s: float = math.nan) -> StepOutcome:
         outcome = super().add_step(dx, dp, counter, swing_time, reading=reading, time_s=time_s)

@@ -52,8 +52,8 @@ length, a closed loop's does not. An aid makes them observable (GPS the scale, t
 turns and the drift), and the steps after are corrected by the learned values.
 
 :data:`MIMU22BT` holds the priors of a MIMU22BT-class module worked out from the MPU9150's datasheet
-and the physics of the four-die array, without looking at any walk: the host's default with an aid
-or two feet (:class:`hostlib.run.options.AidOptions`). :data:`EMULATED_MODULE` and
+and the physics of the four-die array, without looking at any walk: the host's default, with an aid or
+without (:class:`hostlib.run.options.AidOptions`). :data:`EMULATED_MODULE` and
 :data:`EMULATED_MODULE_SWAYING` hold the emulated MIMU22BT's, estimated from simulated modules' end
 errors (``python -m lab.accuracy consistency``, the method-of-moments estimate below), for
 experiments on the emulator; another module has its own.
@@ -252,30 +252,29 @@ def error_jacobian(chi: float, dx: np.ndarray, dt: float | None = None, warmup: 
 
 
 def through_step(pose: np.ndarray, cov: np.ndarray, cross: np.ndarray, f: np.ndarray, j: np.ndarray,
-                 rest: np.ndarray, rest_cov: np.ndarray, columns: slice
+                 errors: np.ndarray, errors_cov: np.ndarray, columns: slice
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """One pose of a filter's state through a step with its module's errors held, beside the rest
     of the state, which the step does not change: the pose *pose* and its 4×4 covariance *cov*
     after the summation map (:func:`hostlib.track.steps.propagate`: the step's own dP is in), *cross*
     (4, m) its covariance with the rest before the step, *f* the step's Jacobian F, *j* its
-    :func:`error_jacobian` J, *rest* (m,) and *rest_cov* (m×m) the rest's estimate and covariance,
-    and *columns* where this module's errors [s, c, k, [r]] sit in the rest. Returns the pose, its
-    covariance and its covariance with the rest after the step.
+    :func:`error_jacobian` J, *errors* (k,) the module's errors' estimate, *errors_cov* (k, m) their
+    covariance with the rest, and *columns* where those errors [s, c, k, [r], [w]] sit in the rest.
+    Returns the pose, its covariance and its covariance with the rest after the step.
 
     With A the (4, m) J in those columns, the pose moves by J e (e the errors' estimate: nothing
-    while it is 0), its covariance gains F C Aᵀ + A Cᵀ Fᵀ + A R Aᵀ (C: *cross*, R: *rest_cov*) and
-    cross ← F C + A R (without the errors it would be F C: the rest does not move the pose). One
-    foot's :class:`hostlib.fusion.tracker.FusionTracker` (the rest: its errors, then the aid states) and
+    while it is 0), its covariance gains F C Aᵀ + A Cᵀ Fᵀ + A R Aᵀ (C: *cross*, R: the rest's
+    covariance, of which A reads only the errors' rows, *errors_cov*) and cross ← F C + A R (without
+    the errors it would be F C: the rest does not move the pose). One foot's
+    :class:`hostlib.fusion.tracker.FusionTracker` (the rest: its errors, then the aid states) and
     each foot of :class:`hostlib.fusion.feet.TwoFeetTracker` (the rest: the other foot, both modules'
     errors and the aid states) step through it."""
-    fa = np.zeros((4, len(rest)))
-    fa[:, columns] = j
-    errors = rest[columns]
     if np.any(errors != 0.0):
         pose = pose + j @ errors
-    c = f @ cross @ fa.T
-    p = cov + c + c.T + fa @ rest_cov @ fa.T
-    return pose, 0.5 * (p + p.T), f @ cross + fa @ rest_cov
+    c = f @ (cross[:, columns] @ j.T)  # F C Aᵀ
+    ar = j @ errors_cov  # A R
+    p = cov + c + c.T + ar[:, columns] @ j.T
+    return pose, 0.5 * (p + p.T), f @ cross + ar
 
 
 #: The emulated MIMU22BT's priors: the method-of-moments estimate on 20 simulated modules each of

@@ -214,9 +214,13 @@ class FusionTracker(AidedFilter, StepTracker):
     def add(self, step, swing_time: float = math.nan, states: Mapping[int, np.ndarray] | None = None
             ) -> StepOutcome:
         """Sum one step, then apply the aids its packet's *states* and the queued fixes allow."""
-        reading = stance_reading(states) if states is not None else None
+        reading = stance_reading(states) if states is not None and self._reads_stance() else None
         time_s = self._clock.seconds(states)
         return self.add_step(step.dx, step.dp, step.counter, swing_time, reading=reading, time_s=time_s)
+
+    def _reads_stance(self) -> bool:
+        """Whether a step's packet is read for its stance reading: only the compass uses it."""
+        return self.settings.compass
 
     def add_step(self, dx, dp, counter, swing_time: float = math.nan, *,
                  reading: StanceReading | None = None, time_s: float = math.nan) -> StepOutcome:
@@ -239,7 +243,8 @@ class FusionTracker(AidedFilter, StepTracker):
                                self.calibrated_reading(reading))
         if self.settings.gps:
             self._gps_until(self._time)
-        self._write_track()
+        if self.settings.compass or self.settings.gps:  # else no aid moved the pose _sum appended
+            self._write_track()
         return outcome
 
     def _sum(self, dx: np.ndarray, dp: np.ndarray, counter: int, swing_time: float) -> None:

@@ -13,10 +13,11 @@
   way, and the later fixes are queued as they come;
 * a magnetometer calibration (:class:`hostlib.calibration.magcal.MagCalibration`) is applied to every
   reading; one fitted on another module is refused once the module names itself.
-* the models held by default with an aid or two feet (the module's errors, the compass's local
-  deviation, the receiver's bias: :meth:`AidOptions.resolved <hostlib.run.options.AidOptions.resolved>`)
-  are resolved once, and :meth:`AidSetup.describe`, the ``aids:`` line, says of each whether it is
-  held by default, as given, or turned off.
+* the models held by default (the module's errors, with an aid or without; the compass's local
+  deviation, the receiver's bias and the compass's swing where their aid is used:
+  :meth:`AidOptions.resolved <hostlib.run.options.AidOptions.resolved>`) are resolved once, and
+  :meth:`AidSetup.describe`, the ``aids:`` line, says of each whether it is held by default, as given,
+  or turned off.
 
 :func:`prepare_feet_aids` does the same for a module on each foot: a
 :class:`~hostlib.fusion.feet.TwoFeetTracker` with the aids on the joint filter, each foot's own
@@ -32,6 +33,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import numpy as np
+
 from ..aids.declination import MagneticField, magnetic_field
 from ..aids.geodesy import parse_origin
 from ..aids.gps import GpsFix, NmeaStats, fix_place, fixes_of_log, local_positions, seconds_since
@@ -39,7 +42,7 @@ from ..calibration.drift import DriftCalibration
 from ..fusion.compass_trust import field_check
 from ..fusion.deviation import INDOORS, OUTDOORS, CompassDeviation
 from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
-from ..fusion.module_errors import preset_name
+from ..fusion.module_errors import ModuleErrors, preset_name
 from ..fusion.tracker import FusionSettings, FusionTracker
 from .options import DEFAULTED, AidOptions
 
@@ -77,7 +80,10 @@ class AidSetup:
             parts.append("every reading used (no gate)" if s.compass_gate_sigmas is None else
                          f"readings beyond {s.compass_gate_sigmas:g}σ of their innovation rejected")
             parts += self._compass_trust()
-        parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
+        if s.compass or s.gps:
+            parts.append(f"declination {math.degrees(s.declination_rad):+.2f}° ({self.declination_source})")
+        else:
+            parts.append("no compass or GPS")
         if self.gps_stats is not None:
             parts.append(self.gps_stats.summary())
         if s.gps and s.gps_bias is not None:
@@ -103,7 +109,8 @@ class AidSetup:
                          + (f", heading drift σ {math.degrees(e.heading_drift_sigma) * 3600.0:.3g} °/h"
                             if e.holds_drift else "")
                          + (f", warm-up σ {math.degrees(e.heading_warmup_sigma):.3g} °/s "
-                            f"(τ {e.warmup_tau_s:g} s)" if e.holds_warmup else ""))
+                            f"(τ {e.warmup_tau_s:g} s)" if e.holds_warmup else "")
+                         + self._untimed(e))
         else:
             parts += self._off("module_errors", "module errors")
         return "; ".join(parts)
@@ -131,6 +138,19 @@ class AidSetup:
                          f"an unknown iron of σ {iron.sigma_ut:g} µT per axis, atan(σ / H) with H the "
                          f"horizontal field ({where}){weight} in quadrature with {what}")
         return parts
+
+    def _untimed(self, errors: ModuleErrors) -> str:
+        """What of the module's *errors* its steps could not count: a drift or a warm-up grows with the
+        steps' module times, which only the fusion set-up's packets carry (one module's tracker)."""
+        if not (errors.holds_drift or errors.holds_warmup) or not isinstance(self.tracker, FusionTracker):
+            return ""
+        times = self.tracker.step_times
+        if len(times) == 0 or np.isfinite(times).any():
+            return ""
+        what = " and ".join(w for w, held in (("drift", errors.holds_drift), ("warm-up", errors.holds_warmup))
+                            if held)
+        return (f"; its {what} not counted: no step carried the module's time (the fusion set-up's "
+                f"packets do: --fusion)")
 
     def _why(self, name: str) -> str:
         return " by default" if self.defaulted.get(name) == "by default" else ""

@@ -12,9 +12,12 @@ whenever what they describe is there, unless turned off (None) or given (a model
 word): the option's default :data:`AUTO` stands for them, and :meth:`AidOptions.resolved` says what
 it becomes, in this one place for the command line and the Python API alike:
 
-* the module's systematic errors (:attr:`AidOptions.module_errors`): with the compass, GPS or two
-  feet, the priors of a MIMU22BT-class module from its datasheet
-  (:data:`~hostlib.fusion.module_errors.MIMU22BT`);
+* the module's systematic errors (:attr:`AidOptions.module_errors`): always, with an aid or
+  without, one module or two feet, the priors of a MIMU22BT-class module from its datasheet
+  (:data:`~hostlib.fusion.module_errors.MIMU22BT`). Without an aid they leave the track where the
+  steps put it and widen its covariance as a module's systematic errors grow (the steps' dP alone
+  is over-confident: docs/accuracy.md, "The host's defaults"); the warm-up among them needs the
+  steps' module times, which only the fusion set-up's packets carry;
 * the compass's local deviation (:attr:`AidOptions.compass_deviation`): with the compass, outdoors'
   (:data:`~hostlib.fusion.deviation.OUTDOORS`) when GPS is used, a building's
   (:data:`~hostlib.fusion.deviation.INDOORS`) otherwise;
@@ -114,8 +117,8 @@ class AidOptions:
     gps_interval_s: float | None = None
     #: the module's systematic errors held as states, or their preset's word (:meth:`ModuleErrors.parse
     #: <hostlib.fusion.module_errors.ModuleErrors.parse>`: "mimu22bt", "emulated", "emulated-still");
-    #: :data:`AUTO`: with the compass, GPS or two feet, :data:`~hostlib.fusion.module_errors.MIMU22BT`;
-    #: None: not held
+    #: :data:`AUTO` (the default): :data:`~hostlib.fusion.module_errors.MIMU22BT`, with an aid or without;
+    #: None: not held (the plain step sum without an aid)
     module_errors: ModuleErrors | str | None = AUTO
     #: the one module's magnetometer calibration (or its file)
     mag_calibration: MagCalibration | str | Path | None = None
@@ -153,21 +156,19 @@ class AidOptions:
     @property
     def uses_aids(self) -> bool:
         """Whether one module's tracker needs the fusion filter: a compass, GPS, or the module's errors
-        held though no aid is (given; their default holds them only with an aid). Two feet:
-        ``resolved(feet=True).uses_aids``."""
-        errors = self.module_errors
-        return bool(self.compass or self.uses_gps or (errors is not None and errors != AUTO))
+        held (by default, or given); False only for the plain step sum, every aid and the module's
+        errors off (``module_errors=None``)."""
+        return bool(self.compass or self.uses_gps or self.module_errors is not None)
 
     def resolved(self, feet: bool = False) -> AidOptions:
         """These options with each :data:`AUTO` replaced by the model it stands for (module docstring;
         *feet*: a module on each foot) and each preset's word by its model; None stays None."""
-        held = self.compass or self.uses_gps or feet
         deviation = OUTDOORS if self.uses_gps else INDOORS
         calibrated = self.mag_calibration is not None or bool(self.foot_mag_calibrations)
         iron = CALIBRATED if calibrated else UNCALIBRATED
         return replace(
             self,
-            module_errors=_model(self.module_errors, MIMU22BT if held else None, ModuleErrors.parse),
+            module_errors=_model(self.module_errors, MIMU22BT, ModuleErrors.parse),
             compass_deviation=_model(self.compass_deviation, deviation if self.compass else None,
                                      CompassDeviation.parse),
             hard_iron=_model(self.hard_iron, iron, _no_word("hard_iron", "a HardIron")),

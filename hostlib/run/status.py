@@ -101,8 +101,8 @@ def feet_summary_line(tracker: TwoFeetTracker, devices: Mapping[str, Device],
 def aids_status(aids: AidSetup | None, receiver: GpsStream | None = None) -> str:
     """What the aids did so far, for a status line ("" without them): compass and GPS updates, and
     with a *receiver* read live its fixes and whether it went away."""
-    if aids is None:
-        return ""
+    if aids is None or not (aids.tracker.aid_settings.compass or aids.tracker.aid_settings.gps):
+        return ""  # the module's errors alone: nothing to count
     f = aids.tracker.fusion
     line = f" | compass {f.compass_updates} | GPS {f.gps_updates} updates"
     if receiver is not None:

@@ -1,6 +1,6 @@
-"""The host's defaults with an aid or two feet: the module's errors (a MIMU22BT-class module's
-priors), the compass's local deviation, the receiver's bias and, with one module, the swing a
-calibrated compass gains as the module warms are held (the shoe's hard iron only when asked for);
+"""The host's defaults: the module's errors (a MIMU22BT-class module's priors) with an aid or
+without, and with their aid the compass's local deviation, the receiver's bias and, with one module,
+the swing a calibrated compass gains as the module warms are held (the shoe's hard iron only when asked for);
 each ``--no-…`` switch turns one off; the command line and the Python API resolve them in one
 place (:meth:`hostlib.run.options.AidOptions.resolved`) and the ``aids:`` line says why each is on
 or off."""
@@ -16,6 +16,7 @@ import pytest
 from hostlib.cli import main
 from hostlib.cli.app import build_parser
 from hostlib.cli.options import aid_options
+from hostlib.files.export import read_csv
 from hostlib.fusion.compass_swing import CALIBRATED_SWING, WARMING_SWING
 from hostlib.fusion.deviation import INDOORS, OUTDOORS
 from hostlib.fusion.gps_bias import GpsBias
@@ -33,12 +34,13 @@ def _resolved(options: AidOptions, feet: bool = False) -> tuple:
 
 
 def test_the_defaults_hold_what_the_walk_has():
-    """With no aid one module is the plain step sum; the compass holds the module's errors and a
-    building's deviation; GPS the module's errors and the receiver's bias; both, the open ground's
-    deviation; two feet, each module's errors. The shoe's hard iron is learned only when asked
-    for, its prior by the calibration."""
-    assert AidOptions().module_errors == AUTO and not AidOptions().uses_aids
-    assert _resolved(AidOptions()) == (None, None, None)
+    """With no aid one module holds its errors (its covariance honest, the steps where they are); the
+    compass holds them and a building's deviation; GPS the module's errors and the receiver's bias;
+    both, the open ground's deviation; two feet, each module's errors. The shoe's hard iron is
+    learned only when asked for, its prior by the calibration."""
+    assert AidOptions().module_errors == AUTO and AidOptions().uses_aids
+    assert _resolved(AidOptions()) == (MIMU22BT, None, None)
+    assert not AidOptions(module_errors=None).uses_aids  # the plain step sum
     assert _resolved(AidOptions(), feet=True) == (MIMU22BT, None, None)
     assert _resolved(AidOptions(compass=True)) == (MIMU22BT, INDOORS, None)
     assert _resolved(AidOptions(gps_log="walk.nmea")) == (MIMU22BT, None, GpsBias())
@@ -78,7 +80,8 @@ def test_the_reasons_say_what_is_held_by_default_given_or_turned_off():
     options = AidOptions(compass=True, gps_log="walk.nmea", gps_bias=None, module_errors="emulated")
     assert options.defaulted() == {"module_errors": "given", "compass_deviation": "by default",
                                    "gps_bias": "off", "compass_swing": "by default"}
-    assert AidOptions().defaulted() == {}  # nothing an aid-less walk would hold
+    assert AidOptions().defaulted() == {"module_errors": "by default"}
+    assert AidOptions(module_errors=None).defaulted() == {"module_errors": "off"}
     assert AidOptions().defaulted(feet=True) == {"module_errors": "by default"}
 
 
@@ -156,6 +159,31 @@ def test_two_feet_hold_each_modules_errors_by_default_and_the_plain_fusion_witho
     assert "module errors held by default (mimu22bt)" in aids.describe()
     plain, none = feet_tracker(AidOptions(module_errors=None))
     assert none is None and plain.aids.module_errors is None
+
+
+@pytest.mark.parametrize("setup", [True, False], ids=["fusion set-up", "plain step packets"])
+def test_one_module_without_an_aid_holds_its_errors_and_leaves_every_pose_where_it_was(tmp_path, setup):
+    """``replay`` of one module with no aid holds a MIMU22BT-class module's errors by default: every
+    pose is where the plain step sum puts it (``--no-module-errors``), the height's 1σ grows by the
+    climb over the path, and the ``aids:`` line says what is held and why; plain step packets carry
+    no module time, so it says the warm-up was not counted."""
+    capture = tmp_path / "walk.bin"
+    capture.write_bytes(fusion_capture(rectangle((0.0, 0.0, 0.0)), b"OSEMU-M00000003", with_setup=setup))
+    plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
+    plain_out, held_out = io.StringIO(), io.StringIO()
+    assert main(["replay", str(capture), "--no-module-errors", "--csv", str(plain_csv)], plain_out) == 0
+    assert main(["replay", str(capture), "--csv", str(held_csv)], held_out) == 0
+    assert "aids:" not in plain_out.getvalue()
+    text = held_out.getvalue()
+    assert ("aids: no compass or GPS; module errors held by default (mimu22bt): "
+            "step-length scale σ 0.0013, climb σ 0.002 m/m") in text
+    assert ("warm-up not counted: no step carried the module's time" in text) is not setup
+    assert "fusion:" not in text  # no aid, nothing it did
+    plain, held = read_csv(plain_csv), read_csv(held_csv)
+    np.testing.assert_array_equal(held.poses, plain.poses)
+    path = float(np.hypot(*held.steps[:, :2].T).sum())
+    assert held.covariances[-1, 2, 2] == pytest.approx(plain.covariances[-1, 2, 2]
+                                                       + (MIMU22BT.climb_sigma * path) ** 2, rel=1e-6)
 
 
 def test_the_replay_of_one_module_with_the_compass_holds_the_defaults(tmp_path):

@@ -96,7 +96,7 @@ def test_replay_with_the_module_errors_widens_the_covariance_and_leaves_the_trac
     captures: tests/hostlib/test_feet_module_errors.py)."""
     capture = _capture(tmp_path)
     plain_csv, held_csv = tmp_path / "plain.csv", tmp_path / "held.csv"
-    assert main(["replay", capture, "--csv", str(plain_csv)], io.StringIO()) == 0
+    assert main(["replay", capture, "--no-module-errors", "--csv", str(plain_csv)], io.StringIO()) == 0
     out = io.StringIO()
     assert main(["replay", capture, "--module-errors", "0.001,0.002", "--csv", str(held_csv)], out) == 0
     held_text = "module errors held: step-length scale σ 0.001, climb σ 0.002 m/m, turn scale σ 0"

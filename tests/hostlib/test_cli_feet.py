@@ -117,7 +117,7 @@ def test_two_captures_hold_each_modules_errors_by_default_and_without_them_are_t
     defaults do; --no-module-errors gives the plain two-feet tracker, bit for bit."""
     out, csv_path = io.StringIO(), tmp_path / "feet.csv"
     assert main(["replay", captures["left"], captures["right"], "--csv", str(csv_path)], out) == 0
-    assert "aids: declination +0.00° (none: magnetic headings); module errors held by default (mimu22bt)" \
+    assert "aids: no compass or GPS; module errors held by default (mimu22bt)" \
         in out.getvalue()
     tracker = _fused(captures["left"], captures["right"])
     assert tracker.aids.module_errors == MIMU22BT and tracker.module_errors("left") is not None

@@ -16,7 +16,7 @@ from hostlib.calibration.wiggle import WiggleCalibration
 from hostlib.fusion.deviation import OUTDOORS, WHITE_SIGMA_RAD
 from hostlib.fusion.feet import FeetSettings, TwoFeetTracker
 from hostlib.fusion.gps_bias import GpsBias
-from hostlib.fusion.module_errors import EMULATED_MODULE
+from hostlib.fusion.module_errors import EMULATED_MODULE, MIMU22BT
 from hostlib.fusion.settings import FusionSettings
 from hostlib.link.device import Device
 from hostlib.run import AidOptions, HostSetup, Messages, RunOptions, SessionSetup, TrackingRun, prepare_aids
@@ -34,18 +34,20 @@ def fake_schemes():
 
 
 def test_the_aid_options_set_the_filter_up_as_the_command_line_did():
-    assert AidOptions().fusion_settings() == FusionSettings()
-    assert AidOptions(compass_deviation=OUTDOORS).fusion_settings() == FusionSettings(
+    assert AidOptions().fusion_settings() == FusionSettings(module_errors=MIMU22BT)  # held by default
+    assert AidOptions(module_errors=None).fusion_settings() == FusionSettings()
+    assert AidOptions(compass_deviation=OUTDOORS, module_errors=None).fusion_settings() == FusionSettings(
         compass_sigma_rad=WHITE_SIGMA_RAD, compass_deviation=OUTDOORS)
     options = AidOptions(compass_sigma_deg=5.0, gps_bias=GpsBias(), module_errors=EMULATED_MODULE)
     assert options.fusion_settings() == FusionSettings(compass_sigma_rad=math.radians(5.0),
                                                        gps_bias=GpsBias(), module_errors=EMULATED_MODULE)
     base = FusionSettings(gps_sigma_m=7.0)
-    assert AidOptions(gps_interval_s=2.0, settings=base).fusion_settings() == FusionSettings(
-        gps_sigma_m=7.0, gps_interval_s=2.0)
+    assert AidOptions(gps_interval_s=2.0, settings=base, module_errors=None).fusion_settings() == \
+        FusionSettings(gps_sigma_m=7.0, gps_interval_s=2.0)
     with pytest.raises(ValueError, match="not from both"):
         AidOptions(gps_log="walk.nmea", gps_receiver="/dev/ttyACM0")
-    assert not AidOptions(declination_deg=3.0).uses_aids and AidOptions(gps_receiver="x").uses_aids
+    assert not AidOptions(declination_deg=3.0, module_errors=None).uses_aids
+    assert AidOptions(declination_deg=3.0).uses_aids and AidOptions(gps_receiver="x").uses_aids
 
 
 def test_a_saved_calibration_is_wanted_with_the_compass_and_no_other_calibration():
