@@ -55,7 +55,6 @@ import math
 import os
 import selectors
 import signal
-import subprocess
 import sys
 import threading
 import time
@@ -64,6 +63,7 @@ from typing import Any, TextIO
 
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
+from firmware_sim.transports.pacer.priority import check_level, raise_priority
 from hostlib.web.address import bind_refusal, web_address
 
 from .batch import (
@@ -76,8 +76,12 @@ from .batch import (
 )
 from .control import ControlServer
 from .frame_trace import TraceWriter
+from .serve_process import ServeProcess, parse_ready, spawn
 from .served_gps import GpsPtyEndpoint, GpsSettings, gps_settings, open_gps_pty
 from .served_module import ServedModule
+
+__all__ = ["ServeProcess", "ServeSettings", "add_arguments", "main", "parse_ready", "serve",
+           "settings_from_args", "spawn"]
 
 # --------------------------------------------------------------------------- options
 
@@ -180,6 +184,20 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="a frame starting later than this counts an overrun (default: so late that a "
                         "host could see it: the link's lookahead + latency - one frame, 35 ms on "
                         "Bluetooth with 4-ms frames; one frame on USB or an ideal link)")
+    o.add_argument("--rt-priority", type=_rt_level, metavar="LEVEL",
+                   help="run the modules' loop (and the process's other threads) under the real-time policy "
+                        "SCHED_FIFO at LEVEL (1-99), ahead of every ordinary process: frames on time on a "
+                        "busy machine; needs root or ulimit -r >= LEVEL, else said and run at the ordinary "
+                        "priority (default: ordinary; never with --speed 0)")
+
+
+def _rt_level(text: str) -> int:
+    try:
+        level = int(text)
+        check_level(level)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a real-time level from 1 to 99, not {text!r}") from None
+    return level
 
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).
@@ -223,7 +241,7 @@ class ServeSettings:
 
     Checked when made (:class:`~firmware_sim.transports.factory.SettingsError`). *trace*: a
     file for every frame in and out (the modules record frames only then). *frame_ms*,
-    *overrun_ms*: see ``--frame-ms``, ``--overrun-ms`` (None: the default).
+    *overrun_ms*, *rt_priority*: see ``--frame-ms``, ``--overrun-ms``, ``--rt-priority`` (None: the default).
     """
 
     emulator: EmulatorSettings
@@ -236,6 +254,7 @@ class ServeSettings:
     gps: GpsSettings | None = None  #: a GPS receiver on the walker (:mod:`.served_gps`)
     web: Address | None = None  #: where the live panel listens (:mod:`.web.panel`; None: no panel)
     web_control: bool = False  #: the panel's fault buttons on (through the control channel)
+    rt_priority: int | None = None
 
     def __post_init__(self) -> None:
         if not self.emulator.endpoint_requests():
@@ -265,6 +284,11 @@ class ServeSettings:
         if not (math.isfinite(self.status_interval) and self.status_interval >= 0):
             raise SettingsError("{} is a number of seconds >= 0 (0: no status line)", "status_interval",
                                 got=self.status_interval)
+        try:
+            check_level(self.rt_priority)
+        except ValueError:
+            raise SettingsError("{} is a real-time level from 1 to 99", "rt_priority",
+                                got=self.rt_priority) from None
         self.emulator.check_scenario()
 
 
@@ -288,7 +312,8 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
     return ServeSettings(emulator, control=args.control, trace=args.trace or "", duration=args.duration,
                          status_interval=args.status_interval, frame_ms=args.frame_ms,
                          overrun_ms=args.overrun_ms, gps=gps, web=getattr(args, "web", None),
-                         web_control=getattr(args, "web_control", False))
+                         web_control=getattr(args, "web_control", False),
+                         rt_priority=getattr(args, "rt_priority", None))
 
 
 def cli_option(name: str) -> str:
@@ -353,10 +378,16 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
     rate_hz = served.modules[0].module.clock.rate_hz
     served.loop = MultiPacer([m.pacer for m in served.modules], frame_ticks=frame_ticks(settings, rate_hz),
                              overrun_s=None if settings.overrun_ms is None else settings.overrun_ms / 1000.0,
-                             phases=-(-len(served.modules) // GROUP_MODULES))
+                             phases=-(-len(served.modules) // GROUP_MODULES),
+                             rt_priority=settings.rt_priority)
     served.loop.prepare(announce=lambda text: print(text, file=err, flush=True))
     gc.collect()
     gc.freeze()  # what exists now is never scanned again: no long collections in the loop
+    if settings.rt_priority is not None and settings.emulator.speed not in (0, math.inf):
+        # this thread (control channel, status lines) takes the interpreter's lock between the
+        # loop's frames: at the ordinary priority another process could stop it while it holds it
+        said = raise_priority(settings.rt_priority)
+        print(f"openshoe-emu serve: loop and control at {said}", file=err, flush=True)
     # the status line and the control channel run in this thread: hand the interpreter
     # back to the loop within 0.2 ms, not the default 5 ms (a dozen missed ticks)
     sys.setswitchinterval(2e-4)
@@ -526,75 +557,3 @@ def main(args: argparse.Namespace) -> int:
         print(f"openshoe-emu serve: {exc.spelled(cli_option, with_value=False)}", file=sys.stderr)
         return 2
     return serve(settings)
-
-
-# --------------------------------------------------------------------------- for host-app tests
-
-
-class ServeProcess:
-    """``openshoe-emu serve`` as a subprocess, ready to use (see :func:`spawn`).
-
-    ``ready`` maps the READY line's keys to values (``{"bt-pty": "/tmp/x", …}``).
-    Use as a context manager; :meth:`stop` sends SIGTERM and returns the exit status.
-    """
-
-    def __init__(self, proc: subprocess.Popen, ready: dict[str, str]):
-        self.proc = proc
-        self.ready = ready
-
-    def stop(self, timeout: float = 10.0) -> int:
-        if self.proc.poll() is None:
-            self.proc.send_signal(signal.SIGTERM)
-            try:
-                self.proc.wait(timeout)
-            except subprocess.TimeoutExpired:
-                self.proc.kill()
-                self.proc.wait()
-        if self.proc.stdout is not None:
-            self.proc.stdout.close()
-        return self.proc.returncode
-
-    def __enter__(self) -> ServeProcess:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        self.stop()
-
-    def __repr__(self) -> str:
-        return f"ServeProcess(pid {self.proc.pid}, {self.ready})"
-
-
-def parse_ready(line: str) -> dict[str, str]:
-    """``READY k=v k=v`` → {k: v}; ValueError for anything else."""
-    words = line.split()
-    if not words or words[0] != "READY":
-        raise ValueError(f"not a READY line: {line!r}")
-    return dict(w.split("=", 1) for w in words[1:])
-
-
-def spawn(*serve_args: str, timeout: float = 20.0, stderr: Any = subprocess.DEVNULL,
-          python: str = sys.executable, env: dict[str, str] | None = None) -> ServeProcess:
-    """Start ``openshoe-emu serve *serve_args*`` and wait (at most *timeout* s) for its READY line.
-
-    *env*: the process's environment (default: this one's)."""
-    proc = subprocess.Popen([python, "-m", "firmware_sim.app.cli", "serve", *serve_args],
-                            stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL, env=env)
-    assert proc.stdout is not None
-    fd = proc.stdout.fileno()
-    os.set_blocking(fd, False)
-    buf = b""
-    deadline = time.monotonic() + timeout
-    with selectors.DefaultSelector() as sel:
-        sel.register(fd, selectors.EVENT_READ)
-        while b"\n" not in buf:
-            left = deadline - time.monotonic()
-            if left <= 0 or proc.poll() is not None:
-                proc.kill()
-                proc.wait()
-                why = f"exited with {proc.returncode}" if left > 0 else f"no READY line within {timeout} s"
-                raise RuntimeError(f"openshoe-emu serve {' '.join(serve_args)}: {why}; stdout {buf!r}")
-            if sel.select(min(left, 0.2)):
-                chunk = os.read(fd, 4096)
-                buf += chunk
-    os.set_blocking(fd, True)
-    return ServeProcess(proc, parse_ready(buf.split(b"\n", 1)[0].decode()))

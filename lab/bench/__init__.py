@@ -7,8 +7,10 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
   on a simulated walk, compiled and pure Python on the same input, side by side;
   target 340 000 samples/s on one core. Under a minute.
 * ``realtime`` — ``--modules`` (50) modules at 1 kHz in two ``openshoe-emu serve``
-  processes (one per core), each on its own pty with a host that starts step-wise dead
-  reckoning and acknowledges every step, for ``--minutes`` (10); target: no overrun.
+  processes (one per core; their loops at real-time priority ``--rt-priority``, 10), each on its
+  own pty with a host that starts step-wise dead reckoning and acknowledges every step, for
+  ``--minutes`` (10); target: no overrun. Per process: its loop's priority, the seconds it waited
+  for a CPU, the garbage collector's runs, its CPU per module and tick; the machine's load.
 * ``latency`` — one module served in real time on a pty: time from a command written on
   the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 1 ms.
 * ``files`` — ``--walks`` (100) walk files through one ``openshoe-emu replay`` command, start-up
@@ -114,6 +116,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="realtime, hostile: wall minutes of load (default 10)")
     p.add_argument("--frame-ms", type=float,
                    help="realtime: serve's --frame-ms (default: serve's own default for several modules)")
+    p.add_argument("--rt-priority", type=int, default=10, metavar="LEVEL",
+                   help="realtime: the serve processes' loops at this real-time priority (serve's "
+                        "--rt-priority; default 10; 0: the ordinary priority)")
     p.add_argument("--pings", type=int, default=2000, help="latency: commands sent (default 2000)")
     p.add_argument("--cycles", type=float, default=FULL_CYCLES,
                    help="memory: loop cycles (default 86.4e6 = 24 h at 1 kHz)")
@@ -166,7 +171,7 @@ def main(argv: list[str] | None = None) -> int:
             r = t.bench_batch(args.walk_s, _say)
         elif name == "realtime":
             r = t.bench_realtime(modules, args.processes, args.minutes, _say, frame_ms=args.frame_ms,
-                                 quiet=args.quiet)
+                                 quiet=args.quiet, rt_priority=args.rt_priority or None)
         elif name == "hostile":
             from .hostile import bench_hostile
 

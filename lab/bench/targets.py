@@ -255,9 +255,11 @@ class _RealtimePlan:
     frame_len: float  #: serve's --frame-ms
     scenario: str
     short: bool  #: shorter or smaller than the full target
+    rt_priority: int | None = None  #: serve's --rt-priority (None: the ordinary priority)
 
 
-def _realtime_plan(modules: int, processes: int, minutes: float, frame_ms: float | None) -> _RealtimePlan:
+def _realtime_plan(modules: int, processes: int, minutes: float, frame_ms: float | None,
+                   rt_priority: int | None = None) -> _RealtimePlan:
     from firmware_sim.app.serve import MANY_MODULES_FRAME_MS
 
     frame_len = frame_ms if frame_ms is not None else (MANY_MODULES_FRAME_MS if modules > processes else 1.0)
@@ -265,20 +267,45 @@ def _realtime_plan(modules: int, processes: int, minutes: float, frame_ms: float
     walk_s = minutes * 60 + 30
     scenario = f"stand:3+walk:{walk_s:g}" if walk_s <= 180 else "stand:3+walk:177"
     short = minutes < REALTIME_MINUTES or modules < 50
-    return _RealtimePlan(modules, minutes, per, frame_len, scenario, short)
+    return _RealtimePlan(modules, minutes, per, frame_len, scenario, short, rt_priority)
 
 
 def _spawn_serves(plan: _RealtimePlan, procs: list[ServeProcess], say: Say) -> None:
-    """One serve process per entry of ``plan.per``, each appended to *procs* once READY."""
+    """One serve process per entry of ``plan.per``, started together (each builds its modules on a
+    core of its own, and the first ready runs its clock alone for less time), appended to *procs* in
+    order once all are READY."""
+    from concurrent.futures import ThreadPoolExecutor
+
     from firmware_sim.app.serve import spawn
 
     tag = f"/tmp/openshoe-bench-{os.getpid()}"
-    for k, m in enumerate(plan.per):
-        t = time.monotonic()
-        procs.append(spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", plan.scenario,
-                           "--control", "127.0.0.1:0", "--status-interval", "10",
-                           "--frame-ms", f"{plan.frame_len:g}", timeout=600))
+    priority = () if plan.rt_priority is None else ("--rt-priority", str(plan.rt_priority))
+    t = time.monotonic()
+
+    def one(k: int, m: int) -> ServeProcess:
+        sp = spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", plan.scenario,
+                   "--control", "127.0.0.1:0", "--status-interval", "10",
+                   "--frame-ms", f"{plan.frame_len:g}", *priority, timeout=600)
         say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
+        return sp
+
+    with ThreadPoolExecutor(len(plan.per)) as pool:
+        futures = [pool.submit(one, k, m) for k, m in enumerate(plan.per)]
+        errors = []
+        for fut in futures:  # every one kept, to be stopped, when another failed
+            try:
+                procs.append(fut.result())
+            except Exception as exc:  # noqa: BLE001 - raised below
+                errors.append(exc)
+    if errors:
+        raise errors[0]
+
+
+def _cpu_s(pid: int) -> float:
+    """CPU seconds process *pid* used so far (all its threads, user and system)."""
+    with open(f"/proc/{pid}/stat") as f:
+        fields = f.read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 @dataclass
@@ -345,6 +372,8 @@ class _ServeStatus:
     lag_max: dict[str, float] = field(default_factory=dict)
     lag_frames: dict[str, int] = field(default_factory=dict)  #: frames by lateness class, all modules
     loop_us: list[float] = field(default_factory=list)
+    #: per process: its loop's priority, seconds it waited for a CPU, the GC's runs and longest [ms]
+    stalls: dict[int, dict[str, Any]] = field(default_factory=dict)
 
     def add(self, process: int, st: dict[str, Any]) -> None:
         """One module's ``status json`` line from serve process *process*."""
@@ -357,6 +386,8 @@ class _ServeStatus:
         self.loop_us.append(st["loop_us_mean"])
         for cls, n in st["lag_frames"].items():
             self.lag_frames[cls] = self.lag_frames.get(cls, 0) + n
+        self.stalls[process] = {"priority": st.get("priority", "?"), "cpu_wait_s": st.get("run_queue_wait_s"),
+                                "gc_runs": st.get("gc_runs"), "gc_longest_ms": st.get("gc_longest_ms")}
 
 
 def _serve_status(procs: list[ServeProcess]) -> _ServeStatus:
@@ -391,7 +422,8 @@ def _realtime_details(plan: _RealtimePlan, status: _ServeStatus, steps: dict[str
             "modules_with_steps": sum(1 for n in steps.values() if n > 0),
             "steps_total": sum(steps.values()), "single_loop_us_per_module_tick": round(per_tick, 1),
             "loop_us_mean": round(statistics.mean(status.loop_us), 1) if status.loop_us else None,
-            "overruns": overruns, "late_bytes": status.late_bytes, "steps": steps}
+            "overruns": overruns, "late_bytes": status.late_bytes, "steps": steps,
+            "loops": {f"p{k}": v for k, v in sorted(status.stalls.items())}}
 
 
 def _realtime_result(plan: _RealtimePlan, status: _ServeStatus, details: dict[str, Any], say: Say) -> Result:
@@ -405,23 +437,37 @@ def _realtime_result(plan: _RealtimePlan, status: _ServeStatus, details: dict[st
     say(f"realtime: bytes that reached a host later than the link model says (by more than one frame): "
         f"{d['late_bytes_total']}, worst {max(status.late_max.values(), default=0.0):.1f} ms late")
     say(f"realtime: frames by lateness: {' '.join(f'{k} {v}' for k, v in status.lag_frames.items())}")
+    for name, loop in d.get("loops", {}).items():
+        wait, cpu = loop.get("cpu_wait_s"), loop.get("cpu_us_per_module_tick")
+        waited = "?" if wait is None else f"{wait:.2f}"
+        used = "?" if cpu is None else f"{cpu:.1f}"
+        say(f"realtime: {name}: loop at {loop['priority']}, waited {waited} s for a CPU, GC ran "
+            f"{loop['gc_runs']} times (longest {loop['gc_longest_ms'] or 0:.1f} ms), {used} µs of CPU per "
+            "module and tick")
     figure = min(ok, stepping)
     return Result("realtime", figure, "modules without overrun", float(plan.modules), passed=figure >= 50,
                   short=plan.short, details=details)
 
 
 def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
-                   frame_ms: float | None = None, quiet: bool = False) -> Result:
-    """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty."""
-    plan = _realtime_plan(modules, processes, minutes, frame_ms)
+                   frame_ms: float | None = None, quiet: bool = False,
+                   rt_priority: int | None = None) -> Result:
+    """*modules* in *processes* serve processes at 1 kHz, each stepping over its own pty (their loops
+    at real-time priority *rt_priority*, if given and allowed)."""
+    plan = _realtime_plan(modules, processes, minutes, frame_ms, rt_priority)
     say(f"realtime: {modules} modules in {processes} serve processes {plan.per}, {minutes:g} min, "
-        f"frames of {plan.frame_len:g} ms, scenario {plan.scenario} (after it the last sample is held)")
+        f"frames of {plan.frame_len:g} ms, scenario {plan.scenario} (after it the last sample is held), "
+        f"loops at {'the ordinary priority' if rt_priority is None else f'real-time priority {rt_priority}'}")
     procs: list[ServeProcess] = []
     hosts: dict[int, _Host] = {}
+    load = [os.getloadavg()[0]]
     try:
         _spawn_serves(plan, procs, say)
         _open_hosts(procs, hosts)
+        cpu0, t0 = [_cpu_s(sp.proc.pid) for sp in procs], time.monotonic()
         _drive_hosts(hosts, minutes, say, quiet)
+        cpu1, t1 = [_cpu_s(sp.proc.pid) for sp in procs], time.monotonic()
+        load.append(os.getloadavg()[0])
         status = _serve_status(procs)
     finally:
         for fd in hosts:
@@ -429,10 +475,18 @@ def bench_realtime(modules: int, processes: int, minutes: float, say: Say,
         for sp in procs:
             sp.stop()
     steps = {f"p{h.proc}.{h.name}": h.steps for h in hosts.values()}
+    for k, m in enumerate(plan.per):  # the serve process's CPU over the run, whatever else the machine ran
+        loop = status.stalls.setdefault(k, {"priority": "?", "cpu_wait_s": None, "gc_runs": None,
+                                            "gc_longest_ms": None})
+        loop["cpu_us_per_module_tick"] = round((cpu1[k] - cpu0[k]) / ((t1 - t0) * 1000 * m) * 1e6, 2)
+    say(f"realtime: machine load (1-min average) {load[0]:.1f} before the serve processes, "
+        f"{load[1]:.1f} at the end")
     per_tick = single_loop_cost_us()
     say(f"realtime: one thread stepping modules needs {per_tick:.1f} µs per module and tick "
         f"(≈ {1000 / per_tick:.0f} modules per core at 1 kHz, before pacing and pty I/O)")
-    return _realtime_result(plan, status, _realtime_details(plan, status, steps, per_tick), say)
+    details = _realtime_details(plan, status, steps, per_tick)
+    details["load_1min"] = [round(x, 2) for x in load]
+    return _realtime_result(plan, status, details, say)
 
 
 def bench_latency(pings: int, say: Say, quiet: bool = False) -> Result:

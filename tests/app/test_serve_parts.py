@@ -244,3 +244,16 @@ def test_serve_settings_refuse_bad_values_by_name():
     with pytest.raises(SettingsError, match="frame_ms must be >= 0, got -1.0") as caught:
         ServeSettings(EmulatorSettings(pty="/tmp/p"), frame_ms=-1.0)
     assert caught.value.options == ("frame_ms",)
+
+
+def test_the_real_time_priority_is_a_level_from_1_to_99():
+    from firmware_sim.app.serve import ServeSettings, settings_from_args
+    from firmware_sim.transports.factory import EmulatorSettings, SettingsError
+
+    assert settings_from_args(serve_args("--pty", "/tmp/p", "--rt-priority", "20")).rt_priority == 20
+    assert settings_from_args(serve_args("--pty", "/tmp/p")).rt_priority is None
+    with pytest.raises(SettingsError, match="rt_priority is a real-time level from 1 to 99") as caught:
+        ServeSettings(EmulatorSettings(pty="/tmp/p"), rt_priority=100)
+    assert caught.value.options == ("rt_priority",)
+    with pytest.raises(SystemExit):
+        serve_args("--pty", "/tmp/p", "--rt-priority", "0")

@@ -13,7 +13,9 @@ from firmware_sim.nav.warmup import Announce, prepare_module, to_stderr
 
 from .endpoints import Endpoint
 from .member import PacedModule
+from .priority import check_level
 from .run_loop import RunLoop
+from .stalls import GcPauses
 from .status import PacerStatus
 
 
@@ -46,11 +48,14 @@ class MultiPacer:
     *frame_ticks*: ticks a module runs per
     wake-up (see the package doc). *overrun_s*: a frame later than this (in module time)
     counts an overrun; None = later than a host could see (the package doc; at least one frame).
+    *rt_priority*: run the loop's thread under the real-time policy at this level (1–99) when paced
+    to the wall clock (:mod:`.priority`; None, the default: the ordinary priority); :attr:`priority`
+    says what it got.
     """
 
     def __init__(self, pacers: Iterable[PacedModule], idle_pump_s: float = 0.005,
                  spin_load: float | None = None, phases: int | None = None, frame_ticks: int = 1,
-                 overrun_s: float | None = None):
+                 overrun_s: float | None = None, rt_priority: int | None = None):
         self.pacers: list[PacedModule] = list(pacers)
         if not self.pacers:
             raise ValueError("a MultiPacer needs at least one module")
@@ -60,6 +65,7 @@ class MultiPacer:
             raise ValueError(f"frame_ticks must be >= 1, got {frame_ticks}")
         if overrun_s is not None and not overrun_s >= 0:
             raise ValueError(f"overrun_s must be >= 0, got {overrun_s}")
+        check_level(rt_priority)
         _check_members(self.pacers, self)
         first = self.pacers[0]
         for p in self.pacers:
@@ -72,6 +78,11 @@ class MultiPacer:
         self.phases = phases
         self.frame_ticks = int(frame_ticks)
         self.overrun_s = overrun_s
+        self.rt_priority = rt_priority
+        #: the loop thread's scheduling once it runs (:func:`.priority.raise_priority`)
+        self.priority = "normal"
+        self.thread_id: int | None = None  #: the loop thread's native id while it runs
+        self.gc_pauses = GcPauses()  #: the garbage collector's runs while the loop runs
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._prepared = False

@@ -14,6 +14,7 @@ from firmware_sim.nav.warmup import Announce, to_stderr
 from protocol.states import state_spec
 
 from .endpoints import Endpoint, links_of
+from .stalls import GcPauses, run_queue_wait_s
 from .status import LAG_BOUNDS_MS, LAG_LABELS, PacerStatus
 from .waits import TickWaits
 
@@ -40,6 +41,9 @@ class Loop(Protocol):
     t_start: float
     speed: float
     frame_ticks: int
+    priority: str
+    thread_id: int | None
+    gc_pauses: GcPauses
 
     def start(self, announce: Announce | None = ...) -> object: ...
 
@@ -235,6 +239,10 @@ class PacedModule:
             packets={i.name: i.packets_assembled for i in m.interface_list},
             queue={i.name: len(i.queue) for i in m.interface_list},
             endpoints=eps,
+            priority=g.priority,
+            run_queue_wait_s=run_queue_wait_s(g.thread_id),
+            gc_runs=g.gc_pauses.count,
+            gc_longest_ms=g.gc_pauses.longest * 1e3,
         )
 
     def __repr__(self) -> str:

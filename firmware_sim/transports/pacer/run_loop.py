@@ -12,9 +12,11 @@ from firmware_sim.nav.lockstep import Lockstep
 from .endpoints import links_of, lookahead_cycles
 from .host_clock import HostClock
 from .member import PacedModule, lag_class
+from .priority import lower_priority, raise_priority
 from .pumps import Pumps
 from .release import Releases
 from .schedule import Schedule
+from .stalls import GcPauses
 from .status import LAG_BOUNDS_MS
 
 #: How far [ticks] past its last timer interrupt a module that does not run ahead (no link latency)
@@ -34,6 +36,10 @@ class RunOwner(Protocol):
     phases: int | None
     frame_ticks: int
     overrun_s: float | None
+    rt_priority: int | None
+    priority: str
+    thread_id: int | None
+    gc_pauses: GcPauses
     running: bool
     t_start: float
     error: BaseException | None
@@ -102,9 +108,14 @@ class RunLoop:
         t0 = self.sched.t0 = self.owner.t_start = self.perf()
         self.end = None if self.duration_s is None else t0 + self.duration_s
         self.owner.running = True
+        self.owner.thread_id = threading.get_native_id()
+        self.owner.gc_pauses.watch()
         for p in self.members:
             p.waits.begin()
         if not self.sched.asap:
+            # real time only: a loop as fast as possible never sleeps, and would keep a core from
+            # every other process
+            self.owner.priority = raise_priority(self.owner.rt_priority)
             self._clock_links()
 
     def _clock_links(self) -> None:
@@ -129,6 +140,10 @@ class RunLoop:
 
     def _close(self) -> None:
         self.owner.running = False
+        self.owner.thread_id = None
+        self.owner.gc_pauses.unwatch()
+        if self.owner.priority.startswith("SCHED_FIFO"):
+            lower_priority()  # the thread may be the caller's (run() blocks in it)
         self.releases.detach()  # back on the module's clock
         self.pumps.close()
         for p in self.members:

@@ -40,6 +40,13 @@ class PacerStatus:
     packets: dict[str, int] = field(default_factory=dict)  #: packets assembled per interface
     queue: dict[str, int] = field(default_factory=dict)  #: frames in each interface's queue
     endpoints: list[dict[str, Any]] = field(default_factory=list)
+    #: the loop thread's scheduling, e.g. "SCHED_FIFO 10" or "normal" (:mod:`.priority`)
+    priority: str = "normal"
+    #: seconds the loop's thread (every module of the loop) was runnable but waited for a CPU
+    #: since it started (None: not known, or the loop is not running)
+    run_queue_wait_s: float | None = None
+    gc_runs: int = 0  #: the garbage collector's runs while the loop ran (each stops the loop)
+    gc_longest_ms: float = 0.0  #: the longest of them
 
     def line(self) -> str:
         """One status line, e.g. for a terminal."""
