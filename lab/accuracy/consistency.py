@@ -14,6 +14,16 @@ has mean = dof when ``P`` is the error's covariance. Over N seeds the mean of ε
 √(mean ε / dof) says by how much the covariance is off: above 1 the track is over-confident (its
 1σ too small by that factor), below 1 pessimistic.
 
+**The default host.** Each run is also replayed by the host as ``openshoe-host replay`` does by
+default (:class:`hostlib.run.options.AidOptions` as it comes: one module without an aid holds the
+module's errors at a MIMU22BT-class module's datasheet priors,
+:data:`hostlib.fusion.module_errors.MIMU22BT`); its end covariance gives the ``host_`` columns, and
+:func:`summary_lines` leads with its mean ε against the expected 2 (horizontal) and 1 (height,
+heading), a factor of 2 either way allowed. The bytes are the fusion set-up's, whose steps carry
+the module's time; plain 0x34 packets carry none, so a host given them cannot count the warm-up:
+that host's NEES is the same priors without the warm-up (:func:`nees_with_module_errors`, the
+warm-up's column of the Jacobian unused), shown beside it.
+
 **Inflating on the host.** ``P`` is linear in the steps' dP (the summation starts from P = 0), so a
 host that multiplied every dP by k² would end with k² P and the mean NEES divided by k². A constant
 k for a module is only worth having if it holds across routes: :func:`summary_lines` estimates it
@@ -98,6 +108,8 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     from hostlib.files.replay import replay_bytes, replay_session
     from hostlib.fusion.module_errors import EMULATED_MODULE_SWAYING, ModuleErrors
     from hostlib.fusion.tracker import FusionSettings, FusionTracker
+    from hostlib.run.aid_setup import prepare_aids
+    from hostlib.run.options import AidOptions
 
     from .runs import fusion_capture
 
@@ -105,7 +117,8 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     source = make_source(scenario, seed=seed, stance_sway=sway[0] if sway else None)
     # the fusion set-up's bytes: the same steps as the plain one's, each with its module time
     data = fusion_capture(source)
-    track, _ = replay_bytes(data)
+    track, _ = replay_bytes(data)  # the plain step sum: the steps' own dP
+    host = replay_session(data, tracker=prepare_aids(AidOptions()).tracker).tracker.track  # the default host
     # the end pose's Jacobian with respect to the module's errors: their cross-covariance with the
     # pose when held with unit priors (the estimate does not move without an aid; the warm-up's
     # with the emulated module's time constant)
@@ -115,8 +128,11 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
     truth = source.truth
     e = track.final_pose[:3] - truth.stances_in_start_frame()[-1]
     e_chi = math.remainder(float(track.final_pose[3]) - truth.heading_change(), 2.0 * math.pi)
+    if not np.array_equal(host.final_pose, track.final_pose):
+        raise AssertionError(f"{scenario} seed {seed}: the default host moved the track without an aid")
     p = track.final_covariance
     sigma = np.sqrt(np.diagonal(p))
+    host_sigma = np.sqrt(np.diagonal(host.final_covariance))
     d = track.final_pose[:2] - track.poses[0][:2]
     return {"scenario": scenario, "seed": seed, "stance_sway": source.trajectory.stance_sway is not None,
             "steps": track.motion_steps, "distance_m": track.distance,
@@ -129,7 +145,17 @@ def consistency_run(job: tuple[str, int] | tuple[str, int, bool | None]) -> dict
             "e_heading_deg": math.degrees(e_chi),
             "sigma_north_m": float(sigma[0]), "sigma_east_m": float(sigma[1]),
             "sigma_down_m": float(sigma[2]), "sigma_heading_deg": math.degrees(float(sigma[3])),
-            "nees_h": float(e[:2] @ np.linalg.solve(p[:2, :2], e[:2])),
+            **_nees(e, e_chi, p),
+            "host_sigma_north_m": float(host_sigma[0]), "host_sigma_east_m": float(host_sigma[1]),
+            "host_sigma_down_m": float(host_sigma[2]),
+            "host_sigma_heading_deg": math.degrees(float(host_sigma[3])),
+            **{f"host_{key}": v for key, v in _nees(e, e_chi, host.final_covariance).items()}}
+
+
+def _nees(e: np.ndarray, e_chi: float, p: np.ndarray) -> dict[str, float]:
+    """The horizontal, height and heading NEES of the end error *e* (n, e, d) and *e_chi* against
+    the end covariance *p* (4×4)."""
+    return {"nees_h": float(e[:2] @ np.linalg.solve(p[:2, :2], e[:2])),
             "nees_z": float(e[2] ** 2 / p[2, 2]), "nees_chi": e_chi ** 2 / float(p[3, 3])}
 
 
@@ -247,7 +273,9 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     scenarios = list(dict.fromkeys(r["scenario"] for r in rows))
     by = {s: [r for r in rows if r["scenario"] == s] for s in scenarios}
     n = min(len(v) for v in by.values())
-    lines = [f"mean NEES / dof over {n} seeds (consistent: 1, 95 % interval "
+    lines = _default_host_lines(by) + [
+             f"the plain step sum (--no-module-errors: the steps' dP alone): mean NEES / dof over {n} seeds "
+             "(consistent: 1, 95 % interval "
              + ", ".join(f"{w} [{lo:.2f}, {hi:.2f}]" for w, (lo, hi) in
                          (("2 dof", nees_interval(n, 2)), ("1 dof", nees_interval(n, 1)))) + ")",
              f"{'scenario':10s} {'steps':>6} {'m':>7}  {'horizontal':>10} {'height':>8} {'heading':>8}   "
@@ -283,6 +311,33 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
         lines += _held_lines(by, flat, swaying,
                              f"the gyros' warm-up held too, at its sensors' prior (σ_w {sigma_w:.3g} °/s, "
                              f"τ {swaying.warmup_tau_s:g} s; not estimated), and the four beside it")
+    return lines
+
+
+def _default_host_lines(by: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """Per route the default host's mean ε (module docstring) against the expected dof, on the fusion
+    set-up's packets (the warm-up counted) and, from the same runs, on plain packets (it cannot be);
+    nothing for rows without the host's columns."""
+    from dataclasses import replace
+
+    from hostlib.fusion.module_errors import MIMU22BT
+
+    if not all("host_nees_h" in r for rows in by.values() for r in rows):
+        return []
+    untimed = replace(MIMU22BT, heading_warmup_sigma=0.0)
+    n = min(len(v) for v in by.values())
+    lines = [f"the default host (the module's errors held at mimu22bt's priors): mean ε over {n} seeds, "
+             "expected 2 / 1 / 1 (h / z / χ), within a factor of 2 either way?",
+             f"{'scenario':10s} {'fusion set-up (times): h / z / χ':>34}   "
+             f"{'plain packets (no warm-up): h / z / χ':>40}"]
+    for s, group in by.items():
+        timed = [float(np.mean([r[f"host_nees_{w}"] for r in group])) for w in DOF]
+        plain = np.mean([nees_with_module_errors(r, untimed) for r in group], axis=0)
+        cells = []
+        for means in (timed, plain):
+            ok = all(0.5 <= m / DOF[w] <= 2.0 for m, w in zip(means, DOF, strict=True))
+            cells.append(" / ".join(f"{m:5.2f}" for m in means) + ("  yes" if ok else "  NO "))
+        lines.append(f"{s:10s} {cells[0]:>34}   {cells[1]:>40}")
     return lines
 
 

@@ -65,12 +65,27 @@ def test_a_simulated_walk_gives_its_end_error_and_nees():
     assert np.hypot(row["d_north_m"], row["d_east_m"]) < 1.0 and row["p_zz"] > 0.0  # a loop ends at its start
 
 
+def test_the_default_host_holds_the_mimu22bt_priors_and_is_wider_than_the_plain_sum():
+    """The default host's covariance (``openshoe-host replay`` as it comes) is the plain sum's plus
+    the MIMU22BT-class module's errors through the run's Jacobian: its NEES is what the priors give
+    by the Jacobian, and no larger than the plain sum's."""
+    from hostlib.fusion.module_errors import MIMU22BT
+
+    row = consistency_run(("walk", 3))
+    expected = nees_with_module_errors(row, MIMU22BT)
+    for w, value in zip(DOF, expected, strict=True):
+        assert row[f"host_nees_{w}"] == pytest.approx(value, rel=1e-6)
+        assert row[f"host_nees_{w}"] <= row[f"nees_{w}"]
+    assert row["host_sigma_down_m"] > row["sigma_down_m"]  # the climb over 100 m
+
+
 def test_the_command_writes_its_table(tmp_path):
     out = io.StringIO()
     argv = ["consistency", "--seeds", "0:2", "--workers", "0", "--out", str(tmp_path)]
     assert main(argv, out) == 0
     text = out.getvalue()
     assert "mean NEES / dof over 2 seeds" in text
+    assert "the default host (the module's errors held at mimu22bt's priors): mean ε over 2 seeds" in text
     assert all(s in text for s in ("walk", "rectangle", "default"))
     assert (tmp_path / "consistency.csv").read_text().count("\n") == 1 + 3 * 2
 
