@@ -76,9 +76,12 @@ async def _walk_and_disconnect(srv, host) -> None:
         assert "ZUPT_UPDATE" in await panel.evaluate(_text("slots-0")), "the running process functions"
 
         walk = await browser.page(host.url)  # opened late: the whole walk so far
-        first = await walk.wait("liveMirror.values.body && liveMirror.renders > 0 && liveMirror.values.body")
-        points = await walk.evaluate(TRACK_POINTS)
-        assert points == first["steps"] + 1 or points == SERIES_CAPS["track"], "every step since the start"
+        # the body and the track as drawn by one render (the mirror may hold news not yet drawn)
+        first = await walk.wait("liveMirror.drawnSeq === liveMirror.seq && liveMirror.values.body && "
+                                f"{{steps: liveMirror.values.body.steps, points: {TRACK_POINTS}}}")
+        points = first["points"]
+        assert points == first["steps"] + 1 or points == SERIES_CAPS["track"], ("every step since the start",
+                                                                                first)
         assert await walk.evaluate("liveMirror.series.track[0][0]") == 0
         await walk.wait(f"{TRACK_POINTS} > {points} && {_path('foot-left')}.length > 0", WAIT_S)
         counters = await walk.wait("[...document.querySelectorAll('#links tbody tr')].length === 2 && "
@@ -144,7 +147,8 @@ def test_without_web_control_the_panels_buttons_are_off(tmp_path):
 async def _long_walk(url: str, model) -> None:
     async with Browser() as browser:
         walk = await browser.page(url)
-        await walk.wait(f"liveMirror.series.track.length === {len(model.points('track'))}")
+        await walk.wait(f"liveMirror.drawnSeq === liveMirror.seq && "
+                        f"liveMirror.series.track.length === {len(model.points('track'))}")
         drawn = await walk.evaluate("({elements: document.querySelectorAll('#plan *').length, "
                                     f"points: {TRACK_POINTS}, "
                                     "ellipses: document.querySelectorAll('#plan ellipse').length})")
@@ -153,7 +157,8 @@ async def _long_walk(url: str, model) -> None:
         seq = await walk.evaluate("liveMirror.seq")
         model.update(append={"track": [[k, k * 0.7, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, k * 0.7]
                                        for k in range(3601, 3700)]})
-        await walk.wait(f"liveMirror.seq > {seq} && liveMirror.series.track.at(-1)[0] === 3699")
+        await walk.wait(f"liveMirror.drawnSeq === liveMirror.seq && liveMirror.seq > {seq} && "
+                        "liveMirror.series.track.at(-1)[0] === 3699")
         assert await walk.evaluate(TRACK_POINTS) <= SERIES_CAPS["track"]
 
 

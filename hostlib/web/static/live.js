@@ -110,17 +110,20 @@ const Live = (() => {
   /**
    * Connect to the server's events and mirror its model; `render(mirror)` runs once per animation
    * frame after news (bursts share one). The mirror holds `series`, `values`, `seq`, `connected`,
-   * the latencies of the steps drawn (`latencies`, bounded) and `renders`. Each render dispatches a
-   * "live-rendered" event on document.
+   * the latencies of the steps drawn (`latencies`, bounded), `renders` and `drawnSeq`, the `seq` the
+   * page last drew (the mirror may hold newer news than the page shows until the next render: a
+   * test of what is drawn waits for `drawnSeq === seq`). Each render dispatches a "live-rendered"
+   * event on document.
    */
   function start(render, {onConnection = () => {}} = {}) {
-    const mirror = {series: {}, values: {}, seq: -1, connected: false, renders: 0, latencies: [],
-                    pendingArrivals: []};
+    const mirror = {series: {}, values: {}, seq: -1, connected: false, renders: 0, drawnSeq: null,
+                    latencies: [], pendingArrivals: []};
     let scheduled = false;
     const draw = () => {
       if (!scheduled) return;  // drawn already (by the frame or by the timer, whichever came first)
       scheduled = false;
       render(mirror);
+      mirror.drawnSeq = mirror.seq;
       mirror.renders += 1;
       const now = Date.now() / 1000;
       for (const t of mirror.pendingArrivals) mirror.latencies.push(now - t);
