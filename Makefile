@@ -35,6 +35,7 @@ test: export OPENBLAS_NUM_THREADS = 1
 # worker), the other runs what needs no compiled kernel: the per-kernel tests' plain-Python forms
 # (OPENSHOE_PURE=1) and the docs site's build. Then every other test on two workers, whatever the
 # first run gave (make fails if either failed).
+TEST_WORKERS ?= 2  # the second run's worker processes
 FIRST_TESTS := tests/nav/test_kernels.py tests/docs/test_docs.py::test_the_site_builds_without_warnings
 NOT_FIRST   := -k 'not (test_kernels and python)' --deselect tests/docs/test_docs.py::test_the_site_builds_without_warnings
 test: $(STAMP)
@@ -42,7 +43,7 @@ test: $(STAMP)
 	$(BIN)/python -c '$(FILL_KERNEL_CACHE)' & cache=$$!; \
 	  OPENSHOE_PURE=1 $(BIN)/python -m pytest -q $(FIRST_TESTS); first=$$?; \
 	  wait $$cache; \
-	  $(BIN)/python -m pytest -q -n 2 --dist worksteal $(NOT_FIRST) && exit $$first
+	  $(BIN)/python -m pytest -q -n $(TEST_WORKERS) --dist worksteal $(NOT_FIRST) && exit $$first
 
 demo: $(STAMP)
 	$(BIN)/python -m firmware_sim.app.demo
