@@ -82,6 +82,79 @@ def test_any_well_formed_file_reads_as_the_exact_parser_reads_it(tmp_path, monke
     assert [math.copysign(1, v) for v in fast.mag.ravel()] == [math.copysign(1, v) for v in slow.mag.ravel()]
 
 
+#: Bytes that stand in for one byte of a row: each class a template accepts, its neighbours, and
+#: what no row holds.
+STAND_INS = b"0123456789+-,./xXaAfFgGeEnN \t\r:" + bytes([0, 0x7F, 0x80, 0xCB])
+
+
+@settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture], deadline=None)
+@given(n=st.integers(2, 7), data=st.data())
+def test_a_row_shaped_as_the_rows_before_it_but_for_one_byte_reads_as_the_exact_parser_reads_it(
+        tmp_path, monkeypatch, n, data):
+    """The rows before it make the templates (samples 3-9: the counters and numbers of as many
+    digits); one byte of a later row replaced by another: the compiled reader gives the exact
+    parser's numbers when that parser accepts the file, and leaves the file to it when it refuses it."""
+    values = st.floats(-9.9, 9.9, allow_nan=False, allow_infinity=False)
+    rows = [openshoe_row(k + 2, acc=data.draw(st.tuples(values, values, values)),
+                         gyro=data.draw(st.tuples(values, values, values)),
+                         mag=data.draw(st.sampled_from(["-0.12 -0.01 -0.46", "+nan +nan +nan",
+                                                        "+0.125 -0.5 -0.46"]))).encode("ascii")
+            for k in range(n)]
+    r = data.draw(st.integers(1, n - 1))
+    at = data.draw(st.sampled_from([i for i, c in enumerate(rows[r]) if c not in b" \t"]))
+    # a neighbour of the byte (where a range of bytes ends: ',' between the signs, ':' after the
+    # digits, 'g' after the hexadecimal letters, the other case), or any stand-in
+    near = (rows[r][at] + data.draw(st.sampled_from([-2, -1, 1, 2, -32, 32]))) % 256
+    byte = data.draw(st.one_of(st.just(near), st.sampled_from(STAND_INS)))
+    rows[r] = rows[r][:at] + bytes([byte]) + rows[r][at + 1:]
+    path = tmp_path / "w.txt"
+    path.write_bytes(b"\r\n".join([t.encode("ascii") for t in TITLE_LINES] + rows) + b"\r\n")
+    raw = path.read_bytes()
+    try:
+        slow = exact(path, monkeypatch)
+    except RecordingFormatError:
+        assert openshoe_scan.scan_rows(raw, *body(raw)) is None
+        return
+    fast = load_openshoe(path)
+    assert_same_bits(fast, slow)
+    assert [math.copysign(1, v) for v in fast.mag.ravel()] == [math.copysign(1, v) for v in slow.mag.ravel()]
+
+
+@pytest.mark.parametrize("damaged", [4, 3], ids=["magnetometer", "no magnetometer"])
+def test_every_byte_of_a_row_that_has_a_template_changed_reads_as_the_exact_parser_reads_it(
+        tmp_path, monkeypatch, damaged):
+    """Rows 0-3 make two templates (with a magnetometer reading and without); each byte of a later
+    row of the one or the other shape replaced by its neighbours and the stand-ins, one at a time."""
+    rows = [openshoe_row(k + 2, mag="+nan +nan +nan" if k % 2 else "-0.12 -0.01 -0.46").encode("ascii")
+            for k in range(5)]
+    path = tmp_path / "w.txt"
+    for at, original in enumerate(rows[damaged]):
+        near = {original ^ 32, *((original + d) % 256 for d in (-2, -1, 1, 2))}
+        for byte in sorted((near | set(STAND_INS)) - {original}):
+            damaged_rows = [*rows[:damaged], rows[damaged][:at] + bytes([byte]) + rows[damaged][at + 1:],
+                            *rows[damaged + 1:]]
+            raw = b"\r\n".join([t.encode("ascii") for t in TITLE_LINES] + damaged_rows) + b"\r\n"
+            path.write_bytes(raw)
+            try:
+                slow = exact(path, monkeypatch)
+            except RecordingFormatError:
+                assert openshoe_scan.scan_rows(raw, *body(raw)) is None, (at, chr(byte))
+                continue
+            assert_same_bits(load_openshoe(path), slow)
+
+
+def test_rows_of_one_shape_read_through_their_template_as_the_exact_parser_reads_them(tmp_path, monkeypatch):
+    """Every digit and sign of the kept numbers changes from row to row, the shape stays."""
+    rng = np.random.default_rng(5)
+    rows = [openshoe_row(k % 9, acc=tuple(rng.uniform(-9.9, 9.9, 3)), gyro=tuple(rng.uniform(-9.9, 9.9, 3)),
+                         mag=" ".join(f"{v:+.8f}" for v in rng.uniform(-0.99, 0.99, 3)))
+            for k in range(400)]
+    path = write_openshoe(tmp_path / "w.txt", rows)
+    data = path.read_bytes()
+    assert len(openshoe_scan.scan_rows(data, *body(data))) == 400
+    assert_same_bits(load_openshoe(path), exact(path, monkeypatch))
+
+
 EXTRA_CORRUPTIONS = {
     "uppercase nan": lambda toks: toks[:14] + ["NaN"] + toks[15:],
     "nan timestamp": lambda toks: toks[:10] + ["nan"] + toks[11:],
