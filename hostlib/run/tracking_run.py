@@ -7,9 +7,10 @@ the fusion to the other foot, it never stops it). A run goes through four stages
 
 1. **prepare** (:meth:`TrackingRun.prepare`, or entering it as a context manager): a GPS receiver
    read live is opened (:mod:`hostlib.run.gps_stream`) and its first fix waited for, up to
-   :attr:`TrackingRun.first_fix_wait_s`, to place the walk; the tracker is made — a plain
-   :class:`~hostlib.track.steps.StepTracker`, or with aids the fusion tracker
-   :func:`~hostlib.run.aid_setup.prepare_aids` sets up (:func:`~hostlib.run.aid_setup.prepare_feet_aids`
+   :attr:`TrackingRun.first_fix_wait_s`, to place the walk; the tracker is made — the fusion
+   tracker :func:`~hostlib.run.aid_setup.prepare_aids` sets up (by default it holds the module's
+   errors, with an aid or without), or with every aid and the module's errors off a plain
+   :class:`~hostlib.track.steps.StepTracker` (:func:`~hostlib.run.aid_setup.prepare_feet_aids`
    for two feet). Open each module's device with its tracker (:meth:`TrackingRun.tracker_for`).
 2. **start** (:meth:`TrackingRun.start`): the receiver's fixes are wired to the devices' steps; the
    compass waits for an in-situ calibration (:class:`~hostlib.run.in_situ.InSituCalibration`), or
