@@ -170,7 +170,9 @@ def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
     g.add_argument("--compass-swing", action="store_true",
                    help="learn a calibrated compass's swing B sin ψ + C cos ψ as two states of the filter "
                         "(hostlib.fusion.compass_swing; with --compass and one module: σ 4° on each term, "
-                        "learned while the compass reads with a calibration, from GPS and the walk's turns; "
+                        "learned while the compass reads with a calibration, from GPS and the walk's turns, "
+                        "and with a place (--gps, --origin) from the levelled field's inclination, "
+                        "hostlib.fusion.compass_dip; "
                         "by default the swing the module's warming builds is held, σ 0.6°, weighed and not "
                         "learned)")
     g.add_argument("--no-compass-swing", action="store_true",

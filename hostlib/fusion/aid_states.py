@@ -14,6 +14,8 @@ states its :class:`~hostlib.fusion.settings.FusionSettings` hold, in the order o
   with the compass and :attr:`~hostlib.fusion.settings.FusionSettings.compass_swing` but not with
   the hard iron; prior 0 with σ² on each term (used only while the compass reads calibrated); a
   consider block when the swing is not learned (:attr:`~hostlib.fusion.compass_swing.CompassSwing.learned`);
+* ``"dip"`` — the levelled field's inclination offset and local deviation ``[o, d_I]``
+  (:mod:`hostlib.fusion.compass_dip`), held with a swing learned from the dip; prior 0 with their σ²;
 * ``"deviation"`` — the compass's local deviation ``d`` (:mod:`hostlib.fusion.deviation`), held
   with :attr:`~hostlib.fusion.settings.FusionSettings.compass_deviation`; prior 0 with σ_d²;
 * ``"declination"`` — the declination ``D``, always held, last: prior the settings' D₀, with
@@ -31,6 +33,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .compass_dip import dip_prior
 from .core import StateFilter
 
 if TYPE_CHECKING:
@@ -84,6 +87,7 @@ AID_STATES: tuple[AidState, ...] = (
     AidState("gps_bias", _gps_bias_prior),
     AidState("hard_iron", _hard_iron_prior),
     AidState("swing", _swing_prior, lambda s: s.compass_swing is not None and not s.compass_swing.learned),
+    AidState("dip", dip_prior),
     AidState("deviation", _deviation_prior),
     AidState("declination", _declination_prior),
 )

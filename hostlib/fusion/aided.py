@@ -38,6 +38,7 @@ from ..aids.compass import wrap_angle
 from ..aids.field_check import level_field
 from ..calibration.magcal import MagCalibration
 from .aid_events import AidEvent, AidObserver
+from .compass_dip import DipAid
 from .compass_swing import swing_basis
 from .compass_trust import disturbance_ut, field_check, weighs_uncalibrated
 from .core import StateFilter
@@ -48,7 +49,7 @@ from .settings import FusionSettings, FusionStats
 __all__ = ["AidedFilter"]
 
 
-class AidedFilter(ABC):
+class AidedFilter(DipAid, ABC):
     """The aids (module docstring) on the filter :attr:`filter` of a tracker whose poses are the
     blocks :attr:`pose_blocks` and whose modules' errors are :attr:`error_blocks`."""
 
@@ -224,6 +225,7 @@ class AidedFilter(ABC):
         phi, q = transition(distance_m, self.aid_settings.compass_deviation.length_m,
                             self._deviation_variance())
         self.filter.decay("deviation", phi, q)
+        self._walk_dip(distance_m)
 
     def _deviation_variance(self) -> float:
         """The local deviation's stationary variance: σ_d², plus the unknown iron's heading
@@ -339,7 +341,8 @@ class AidedFilter(ABC):
             innovation = wrap_angle(psi - (x[k] - x[dec] - x[f.index("deviation")]))
         else:
             innovation = wrap_angle(psi - (x[k] - x[dec]))
-        swing = self._swing_basis(pose, float(x[k] - x[dec]))
+        magnetic_heading = float(x[k] - x[dec])
+        swing = self._swing_basis(pose, magnetic_heading)
         if swing is not None:  # the reading is less the swing B sin ψ_m + C cos ψ_m, too
             weights.update({("swing", i): -float(swing[i]) for i in range(2)})
             innovation = wrap_angle(innovation + float(swing @ f.mean("swing")))
@@ -351,6 +354,8 @@ class AidedFilter(ABC):
             return
         self._tell("compass", "used", pose, psi, innovation)
         f.update(h, innovation, r)
+        if swing is not None and s.compass_swing.dip and reading is not None:
+            self._dip_step(reading, magnetic_heading)
         self.fusion.compass_updates += 1
         self.fusion.compass_innovations.append((len(self), innovation))
 

@@ -87,6 +87,9 @@ class CompassSwing:
     warmup_tau_s: float | None = None
     #: learned from the readings (True), or weighed and not estimated (a consider block)
     learned: bool = True
+    #: learned from the levelled field's inclination too, where the walk's place gives the field's
+    #: (:mod:`hostlib.fusion.compass_dip`)
+    dip: bool = False
 
     def __post_init__(self) -> None:
         require_positive(self, ("sigma_rad",))
@@ -101,7 +104,9 @@ class CompassSwing:
     def describe(self) -> str:
         grown = "" if self.warmup_tau_s is None else f" grown as the module warms (τ {self.warmup_tau_s:g} s)"
         return (f"σ {math.degrees(self.sigma_rad):g}° on B sin ψ + C cos ψ{grown}"
-                + ("" if self.learned else ", weighed, not learned"))
+                + ("" if self.learned else ", weighed, not learned")
+                + (", learned from the headings and, with a place, the levelled field's inclination"
+                   if self.dip else ""))
 
     def warming(self, seconds: float) -> float:
         """What the swing has grown to *seconds* after the compass's first calibrated reading: 1
@@ -113,9 +118,11 @@ class CompassSwing:
         return -math.expm1(-seconds / self.warmup_tau_s)
 
 
-#: A calibrated compass's swing: what the calibration's iron and the level at the end of the stance
-#: leave, 1.1 µT per axis against 15.3 µT of horizontal field (module docstring).
-CALIBRATED_SWING = CompassSwing(math.radians(4.0))
+#: A calibrated compass's swing, learned (``--compass-swing``): what the calibration's iron and the
+#: level at the end of the stance leave, 1.1 µT per axis against 15.3 µT of horizontal field (module
+#: docstring); taught by the headings and, where the walk's place gives the field's inclination, by
+#: the levelled field's dip (:mod:`hostlib.fusion.compass_dip`).
+CALIBRATED_SWING = CompassSwing(math.radians(4.0), dip=True)
 #: The swing the module's warming builds after a calibration, weighed and not learned: the horizontal
 #: gyros' bias moves by the warm-up's σ (:data:`hostlib.fusion.module_errors.MIMU22BT`: 8.06e-4 rad/s,
 #: τ 120 s), a swaying stance's ZUPTs hold the level off by about 4 s of it (0.18°), and a level

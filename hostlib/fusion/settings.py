@@ -127,6 +127,9 @@ class FusionStats:
     compass_field_rejected: int = 0
     #: why the field check rejected its first reading ("" none)
     compass_field_first: str = ""
+    #: readings whose dip taught the swing (:mod:`hostlib.fusion.compass_dip`), and those the gate rejected
+    dip_updates: int = 0
+    dip_rejected: int = 0
     gps_updates: int = 0
     gps_skipped: int = 0  #: fixes between updates (:attr:`FusionSettings.gps_update_interval_s`)
     gps_before_alignment: int = 0  #: fixes that arrived before the heading was aligned

@@ -148,7 +148,8 @@ def test_the_aids_line_says_what_is_held_by_default_and_what_was_turned_off():
     given = prepare_aids(compass=True, compass_deviation="indoors", module_errors="emulated",
                          compass_swing=CALIBRATED_SWING).describe()
     assert "local deviation held (indoors: σ 20° over 0.5 m)" in given
-    assert "a calibrated compass's swing held (σ 4° on B sin ψ + C cos ψ, while it reads" in given
+    assert ("a calibrated compass's swing held (σ 4° on B sin ψ + C cos ψ, learned from the headings and, "
+            "with a place, the levelled field's inclination, while it reads") in given
     assert "module errors held (emulated)" in given and "by default" not in given
 
 
