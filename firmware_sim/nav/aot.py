@@ -29,9 +29,10 @@ from pathlib import Path
 from typing import Any
 
 from firmware_sim import prebuilt
+from firmware_sim.numba_use import pure_requested
 from firmware_sim.sensors import openshoe_scan
 
-from .kernel_sources import pure_requested, sources_stamp
+from .kernel_sources import sources_stamp
 
 __all__ = ["build", "module_path", "run_group", "run_loops", "share_cores", "shares_cores", "wanted"]
 

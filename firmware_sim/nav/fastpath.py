@@ -36,6 +36,7 @@ from typing import TYPE_CHECKING, Any, NamedTuple
 
 import numpy as np
 
+from firmware_sim import numba_use
 from firmware_sim.mcu import sequence_control as utility
 from firmware_sim.mcu.imu_bus import imu_block
 from protocol.ids import (
@@ -49,7 +50,7 @@ from protocol.ids import (
     StateId,
 )
 
-from . import aot, frontend, inertial, ins, kernel_sources
+from . import aot, frontend, inertial, ins
 from .loop_kinds import (
     ALIGNMENT,
     FULL_RATE_INS,
@@ -124,7 +125,7 @@ def _references(functions: Any, seq: KnownSequence) -> bool:
     return known
 
 
-pure_requested = kernel_sources.pure_requested
+pure_requested = numba_use.pure_requested
 _disabled = ""  #: why the compiled path was switched off in this process ("" = it was not)
 
 

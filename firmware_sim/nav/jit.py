@@ -34,7 +34,9 @@ from typing import Any, TypeVar
 
 import numpy as np
 
-from .kernel_sources import SOURCES, pure_requested
+from firmware_sim.numba_use import load_cached, pure_requested
+
+from .kernel_sources import SOURCES
 from .kernel_sources import sources_stamp as _sources_stamp
 
 __all__ = ["COMPILING", "NUMBA_ERROR", "SOURCES", "bytes_at", "compilations", "compiled_reference", "kernel",
@@ -49,7 +51,6 @@ try:  # numba is optional (the `fast` extra)
     import numba
     from numba.core import caching
     from numba.core.registry import CPUDispatcher
-    from numba.core.runtime import rtsys
 
     if numba.config.DISABLE_JIT:
         raise ImportError("NUMBA_DISABLE_JIT=1")
@@ -99,14 +100,6 @@ if numba is not None:
             self._cache = _StampedCache(self.py_func)
 
     _OPTIONS = {"nopython": True, "nogil": True, "error_model": "numpy"}
-
-
-def load_cached(cache: Any, sig: Any, target_context: Any) -> Any:
-    """numba's ``Cache.load_overload`` for a function that needs no object mode: the cached
-    compile result of *sig*, or None, with numba's runtime started (the compiled code links
-    against it) but not the typing and lowering registries numba's own version refreshes first."""
-    rtsys.initialize(target_context)
-    return cache._load_overload(sig, target_context)
 
 
 def kernel(fn: F, *, nogil: bool = True) -> F:

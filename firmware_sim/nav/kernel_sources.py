@@ -7,14 +7,13 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import os
 from pathlib import Path
 
 import firmware_sim.mcu.memory
 import protocol.ids
 import protocol.states
 
-__all__ = ["SOURCES", "pure_requested", "sources_stamp"]
+__all__ = ["SOURCES", "sources_stamp"]
 
 _HERE = Path(__file__).resolve().parent
 #: The sources whose contents stamp every compiled kernel: the navigation package (kernels,
@@ -25,9 +24,6 @@ SOURCES = (*sorted(_HERE.glob("*.py")),
            *(Path(m.__file__).resolve() for m in (protocol.ids, protocol.states, firmware_sim.mcu.memory)))
 
 
-def pure_requested() -> bool:
-    """Whether the user asked for the pure-Python path (``OPENSHOE_PURE=1``)."""
-    return os.environ.get("OPENSHOE_PURE", "") == "1"
 
 
 @functools.cache

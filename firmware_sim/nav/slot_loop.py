@@ -29,9 +29,10 @@ from typing import Any
 import numpy as np
 
 from firmware_sim import prebuilt
+from firmware_sim.numba_use import pure_requested
 from protocol.ids import ProcId
 
-from .kernel_sources import pure_requested, sources_stamp
+from .kernel_sources import sources_stamp
 
 __all__ = ["COMPILED_SLOTS", "RUN_SLOTS_SIGNATURE", "build", "kernel_run_slots", "load", "module_path",
            "slots_runner"]

@@ -13,10 +13,11 @@ every loop of the simulation at once.
 
 from __future__ import annotations
 
-import os
 import sys
 from collections.abc import Callable
 from typing import Any
+
+from firmware_sim.numba_use import compiling_wanted, load_cached
 
 __all__ = ["compiled", "wanted"]
 
@@ -24,9 +25,8 @@ __all__ = ["compiled", "wanted"]
 _found: dict[Callable[..., Any], Callable[..., Any] | None] = {}
 
 
-def wanted() -> bool:
-    """Whether this process compiles (numba not refused by ``OPENSHOE_PURE`` or ``NUMBA_DISABLE_JIT``)."""
-    return os.environ.get("OPENSHOE_PURE", "") != "1" and os.environ.get("NUMBA_DISABLE_JIT", "") in ("", "0")
+#: Whether this process compiles (numba not refused by ``OPENSHOE_PURE`` or ``NUMBA_DISABLE_JIT``).
+wanted = compiling_wanted
 
 
 def compiled(loop: Callable[..., Any], *inlined: Callable[..., Any]) -> Callable[..., Any] | None:
@@ -40,7 +40,6 @@ def compiled(loop: Callable[..., Any], *inlined: Callable[..., Any]) -> Callable
 def _compile(loop: Callable[..., Any], inlined: tuple[Callable[..., Any], ...]) -> Callable[..., Any] | None:
     try:
         import numba
-        from numba.core.runtime import rtsys
     except ImportError:  # pragma: no cover - depends on the environment
         return None
     options = {"cache": True, "nogil": True, "error_model": "numpy"}
@@ -50,11 +49,5 @@ def _compile(loop: Callable[..., Any], inlined: tuple[Callable[..., Any], ...]) 
     dispatcher = numba.njit(**options)(loop)
     cache = dispatcher._cache
 
-    def load_overload(sig: Any, target_context: Any) -> Any:
-        """numba's cache load with only its runtime started: not the typing and lowering registries
-        numba's own load refreshes first, which only a compile needs (and sets up itself)."""
-        rtsys.initialize(target_context)
-        return cache._load_overload(sig, target_context)
-
-    cache.load_overload = load_overload
+    cache.load_overload = lambda sig, target_context: load_cached(cache, sig, target_context)
     return dispatcher  # type: ignore[no-any-return]
