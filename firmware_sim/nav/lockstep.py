@@ -67,12 +67,15 @@ def _helper() -> ThreadPoolExecutor | None:
 
 
 class Lockstep:
-    """K modules advanced together (see the module doc); each keeps being usable alone."""
+    """K modules advanced together (see the module doc); each keeps being usable alone.
 
-    def __init__(self, modules: Sequence[Module]):
+    *helper* False: never hand part of a call to the helper thread (a real-time loop: its frames
+    must not wait on a thread that the machine's other processes can hold up)."""
+
+    def __init__(self, modules: Sequence[Module], *, helper: bool = True):
         self.modules = list(modules)
         self._group = fastpath.group_loop()
-        self._helper = _helper() if fastpath.group_releases_gil() else None
+        self._helper = _helper() if helper and fastpath.group_releases_gil() else None
         #: Rounds whose quiet stretches ran compiled (one call, or two halves side by side), and the
         #: module stretches they ran (figures for the benchmark).
         self.calls = 0

@@ -73,7 +73,9 @@ class RunLoop:
         #: Per module, the module after its phase group's last; each group of two or more is
         #: advanced together (``_run_group``).
         self.group_end = sched.phase_groups()
-        self.locksteps = {j: Lockstep([p.module for p in members[j:end]])
+        # all in this thread: a frame never waits on a helper thread, which the machine's other
+        # processes could hold up (at its ordinary priority, or at the loop's own)
+        self.locksteps = {j: Lockstep([p.module for p in members[j:end]], helper=False)
                           for j, end in enumerate(self.group_end)
                           if end - j > 1 and (j == 0 or self.group_end[j - 1] != end)}
         self.spin_busy = None if owner.spin_load is None or sched.asap else owner.spin_load * sched.frame
