@@ -12,7 +12,10 @@ the simulated declination and deviation at the step's sample (T_INT_K), three wa
   whose reading the magnetometer registers hold (found by matching the simulated registers);
 * ``truth at the reading``: levelled with the truth's attitude at that sample.
 
-Each is fitted with A + B sin ψ + C cos ψ over the walk (ψ the true heading). Per seed also: how
+Each is fitted with A + B sin ψ + C cos ψ over the walk (ψ the true heading). The dip of the packet's
+reading (its levelled field's inclination) against the local field's, and against the Earth's alone
+(what a host knows, up to the World Magnetic Model's error), gives the swing the dip implies
+(:func:`dip_swing`, :mod:`hostlib.fusion.compass_dip`). Per seed also: how
 many milliseconds the registers are newer than the attitude; the attitude's roll and pitch against
 the truth at its sample, in the first minute and after five (the module's level as its dies warm);
 and the horizontal gyros' warm-up (offset temperature coefficient, averaged over the chips in the
@@ -31,7 +34,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["WAYS", "level_rows", "level_run", "summary_lines", "swing_fit"]
+__all__ = ["WAYS", "dip_swing", "level_rows", "level_run", "summary_lines", "swing_fit"]
 
 #: the three levellings of each reading (module docstring)
 WAYS = ("packet", "lag removed", "truth at the reading")
@@ -44,6 +47,15 @@ def swing_fit(errors: np.ndarray, headings: np.ndarray) -> tuple[float, float, f
     a, b, c = np.linalg.lstsq(basis, errors, rcond=None)[0]
     return (math.degrees(float(np.sqrt(np.mean(errors ** 2)))), math.degrees(a), math.degrees(b),
             math.degrees(c))
+
+
+def dip_swing(dips: np.ndarray, headings: np.ndarray, inclination_rad: float) -> tuple[float, float]:
+    """The heading swing (B, C) [deg], in :func:`swing_fit`'s sense, that the readings' dip errors
+    *dips* [rad] at the true *headings* ψ [rad] imply: a level error fixed in the board's frame moves
+    the dip by κ (B cos ψ − C sin ψ), κ = cot I (:mod:`hostlib.fusion.compass_dip`)."""
+    _, _, b, c = swing_fit(dips, headings)
+    kappa = 1.0 / math.tan(inclination_rad)
+    return c / kappa, -b / kappa
 
 
 def _readings(data: bytes) -> list[tuple[Any, float, np.ndarray, np.ndarray]]:
@@ -81,6 +93,7 @@ def level_run(seed: int) -> dict[str, Any]:
     """The row of walk *seed* (module docstring)."""
     from firmware_sim.sensors.imu_array import make_source
     from hostlib.aids.compass import compass_heading, wrap_angle
+    from hostlib.aids.field_check import level_field
     from hostlib.track.steps import is_motion_step
     from protocol.extensions import FUSION_MAG_IMUS
 
@@ -96,6 +109,9 @@ def level_run(seed: int) -> dict[str, Any]:
     chips = list(FUSION_MAG_IMUS)
     errors: dict[str, list[float]] = {way: [] for way in WAYS}
     headings, lags, times, level = [], [], [], []
+    world = source.magnetic
+    earth_dip = level_field(world.earth_ned, np.eye(3))[1]
+    dips: dict[str, list[float]] = {"local": [], "earth": []}
     for reading, t, dx, registers in _readings(fusion_capture(source, module)):
         if reading is None or not is_motion_step(dx) or not math.isfinite(t):
             continue
@@ -109,6 +125,10 @@ def level_run(seed: int) -> dict[str, Any]:
         for way, rotation in zip(WAYS, (reading.rotation, reading.rotation @ truth.R[i].T @ truth.R[j],
                                         truth.R[j]), strict=True):
             errors[way].append(wrap_angle(compass_heading(field, rotation) - expected))
+        dip = level_field(field, reading.rotation)[1]
+        local = world.earth_ned + world.deviation_ned(truth.pos[i:i + 1])[0]
+        dips["local"].append(dip - level_field(local, np.eye(3))[1])
+        dips["earth"].append(dip - earth_dip)
         headings.append(truth.euler[i, 2])
         lags.append(j - i)
         times.append(t)
@@ -120,6 +140,7 @@ def level_run(seed: int) -> dict[str, Any]:
     return {"seed": seed, "module": module, "readings": len(psi),
             "lag_ms": {float(v): int(n) for v, n in zip(lag_ms, counts, strict=True)},
             **{way: swing_fit(np.array(errors[way]), psi) for way in WAYS},
+            **{f"dip_swing_{k}": dip_swing(np.array(v), psi, earth_dip) for k, v in dips.items()},
             "level_first_minute_deg": tuple(level_err[first].mean(axis=0)),
             "level_after_five_deg": tuple(level_err[later].mean(axis=0)),
             "gyro_warmup_deg_s": tuple(_gyro_warmup_deg_s(source))}
@@ -137,13 +158,16 @@ def summary_lines(rows: Sequence[dict[str, Any]]) -> list[str]:
     roll error early and late; the horizontal gyros' warm-up."""
     out = ["navshoe-outage, the true iron removed: RMS, B, C [°] of the readings levelled with "
            + " / ".join(WAYS) + "; magnetometers newer than the attitude [ms: readings]; "
-           "level error pitch/roll [°] first minute → after five; horizontal gyros' warm-up x/y [°/s]"]
+           "level error pitch/roll [°] first minute → after five; horizontal gyros' warm-up x/y [°/s]; "
+           "the swing B, C [°] the packet's dip implies, against the local field's and the Earth's"]
     for r in rows:
         fits = "  ".join("{:.2f}, {:+.2f}, {:+.2f}".format(*(r[way][k] for k in (0, 2, 3))) for way in WAYS)
         lag = ", ".join(f"{v:g}: {n}" for v, n in r["lag_ms"].items())
         early, late, warm = r["level_first_minute_deg"], r["level_after_five_deg"], r["gyro_warmup_deg_s"]
         out.append(f"  seed {r['seed']:>2}: {fits}   lag {lag}   level {early[0]:+.2f}/{early[1]:+.2f} → "
-                   f"{late[0]:+.2f}/{late[1]:+.2f}   warm-up {warm[0]:+.3f}/{warm[1]:+.3f}")
+                   f"{late[0]:+.2f}/{late[1]:+.2f}   warm-up {warm[0]:+.3f}/{warm[1]:+.3f}"
+                   + "".join("   dip's swing ({}) {:+.2f}, {:+.2f}".format(k, *r[f"dip_swing_{k}"])
+                             for k in ("local", "earth") if f"dip_swing_{k}" in r))
     return out
 
 
