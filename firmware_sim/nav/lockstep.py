@@ -43,6 +43,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from protocol.ids import NR_IMUS
+
 from . import fastpath
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -52,6 +54,10 @@ if TYPE_CHECKING:  # pragma: no cover
 
 __all__ = ["Lockstep"]
 
+#: Bytes of one loop's registers (NR_IMUS × 6 int16), and the most a stretch copies on average into
+#: the one block of a call (:meth:`Lockstep._register_addresses`).
+_SAMPLE_BYTES = NR_IMUS * 6 * 2
+_BLOCK_BYTES_PER_STRETCH = 16_384
 #: The helper thread of every group in this process (made on first use; None: not wanted).
 _helpers: list[ThreadPoolExecutor | None] = []
 _helpers_lock = threading.Lock()
@@ -112,6 +118,19 @@ class Lockstep:
         run = runner.quiet_run(module, quiet, kind) if quiet else None
         return None if run is None else (runner, run)
 
+    @staticmethod
+    def _register_addresses(runs: list[QuietRun], counts: np.ndarray
+                            ) -> tuple[np.ndarray | list[int], np.ndarray | None]:
+        """Where each stretch's registers are for the compiled call: short stretches (a served
+        module's frame) copied one after the other into one block, whose address numpy gives once;
+        long ones (a batch's round asks for up to 5000 loops, of which a step's some 250 run) where
+        they are, numpy asked for each one's address (some 3 µs, the time to copy some 15 kB).
+        Returns the addresses and the block (None: none), which must outlive the call."""
+        if int(counts.sum()) * _SAMPLE_BYTES > _BLOCK_BYTES_PER_STRETCH * len(runs):
+            return [run.imu.ctypes.data for run in runs], None
+        block = np.concatenate([run.imu for run in runs])
+        return block.ctypes.data + (counts.cumsum() - counts) * _SAMPLE_BYTES, block
+
     def _run(self, quiet: list[tuple[int, FastNav, QuietRun]]) -> list[int]:
         """The stretches' loops: one compiled call, or module by module without one; the loops run."""
         self.stretches += len(quiet)
@@ -122,11 +141,8 @@ class Lockstep:
         kinds = np.array([run.kind for run in runs], dtype=np.int64)
         counts = np.array([len(run.imu) for run in runs], dtype=np.int64)
         clocks = np.array([(run.first, run.period, run.ts_offset) for run in runs], dtype=np.int64)
-        # each stretch's registers where they are (a view of the source's: a round asks for up to
-        # 5000 loops and a step ends some 250 in, so copying them into one block cost more than
-        # asking numpy for each one's address, some 3 µs)
-        addresses = np.array([(run.imu.ctypes.data, *fast.addresses) for _, fast, run in quiet],
-                             dtype=np.int64)
+        addresses = np.array([(0, *fast.addresses) for _, fast, _ in quiet], dtype=np.int64)
+        addresses[:, 0], block = self._register_addresses(runs, counts)  # (block: alive until the call ends)
         done = np.zeros(n, dtype=np.int64)
         half = int(np.searchsorted(np.cumsum(counts), counts.sum() / 2)) + 1 if self._helper else n
         later = None

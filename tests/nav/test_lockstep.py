@@ -90,6 +90,28 @@ def test_one_compiled_call_runs_the_quiet_stretches_of_all_the_modules():
 
 
 @needs_compiled
+@pytest.mark.parametrize("round_loops", [5000, 40], ids=["long rounds", "a frame's rounds"])
+def test_short_and_long_stretches_send_and_hold_what_each_module_does_alone(round_loops):
+    """Long stretches' registers are passed where they are, short ones (a served module's frame)
+    copied into one block first: the same bytes and states either way."""
+    sources = [make_source("stand:2+walk:4", seed=s, rate_hz=250.0) for s in range(3)]
+    hosts = [start_replay(s, config=ModuleConfig(rate_hz=250.0, compiled=True), announce=None)
+             for s in sources]
+    group = Lockstep([h.module for h in hosts])
+    while loops := [h.source_loops(len(s), round_loops) for h, s in zip(hosts, sources, strict=True)]:
+        if not any(loops):
+            break
+        for host, ran in zip(hosts, group.advance(loops), strict=True):
+            host.after_loops(ran)
+    assert group.calls > 0
+    for source, host in zip(sources, hosts, strict=True):
+        host.drain()
+        expect = run_replay(source, config=ModuleConfig(rate_hz=250.0, compiled=True), announce=None)
+        assert bytes(host.result()) == bytes(expect)
+        assert host.module.memory.arena.tobytes() == expect.module.memory.arena.tobytes()
+
+
+@needs_compiled
 def test_lockstep_keeps_the_bytes_of_the_fusion_host_with_height_compensation():
     """Alignment, tracking with HEIGHT_COMPENSATION after the step output, and the extensions' commands."""
     sources = [make_source("stand:3+walk:4+stairs_up:4+stand:2", seed=s, rate_hz=500.0) for s in range(3)]
