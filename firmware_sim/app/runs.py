@@ -232,8 +232,7 @@ def run_group(specs: Sequence[RunSpec], loaded: Sequence[Loaded], wire_dir: Path
     """:func:`finish` of K runs, their replays in lockstep (:mod:`firmware_sim.app.replay_group`: each
     run's bytes those of its replay alone); a row each, in order. A run's ``nav_s`` is its share
     of the group's navigation (the group's time / K)."""
-    from firmware_sim.mcu.module import ModuleConfig
-    from firmware_sim.transports.factory import module_serial
+    from firmware_sim.mcu.module import ModuleConfig, module_serial  # (not transports.factory's: its imports)
 
     from .batch import start_replay
     from .replay_group import run_replays
