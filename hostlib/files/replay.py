@@ -26,7 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from protocol.commands import command_set as _command_set
 from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP
@@ -35,9 +35,11 @@ from protocol.ids import Command
 from ..calibration.drift import serial_text
 from ..calibration.wiggle import WiggleCalibration
 from ..events import StreamEvent
-from ..fusion.feet import FOOT_SIDES, FeetSettings, TwoFeetTracker
 from ..link.session import HostSession, SessionStats
 from ..track.steps import StepTracker, Track
+
+if TYPE_CHECKING:  # the two feet's fusion is imported when two feet are replayed (a batch sums one foot)
+    from ..fusion.feet import FeetSettings, TwoFeetTracker
 
 __all__ = ["CALIBRATION_CHUNK", "CAPTURE_HOST_COMMANDS", "decode_feet", "implied_commands", "replay_bytes",
            "replay_calibrating", "replay_capture", "replay_capture_session", "replay_feet", "replay_session"]
@@ -135,6 +137,8 @@ def decode_feet(left: bytes, right: bytes, tracker: TwoFeetTracker, *,
     With a deferring tracker (``defer=True``) the steps wait for
     :meth:`~hostlib.fusion.feet.TwoFeetTracker.fuse_in_time_order`: the caller can check each module's
     serial number (``session.mcu_serial``) against its calibrations first."""
+    from ..fusion.feet import FOOT_SIDES
+
     return {side: replay_session(data, command_set=command_set, tracker=tracker.foot(side))
             for side, data in zip(FOOT_SIDES, (left, right), strict=True)}
 
@@ -148,6 +152,8 @@ def replay_feet(left: bytes, right: bytes, settings: FeetSettings | None = None,
     and ``last_counter=None``, e.g. with aids) replaces the plain one of *settings*. Returns the
     tracker and each foot's session counters."""
     if tracker is None:
+        from ..fusion.feet import TwoFeetTracker
+
         tracker = TwoFeetTracker(settings, last_counter=None, defer=True)
     sessions = decode_feet(left, right, tracker, command_set=command_set)
     tracker.fuse_in_time_order()
