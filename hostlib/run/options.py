@@ -36,8 +36,11 @@ for. Not learned and not calibrated, the compass is weighed for it instead
 atan(10 µT / H), and the local deviation's variance takes that in (:mod:`hostlib.fusion.compass_trust`;
 on NavShoe's outage loop, seeds 1–5, an uncalibrated ``--gps --compass`` then ends 2.48 % of the
 distance without GPS from its start, against 3.93 % for GPS alone and 6.27 % unweighed). Nor is a
-calibrated compass's swing learned (``--compass-swing``): on the outage loop it took seeds 1–5
-from 0.91 % to 0.58 %, but the held-out seeds 6–20 from 1.01 % to 1.22 %. What is held by default
+calibrated compass's swing learned (``--compass-swing``): taught by the headings alone it took
+seeds 1–5 of the outage loop from 0.91 % to 0.58 %, but the held-out seeds 6–20 from 1.01 % to
+1.22 %; taught by the levelled field's dip too (:mod:`hostlib.fusion.compass_dip`) it ends 0.85 %
+there, but 0.70 % and 0.82 % on seeds 21–30 (calibrated first, the wiggle inside the walk) against
+the default's 0.66 % and 0.66 %. What is held by default
 (:attr:`AidOptions.compass_swing`) is the swing the module's warming builds after the calibration,
 weighed and not learned (:data:`~hostlib.fusion.compass_swing.WARMING_SWING`): on the outage loop,
 calibrated in situ, 0.76 % on seeds 1–5 and 0.93 % on seeds 6–20 against 0.91 % and 1.01 %; with
