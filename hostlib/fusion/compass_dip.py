@@ -20,9 +20,9 @@ that to the declination and the heading through their covariances with the swing
 
 A reading's dip, measured against the World Magnetic Model's inclination, carries besides:
 
-* a constant offset o: the model's own error (0.21°, :data:`~hostlib.aids.field_check.
-  WMM_INCLINATION_SIGMA_RAD`) and the calibration's vertical iron left (1 µT,
-  :data:`~hostlib.fusion.hard_iron.CALIBRATED`, which turns the dip by H/F² per µT);
+* a constant offset o: the model's own error (0.21°,
+  :data:`~hostlib.aids.field_check.WMM_INCLINATION_SIGMA_RAD`) and the calibration's vertical iron
+  left (1 µT, :data:`~hostlib.fusion.hard_iron.CALIBRATED`, which turns the dip by H/F² per µT);
 * the local deviation of the field where the foot stands: per axis as large as the one that turns
   the heading by σ_d (σ_d H per axis), it turns the dip by σ_d H/F = σ_d cos I, correlated over the
   same length (:mod:`hostlib.fusion.deviation`): a second state d_I, walked as d is;
