@@ -90,7 +90,7 @@ from firmware_sim.board import MIMU22BT, BoardGeometry
 from firmware_sim.mcu.imu_bus import RawSample
 
 from . import openshoe_scan
-from .chip_registers import chip_register_parts, chip_registers
+from .chip_registers import chip_registers
 from .config import DEFAULT_CONFIG, SensorConfig
 from .registers import INT16_MAX, INT16_MIN, accel_counts, gyro_counts, mag_counts, temp_to_lsb
 
@@ -513,9 +513,12 @@ class ReplaySource:
         self.dlpf_cfg = config.dlpf.cfg
         mount = np.asarray(geometry.mounting, dtype=np.float64)  # (chips, 3, 3)
         n, chips = len(recording), mount.shape[0]
-        self.imu = chip_register_parts(mount, [
-            (recording.board_acc_g(), partial(accel_counts, config=config), INT16_RANGE, True),
-            (recording.board_gyro(), partial(gyro_counts, config=config), INT16_RANGE, False)])
+        imu = np.empty((n, chips, 6), dtype=np.int16)
+        imu[..., :3] = chip_registers(mount, recording.board_acc_g(), partial(accel_counts, config=config),
+                                       INT16_RANGE, ahead=True)
+        imu[..., 3:] = chip_registers(mount, recording.board_gyro(), partial(gyro_counts, config=config),
+                                       INT16_RANGE)
+        self.imu = imu
         # magnetometer: gauss → µT; a missing reading holds the previous one (0 before the first)
         held = recording.board_mag() * GAUSS_TO_UT
         valid = ~np.isnan(held).any(axis=1)

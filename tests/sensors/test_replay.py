@@ -219,6 +219,13 @@ def test_replay_source_is_a_sensor_source_at_the_recordings_rate(tmp_path):
         src.set_dlpf(7)
 
 
+def test_a_replays_registers_are_one_block_in_sample_order(tmp_path):
+    """The compiled loop reads a stretch of samples as they lie (firmware_sim.mcu.imu_bus.imu_block):
+    laid out otherwise, every stretch would be copied first."""
+    src = ReplaySource.from_file(write_openshoe(tmp_path / "w.txt", [openshoe_row(k) for k in range(8)]))
+    assert src.imu.flags["C_CONTIGUOUS"] and src.imu.shape == (8, 4, 6)
+
+
 def test_quantisation_saturates_at_int16(tmp_path):
     rec = Recording(t=np.array([0.0]), acc_g=np.array([[17.0, -17.0, 0.0]]), gyro=np.array([[40.0, 0, 0]]),
                     mag=np.full((1, 3), np.nan), rate_hz=250.0)
