@@ -28,8 +28,8 @@ module declares those commands once, for the host SDK and the emulator's replaye
 * :data:`FUSION_SETUP` — everything a host using the host-side aids sends after the ack of
   0x34, one command at a time (each after the ack of the one before): that STATE_IF_SETUP, then
   MCU_ID (the module's serial number, which a per-module calibration is checked against).
-  ``openshoe-host track --fusion`` and the emulator's replayed host (``--host fusion``) send
-  exactly these.
+  ``openshoe-host track`` and ``log`` (by default; not with ``--no-fusion``) and the emulator's
+  replayed host (``--host fusion``) send exactly these.
 * :func:`fusion_step_ids` — the states a step packet carries after that set-up, as the firmware
   assembles them: :data:`FUSION_STEP_STATES` plus the states the STATE_IF_SETUP frame's two
   checksum bytes name (protocol.md §9), in ascending id order.

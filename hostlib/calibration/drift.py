@@ -10,8 +10,8 @@ is moved by ``Δv · T_swing``, its own swing time, as the steps are summed.
 
 The swing time of each step is state 0x34 SWING_TIME, which the module sends
 in every step packet once the host asked for it
-(:data:`protocol.extensions.FUSION_SETUP`; ``openshoe-host track/log --fusion``,
-``openshoe-emu replay --host fusion``). A step without one cannot be corrected,
+(:data:`protocol.extensions.FUSION_SETUP`; ``openshoe-host track/log`` send it unless
+``--no-fusion``, ``openshoe-emu replay --host fusion``). A step without one cannot be corrected,
 and is refused. The set-up also asks for the module's serial number: a
 calibration belongs to the module it was made with, and is refused for another.
 
@@ -59,7 +59,7 @@ VERSION = 1
 #: What the ``frame`` field of a calibration file says.
 FRAME_TEXT = "walk start frame: x along the starting heading, y to its right, z down"
 
-_FUSION_HINT = ("record it with the fusion set-up (openshoe-host track/log --fusion, "
+_FUSION_HINT = ("record it with the fusion set-up (openshoe-host track/log send it unless --no-fusion; "
                 "openshoe-emu replay --host fusion)")
 
 

@@ -10,19 +10,25 @@ Two feet (a module on each; hostlib.fusion.feet): both streams acked and gap-che
 into one body track (the feet's midpoint); a lost link on one foot degrades the fusion to the
 other foot, it never stops it::
 
-    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --csv walk.csv      # LEFT RIGHT
+    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --csv walk.csv      # LEFT RIGHT
     openshoe-host replay left.bin right.bin --csv walk.csv --png walk.png
     openshoe-host replay left.bin right.bin --compass --gps walk.nmea --drift left.json right.json
 
 Per-module calibrations (--drift, --mag-cal) then take one file per foot, the left foot's first
 (- for none); each is checked against the serial number of the module on its foot.
 
-Heading aids on a live walk (the fusion set-up; hostlib.fusion.tracker): a compass update per step, and GPS
+``track`` and ``log`` send the fusion set-up after 0x34 (protocol.extensions.FUSION_SETUP: each step's
+swing time, module time, attitude and magnetometers, and the module's serial number), which the module's
+warm-up, the aids, the drift correction and the calibrations matched by serial number need; ``--no-fusion``
+leaves it out (plain 0x34 step packets, for an experiment), and a module that does not acknowledge it is
+tracked on plain packets, said once. ``--fusion`` is accepted and changes nothing.
+
+Heading aids on a live walk (hostlib.fusion.tracker): a compass update per step, and GPS
 fixes from a receiver read as they come (hostlib.run.gps_stream), each put on the module's clock; with a
 module on each foot, each foot's compass and the body's fixes, each fix on each module's clock::
 
-    openshoe-host track /dev/rfcomm0 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
-    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --fusion --compass --gps /dev/ttyACM0 --csv walk.csv
+    openshoe-host track /dev/rfcomm0 --compass --gps /dev/ttyACM0 --csv walk.csv
+    openshoe-host track /dev/rfcomm0 /dev/rfcomm1 --compass --gps /dev/ttyACM0 --csv walk.csv
 
 In-situ magnetometer calibration (hostlib.calibration.wiggle, NavShoe's): once tracking started, wiggle the
 shoe in one place for about 30 s — toe down and up, the sole to either side, all round — then walk
@@ -31,18 +37,18 @@ directory --mag-cal-dir, else $OPENSHOE_MAGCAL_DIR, else $XDG_CONFIG_HOME/opensh
 --compass without --mag-cal takes the saved one of the module it talks to. ``log`` records the
 wiggle's stream in its capture (and saves the calibration too), for ``replay`` to fit it again::
 
-    openshoe-host track /dev/rfcomm0 --fusion --compass --calibrate-mag --csv walk.csv
-    openshoe-host track /dev/rfcomm0 --fusion --compass --csv later.csv
-    openshoe-host log /dev/rfcomm0 --start --fusion --calibrate-mag --raw walk.bin
+    openshoe-host track /dev/rfcomm0 --compass --calibrate-mag --csv walk.csv
+    openshoe-host track /dev/rfcomm0 --compass --csv later.csv
+    openshoe-host log /dev/rfcomm0 --start --calibrate-mag --raw walk.bin
     openshoe-host replay walk.bin --compass --calibrate-mag --csv walk.csv
 
 Closed-loop drift correction (per module; hostlib.calibration.drift): record closed loops with the fusion
 set-up, calibrate from them, then correct the module's later walks::
 
-    openshoe-host log /dev/rfcomm0 --start --fusion --raw loop1.bin --duration 120
+    openshoe-host log /dev/rfcomm0 --start --raw loop1.bin --duration 120
     openshoe-host drift calibrate loop1.bin -o cal.json
     openshoe-host replay walk.bin --csv walk.csv --drift cal.json
-    openshoe-host track /dev/rfcomm0 --fusion --drift cal.json --csv walk.csv
+    openshoe-host track /dev/rfcomm0 --drift cal.json --csv walk.csv
 
 URL is anything pyserial opens: a device path (``/dev/rfcomm0``, ``/dev/ttyACM0``,
 ``COM5``), ``socket://host:port``, ``loop://``, or the emulator's ``openshoe://``.

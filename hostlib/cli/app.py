@@ -69,8 +69,8 @@ def _add_track(sub: argparse._SubParsersAction) -> None:
     add_setup_options(t)
     add_aid_options(t, live=True)
     t.add_argument("--drift", nargs="+", metavar="CAL.json",
-                   help="correct the track with this module's drift calibration (needs --fusion); with two "
-                        "URLs, the left foot's module's then the right foot's (- for none)")
+                   help="correct the track with this module's drift calibration (not with --no-fusion); "
+                        "with two URLs, the left foot's module's then the right foot's (- for none)")
     add_feet_options(t, "URL")
     t.add_argument("--web", metavar="[HOST:]PORT", type=web_address,
                    help="serve a live page of the walk (plan view, height, heading, counters) on this "

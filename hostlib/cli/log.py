@@ -1,6 +1,7 @@
 """``openshoe-host log``: capture the module's byte stream to a file, its packets still acked; with
-``--start`` 0x34 first, with the set-up the options ask for (:class:`~hostlib.run.host_setup.HostSetup`),
-and with ``--calibrate-mag`` the in-situ calibration's stream recorded (and its fit saved)."""
+``--start`` 0x34 first, with the set-up the options ask for (:class:`~hostlib.run.host_setup.HostSetup`:
+by default the fusion set-up, which a module that does not acknowledge it goes without, said once), and
+with ``--calibrate-mag`` the in-situ calibration's stream recorded (and its fit saved)."""
 
 from __future__ import annotations
 
@@ -63,10 +64,11 @@ def cmd_log(args: argparse.Namespace, out: TextIO) -> int:
     capture = CaptureFile()
     with closing(capture), open_device(args, args.url, raw_log=capture) as dev:
         capture.open(args.raw)
-        in_situ = (InSituCalibration(dev, args.mag_cal_dir, Messages("openshoe-host log"))
-                   if args.calibrate_mag else None)
+        messages = Messages("openshoe-host log")
+        in_situ = InSituCalibration(dev, args.mag_cal_dir, messages) if args.calibrate_mag else None
         setup = DeviceSetup(dev, HostSetup(fusion=args.fusion, height_compensation=args.height_compensation,
-                                           wiggle=None if in_situ is None else in_situ.wiggle), in_situ)
+                                           wiggle=None if in_situ is None else in_situ.wiggle), in_situ,
+                            messages=messages)
         if args.start:
             dev.start_stepwise_dead_reckoning()
         setup.after_start()

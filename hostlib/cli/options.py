@@ -112,10 +112,15 @@ def add_common(p: argparse.ArgumentParser) -> None:
 
 def add_setup_options(p: argparse.ArgumentParser) -> None:
     """What the host sends besides 0x34 (``track``, ``log``)."""
-    p.add_argument("--fusion", action="store_true",
-                   help="after 0x34 also ask for each step's swing time and the module's serial number "
-                        "(protocol.extensions.FUSION_SETUP; needed by --drift, --calibrate-mag and by drift "
-                        "calibrate)")
+    p.add_argument("--no-fusion", dest="fusion", action="store_false", default=True,
+                   help="do not send the fusion set-up after 0x34 (by default the host asks the module "
+                        "for each step's swing time, the module's time, attitude and magnetometers, and its "
+                        "serial number: protocol.extensions.FUSION_SETUP; the module's warm-up, the "
+                        "compass, GPS, --drift, --calibrate-mag and drift calibrate need it): plain 0x34 "
+                        "step packets, for an experiment. A module that does not acknowledge the set-up "
+                        "is tracked on plain packets without it, said once")
+    p.add_argument("--fusion", dest="fusion", action="store_true", default=True,
+                   help="the fusion set-up (the default; kept so that earlier commands still work)")
     p.add_argument("--height-compensation", action="store_true",
                    help="turn the module's height compensation (function 0x25) on at the first step "
                         "packet (an emulator extension)")
@@ -123,7 +128,7 @@ def add_setup_options(p: argparse.ArgumentParser) -> None:
 
 def add_aid_options(p: argparse.ArgumentParser, live: bool = False) -> None:
     """The heading aids' options; *live*: of ``track`` (one URL, a GPS device read as it talks)."""
-    what = "one URL, with --fusion" if live else "the capture needs the --fusion set-up"
+    what = "one URL or two, not with --no-fusion" if live else "the capture needs the fusion set-up"
     g = p.add_argument_group(f"heading aids (hostlib.fusion.tracker; {what})")
     g.add_argument("--compass", action="store_true",
                    help="one compass update per step from the magnetometers and attitude at the end of "
@@ -235,7 +240,8 @@ def _mag_cal_dir_option(g: Any) -> None:
 
 def add_log_calibration_options(p: argparse.ArgumentParser) -> None:
     """``log --calibrate-mag``: record the wiggle's stream, and fit and save it as ``track`` does."""
-    g = p.add_argument_group("in-situ magnetometer calibration (hostlib.calibration.wiggle; with --fusion)")
+    g = p.add_argument_group("in-situ magnetometer calibration (hostlib.calibration.wiggle; not with "
+                             "--no-fusion)")
     g.add_argument("--calibrate-mag", action="store_true",
                    help="after the fusion set-up the module streams its magnetometers and attitude while "
                         "the shoe is wiggled in one place, until the first step longer than 0.5 m: the "
@@ -270,8 +276,14 @@ def _track_aid_refusal(args: argparse.Namespace) -> str | None:
                       ("gps", "a fix is put on the module's clock, which only the step packets' time "
                               "(T_INT_K) gives")):
         if getattr(args, flag) and not args.fusion:
-            return f"--{flag} needs --fusion: {why}, which the fusion set-up asks the module for"
+            return _no_fusion(f"--{flag}", why)
     return None
+
+
+def _no_fusion(flag: str, why: str) -> str:
+    """The refusal of *flag* with ``--no-fusion``: *why* it needs the fusion set-up."""
+    return (f"{flag} needs the fusion set-up, which --no-fusion turns off: {why}, which the set-up asks "
+            "the module for")
 
 
 def usage_refusal(args: argparse.Namespace) -> str | None:
@@ -297,8 +309,8 @@ def usage_refusal(args: argparse.Namespace) -> str | None:
         if not two and (len(files) != 1 or files[0] == NO_FILE):
             return f"{flag} takes one file with one {what}"
     if args.cmd == "track" and args.drift and not args.fusion:
-        return ("--drift needs --fusion: the drift correction needs every step's swing time and the "
-                "module's serial number, which the fusion set-up asks the module for")
+        return _no_fusion("--drift", "the drift correction needs every step's swing time and the module's "
+                                     "serial number")
     if args.compass_deviation is not None and not args.compass:
         return ("--compass-deviation needs --compass: it is the local deviation of the compass's "
                 "readings")
@@ -337,9 +349,10 @@ def log_refusal(args: argparse.Namespace) -> str | None:
     if (refusal := value_refusal(args)) is not None:
         return refusal
     if args.calibrate_mag and not args.fusion:
-        return ("--calibrate-mag needs --fusion: the calibration is saved for the module under the serial "
-                "number the fusion set-up asks it for, and a replay of the capture with --compass takes "
-                "the magnetometers and the attitude at the end of each stance from that set-up's steps")
+        return _no_fusion("--calibrate-mag", "the calibration is saved for the module under its serial "
+                                             "number, and a replay of the capture with --compass takes the "
+                                             "magnetometers and the attitude at the end of each stance from "
+                                             "the set-up's steps")
     return None
 
 

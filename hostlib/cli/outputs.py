@@ -36,7 +36,7 @@ def fusion_line(tracker: FusionTracker | TwoFeetTracker) -> str:
     f = tracker.fusion
     if tracker.aid_settings.compass and f.compass_updates == 0 and not f.heading_aligned_by:
         return ("fusion: no step packet carried the magnetometers and attitude — record with the fusion "
-                "set-up (--fusion); the track is the plain sum")
+                "set-up (track and log send it unless --no-fusion); the track is the plain sum")
     aligned = f"heading aligned by {f.heading_aligned_by}" if f.heading_aligned_by else \
         "heading not aligned (the module's initial frame)"
     return (f"fusion: {f.compass_updates} compass updates ({f.compass_skipped} readings skipped"

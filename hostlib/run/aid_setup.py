@@ -64,6 +64,10 @@ class AidSetup:
     #: why the models held by default are on or off (:meth:`AidOptions.defaulted
     #: <hostlib.run.options.AidOptions.defaulted>`): option → "by default", "given" or "off"
     defaulted: dict[str, str] = field(default_factory=dict)
+    #: why the steps may carry no module time, for the ``aids:`` line (set by a
+    #: :class:`~hostlib.run.tracking_run.TrackingRun`: the fusion set-up off, or not taken by the
+    #: module; "": a capture recorded without it)
+    plain_packets: str = ""
 
     def describe(self) -> str:
         """The ``aids:`` line: what is on, and why each model held by default is on or off."""
@@ -149,8 +153,9 @@ class AidSetup:
             return ""
         what = " and ".join(w for w, held in (("drift", errors.holds_drift), ("warm-up", errors.holds_warmup))
                             if held)
-        return (f"; its {what} not counted: no step carried the module's time (the fusion set-up's "
-                f"packets do: --fusion)")
+        why = self.plain_packets or ("the fusion set-up's packets do, which openshoe-host track and log "
+                                     "ask for unless --no-fusion")
+        return f"; its {what} not counted: no step carried the module's time ({why})"
 
     def _why(self, name: str) -> str:
         return " by default" if self.defaulted.get(name) == "by default" else ""

@@ -6,7 +6,9 @@ replayed host (``openshoe-emu replay --host fusion``, over a :class:`SessionSetu
 commands at the same moments, each once the module acknowledged the one before:
 
 * right after 0x34 the fusion set-up (:data:`protocol.extensions.FUSION_SETUP`: each step's swing
-  time and the module's serial number), then, with an in-situ magnetometer calibration, the start
+  time, the module's time, attitude and magnetometers, and the module's serial number; the default
+  of ``track``, ``log`` and :class:`HostSetup`, off with ``--no-fusion`` / ``fusion=False``), then,
+  with an in-situ magnetometer calibration, the start
   of the magnetometer stream (:data:`WiggleCalibration.START
   <hostlib.calibration.wiggle.WiggleCalibration.START>`);
 * at the first step packet, height compensation (:func:`protocol.extensions.height_compensation_on`);
@@ -39,13 +41,14 @@ HostCommand = tuple[Command, Mapping[str, Any]]
 class HostSetup:
     """The commands a host sends besides 0x34 and the packet acks, and when (module docstring).
 
-    *fusion*: the fusion set-up after 0x34; *height_compensation*: height compensation at the first
-    step packet; *wiggle*: the in-situ magnetometer calibration whose stream starts after the fusion
-    set-up and stops when it ended. Each method returns the commands that became due, in the order
-    they go out; a command is due once.
+    *fusion*: the fusion set-up after 0x34 (the default; False: plain 0x34 step packets, whose steps
+    carry no module time); *height_compensation*: height compensation at the first step packet;
+    *wiggle*: the in-situ magnetometer calibration whose stream starts after the fusion set-up and
+    stops when it ended. Each method returns the commands that became due, in the order they go
+    out; a command is due once.
     """
 
-    def __init__(self, *, fusion: bool = False, height_compensation: bool = False,
+    def __init__(self, *, fusion: bool = True, height_compensation: bool = False,
                  wiggle: WiggleCalibration | None = None):
         self.fusion = fusion
         self.wiggle = wiggle
@@ -56,12 +59,19 @@ class HostSetup:
 
     def after_start(self) -> list[HostCommand]:
         """Once 0x34 was acknowledged (or at once, with a module that tracks already): the fusion
-        set-up, then the magnetometer stream's start."""
-        due: list[HostCommand] = list(FUSION_SETUP) if self.fusion else []
-        if self.wiggle is not None:
-            due += self.wiggle.START
-            self.streaming = True
-        return due
+        set-up (:meth:`fusion_setup`), then the magnetometer stream's start (:meth:`stream_start`)."""
+        return self.fusion_setup() + self.stream_start()
+
+    def fusion_setup(self) -> list[HostCommand]:
+        """The fusion set-up's commands, if asked for (the first part of :meth:`after_start`)."""
+        return list(FUSION_SETUP) if self.fusion else []
+
+    def stream_start(self) -> list[HostCommand]:
+        """The magnetometer stream's start, with a wiggle (the rest of :meth:`after_start`)."""
+        if self.wiggle is None:
+            return []
+        self.streaming = True
+        return list(self.wiggle.START)
 
     def stepped(self) -> list[HostCommand]:
         """A step packet came: height compensation, the first time."""

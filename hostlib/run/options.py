@@ -17,7 +17,8 @@ it becomes, in this one place for the command line and the Python API alike:
   (:data:`~hostlib.fusion.module_errors.MIMU22BT`). Without an aid they leave the track where the
   steps put it and widen its covariance as a module's systematic errors grow (the steps' dP alone
   is over-confident: docs/accuracy.md, "The host's defaults"); the warm-up among them needs the
-  steps' module times, which only the fusion set-up's packets carry;
+  steps' module times, which only the fusion set-up's packets carry (sent by default:
+  :attr:`RunOptions.fusion`);
 * the compass's local deviation (:attr:`AidOptions.compass_deviation`): with the compass, outdoors'
   (:data:`~hostlib.fusion.deviation.OUTDOORS`) when GPS is used, a building's
   (:data:`~hostlib.fusion.deviation.INDOORS`) otherwise;
@@ -270,10 +271,13 @@ class RunOptions:
     #: send nothing to start: sum the steps of a module that is tracking already (no 0x34, and the
     #: first step counter is taken as it comes)
     attach: bool = False
-    #: after 0x34 also ask for each step's swing time and the module's serial number
-    #: (:data:`protocol.extensions.FUSION_SETUP`): needed by the compass, GPS, the drift correction
-    #: and the in-situ calibration
-    fusion: bool = False
+    #: after 0x34 also ask for each step's swing time, the module's time, attitude and magnetometers,
+    #: and the module's serial number (:data:`protocol.extensions.FUSION_SETUP`; the default, as
+    #: ``openshoe-host track``'s): needed by the compass, GPS, the drift correction, the in-situ
+    #: calibration and the module's warm-up (counted on the steps' module times). False
+    #: (``--no-fusion``): plain 0x34 step packets. A module that does not acknowledge the set-up is
+    #: tracked on plain packets, said once (:class:`~hostlib.run.tracking_run.DeviceSetup`)
+    fusion: bool = True
     #: turn the module's height compensation (function 0x25) on at the first step packet (an
     #: emulator extension)
     height_compensation: bool = False

@@ -15,7 +15,9 @@ the fusion to the other foot, it never stops it). A run goes through four stages
 2. **start** (:meth:`TrackingRun.start`): the receiver's fixes are wired to the devices' steps; the
    compass waits for an in-situ calibration (:class:`~hostlib.run.in_situ.InSituCalibration`), or
    each module names itself and gets its saved calibration; then each module gets 0x34 (unless
-   attaching) and the set-up the options ask for (:class:`~hostlib.run.host_setup.HostSetup`).
+   attaching) and the set-up the options ask for (:class:`~hostlib.run.host_setup.HostSetup`): by
+   default the fusion set-up, which a module that does not acknowledge it goes without (tracked on
+   plain 0x34 step packets, said once; :class:`DeviceSetup`).
 3. **follow** (:meth:`TrackingRun.follow`): first each module's drift and magnetometer calibration is
    checked against the module (once it named itself); then the steps are read until the duration
    is over, the number of step packets came, or Ctrl-C, with a status line (:meth:`TrackingRun.status`)
@@ -26,7 +28,7 @@ the fusion to the other foot, it never stops it). A run goes through four stages
 
 Typical use::
 
-    run = TrackingRun(RunOptions(fusion=True, steps=200), AidOptions(compass=True, saved_calibration=True))
+    run = TrackingRun(RunOptions(steps=200), AidOptions(compass=True, saved_calibration=True))
     with run, Device("/dev/rfcomm0", tracker=run.tracker) as dev:
         run.start(dev)
         run.follow(LiveLine(sys.stdout))
@@ -38,16 +40,17 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Mapping
-from contextlib import ExitStack
+from contextlib import ExitStack, suppress
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from protocol.board import FOOT_SIDES
+from protocol.ids import StateId
 
 from ..calibration.drift import DriftCalibration
-from ..errors import HostError
-from ..events import LinkEvent
+from ..errors import AckTimeout, HostError, NotSupportedByCommandSet
+from ..events import LinkEvent, PacketEvent
 from ..fusion.feet import FeetSettings, TwoFeetTracker
 from ..track.steps import StepTracker
 from .aid_setup import AidSetup, feet_tracker, prepare_aids
@@ -68,7 +71,8 @@ if TYPE_CHECKING:
     from ..aids.gps import GpsFix
     from ..link.device import Device
 
-__all__ = ["FIRST_FIX_WAIT_S", "DeviceSetup", "TrackedModule", "TrackingRun", "open_receiver", "remaining"]
+__all__ = ["FIRST_FIX_WAIT_S", "DeviceSetup", "TrackedModule", "TrackingRun", "module_label", "open_receiver",
+           "remaining"]
 
 #: How long a run with a GPS receiver read live waits for its first fix before the walk starts [s]:
 #: the first fix places the walk on the globe (and gives the declination there).
@@ -88,10 +92,25 @@ def open_receiver(url: str, messages: Messages) -> GpsStream:
 class DeviceSetup:
     """A :class:`~hostlib.run.host_setup.HostSetup` carried out on a device: each command sent and
     its ack waited for, in the thread that drives the walk; with the in-situ calibration *in_situ*
-    (whose wiggle the set-up's is), its stream started and stopped, and its end reported."""
+    (whose wiggle the set-up's is), its stream started and stopped, and its end reported.
 
-    def __init__(self, dev: Device, setup: HostSetup, in_situ: InSituCalibration | None = None):
+    The fusion set-up is the one part a module may go without: one that does not acknowledge it (a
+    firmware without STATE_IF_SETUP, the 2014 numbering) is tracked on plain 0x34 step packets, and
+    one whose step packets come without a swing time (a real OpenShoe module: state 0x34 SWING_TIME
+    is the emulator's) on what they carry; each is said once to *messages* (default: stderr) about
+    the module *label* (default: its port), never a failure."""
+
+    def __init__(self, dev: Device, setup: HostSetup, in_situ: InSituCalibration | None = None, *,
+                 messages: Messages | None = None, label: str | None = None):
         self.dev, self.setup, self.in_situ = dev, setup, in_situ
+        self.messages = messages or Messages()
+        self.label = dev.name if label is None else label
+        #: why the step packets are plain although the fusion set-up was asked for (None: they are not)
+        self.plain_packets: str | None = None
+        #: whether the set-up's step packets come without a swing time (None: none of them came yet)
+        self.swing_time_missing: bool | None = None
+        self._watching = False  # the reader thread looks at the packets for the first set-up step's
+        self._swing_said = False
 
     def _send(self, commands: list[HostCommand]) -> None:
         for meaning, fields in commands:
@@ -99,9 +118,54 @@ class DeviceSetup:
 
     def after_start(self) -> None:
         """Right after 0x34 (or, attaching, at once): the fusion set-up, the stream's start."""
-        self._send(self.setup.after_start())
+        self._fusion_setup(self.setup.fusion_setup())
+        self._send(self.setup.stream_start())
         if self.in_situ is not None:
             self.in_situ.started()
+
+    def _fusion_setup(self, commands: list[HostCommand]) -> None:
+        """The fusion set-up's *commands*, each after the ack of the one before; the first one the
+        module does not take ends it, said once: the module is tracked on plain packets."""
+        if not commands:
+            return
+        self._watching = True
+        self.dev.on_packet(self._watch_swing_time)
+        for meaning, fields in commands:
+            try:
+                self.dev.command(meaning, **fields)
+            except (AckTimeout, NotSupportedByCommandSet) as exc:
+                self._stop_watching()
+                self.plain_packets = _not_taken(exc)
+                self.messages.note(f"{self.label}: {self.plain_packets}; tracked on plain 0x34 step "
+                                   "packets (no module time, attitude or magnetometers: the module's warm-up "
+                                   "is not counted, and the compass, GPS and drift correction get nothing "
+                                   "from them)")
+                return
+
+    def _watch_swing_time(self, event: PacketEvent) -> None:
+        """In the reader thread: the first step packet of the set-up's (it carries the attitude) says
+        whether the module fills SWING_TIME."""
+        states = event.states
+        if states is None or not {StateId.STEP_COUNTER, StateId.QUATERNION} <= states.keys():
+            return
+        self.swing_time_missing = StateId.SWING_TIME not in states
+        self._stop_watching()
+
+    def _stop_watching(self) -> None:
+        """No more looking at the packets (from the reader thread or the walk's: removed once)."""
+        watching, self._watching = self._watching, False
+        if watching:
+            with suppress(ValueError):  # the other thread removed it meanwhile
+                self.dev.remove_callback(self._watch_swing_time)
+
+    def _say_swing_time(self) -> None:
+        """Once the set-up's step packets came without a swing time: say so, once."""
+        if self.swing_time_missing and not self._swing_said:
+            self._swing_said = True
+            self.messages.note(f"{self.label}: its step packets carry no swing time (state 0x34 SWING_TIME, "
+                               "an emulator extension a real OpenShoe module leaves out): the steps are "
+                               "tracked on what they carry, the module's time among it; a drift correction "
+                               "cannot use them")
 
     @property
     def sent(self) -> bool:
@@ -113,6 +177,7 @@ class DeviceSetup:
         and the calibration reported once the wiggle ended."""
         if self.dev.session.stats.steps > 0:
             self._send(self.setup.stepped())
+        self._say_swing_time()
         in_situ = self.in_situ
         if in_situ is not None and not in_situ.reported and in_situ.ended():
             self._send(self.setup.stop_stream())
@@ -122,6 +187,8 @@ class DeviceSetup:
         """The walk or capture ended (the module's outputs off unless *leave_running*): a calibration
         that ended in the last moments is reported; one that did not end says so. The stream is
         stopped if the outputs stay on."""
+        self._stop_watching()
+        self._say_swing_time()
         in_situ = self.in_situ
         if in_situ is None or in_situ.reported:
             return
@@ -153,7 +220,22 @@ class TrackedModule:
     @property
     def label(self) -> str:
         """How messages name it: its port, and with two feet its foot."""
-        return self.dev.name if self.side is None else f"the {self.side} foot ({self.dev.name})"
+        return module_label(self.side, self.dev)
+
+
+def module_label(side: str | None, dev: Device) -> str:
+    """How messages name the module on *side* (None: the only one) at *dev*: its port, and with two
+    feet its foot."""
+    return dev.name if side is None else f"the {side} foot ({dev.name})"
+
+
+def _not_taken(exc: AckTimeout | NotSupportedByCommandSet) -> str:
+    """Why the module did not take a command of the fusion set-up, in words."""
+    if isinstance(exc, NotSupportedByCommandSet):
+        return (f"the fusion set-up's {exc.command} does not exist in the {exc.command_set} command "
+                "numbering")
+    return (f"the module did not acknowledge the fusion set-up's {exc.command} (0x{exc.wire_id:02X}; "
+            f"{exc.attempts} attempt(s) of {exc.timeout:g} s)")
 
 
 #: A drift calibration, or its file.
@@ -290,18 +372,33 @@ class TrackingRun:
         wiggle = None if self.in_situ is None else self.in_situ.wiggle
         self.modules = [TrackedModule(side, dev, DeviceSetup(dev, HostSetup(
             fusion=self.options.fusion, height_compensation=self.options.height_compensation, wiggle=wiggle),
-            self.in_situ)) for side, dev in devices.items()]
+            self.in_situ, messages=self.messages, label=module_label(side, dev)))
+            for side, dev in devices.items()]
         for m in self.modules:
             if m.side is not None:
                 m.dev.on_link(lambda ev, m=m: self._report_link(m, ev))
             if not self.options.attach:
                 m.dev.start_stepwise_dead_reckoning()
             m.setup.after_start()
+        self._note_plain_packets()
         names = " and ".join(m.label for m in self.modules)
         numbering = "/".join(dict.fromkeys(m.dev.session.command_set.name for m in self.modules))
         # said when the walk is followed, where Ctrl-C is caught (a Ctrl-C just after the line ends it)
         self._tracking_line = f"tracking on {names} ({numbering} commands); Ctrl-C to stop"
         return self.modules
+
+    def _note_plain_packets(self) -> None:
+        """Tell the ``aids:`` line why the steps may carry no module time: the fusion set-up not
+        sent, or not taken by a module."""
+        if self.aids is None:
+            return
+        if not self.options.fusion:
+            self.aids.plain_packets = "the fusion set-up, whose packets do, was not sent: --no-fusion"
+            return
+        for m in self.modules:
+            if m.setup.plain_packets is not None:
+                self.aids.plain_packets = m.setup.plain_packets
+                return
 
     def _feed_receiver(self, devices: Mapping[str | None, Device]) -> None:
         """Queue the receiver's fixes on the tracker (the module's, or the two feet's) between two

@@ -14,7 +14,10 @@ calibration: after MCU_ID it waits for the magnetometer stream (0x21 with a rate
 wiggle's stream packets (:func:`.wiggles.wiggle_packets`) and walks; 0x21 with rate 0 stops it.
 ``fakeshoe://N/dropK`` loses its link once the host acked its K-th step packet (a port re-opened
 after that is a module that was never started: silent). ``fakeshoe://N/fusion/moduleK`` is another
-module: its serial number is :func:`module_id` (K). Every port made is kept in :data:`PORTS`.
+module: its serial number is :func:`module_id` (K). ``fakeshoe://N/nosetup`` ignores STATE_IF_SETUP
+(0x23: no ack, its step output unchanged), as a firmware without it would; ``fakeshoe://N/fusion/real``
+takes it as a real OpenShoe module does, leaving the emulator's extension states (SWING_TIME) out of its
+step packets. Every port made is kept in :data:`PORTS`.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from __future__ import annotations
 import numpy as np
 
 from protocol.codec import STEP_IDS, encode_state, encode_states, fitting_ids
-from protocol.extensions import MAG_STREAM_STATES
+from protocol.extensions import EXTENSION_STATES, MAG_STREAM_STATES
 from protocol.frames import build_command_ack, build_state_packet
 from protocol.ids import OutputMode, StateId
 
@@ -63,6 +66,8 @@ class Serial(FakeModulePort):
         self._steps_total = int(n)
         self.fusion = "fusion" in variants
         self.wiggle = "wiggle" in variants
+        self.no_setup = "nosetup" in variants
+        self.real = "real" in variants
         drops = [int(v[4:]) for v in variants if v.startswith("drop")]
         self.drop_after = drops[0] if drops else None
         modules = [int(v[6:]) for v in variants if v.startswith("module")]
@@ -74,6 +79,8 @@ class Serial(FakeModulePort):
         return self._number
 
     def _reply(self, frame: bytes) -> bytes:
+        if frame[0] == 0x23 and self.no_setup:
+            return b""
         out = build_command_ack(frame[0])
         if frame[0] == 0x34:
             self._steps_left = self._steps_total
@@ -82,7 +89,8 @@ class Serial(FakeModulePort):
             if not self.fusion:
                 out += self._next_step()
         elif frame[0] == 0x23:  # quirk: the frame's checksum bytes are ids 9 and 10
-            self._output_ids = tuple(fitting_ids([*frame[3:11], frame[-2], frame[-1]]))
+            ids = fitting_ids([*frame[3:11], frame[-2], frame[-1]])
+            self._output_ids = tuple(i for i in ids if not (self.real and i in EXTENSION_STATES))
         elif frame[0] == 0x04:
             out += build_state_packet(self._next_number(), encode_state(StateId.MCU_ID, self.mcu_id))
             if self.fusion and not self.wiggle and self._step_counter == 0:

@@ -1,6 +1,7 @@
-"""openshoe-host with the fusion set-up: `drift calibrate`, `replay --drift`, `track --fusion
-[--height-compensation] [--drift]` and `log --fusion`, on hand-built captures and against the
-scripted module of tests/hostlib/protocol_fakeshoe.py."""
+"""openshoe-host with the fusion set-up: `drift calibrate`, `replay --drift`, `track
+[--height-compensation] [--drift]` and `log` (which send the set-up unless --no-fusion; a module that
+does not take it is tracked on plain packets), on hand-built captures and against the scripted module
+of tests/hostlib/protocol_fakeshoe.py."""
 
 from __future__ import annotations
 
@@ -121,9 +122,9 @@ def test_replay_refuses_a_bad_calibration_file_naming_it(tmp_path, capsys):
 
 def test_track_refuses_drift_without_fusion_before_opening_the_port(tmp_path, capsys):
     cal = tmp_path / "cal.json"
-    argv = ["track", "/dev/openshoe-does-not-exist", "--drift", str(cal)]
+    argv = ["track", "/dev/openshoe-does-not-exist", "--no-fusion", "--drift", str(cal)]
     assert main(argv, io.StringIO()) == 2
-    assert "--drift needs --fusion" in capsys.readouterr().err
+    assert "--drift needs the fusion set-up, which --no-fusion turns off" in capsys.readouterr().err
 
 
 def _cal_file(tmp_path, dv=(-0.2, 0.0, 0.0), serial_number=protocol_fakeshoe.MCU_ID) -> str:
@@ -171,10 +172,53 @@ def test_track_sends_the_fusion_set_up_after_0x34_and_height_compensation_at_the
     assert port.packet_acks[:2] == [1, 2], "the serial number packet, then the first step"
 
 
-def test_track_without_the_options_sends_what_it_always_sent():
-    assert main(["track", "fakeshoe://2", "--steps", "2", "--duration", "30"], io.StringIO()) == 0
-    assert protocol_fakeshoe.PORTS[-1].commands == _frames((Command.STEPWISE_DEAD_RECKONING, {}),
-                                                           (Command.OUTPUT_ALL_OFF, {}))
+def test_track_without_options_sends_the_fusion_set_up_and_its_steps_carry_the_module_time(capsys):
+    """A plain ``track`` asks for the fusion set-up after 0x34 (``--fusion`` says the same): its steps
+    carry their swing time and the module's time, so the module's warm-up is counted; ``--no-fusion``
+    sends 0x34 alone, as track did before."""
+    start, off = (Command.STEPWISE_DEAD_RECKONING, {}), (Command.OUTPUT_ALL_OFF, {})
+    for extra in ([], ["--fusion"]):
+        out = io.StringIO()
+        argv = ["track", "fakeshoe://2/fusion", "--steps", "2", "--duration", "30", *extra]
+        assert main(argv, out) == 0
+        assert protocol_fakeshoe.PORTS[-1].commands == _frames(start, *FUSION_SETUP, off)
+        assert "packets     2 | steps     2" in out.getvalue()
+        assert "module errors held by default" in out.getvalue() and "not counted" not in out.getvalue()
+    err = capsys.readouterr().err
+    assert err.count("tracking on fakeshoe://2/fusion") == 2 and "swing time" not in err and "plain" not in err
+    out = io.StringIO()
+    assert main(["track", "fakeshoe://2", "--steps", "2", "--duration", "30", "--no-fusion"], out) == 0
+    assert protocol_fakeshoe.PORTS[-1].commands == _frames(start, off)
+    assert "warm-up not counted: no step carried the module's time" in out.getvalue()
+    assert "not sent: --no-fusion" in out.getvalue()
+
+
+def test_a_module_that_ignores_the_fusion_set_up_is_tracked_on_plain_packets(capsys):
+    """A module that never acknowledges STATE_IF_SETUP (a firmware without it) is tracked on its plain
+    0x34 step packets: the walk goes on, said once on stderr and in the aids line; the set-up's
+    MCU_ID is not waited for after it."""
+    out = io.StringIO()
+    argv = ["track", "fakeshoe://3/nosetup", "--steps", "3", "--duration", "30", "--ack-timeout", "0.05"]
+    assert main(argv, out) == 0
+    text, err = out.getvalue(), capsys.readouterr().err
+    assert "packets     3 | steps     3 |     3.00 m" in text
+    said = "did not acknowledge the fusion set-up's STATE_IF_SETUP (0x23; 3 attempt(s) of 0.05 s)"
+    assert err.count(said) == 1 and "tracked on plain 0x34 step packets" in err, err
+    assert f"warm-up not counted: no step carried the module's time (the module {said})" in text
+    (setup_frame,) = _frames(FUSION_SETUP[0])
+    start, off = (Command.STEPWISE_DEAD_RECKONING, {}), (Command.OUTPUT_ALL_OFF, {})
+    assert protocol_fakeshoe.PORTS[-1].commands == [*_frames(start), *[setup_frame] * 3, *_frames(off)]
+
+
+def test_a_real_module_answers_the_fusion_set_up_without_swing_times(capsys):
+    """A real OpenShoe module acknowledges the set-up but leaves the emulator's SWING_TIME out: its
+    steps are tracked on what they carry (the module's time among it: the warm-up counts), and the
+    missing swing time is said once on stderr."""
+    out = io.StringIO()
+    assert main(["track", "fakeshoe://4/fusion/real", "--steps", "4", "--duration", "30"], out) == 0
+    text, err = out.getvalue(), capsys.readouterr().err
+    assert "packets     4 | steps     4 |     4.00 m" in text and "not counted" not in text
+    assert err.count("its step packets carry no swing time (state 0x34 SWING_TIME") == 1, err
 
 
 def test_a_logged_fusion_capture_calibrates(tmp_path):

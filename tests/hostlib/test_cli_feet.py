@@ -299,8 +299,9 @@ def test_track_with_two_devices_acks_each_stream_and_fuses_both_feet(fakeshoe_sc
     argv = ["track", left, right, "--steps", "4", "--duration", "30", "--csv", str(csv_path)]
     assert main(argv, out) == 0
     ports = {p.port: p for p in fakeshoe_scheme}
-    assert sorted(set(ports[left].packet_acks)) == [1, 2, 3, 4]
-    assert sorted(set(ports[right].packet_acks)) == [1, 2, 3, 4]
+    # each module's four step packets and the serial number packet the fusion set-up asks for
+    assert sorted(set(ports[left].packet_acks)) == [1, 2, 3, 4, 5]
+    assert sorted(set(ports[right].packet_acks)) == [1, 2, 3, 4, 5]
     text = out.getvalue()
     live = [line for line in text.splitlines() if line.startswith("left ") and "| body x" in line]
     # the live line shows both feet; the last one counts every step
@@ -383,8 +384,9 @@ def test_track_refuses_another_modules_drift_calibration_for_a_foot(fakeshoe_sch
 
 
 def test_track_with_two_devices_needs_the_fusion_set_up_for_drift(fakeshoe_scheme, capsys):
-    assert main(["track", "fakeshoe://3", "fakeshoe://3", "--drift", "a.json", "b.json"], io.StringIO()) == 2
-    assert "--drift needs --fusion" in capsys.readouterr().err
+    argv = ["track", "fakeshoe://3", "fakeshoe://3", "--no-fusion", "--drift", "a.json", "b.json"]
+    assert main(argv, io.StringIO()) == 2
+    assert "--drift needs the fusion set-up, which --no-fusion turns off" in capsys.readouterr().err
     assert fakeshoe_scheme == []  # refused before any port opened
 
 

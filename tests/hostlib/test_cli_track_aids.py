@@ -45,10 +45,12 @@ def csv_header_and_first_row(path) -> tuple[tuple[str, ...], list[str]]:
 
 
 @pytest.mark.parametrize(("argv", "message"), [
-    (["--compass"], "--compass needs --fusion: the compass needs the magnetometers and the attitude"),
-    (["--gps", "/dev/gps-does-not-exist"], "--gps needs --fusion: a fix is put on the module's clock"),
-    (["/dev/right-does-not-exist", "--compass", "--gps", "/dev/gps-does-not-exist"],
-     "--compass needs --fusion"),
+    (["--no-fusion", "--compass"], "--compass needs the fusion set-up, which --no-fusion turns off: the "
+                                   "compass needs the magnetometers and the attitude"),
+    (["--no-fusion", "--gps", "/dev/gps-does-not-exist"],
+     "--gps needs the fusion set-up, which --no-fusion turns off: a fix is put on the module's clock"),
+    (["/dev/right-does-not-exist", "--no-fusion", "--compass", "--gps", "/dev/gps-does-not-exist"],
+     "--compass needs the fusion set-up"),
     (["/dev/right-does-not-exist", "--fusion", "--compass", "--mag-cal", "l.json"],
      "--mag-cal takes one file per module with two URLs"),
     (["--fusion", "--gps-bias"], "--gps-bias needs --gps: it is the error of the receiver's fixes"),
@@ -188,10 +190,11 @@ def test_log_says_when_the_capture_ends_before_the_wiggle_and_stops_the_stream(t
 
 
 def test_log_refuses_to_calibrate_without_the_fusion_set_up_before_opening_a_port(capsys):
-    argv = ["log", "/dev/openshoe-does-not-exist", "--raw", "cal.bin", "--start", "--calibrate-mag"]
+    argv = ["log", "/dev/openshoe-does-not-exist", "--raw", "cal.bin", "--start", "--no-fusion",
+            "--calibrate-mag"]
     assert main(argv, io.StringIO()) == 2
-    assert "openshoe-host log: --calibrate-mag needs --fusion: the calibration is saved for the module" \
-        in capsys.readouterr().err
+    assert ("openshoe-host log: --calibrate-mag needs the fusion set-up, which --no-fusion turns off: the "
+            "calibration is saved for the module") in capsys.readouterr().err
 
 
 # -- a module on each foot ------------------------------------------------------------------

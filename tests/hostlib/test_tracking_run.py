@@ -19,8 +19,9 @@ from hostlib.fusion.gps_bias import GpsBias
 from hostlib.fusion.module_errors import EMULATED_MODULE, MIMU22BT
 from hostlib.fusion.settings import FusionSettings
 from hostlib.link.device import Device
+from hostlib.link.session import HostSession
 from hostlib.run import AidOptions, HostSetup, Messages, RunOptions, SessionSetup, TrackingRun, prepare_aids
-from hostlib.run.tracking_run import TrackedModule
+from hostlib.run.tracking_run import DeviceSetup, TrackedModule
 from protocol.extensions import FUSION_SETUP, MAG_STREAM_START, MAG_STREAM_STOP, height_compensation_on
 from protocol.frames import build_command, build_command_ack
 from protocol.ids import Command
@@ -81,7 +82,10 @@ def test_the_host_set_up_sends_each_command_when_it_is_due_and_once():
     assert setup.stepped() == [height_compensation_on()] and setup.stepped() == []
     assert setup.sent
     assert setup.stop_stream() == list(MAG_STREAM_STOP) and setup.stop_stream() == []
-    assert HostSetup().after_start() == [] and HostSetup().stepped() == [] and HostSetup().stop_stream() == []
+    assert HostSetup().after_start() == list(FUSION_SETUP), "the fusion set-up is the default, as track's"
+    plain = HostSetup(fusion=False)
+    assert plain.after_start() == [] and plain.stepped() == [] and plain.stop_stream() == []
+    assert RunOptions().fusion, "a TrackingRun sends the fusion set-up by default, as track does"
 
 
 def test_a_session_set_up_sends_the_next_command_once_the_one_before_was_acked():
@@ -98,7 +102,7 @@ def test_a_session_set_up_sends_the_next_command_once_the_one_before_was_acked()
 
 def test_a_library_drives_one_module_through_a_tracking_run(fake_schemes):
     said = io.StringIO()
-    run = TrackingRun(RunOptions(fusion=True, height_compensation=True, steps=5, duration_s=30.0),
+    run = TrackingRun(RunOptions(height_compensation=True, steps=5, duration_s=30.0),
                       AidOptions(compass=True), messages=Messages("walk", said))
     with run, Device("fakeshoe://5/fusion", tracker=run.tracker_for(None)) as dev:
         assert run.tracker is run.aids.tracker and dev.tracker is run.tracker
@@ -111,6 +115,40 @@ def test_a_library_drives_one_module_through_a_tracking_run(fake_schemes):
     assert run.aids.tracker.fusion.compass_updates == 4, "the first step aligns, the four after update"
     assert said.getvalue() == "tracking on fakeshoe://5/fusion (2015 commands); Ctrl-C to stop\n"
     assert modules[0].setup.sent, "height compensation went out at the first step"
+
+
+def test_a_module_speaking_the_2014_numbering_goes_without_the_fusion_set_up():
+    """The 2014 numbering has no STATE_IF_SETUP: a device set-up goes on without the fusion set-up
+    (the module is tracked on plain packets) and says so once, never failing the walk."""
+
+    class Module2014:
+        name = "/dev/rfcomm0"
+        session = HostSession(command_set="2014")
+        sent: list[Command] = []
+
+        def command(self, meaning, **fields):
+            self.session.encode_command(meaning, **fields)  # what Device.command sends first
+            self.sent.append(meaning)
+
+        def on_packet(self, fn):
+            self.watcher = fn
+
+        def remove_callback(self, fn):
+            assert fn == self.watcher
+            self.watcher = None
+
+    said = io.StringIO()
+    dev = Module2014()
+    setup = DeviceSetup(dev, HostSetup(height_compensation=True), messages=Messages("track", said))
+    setup.after_start()
+    assert setup.plain_packets == ("the fusion set-up's STATE_IF_SETUP does not exist in the 2014 command "
+                                   "numbering")
+    assert said.getvalue() == (f"track: /dev/rfcomm0: {setup.plain_packets}; tracked on plain 0x34 step "
+                               "packets (no module time, attitude or magnetometers: the module's warm-up is "
+                               "not counted, and the compass, GPS and drift correction get nothing from "
+                               "them)\n")
+    assert dev.sent == [] and not setup.sent, "nothing more of the set-up; height compensation waits"
+    assert dev.watcher is None, "no packet is looked at for the set-up's steps"
 
 
 def test_a_library_drives_a_module_on_each_foot_through_a_tracking_run(fake_schemes):
