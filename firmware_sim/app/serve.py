@@ -63,7 +63,7 @@ from typing import Any, TextIO
 
 from firmware_sim.transports.factory import Address, EmulatorSettings, SettingsError, build
 from firmware_sim.transports.pacer import MultiPacer, Pacer
-from firmware_sim.transports.pacer.priority import check_level, raise_priority
+from firmware_sim.transports.pacer.priority import allowed_cpus, check_level, pin_to_cpu, raise_priority
 from hostlib.web.address import bind_refusal, web_address
 
 from .batch import (
@@ -189,6 +189,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "SCHED_FIFO at LEVEL (1-99), ahead of every ordinary process: frames on time on a "
                         "busy machine; needs root or ulimit -r >= LEVEL, else said and run at the ordinary "
                         "priority (default: ordinary; never with --speed 0)")
+    o.add_argument("--cpu", type=_cpu_number, metavar="N",
+                   help="keep the process on CPU N (0 = the first): with --rt-priority, one serve "
+                        "process per CPU, so that no two real-time loops fill one CPU (the kernel then "
+                        "stops both for 50 ms to run the other processes; default: any CPU)")
 
 
 def _rt_level(text: str) -> int:
@@ -198,6 +202,18 @@ def _rt_level(text: str) -> int:
     except ValueError:
         raise argparse.ArgumentTypeError(f"a real-time level from 1 to 99, not {text!r}") from None
     return level
+
+
+def _cpu_number(text: str) -> int:
+    allowed = allowed_cpus()
+    try:
+        cpu = int(text)
+    except ValueError:
+        cpu = -1
+    if cpu not in allowed:
+        cpus = ", ".join(map(str, sorted(allowed)))
+        raise argparse.ArgumentTypeError(f"a CPU this process may run on ({cpus}), not {text!r}")
+    return cpu
 
 
 #: The default frame of a process with several modules (see --frame-ms, docs/design.md).
@@ -241,7 +257,8 @@ class ServeSettings:
 
     Checked when made (:class:`~firmware_sim.transports.factory.SettingsError`). *trace*: a
     file for every frame in and out (the modules record frames only then). *frame_ms*,
-    *overrun_ms*, *rt_priority*: see ``--frame-ms``, ``--overrun-ms``, ``--rt-priority`` (None: the default).
+    *overrun_ms*, *rt_priority*, *cpu*: see ``--frame-ms``, ``--overrun-ms``, ``--rt-priority``, ``--cpu``
+    (None: the default).
     """
 
     emulator: EmulatorSettings
@@ -255,6 +272,7 @@ class ServeSettings:
     web: Address | None = None  #: where the live panel listens (:mod:`.web.panel`; None: no panel)
     web_control: bool = False  #: the panel's fault buttons on (through the control channel)
     rt_priority: int | None = None
+    cpu: int | None = None
 
     def __post_init__(self) -> None:
         if not self.emulator.endpoint_requests():
@@ -313,7 +331,7 @@ def settings_from_args(args: argparse.Namespace) -> ServeSettings:
                          status_interval=args.status_interval, frame_ms=args.frame_ms,
                          overrun_ms=args.overrun_ms, gps=gps, web=getattr(args, "web", None),
                          web_control=getattr(args, "web_control", False),
-                         rt_priority=getattr(args, "rt_priority", None))
+                         rt_priority=getattr(args, "rt_priority", None), cpu=getattr(args, "cpu", None))
 
 
 def cli_option(name: str) -> str:
@@ -383,6 +401,9 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
     served.loop.prepare(announce=lambda text: print(text, file=err, flush=True))
     gc.collect()
     gc.freeze()  # what exists now is never scanned again: no long collections in the loop
+    anywhere = allowed_cpus()
+    if settings.cpu is not None:  # before the loop's thread starts: it stays there
+        print(f"openshoe-emu serve: loop on {pin_to_cpu(settings.cpu)}", file=err, flush=True)
     if settings.rt_priority is not None and settings.emulator.speed not in (0, math.inf):
         # this thread (control channel, status lines) takes the interpreter's lock between the
         # loop's frames: at the ordinary priority another process could stop it while it holds it
@@ -392,6 +413,8 @@ def _start_loop(served: _Served, settings: ServeSettings, err: TextIO) -> None:
     # back to the loop within 0.2 ms, not the default 5 ms (a dozen missed ticks)
     sys.setswitchinterval(2e-4)
     served.loop.start()
+    if settings.cpu is not None and hasattr(os, "sched_setaffinity"):
+        os.sched_setaffinity(0, anywhere)  # this thread (status lines, control) beside it, on any CPU
 
 
 def ready_line(modules: list[ServedModule], control: ControlServer | None,

@@ -7,9 +7,9 @@ Targets (``python -m lab.bench [TARGET …]``, all of them by default):
   on a simulated walk, compiled and pure Python on the same input, side by side;
   target 340 000 samples/s on one core. Under a minute.
 * ``realtime`` — ``--modules`` (50) modules at 1 kHz in two ``openshoe-emu serve``
-  processes (one per core; their loops at real-time priority ``--rt-priority``, 10), each on its
-  own pty with a host that starts step-wise dead reckoning and acknowledges every step, for
-  ``--minutes`` (10); target: no overrun. Per process: its loop's priority, the seconds it waited
+  processes (one per core, each pinned to it; their loops at real-time priority ``--rt-priority``,
+  10), each on its own pty with a host that starts step-wise dead reckoning and acknowledges every
+  step, for ``--minutes`` (10); target: no overrun. Per process: its loop's priority, the seconds it waited
   for a CPU, the garbage collector's runs, its CPU per module and tick; the machine's load.
 * ``latency`` — one module served in real time on a pty: time from a command written on
   the pty to its ack read back (p99), ``--pings`` (2000); target ≤ 1 ms.

@@ -282,10 +282,14 @@ def _spawn_serves(plan: _RealtimePlan, procs: list[ServeProcess], say: Say) -> N
     priority = () if plan.rt_priority is None else ("--rt-priority", str(plan.rt_priority))
     t = time.monotonic()
 
+    cpus = sorted(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else []
+
     def one(k: int, m: int) -> ServeProcess:
+        # at real-time priority each on a CPU of its own, if there are enough (serve --cpu)
+        cpu = ("--cpu", str(cpus[k])) if priority and len(cpus) >= len(plan.per) else ()
         sp = spawn("--modules", str(m), "--pty", f"{tag}-{k}-", "--scenario", plan.scenario,
                    "--control", "127.0.0.1:0", "--status-interval", "10",
-                   "--frame-ms", f"{plan.frame_len:g}", *priority, timeout=600)
+                   "--frame-ms", f"{plan.frame_len:g}", *priority, *cpu, timeout=600)
         say(f"realtime: serve {k} ready in {time.monotonic() - t:.0f} s")
         return sp
 

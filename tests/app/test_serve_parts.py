@@ -257,3 +257,14 @@ def test_the_real_time_priority_is_a_level_from_1_to_99():
     assert caught.value.options == ("rt_priority",)
     with pytest.raises(SystemExit):
         serve_args("--pty", "/tmp/p", "--rt-priority", "0")
+
+
+def test_the_cpu_is_one_this_process_may_run_on():
+    from firmware_sim.app.serve import settings_from_args
+    from firmware_sim.transports.pacer.priority import allowed_cpus
+
+    first = min(allowed_cpus())
+    assert settings_from_args(serve_args("--pty", "/tmp/p", "--cpu", str(first))).cpu == first
+    assert settings_from_args(serve_args("--pty", "/tmp/p")).cpu is None
+    with pytest.raises(SystemExit):
+        serve_args("--pty", "/tmp/p", "--cpu", str(max(allowed_cpus()) + 1))

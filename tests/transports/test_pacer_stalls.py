@@ -59,3 +59,16 @@ def test_collections_are_counted_only_while_watched():
         pauses.unwatch()
     gc.collect()
     assert pauses.count == 1 and pauses.longest > 0.0 and pauses.longest_generation == 2
+
+
+def test_a_thread_pinned_to_a_cpu_runs_there_and_no_cpu_leaves_it_anywhere():
+    from firmware_sim.transports.pacer.priority import allowed_cpus, pin_to_cpu
+
+    anywhere = allowed_cpus()
+    assert pin_to_cpu(None) == "any CPU"
+    try:
+        cpu = max(anywhere)
+        assert pin_to_cpu(cpu) == f"CPU {cpu}"
+        assert os.sched_getaffinity(0) == {cpu}
+    finally:
+        os.sched_setaffinity(0, anywhere)
