@@ -185,7 +185,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                         "host could see it: the link's lookahead + latency - one frame, 35 ms on "
                         "Bluetooth with 4-ms frames; one frame on USB or an ideal link)")
     o.add_argument("--rt-priority", type=_rt_level, metavar="LEVEL",
-                   help="run the modules' loop (and the process's other threads) under the real-time policy "
+                   help="run the modules' loop and the control channel under the real-time policy "
                         "SCHED_FIFO at LEVEL (1-99), ahead of every ordinary process: frames on time on a "
                         "busy machine; needs root or ulimit -r >= LEVEL, else said and run at the ordinary "
                         "priority (default: ordinary; never with --speed 0)")

@@ -17,8 +17,9 @@ core of its own (:func:`pin_to_cpu`) leaves every core half free.
 
 Linux lets a process ask for it with ``CAP_SYS_NICE`` (root) or an ``RLIMIT_RTPRIO`` of at least the
 level (``ulimit -r``; e.g. ``@audio - rtprio 20`` in ``/etc/security/limits.conf``). Where it may not,
-the thread keeps its ordinary priority and :func:`raise_priority` says why. Children forked by the
-thread start at the ordinary priority (``SCHED_RESET_ON_FORK``).
+the thread keeps its ordinary priority and :func:`raise_priority` says why. The threads and the
+processes it starts run at the ordinary priority (``SCHED_RESET_ON_FORK``: a web panel's thread, a
+child process), so a loop raises itself when it starts.
 """
 
 from __future__ import annotations
