@@ -114,3 +114,20 @@ def test_realtime_figures_from_the_status_lines() -> None:
     # the fewer of: modules without overrun (2), modules that sent steps (2)
     assert (r.figure, r.target, r.passed, r.short) == (2, 3.0, False, True)
     assert said[0].startswith("realtime: 2/3 modules without overrun, 2 sent steps (7 in all)")
+
+
+def test_realtime_says_each_process_s_loop_priority_wait_and_collections() -> None:
+    from lab.bench.targets import _realtime_details, _realtime_plan, _realtime_result, _ServeStatus
+
+    status = _ServeStatus()
+    status.add(0, {"module": 0, "overruns": 0, "late_bytes": 0, "late_max_ms": 0.0, "lookahead_ms": 19.0,
+                   "overrun_limit_ms": 35.0, "lag_max_ms": 3.0, "loop_us_mean": 10.0,
+                   "lag_frames": {"<1ms": 10}, "priority": "SCHED_FIFO 10", "run_queue_wait_s": 0.25,
+                   "gc_runs": 7, "gc_longest_ms": 0.5})
+    status.stalls[0]["cpu_us_per_module_tick"] = 9.5
+    plan = _realtime_plan(1, 1, 0.1, None, rt_priority=10)
+    said: list[str] = []
+    _realtime_result(plan, status, _realtime_details(plan, status, {"p0.m0.bt-pty": 1}, per_tick=9.0),
+                     said.append)
+    assert ("realtime: p0: loop at SCHED_FIFO 10, waited 0.25 s for a CPU, GC ran 7 times (longest 0.5 ms), "
+            "9.5 µs of CPU per module and tick") in said
