@@ -185,7 +185,8 @@ def test_track_without_options_sends_the_fusion_set_up_and_its_steps_carry_the_m
         assert "packets     2 | steps     2" in out.getvalue()
         assert "module errors held by default" in out.getvalue() and "not counted" not in out.getvalue()
     err = capsys.readouterr().err
-    assert err.count("tracking on fakeshoe://2/fusion") == 2 and "swing time" not in err and "plain" not in err
+    assert err.count("tracking on fakeshoe://2/fusion") == 2
+    assert "swing time" not in err and "plain" not in err
     out = io.StringIO()
     assert main(["track", "fakeshoe://2", "--steps", "2", "--duration", "30", "--no-fusion"], out) == 0
     assert protocol_fakeshoe.PORTS[-1].commands == _frames(start, off)
