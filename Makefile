@@ -2,7 +2,7 @@
 #   make demo   set up .venv and run the main job (emulated walk tracked through a pty)
 #   make test   set up .venv, lint with ruff, run the per-kernel equivalence tests with
 #               OPENSHOE_PURE=1 (kernels as plain Python) and the docs site's build while the
-#               kernels compile, then every other test on two processes
+#               kernels compile, then every other test on three processes
 PYTHON ?= python3
 VENV   := .venv
 BIN    := $(VENV)/bin
@@ -27,15 +27,16 @@ lint: $(STAMP)
 # The tests start hundreds of fresh processes: each loads its modules' cached bytecode, also where the
 # environment asks Python not to write it (PYTHONDONTWRITEBYTECODE, empty here: unset).
 test: export PYTHONDONTWRITEBYTECODE =
-# Its two workers keep both cores busy: numpy's BLAS runs one thread in each (more only oversubscribe
+# Its workers keep both cores busy: numpy's BLAS runs one thread in each (more only oversubscribe
 # the cores; the numbers are the same, as Dask's workers already run it).
 test: export OPENBLAS_NUM_THREADS = 1
 
 # test: while the compiled kernels go into numba's on-disk cache on one core (once, not in each
 # worker), the other runs what needs no compiled kernel: the per-kernel tests' plain-Python forms
-# (OPENSHOE_PURE=1) and the docs site's build. Then every other test on two workers, whatever the
+# (OPENSHOE_PURE=1) and the docs site's build. Then every other test on three workers (two cores: a
+# third fills the time a test waits on a process, a pty or a browser), whatever the
 # first run gave (make fails if either failed).
-TEST_WORKERS ?= 2  # the second run's worker processes
+TEST_WORKERS ?= 3  # the second run's worker processes
 FIRST_TESTS := tests/nav/test_kernels.py tests/docs/test_docs.py::test_the_site_builds_without_warnings
 NOT_FIRST   := -k 'not (test_kernels and python)' --deselect tests/docs/test_docs.py::test_the_site_builds_without_warnings
 test: $(STAMP)

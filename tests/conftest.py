@@ -1,6 +1,6 @@
 """Shared test fixtures: where the real walk recordings are, and skipping without them; every test
 keeps its magnetometer calibrations in a folder of its own (never the user's). For a run on several
-processes (pytest-xdist, ``make test``: ``-n 2 --dist worksteal``): the compiled kernels are put in
+processes (pytest-xdist, ``make test``: ``-n 3 --dist worksteal``): the compiled kernels are put in
 numba's on-disk cache once before the workers start, and the long tests go first, spread over the
 workers."""
 

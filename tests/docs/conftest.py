@@ -27,7 +27,8 @@ SHORT = "stand:3+walk:10+stand:2"
 
 def example_env(bin_dir: Path, home: Path) -> dict[str, str]:
     """The environment an example runs in: the commands first on PATH, the clone importable (the
-    lab runs from it), nothing written to the user's home."""
+    lab runs from it), nothing written to the user's home; matplotlib's font list made once for
+    every example (its config folder beside the shims), not again in each example's home."""
     env = dict(os.environ)
     env["PATH"] = f"{bin_dir}{os.pathsep}{Path(sys.executable).parent}{os.pathsep}{env.get('PATH', '')}"
     env["PYTHONPATH"] = str(ROOT) + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
@@ -35,6 +36,7 @@ def example_env(bin_dir: Path, home: Path) -> dict[str, str]:
     env["XDG_CONFIG_HOME"] = str(home / ".config")
     env.pop("OPENSHOE_MAGCAL_DIR", None)
     env["MPLBACKEND"] = "Agg"
+    env["MPLCONFIGDIR"] = str(bin_dir.with_name("matplotlib"))
     return env
 
 
