@@ -1,9 +1,10 @@
 """numba as every compiled part of the emulator uses it: whether this process compiles at all, and
 loading a compiled function from numba's on-disk cache without a compile's set-up.
 
-The navigation kernels (:mod:`firmware_sim.nav.jit`) and the simulation's loops
-(:mod:`firmware_sim.sensors.compiled`) both ask here, so ``OPENSHOE_PURE=1`` and numba's own
-``NUMBA_DISABLE_JIT`` mean the same to each.
+The navigation kernels (:mod:`firmware_sim.nav.jit`), the simulation's loops
+(:mod:`firmware_sim.sensors.compiled`) and the walk reader (:mod:`firmware_sim.sensors.openshoe_scan`)
+all ask here, so ``OPENSHOE_PURE=1`` and numba's own
+``NUMBA_DISABLE_JIT`` mean the same to every one.
 """
 
 from __future__ import annotations

@@ -46,7 +46,6 @@ from __future__ import annotations
 import hashlib
 import importlib.util
 import math
-import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -54,6 +53,7 @@ from typing import Any
 import numpy as np
 
 from firmware_sim import prebuilt
+from firmware_sim.numba_use import compiling_wanted
 
 __all__ = ["AVAILABLE", "COLUMNS", "KEPT", "build", "built_path", "scan_rows", "warm_up"]
 
@@ -66,13 +66,9 @@ def built_path() -> Path:
     return prebuilt.module_path(here.parent, f"openshoe_scan_{stamp}")
 
 
-def _wanted() -> bool:
-    return os.environ.get("OPENSHOE_PURE", "") != "1" and os.environ.get("NUMBA_DISABLE_JIT", "") in ("", "0")
-
-
 #: Whether the compiled reader is used (otherwise :func:`scan_rows` always returns None): the
 #: reader built ahead of time, or numba (the optional `fast` extra).
-AVAILABLE = _wanted() and (prebuilt.enabled() and built_path().is_file()
+AVAILABLE = compiling_wanted() and (prebuilt.enabled() and built_path().is_file()
                            or importlib.util.find_spec("numba") is not None)
 
 HEX, NUM, UINT, NUM_OR_NAN = 0, 1, 2, 3
@@ -499,7 +495,7 @@ def build() -> bool:
     beside it: :func:`firmware_sim.prebuilt.build_once`); whether it is there now. Needs numba (its
     ``pycc``) and a C compiler; seconds."""
     path = built_path()
-    if not _wanted() or not prebuilt.enabled():
+    if not compiling_wanted() or not prebuilt.enabled():
         return path.is_file()
     return prebuilt.build_once(path, _compile)
 
