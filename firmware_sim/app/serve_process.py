@@ -1,6 +1,8 @@
 """``openshoe-emu serve`` as a subprocess, ready to use: for host applications' tests and the benchmarks.
 
 :func:`spawn` starts it and waits for its READY line (:func:`parse_ready`); :class:`ServeProcess` stops it.
+:func:`read_until` reads a subprocess's pipe until what it said is enough, by a deadline (spawn's READY line;
+a host's page address in the live pages' tests).
 """
 
 from __future__ import annotations
@@ -11,7 +13,8 @@ import signal
 import subprocess
 import sys
 import time
-from typing import Any
+from collections.abc import Callable
+from typing import IO, Any
 
 
 class ServeProcess:
@@ -63,21 +66,35 @@ def spawn(*serve_args: str, timeout: float = 20.0, stderr: Any = subprocess.DEVN
     proc = subprocess.Popen([python, "-m", "firmware_sim.app.cli", "serve", *serve_args],
                             stdout=subprocess.PIPE, stderr=stderr, stdin=subprocess.DEVNULL, env=env)
     assert proc.stdout is not None
-    fd = proc.stdout.fileno()
+    buf, ended = read_until(proc, proc.stdout, lambda said: b"\n" in said, timeout)
+    if ended:
+        proc.kill()
+        proc.wait()
+        why = f"exited with {proc.returncode}" if ended == "exited" else f"no READY line within {timeout} s"
+        raise RuntimeError(f"openshoe-emu serve {' '.join(serve_args)}: {why}; stdout {buf!r}")
+    return ServeProcess(proc, parse_ready(buf.split(b"\n", 1)[0].decode()))
+
+
+def read_until(proc: subprocess.Popen, pipe: IO[bytes], enough: Callable[[bytes], bool],
+               timeout: float) -> tuple[bytes, str]:
+    """Read *pipe* (one of *proc*'s) until ``enough(all read so far)``; the bytes read and ``""``, or
+    ``"exited"`` when *proc* ended first, ``"timeout"`` when *timeout* seconds passed first. The pipe
+    is blocking again afterwards."""
+    fd = pipe.fileno()
     os.set_blocking(fd, False)
     buf = b""
     deadline = time.monotonic() + timeout
-    with selectors.DefaultSelector() as sel:
-        sel.register(fd, selectors.EVENT_READ)
-        while b"\n" not in buf:
-            left = deadline - time.monotonic()
-            if left <= 0 or proc.poll() is not None:
-                proc.kill()
-                proc.wait()
-                why = f"exited with {proc.returncode}" if left > 0 else f"no READY line within {timeout} s"
-                raise RuntimeError(f"openshoe-emu serve {' '.join(serve_args)}: {why}; stdout {buf!r}")
-            if sel.select(min(left, 0.2)):
-                chunk = os.read(fd, 4096)
-                buf += chunk
-    os.set_blocking(fd, True)
-    return ServeProcess(proc, parse_ready(buf.split(b"\n", 1)[0].decode()))
+    try:
+        with selectors.DefaultSelector() as sel:
+            sel.register(fd, selectors.EVENT_READ)
+            while not enough(buf):
+                left = deadline - time.monotonic()
+                if left <= 0:
+                    return buf, "timeout"
+                if proc.poll() is not None:
+                    return buf, "exited"
+                if sel.select(min(left, 0.2)):
+                    buf += os.read(fd, 65536)
+        return buf, ""
+    finally:
+        os.set_blocking(fd, True)

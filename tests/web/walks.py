@@ -10,16 +10,15 @@ from __future__ import annotations
 
 import os
 import re
-import selectors
 import signal
 import subprocess
 import sys
-import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 
 from firmware_sim.app.serve import ServeProcess, spawn
+from firmware_sim.app.serve_process import read_until
 
 #: A short walk: alignment, a straight walk, two quarter arcs round a U, back, a stand.
 RECIPE = "stand:3+walk:20+arc:4:90+walk:12+arc:4:90+walk:20+stand:3"
@@ -103,28 +102,17 @@ def tracking(urls: Sequence[str], *, gps: str | None = None, duration: float = 2
         proc.stderr.close()
 
 
+#: The line a host says its live page's address in (whole: up to its line feed).
+PAGE_LINE = re.compile(rb"live page at (http://\S+)\r?\n")
+
+
 def _read_url(proc: subprocess.Popen, said: list[str], timeout: float) -> str:
-    fd = proc.stderr.fileno()
-    os.set_blocking(fd, False)
-    buf = b""
-    deadline = time.monotonic() + timeout
-    with selectors.DefaultSelector() as sel:
-        sel.register(fd, selectors.EVENT_READ)
-        while True:
-            *lines, buf = buf.split(b"\n")
-            for line in lines:
-                text = line.decode(errors="replace")
-                said.append(text)
-                found = re.search(r"live page at (http://\S+)", text)
-                if found:
-                    os.set_blocking(fd, True)
-                    _drain(proc, said)
-                    return found.group(1)
-            left = deadline - time.monotonic()
-            if left <= 0 or proc.poll() is not None:
-                raise RuntimeError(f"openshoe-host track gave no page URL ({proc.poll()}): {said}")
-            if sel.select(min(left, 0.5)):
-                buf += os.read(fd, 65536)
+    buf, ended = read_until(proc, proc.stderr, lambda text: PAGE_LINE.search(text) is not None, timeout)
+    said += [line.decode(errors="replace") for line in buf.split(b"\n")]
+    if ended:
+        raise RuntimeError(f"openshoe-host track gave no page URL ({proc.poll()}): {said}")
+    _drain(proc, said)
+    return PAGE_LINE.search(buf).group(1).decode()
 
 
 def _drain(proc: subprocess.Popen, said: list[str]) -> None:
