@@ -76,11 +76,12 @@ def run_group() -> Callable[..., int] | None:
     return _loaded_group[0]
 
 
-def share_cores() -> None:
+def share_cores(share: bool = True) -> None:
     """Let a lockstep split each call of the built loop of K modules with a helper thread in this
     process (:mod:`firmware_sim.nav.lockstep`; numba's is split anyway): for a batch of many
-    replays, which has the cores to itself."""
-    _sharing[:] = [True]
+    replays, which has the cores to itself; *share* False stops it (a worker process of a batch,
+    which has one core of them)."""
+    _sharing[:] = [share]
 
 
 def shares_cores() -> bool:

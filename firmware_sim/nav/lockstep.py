@@ -63,6 +63,17 @@ _helpers: list[ThreadPoolExecutor | None] = []
 _helpers_lock = threading.Lock()
 
 
+def _forget_helper() -> None:
+    """In a process forked from this one: the parent's helper thread is not there (work handed to it
+    would wait for ever), so the child makes its own when it needs one."""
+    global _helpers_lock
+    _helpers.clear()
+    _helpers_lock = threading.Lock()
+
+
+os.register_at_fork(after_in_child=_forget_helper)
+
+
 def _helper() -> ThreadPoolExecutor | None:
     """The thread that runs part of a call beside its caller, on more than one core (one per process)."""
     with _helpers_lock:
