@@ -3,11 +3,12 @@
 One command replays ``--walks`` (100) walk files — the six shared OpenShoe walks over and over —
 into a folder, in a subprocess, start-up included (the interpreter, the imports, loading the
 compiled kernels built ahead of time). The figure is walks per second of that command's wall
-time; the split comes from the per-run table it writes (``--table``): parsing (reading the
-file into the replicated board's registers; the command does it in a reader thread while the
-previous walk navigates, so it overlaps the rest), navigation (the module's run), writing (the
-wire file), summing (the host's track for the table); start-up is the command's wall time
-before its runs begin (the interpreter, the imports, loading the compiled kernels).
+time; the command runs its walks in a worker process for each CPU (``--jobs``' default,
+:mod:`firmware_sim.app.replay_pool`). The split comes from the per-run table it writes
+(``--table``), summed over the workers (so it may exceed the wall time): parsing (reading the file
+into the replicated board's registers), navigation (the module's run), writing (the wire file),
+summing (the host's track for the table); start-up is the command's wall time before its runs
+begin (the interpreter, the imports, loading the compiled kernels).
 A first, unmeasured command with one walk builds the kernels if they are not built yet. Every copy of a
 walk must give the same wire bytes.
 """
@@ -50,7 +51,7 @@ def _children_cpu_s() -> float:
 def _replay(paths: list[Path], out: Path) -> tuple[float, float, float]:
     """Run ``openshoe-emu replay PATHS --wire-dir out/wire --table out/runs.csv``: its wall time,
     the wall time of its runs (from its last line, ``… runs/s (S s) → DIR``) and its CPU time (all
-    its threads: on a loaded machine the steadier figure)."""
+    its processes and threads: on a loaded machine the steadier figure)."""
     cmd = [sys.executable, "-m", "firmware_sim.app.cli", "replay", *map(str, paths),
            "--wire-dir", str(out / "wire"), "--table", str(out / "runs.csv"), "--quiet"]
     out.mkdir(parents=True, exist_ok=True)  # replay refuses a table whose folder is missing
