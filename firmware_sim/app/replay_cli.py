@@ -106,8 +106,8 @@ def replay_many(runs: list[RunSpec], wire_dir: Path, *, table: Path | None = Non
             print(f"openshoe-emu replay: {e}", file=sys.stderr)
             return 2
         except BrokenProcessPool as e:
-            print(f"openshoe-emu replay: a worker process ended abruptly ({e}); runs its group had "
-                  f"were not written", file=sys.stderr)
+            print(f"openshoe-emu replay: a worker process ended abruptly ({e}): the runs of its group "
+                  f"and the table were not written", file=sys.stderr)
             return 1
     for line in summary_lines(rows):
         print(line)

@@ -5,10 +5,11 @@ be read is still refused with its line."""
 from __future__ import annotations
 
 import csv
+import os
 
 import pytest
 
-from firmware_sim.app import cli
+from firmware_sim.app import cli, replay_pool
 from firmware_sim.app.replay_pool import deal, default_jobs, usable_cpus
 from firmware_sim.app.runs import TIMINGS, file_runs
 from tests.conftest import walk_path
@@ -88,3 +89,17 @@ def test_jobs_out_of_place_or_range_are_refused(argv, message, capsys):
     except SystemExit as exc:  # argparse's refusal of an option's value
         code = exc.code
     assert code == 2 and message in capsys.readouterr().err
+
+
+def _die(*_args):
+    os._exit(3)
+
+
+def test_a_worker_process_that_dies_is_said_in_one_line(walks_dir, tmp_path, capsys, monkeypatch):
+    monkeypatch.setattr(replay_pool, "_replay_group", _die)  # the workers fork with it
+    args = ["replay", str(walk_path("2")), str(walk_path("3")), "--wire-dir", str(tmp_path / "w"),
+            "--table", str(tmp_path / "runs.csv"), "--quiet", "--jobs", "2"]
+    assert cli.main(args) == 1
+    (line,) = capsys.readouterr().err.strip().splitlines()
+    assert line.startswith("openshoe-emu replay: a worker process ended abruptly")
+    assert not (tmp_path / "runs.csv").exists()
