@@ -39,7 +39,7 @@ __all__ = ["MAX_JOBS", "Refused", "deal", "default_jobs", "job_count", "refusal"
 #: The most worker processes ``--jobs`` takes (each holds the kernels and a group of walks).
 MAX_JOBS = 64
 
-#: The index of the first group a worker refused (-1: none yet), shared by the workers (fork).
+#: In a worker: the index of the first group a worker refused (-1: none yet), shared by the workers.
 _refused_group: Any = None
 
 
@@ -107,15 +107,15 @@ def replay_in_processes(runs: Sequence[RunSpec], wire_dir: Path, jobs: int,
 
     from .replay_group import LOCKSTEP_RUNS
 
-    global _refused_group
     _import_run_modules()
     context = multiprocessing.get_context("fork")
-    _refused_group = context.Value("i", -1)
+    refused = context.Value("i", -1)
     groups = deal(runs, jobs, LOCKSTEP_RUNS)
     for stream in (sys.stdout, sys.stderr):
         stream.flush()  # a worker flushes the streams it inherited when it ends
     rows: list[dict[str, Any]] = []
-    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker) as pool:
+    with ProcessPoolExecutor(jobs, mp_context=context, initializer=_start_worker,
+                             initargs=(refused,)) as pool:
         futures = [pool.submit(_replay_group, g, group, wire_dir) for g, group in enumerate(groups)]
         try:
             for future in futures:
@@ -144,10 +144,13 @@ def _import_run_modules() -> None:
     openshoe_scan.warm_up()
 
 
-def _start_worker() -> None:
-    """A worker has a core of its own: its locksteps keep their calls in its one thread."""
+def _start_worker(refused: Any) -> None:
+    """A worker's start: *refused* is the workers' first refused group; a worker has a core of its
+    own, so its locksteps keep their calls in its one thread."""
     from firmware_sim.nav import aot
 
+    global _refused_group
+    _refused_group = refused
     aot.share_cores(False)
 
 
