@@ -28,7 +28,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["HOSTS", "WITHOUT_GPS_M", "in_situ_rows", "in_situ_run", "summary_lines"]
+__all__ = ["HOSTS", "WITHOUT_GPS_M", "end_error_m", "in_situ_rows", "in_situ_run", "make_captures",
+           "summary_lines"]
 
 #: the distance the outage loop walks after the receiver's last fix [m]
 WITHOUT_GPS_M = 631.0
@@ -67,18 +68,25 @@ def end_error_m(csv_path: Path) -> float:
                       float(last["y_east_m"]) - float(first["y_east_m"]))
 
 
+def make_captures(seed: int, d: Path) -> None:
+    """*seed*'s walks in directory *d* (module docstring): the calibration's capture ``c.bin`` and its
+    fit saved in ``saved/``; the outage loop ``o.bin`` and the loop with the wiggle inside ``w.bin``,
+    each with its GPS log (``o.nmea``, ``w.nmea``)."""
+    walk = ["--seed", str(seed), "--module", str(40 + seed), "--host", "fusion"]
+    _emu("--scenario", "navshoe-calibration", *walk, "--calibrate-mag", "--wire", str(d / "c.bin"))
+    _host(str(d / "c.bin"), "--compass", "--calibrate-mag", "--mag-cal-dir", str(d / "saved"))
+    _emu("--scenario", "navshoe-outage", *walk, "--gps", str(d / "o.nmea"), "--wire", str(d / "o.bin"))
+    _emu("--scenario", "navshoe-wiggle-outage", *walk, "--calibrate-mag", "--gps", str(d / "w.nmea"),
+         "--wire", str(d / "w.bin"))
+
+
 def in_situ_run(seed: int) -> list[dict[str, Any]]:
     """The rows of every host of :data:`HOSTS` on *seed*'s walks (module docstring)."""
     module = str(40 + seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
-        walk = ["--seed", str(seed), "--module", module, "--host", "fusion"]
-        _emu("--scenario", "navshoe-calibration", *walk, "--calibrate-mag", "--wire", str(d / "c.bin"))
-        _host(str(d / "c.bin"), "--compass", "--calibrate-mag", "--mag-cal-dir", str(d / "saved"))
-        _emu("--scenario", "navshoe-outage", *walk, "--gps", str(d / "o.nmea"), "--wire", str(d / "o.bin"))
-        _emu("--scenario", "navshoe-wiggle-outage", *walk, "--calibrate-mag", "--gps", str(d / "w.nmea"),
-             "--wire", str(d / "w.bin"))
+        make_captures(seed, d)
         for k, ((flow, host), options) in enumerate(HOSTS.items()):
             capture = "o" if flow == "separate" else "w"
             cal_dir = d / ("saved" if flow == "separate" else f"fitted{k}")
