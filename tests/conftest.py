@@ -86,8 +86,8 @@ def pytest_sessionstart(session: pytest.Session) -> None:
 #: own, the other examples together). tests/test_long_tests.py checks that each entry names a test.
 LONG_TESTS = {
     "tests/docs/test_examples.py": 100,
-    "tests/docs/test_examples.py::test_example_runs[docs/guides/many-runs.md:154]": 12,
-    "tests/docs/test_examples.py::test_example_runs[docs/guides/many-runs.md:37]": 7,
+    "tests/docs/test_examples.py::test_example_runs[docs/guides/many-runs.md:161]": 12,
+    "tests/docs/test_examples.py::test_example_runs[docs/guides/many-runs.md:44]": 7,
     "tests/docs/test_examples.py::test_example_runs[docs/guides/virtual-module.md:40]": 7,
     "tests/docs/test_docs.py::test_the_site_builds_without_warnings": 34,
     "tests/e2e/test_first_run.py::test_url_handler_answers_at_once_with_an_empty_kernel_cache": 30,
