@@ -348,6 +348,14 @@ def load_walk(path: str | Path):
         raise InputFileError(f"{path}: cannot read the walk recording: {exc.strerror or exc}") from None
 
 
+def start_errors() -> tuple[type[Exception], ...]:
+    """What a run that cannot start raises while its recording is read or its scenario made: the file
+    unreadable or no recording, an unknown scenario or setting (imported when asked: start-up)."""
+    from firmware_sim.sensors.replay import RecordingFormatError
+
+    return (OSError, RecordingFormatError, KeyError, ValueError)
+
+
 def error_text(exc: BaseException) -> str:
     """An error's message as one line: a KeyError's own text, not its repr in quotes."""
     if isinstance(exc, KeyError) and len(exc.args) == 1 and isinstance(exc.args[0], str):
@@ -514,8 +522,6 @@ def _write_gps(args: argparse.Namespace, t, pos, vel, origin, errors) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """One replay: ``FILE --wire OUT`` or ``--scenario NAME --wire OUT`` (``--feet 2``: both feet)."""
-    from firmware_sim.sensors.replay import RecordingFormatError
-
     if getattr(args, "feet", 1) == 2:
         return _main_feet(args)
     truth = gps = None
@@ -538,7 +544,7 @@ def main(args: argparse.Namespace) -> int:
                 print(f"{name}: {source.filled_samples} samples the recorder skipped (gaps in its sample "
                       f"numbers, the longest {source.longest_gap}) are served interpolated",
                       file=sys.stderr)
-    except (OSError, RecordingFormatError, KeyError, ValueError) as e:
+    except start_errors() as e:
         print(f"openshoe-emu replay: {error_text(e)}", file=sys.stderr)
         return 2
     _replay_to(args, source, name, args.module, args.wire)

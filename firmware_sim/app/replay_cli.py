@@ -34,7 +34,6 @@ if TYPE_CHECKING:
 __all__ = ["add_arguments", "main", "replay_many"]
 
 
-
 def add_arguments(p: argparse.ArgumentParser) -> None:
     """The replay's options (:func:`firmware_sim.app.batch.add_arguments`) and ``--jobs``."""
     from .replay_pool import job_count
@@ -139,7 +138,6 @@ def _in_this_process(runs: list[RunSpec], wire_dir: Path, done: Callable[[int], 
 
     from firmware_sim.nav import aot
     from firmware_sim.nav.warmup import prepare_compiled_path
-    from firmware_sim.sensors.replay import RecordingFormatError
 
     from .replay_group import LOCKSTEP_RUNS
     from .replay_pool import Refused, refusal
@@ -158,7 +156,7 @@ def _in_this_process(runs: list[RunSpec], wire_dir: Path, done: Callable[[int], 
             for spec, future in zip(group, pending, strict=True):
                 try:
                     loaded.append(future.result())
-                except (OSError, RecordingFormatError, KeyError, ValueError) as e:
+                except batch.start_errors() as e:
                     for later in pending:
                         later.cancel()
                     raise Refused(refusal(spec, e)) from None

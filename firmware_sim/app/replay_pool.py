@@ -28,7 +28,7 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from .batch import error_text
+from .batch import error_text, start_errors
 
 if TYPE_CHECKING:
     from .runs import RunSpec
@@ -157,7 +157,6 @@ def _start_worker(refused: Any) -> None:
 def _replay_group(index: int, group: list[RunSpec], wire_dir: Path) -> list[dict[str, Any]] | str:
     """In a worker: group *index*'s rows, or the refusal of its first run that cannot start. A group
     after one refused is not run (an empty list)."""
-    from firmware_sim.sensors.replay import RecordingFormatError
 
     from .runs import load, run_group
 
@@ -168,7 +167,7 @@ def _replay_group(index: int, group: list[RunSpec], wire_dir: Path) -> list[dict
     for spec in group:
         try:
             loaded.append(load(spec))
-        except (OSError, RecordingFormatError, KeyError, ValueError) as e:
+        except start_errors() as e:
             with refused.get_lock():
                 if refused.value < 0 or index < refused.value:
                     refused.value = index
