@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 
 __all__ = ["HOSTS", "WITHOUT_GPS_M", "end_error_m", "in_situ_rows", "in_situ_run", "make_captures",
-           "summary_lines"]
+           "module_for", "summary_lines"]
 
 #: the distance the outage loop walks after the receiver's last fix [m]
 WITHOUT_GPS_M = 631.0
@@ -68,11 +68,16 @@ def end_error_m(csv_path: Path) -> float:
                       float(last["y_east_m"]) - float(first["y_east_m"]))
 
 
+def module_for(seed: int) -> int:
+    """The module that walks *seed*'s walks: a new one each seed, numbered apart from the seeds."""
+    return 40 + seed
+
+
 def make_captures(seed: int, d: Path) -> None:
     """*seed*'s walks in directory *d* (module docstring): the calibration's capture ``c.bin`` and its
     fit saved in ``saved/``; the outage loop ``o.bin`` and the loop with the wiggle inside ``w.bin``,
     each with its GPS log (``o.nmea``, ``w.nmea``)."""
-    walk = ["--seed", str(seed), "--module", str(40 + seed), "--host", "fusion"]
+    walk = ["--seed", str(seed), "--module", str(module_for(seed)), "--host", "fusion"]
     _emu("--scenario", "navshoe-calibration", *walk, "--calibrate-mag", "--wire", str(d / "c.bin"))
     _host(str(d / "c.bin"), "--compass", "--calibrate-mag", "--mag-cal-dir", str(d / "saved"))
     _emu("--scenario", "navshoe-outage", *walk, "--gps", str(d / "o.nmea"), "--wire", str(d / "o.bin"))
@@ -82,7 +87,6 @@ def make_captures(seed: int, d: Path) -> None:
 
 def in_situ_run(seed: int) -> list[dict[str, Any]]:
     """The rows of every host of :data:`HOSTS` on *seed*'s walks (module docstring)."""
-    module = str(40 + seed)
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         d = Path(tmp)
@@ -94,7 +98,7 @@ def in_situ_run(seed: int) -> list[dict[str, Any]]:
             _host(str(d / f"{capture}.bin"), "--gps", str(d / f"{capture}.nmea"), *options,
                   "--mag-cal-dir", str(cal_dir), "--csv", str(out))
             error = end_error_m(out)
-            rows.append({"seed": seed, "module": int(module), "flow": flow, "host": host,
+            rows.append({"seed": seed, "module": module_for(seed), "flow": flow, "host": host,
                          "end_error_m": error, "end_error_pct_without_gps": 100.0 * error / WITHOUT_GPS_M})
     return rows
 

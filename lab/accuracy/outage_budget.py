@@ -91,10 +91,10 @@ def budget_run(seed: int, flow: str, oracles: Sequence[str] = ORACLES) -> list[d
     from hostlib.cli import main
 
     from .navshoe import walk_fixes
-    from .navshoe_in_situ import make_captures
+    from .navshoe_in_situ import make_captures, module_for
 
     scenario = "navshoe-outage" if flow == "o" else "navshoe-wiggle-outage"
-    source = make_source(scenario, seed=seed, module=40 + seed)
+    source = make_source(scenario, seed=seed, module=module_for(seed))
     truth = source.truth
     fixes = walk_fixes(scenario, truth.t, truth.pos, truth.vel, seed)
     yaw = np.unwrap(np.arctan2(truth.R[:, 1, 0], truth.R[:, 0, 0]))
