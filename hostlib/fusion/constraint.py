@@ -15,6 +15,7 @@ mean errors do not. ``p_a − p_b`` ends where the full projection puts it, so t
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -46,14 +47,18 @@ def project_separation(core: StateFilter, a: str, b: str, gamma: float,
     def apart_at(mu: float) -> np.ndarray:
         return v @ (w / (1.0 + mu * lam))
 
+    def too_far(mu: float) -> bool:  # ‖apart_at(μ)‖ > γ, the norm as numpy's: √(y·y)
+        y = apart_at(mu)
+        return math.sqrt(float(y @ y)) > gamma
+
     lo, hi = 0.0, 1.0 / max(float(lam.max()), 1e-18)
-    while float(np.linalg.norm(apart_at(hi))) > gamma:
+    while too_far(hi):
         lo, hi = hi, 2.0 * hi
     for _ in range(200):  # ‖·‖ falls as μ grows: bisect to the float's resolution
         mid = 0.5 * (lo + hi)
         if mid in (lo, hi):
             break
-        lo, hi = (mid, hi) if float(np.linalg.norm(apart_at(mid))) > gamma else (lo, mid)
+        lo, hi = (mid, hi) if too_far(mid) else (lo, mid)
     step = -hi * (p_d @ apart_at(hi))
     if differential:
         kept = np.zeros_like(step)
