@@ -92,11 +92,20 @@ def shares_cores() -> bool:
 def build() -> bool:
     """Build the loop for the present sources unless it is there, unwanted, or failed before, and
     the walk reader likewise (:func:`firmware_sim.sensors.openshoe_scan.build`); whether the loop
-    is there now. Needs numba (its ``pycc``) and a C compiler; takes seconds."""
+    is there now. Needs numba (its ``pycc``) and a C compiler; takes seconds. A process that looked
+    for the loop before building it (the one that compiled numba's) then has :func:`run_loops`
+    and :func:`run_group` look again: the modules it starts after the build run the built loop,
+    and a lockstep of them no longer splits its calls with a helper thread (numba's would)."""
     openshoe_scan.build()
     if not wanted():
         return module_path().is_file()
-    return prebuilt.build_once(module_path(), _compile)
+    if module_path().is_file():
+        return True
+    built = prebuilt.build_once(module_path(), _compile)
+    if built and _loaded == [None]:  # looked for before this build: the modules started next take it
+        _loaded.clear()
+        _loaded_group.clear()
+    return built
 
 
 def _compile(folder: Path) -> None:

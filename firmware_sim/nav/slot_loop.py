@@ -97,7 +97,12 @@ def build() -> bool:
     (its ``pycc``) and a C compiler."""
     if not prebuilt.enabled() or pure_requested():
         return module_path().is_file()
-    return prebuilt.build_once(module_path(), _compile)
+    if module_path().is_file():
+        return True
+    built = prebuilt.build_once(module_path(), _compile)
+    if built and _found and not _found[0][1]:  # numba's was found before this build: take the built one
+        _found.clear()
+    return built
 
 
 def _compile(folder: Path) -> None:

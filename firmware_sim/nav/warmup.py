@@ -15,10 +15,10 @@ ready at once, no numba); else it loads numba's loop
 (:func:`firmware_sim.nav.driver.run_loops`, every kernel compiled into it) for
 the argument types every module calls it with, those of a scratch module's
 records, without running a loop (from the cache that is numba's runtime and one
-library, no typing), and then builds the loop ahead of time for the next
-processes. It happens once per process. While it takes longer than a moment, *announce* is
-told why the first start is slower. If the compiled path cannot be had (numba
-missing, or a compile that fails), modules fall back to the pure-Python
+library, no typing), and then builds the loop ahead of time: the modules this process starts
+after that run it, and so do the next processes. It happens once per process. While it takes
+longer than a moment, *announce* is told why the first start is slower. If the compiled path
+cannot be had (numba missing, or a compile that fails), modules fall back to the pure-Python
 reference — the same bytes, slower — and *announce* is told that too, once. The numeric slots of
 any other sequence (:mod:`firmware_sim.nav.slot_loop`) are prepared and built alike.
 """
@@ -74,7 +74,7 @@ _fallback_said = False
 def _warm_up() -> None:
     fastpath.FastNav(build_module(ModuleConfig(compiled=True))).load()
     slot_loop.load()  # the numeric slots of any other sequence (firmware_sim.nav.any_sequence)
-    aot.build()  # for the next processes (nothing when built)
+    aot.build()  # for the modules started next and the next processes (nothing when built)
     slot_loop.build()
 
 

@@ -3,6 +3,7 @@ numba's give: the wire bytes and every state, and every number of a walk file.""
 
 from __future__ import annotations
 
+import shutil
 import sys
 import threading
 from pathlib import Path
@@ -12,7 +13,9 @@ import pytest
 
 from firmware_sim import prebuilt
 from firmware_sim.app.batch import run_replay
-from firmware_sim.nav import aot, jit
+from firmware_sim.mcu.module import ModuleConfig
+from firmware_sim.nav import aot, fastpath, jit
+from firmware_sim.nav.firmware import build_module
 from firmware_sim.sensors import openshoe_scan
 from firmware_sim.sensors.imu_array import make_source
 
@@ -40,6 +43,27 @@ def test_the_loop_built_ahead_of_time_sends_and_holds_what_numbas_does(monkeypat
     numbas = replay_with(monkeypatch, None, height_compensation=height_compensation)
     assert ahead[0] == numbas[0], "the wire bytes"
     assert ahead[1] == numbas[1], "every state"
+
+
+def test_the_process_that_compiled_runs_the_loop_it_then_built(monkeypatch, tmp_path):
+    """A first run looks for the built loop, finds none, compiles numba's and then builds the loop:
+    the modules it starts after that run the built one, and a lockstep of them does not split its
+    calls with a helper thread (it would with numba's)."""
+    assert aot.build(), "built for the present sources (or there already)"
+    built = aot.module_path()
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))  # an empty cache: nothing built for it yet
+    monkeypatch.setattr(aot, "_compile", lambda folder: shutil.copy(built, folder / built.name))
+    monkeypatch.setattr(openshoe_scan, "build", lambda: None)  # the walk reader's build: not this test's
+    monkeypatch.setattr(aot, "_loaded", [None])  # looked for before the build
+    monkeypatch.setattr(aot, "_loaded_group", [])
+    monkeypatch.setattr(aot, "_sharing", [])
+    assert fastpath.group_loop() is not aot.run_group() and fastpath.group_releases_gil(), "numba's"
+    assert aot.build() and aot.module_path().parent == tmp_path
+    assert aot.run_loops() is not None and fastpath.ahead_of_time()
+    module = build_module(ModuleConfig(compiled=True))
+    assert fastpath.FastNav(module)._run is aot.run_loops()
+    assert fastpath.group_loop() is aot.run_group() is not None
+    assert not fastpath.group_releases_gil()
 
 
 def test_the_reader_built_ahead_of_time_reads_what_numbas_reads():
