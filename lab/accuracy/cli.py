@@ -43,6 +43,9 @@ def build_parser() -> argparse.ArgumentParser:
                                          "(the wiggle walked before, or inside the walk), then the outage "
                                          "loop with GPS, with and without the compass",
                  "1:6", "walks", "five")
+    hi = _seeded(sub, "navshoe-house-in-situ", "NavShoe's house walk through the command lines: calibrate in "
+                                          "situ, then the house with the host's defaults, with and "
+                                          "without the compass", "1:21", "walks", "twenty")
     hs = _seeded(sub, "navshoe-house", "NavShoe's house walk: 118 m through a two-storey house, indoors; the "
                                        "compass per step, at every reset, continuously, none",
                  "1:21", "walks", "twenty")
@@ -77,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--seed", type=int, default=1, help="the simulated walker (default 1)")
     h.add_argument("--drop", default="600:630", metavar="A:B",
                    help="seconds of the walk the right foot's link is down (default 600:630)")
-    for q in (w, wc, s, v, n, ns, hs, mc, f, lp, a, d, c, ef, h):
+    for q in (w, wc, s, v, n, ns, hi, hs, mc, f, lp, a, d, c, ef, h):
         where = q.add_mutually_exclusive_group()
         where.add_argument("--workers", type=worker_count, default=2,
                            help="local Dask worker processes, 1 thread each (default 2; 0 = here, one after "
@@ -227,6 +230,13 @@ def _navshoe_in_situ(args: argparse.Namespace, out) -> int:
                          "navshoe-in-situ.csv")
 
 
+def _navshoe_house_in_situ(args: argparse.Namespace, out) -> int:
+    from . import house_in_situ
+
+    return _seeded_table(args, out, house_in_situ.house_in_situ_rows, house_in_situ.summary_lines,
+                         "navshoe-house-in-situ.csv")
+
+
 def _navshoe_house(args: argparse.Namespace, out) -> int:
     from . import house
 
@@ -326,7 +336,7 @@ def main(argv: Sequence[str] | None = None, out=None) -> int:
     out = out or sys.stdout
     return {"walks": _walks, "walks-compass": _walks_compass,
             "slopes": _slopes, "speeds": _speeds, "navshoe-outage": _navshoe_outage,
-            "navshoe-in-situ": _navshoe_in_situ,
+            "navshoe-in-situ": _navshoe_in_situ, "navshoe-house-in-situ": _navshoe_house_in_situ,
             "navshoe-house": _navshoe_house, "magcal": _magcal,
             "two-feet-straight": _two_feet_straight, "two-feet-loop": _two_feet_loop,
             "two-feet-aids": _two_feet_aids, "two-feet-drift": _two_feet_drift,

@@ -28,8 +28,8 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["HOSTS", "WITHOUT_GPS_M", "end_error_m", "in_situ_rows", "in_situ_run", "make_captures",
-           "module_for", "summary_lines"]
+__all__ = ["HOSTS", "WITHOUT_GPS_M", "calibrate_in_situ", "emu_replay", "end_error_m", "host_replay",
+           "in_situ_rows", "in_situ_run", "make_captures", "module_for", "summary_lines"]
 
 #: the distance the outage loop walks after the receiver's last fix [m]
 WITHOUT_GPS_M = 631.0
@@ -45,14 +45,16 @@ HOSTS: dict[tuple[str, str], list[str]] = {
 }
 
 
-def _emu(*argv: str) -> None:
+def emu_replay(*argv: str) -> None:
+    """``openshoe-emu replay ARGV -q``, in this process."""
     from firmware_sim.app.cli import main
 
     if main(["replay", *argv, "-q"]) != 0:
         raise RuntimeError(f"openshoe-emu replay {' '.join(argv)} failed")
 
 
-def _host(*argv: str) -> None:
+def host_replay(*argv: str) -> None:
+    """``openshoe-host replay ARGV`` (its printout dropped), in this process."""
     from hostlib.cli import main
 
     if main(["replay", *argv], io.StringIO()) != 0:
@@ -73,15 +75,22 @@ def module_for(seed: int) -> int:
     return 40 + seed
 
 
+def calibrate_in_situ(seed: int, d: Path) -> list[str]:
+    """NavShoe's calibration walk of *seed*'s module, captured in *d* (``c.bin``) and its fit saved for
+    the module in ``d/saved``; the options that walk the same module again."""
+    walk = ["--seed", str(seed), "--module", str(module_for(seed)), "--host", "fusion"]
+    emu_replay("--scenario", "navshoe-calibration", *walk, "--calibrate-mag", "--wire", str(d / "c.bin"))
+    host_replay(str(d / "c.bin"), "--compass", "--calibrate-mag", "--mag-cal-dir", str(d / "saved"))
+    return walk
+
+
 def make_captures(seed: int, d: Path) -> None:
     """*seed*'s walks in directory *d* (module docstring): the calibration's capture ``c.bin`` and its
     fit saved in ``saved/``; the outage loop ``o.bin`` and the loop with the wiggle inside ``w.bin``,
     each with its GPS log (``o.nmea``, ``w.nmea``)."""
-    walk = ["--seed", str(seed), "--module", str(module_for(seed)), "--host", "fusion"]
-    _emu("--scenario", "navshoe-calibration", *walk, "--calibrate-mag", "--wire", str(d / "c.bin"))
-    _host(str(d / "c.bin"), "--compass", "--calibrate-mag", "--mag-cal-dir", str(d / "saved"))
-    _emu("--scenario", "navshoe-outage", *walk, "--gps", str(d / "o.nmea"), "--wire", str(d / "o.bin"))
-    _emu("--scenario", "navshoe-wiggle-outage", *walk, "--calibrate-mag", "--gps", str(d / "w.nmea"),
+    walk = calibrate_in_situ(seed, d)
+    emu_replay("--scenario", "navshoe-outage", *walk, "--gps", str(d / "o.nmea"), "--wire", str(d / "o.bin"))
+    emu_replay("--scenario", "navshoe-wiggle-outage", *walk, "--calibrate-mag", "--gps", str(d / "w.nmea"),
          "--wire", str(d / "w.bin"))
 
 
@@ -95,7 +104,7 @@ def in_situ_run(seed: int) -> list[dict[str, Any]]:
             capture = "o" if flow == "separate" else "w"
             cal_dir = d / ("saved" if flow == "separate" else f"fitted{k}")
             out = d / f"{k}.csv"
-            _host(str(d / f"{capture}.bin"), "--gps", str(d / f"{capture}.nmea"), *options,
+            host_replay(str(d / f"{capture}.bin"), "--gps", str(d / f"{capture}.nmea"), *options,
                   "--mag-cal-dir", str(cal_dir), "--csv", str(out))
             error = end_error_m(out)
             rows.append({"seed": seed, "module": module_for(seed), "flow": flow, "host": host,

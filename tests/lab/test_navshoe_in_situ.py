@@ -24,3 +24,17 @@ def test_the_end_error_is_the_tracks_last_row_from_its_first(tmp_path):
     path = tmp_path / "track.csv"
     path.write_text("index,x_north_m,y_east_m\n0,1.0,2.0\n1,5.0,5.0\n2,4.0,6.0\n")
     assert end_error_m(path) == 5.0
+
+
+def test_the_house_table_counts_the_seeds_each_host_ends_nearer_than_plain():
+    from lab.accuracy.house_in_situ import HOSTS as HOUSE_HOSTS
+    from lab.accuracy.house_in_situ import summary_lines as house_summary
+
+    pct = {"plain": (0.10, 0.10), "--compass": (0.05, 0.30), "--compass, not calibrated": (0.10, 0.20)}
+    rows = [{"seed": seed, "host": host, "end_error_pct": pct[host][k]}
+            for k, seed in enumerate((1, 2)) for host in HOUSE_HOSTS]
+    lines = house_summary(rows)
+    assert len(lines) == 1 + len(HOUSE_HOSTS)
+    compass = next(line for line in lines if line.lstrip().startswith("--compass "))
+    assert "mean 0.175" in compass and "worst 0.300" in compass and "nearer than plain: 1/2" in compass
+    assert "nearer than plain: 0/2" in next(line for line in lines if "not calibrated" in line)
