@@ -16,7 +16,8 @@ each run through the emulated module and the host SDK exactly as a user runs the
     ``ramp_diagonal``: 7.8° at 45° to the fall line) and, as the flat control, ``walk`` (100 m),
     with simulated modules (``--seeds``), with and without height compensation. Prints the
     height error at the top of the ramp and at the end, mean and largest over the seeds, and
-    writes ``OUT/slopes.csv`` and ``OUT/height-ramp.png``.
+    writes ``OUT/slopes.csv`` and ``OUT/height-ramp.png``; ``--ramps ramp_6,…`` walks only those
+    ramps (and the flat control).
 
 The heading aids' and two feet's experiments (§1–3, §6) have their own subcommands, each
 documented in its module and listed by ``python -m lab.accuracy --help``: ``navshoe-outage``

@@ -33,6 +33,10 @@ def build_parser() -> argparse.ArgumentParser:
     wc.add_argument("files", nargs="+", type=Path, metavar="FILE", help="closed-loop recordings (≥ 2)")
     s = _seeded(sub, "slopes", "simulated ramps up and down, height error with and without compensation",
                 "1:6", "modules", "five")
+    s.add_argument("--ramps", metavar="NAME,...",
+                   help="walk only these of the five ramps (ramp_0, ramp_2.5, ramp_6, ramp_7.5, "
+                        "ramp_diagonal), beside the flat control; the picture is ramp_6's when it is walked, "
+                        "else the first's")
     v = _seeded(sub, "speeds", "simulated 100 m straight at 3–8 km/h and running, at 1 kHz and 250 Hz: the "
                                "error-free module's and the modules' end errors", "1:6", "modules", "five")
     n = _seeded(sub, "navshoe-outage", "NavShoe's outage experiment: a 1 km hilly loop outdoors, GPS for the "
@@ -166,16 +170,28 @@ def _walks_compass(args: argparse.Namespace, out) -> int:
 
 
 def _slopes(args: argparse.Namespace, out) -> int:
+    from firmware_sim.sensors.scenarios import recipe
+
     from . import slopes
     from .figure import plot_heights
 
-    def picture(rows, seeds):
-        pick = [r for r in rows if r["scenario"] == "ramp_6" and r["seed"] == seeds[0]]
-        off, on = (next(r["profile"] for r in pick if r["height_compensation"] == hc) for hc in (False, True))
-        title = f"ramp_6 (6.1°, 50 m up and back), module {seeds[0]}"
-        return plot_heights(args.out / "height-ramp.png", title, off, on, truth=_true_profile("ramp_6"))
+    ramps = slopes.RAMPS if args.ramps is None else tuple(dict.fromkeys(args.ramps.split(",")))
+    unknown = [r for r in ramps if r not in slopes.RAMPS]
+    if unknown:
+        print(f"{PROG}: slopes: no ramp {', '.join(unknown)} (the ramps: {', '.join(slopes.RAMPS)})",
+              file=sys.stderr)
+        return 2
+    shown = "ramp_6" if "ramp_6" in ramps else ramps[0]
 
-    return _seeded_table(args, out, slopes.slope_rows, slopes.summary_lines, "slopes.csv", picture)
+    def picture(rows, seeds):
+        pick = [r for r in rows if r["scenario"] == shown and r["seed"] == seeds[0]]
+        off, on = (next(r["profile"] for r in pick if r["height_compensation"] == hc) for hc in (False, True))
+        road = "6.1°, 50 m up and back" if shown == "ramp_6" else recipe(shown)
+        title = f"{shown} ({road}), module {seeds[0]}"
+        return plot_heights(args.out / "height-ramp.png", title, off, on, truth=_true_profile(shown))
+
+    rows_of = functools.partial(slopes.slope_rows, scenarios=(*ramps, slopes.FLAT))
+    return _seeded_table(args, out, rows_of, slopes.summary_lines, "slopes.csv", picture)
 
 
 def _seeds(args: argparse.Namespace) -> list[int] | None:

@@ -70,7 +70,7 @@ def test_the_speed_table_has_a_row_per_speed_and_rate(tmp_path):
 
 
 @pytest.mark.parametrize("argv", [["walks", "no_such_walk.txt", "other.txt"], ["slopes", "--seeds", "5:1"],
-                                  ["speeds", "--seeds", "x"],
+                                  ["slopes", "--ramps", "ramp_6,ramp_60"], ["speeds", "--seeds", "x"],
                                   ["slopes", "--workers", "-1"], ["slopes", "--workers", "100000"]])
 def test_bad_arguments_exit_2(argv, capsys):
     try:
