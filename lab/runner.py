@@ -43,7 +43,7 @@ def execute(runs: Sequence[RunSpec], *, workers: int = 2, scheduler: str | None 
     local cluster of *workers* processes, else (*workers* 0, or a single run) here in turn."""
     runs = list(runs)
     if scheduler is None and (workers == 0 or len(runs) <= 1):
-        cluster.prepare_process()
+        cluster.prepare_process(simulation=False)
         return cluster.execute(runs, runner=runner, quiet=quiet)
     with cluster.open_client(workers, scheduler) as client:
         return cluster.execute(runs, client, runner=runner, quiet=quiet)

@@ -266,7 +266,7 @@ def run_sweep(spec: SweepSpec, *, workers: int = 2, scheduler: str | None = None
     runs = spec.runs()
     kw = {"quiet": quiet} if runner is None else {"quiet": quiet, "runner": runner}
     if workers == 0 and scheduler is None:
-        cluster.prepare_process()
+        cluster.prepare_process(simulation=False)
         return cluster.execute(runs, **kw)
     with cluster.open_client(workers, scheduler) as client:
         return cluster.execute(runs, client, **kw)

@@ -17,7 +17,7 @@ def test_every_job_is_a_run_of_the_projects_runner_and_comes_back_in_order(monke
 
     real = cluster.execute
     monkeypatch.setattr(cluster, "execute", execute)
-    monkeypatch.setattr(cluster, "prepare_process", lambda: None)
+    monkeypatch.setattr(cluster, "prepare_process", lambda **_: None)
     assert map_runs(len, ["a", "bb", (1, 2, 3)], workers=0) == [1, 2, 3]
     assert [(r.kind, r.seed, dict(r.settings)["job"]) for r in given[0]] == [
         (JOB, 0, "a"), (JOB, 1, "bb"), (JOB, 2, (1, 2, 3))]
