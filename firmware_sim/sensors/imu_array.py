@@ -56,11 +56,19 @@ from .gait import WALKING, GaitParams, Trajectory
 from .impacts import ringing
 from .magnetic import MagneticWorld
 from .mpu9150 import ChipErrors, dlpf_delays, dlpf_filter, dlpf_reach, gauss_markov, white_sigma
-from .registers import INT16_MAX, INT16_MIN, accel_to_lsb, gyro_to_lsb, mag_to_lsb, temp_to_lsb
+from .registers import (
+    INT16_MAX,
+    INT16_MIN,
+    accel_counts,
+    gyro_counts,
+    mag_to_lsb,
+    saturate_int16,
+    temp_to_lsb,
+)
 from .replay import Recording
 from .scenarios import environment, feet, list_scenarios, trajectory
 from .stance_sway import stance_sway_on
-from .truth import GroundTruth, cross, rotate, rotation
+from .truth import GroundTruth, cross_rows, rotate, rotation
 
 __all__ = ["CHUNK_S", "MAX_SAMPLES", "SimulatedSource", "make_feet_sources", "make_foot_source",
            "make_source", "list_scenarios", "module_rng"]
@@ -77,6 +85,9 @@ CHUNK_S = 0.1
 #: The most samples a simulated walk holds (ground truth and registers, about 1.5 kB each): the
 #: longest scenario (:data:`~.recipes.MAX_DURATION_S`) at 1 kHz, or the built-in route at 10 kHz.
 MAX_SAMPLES = 2_000_000
+#: Samples whose chips' signals are computed at once (:meth:`SimulatedSource._unfiltered`): a
+#: block's temporaries stay in the processor's cache, and the memory they take is used again.
+_BLOCK = 4096
 #: Blocks of registers a walk keeps at other settings (the last read ones, 4.8 kB each at 1 kHz):
 #: a host that switches among the settings within a block finds them all computed.
 _CHUNKS_KEPT = 16
@@ -236,42 +247,52 @@ class SimulatedSource:
 
         Includes each chip's lever-arm acceleration ω×(ω×r) + α×r.
         """
-        return self._chip_motion(delay_acc, delay_gyro, 0, self._n)
+        motion = self._kinematics(delay_acc, delay_gyro, 0, self._n)
+        f_chip = np.empty((self._n, len(self._mounted), 3))
+        w_chip = np.empty_like(f_chip)
+        for a, b in _blocks(self._n):
+            f, w = self._chip_rows(motion, a, b)
+            f_chip[a:b], w_chip[a:b] = f.transpose(2, 0, 1), w.transpose(2, 0, 1)
+        return f_chip, w_chip
 
-    def _chip_motion(self, delay_acc: float, delay_gyro: float, lo: int, hi: int
-                     ) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`chip_motion` of samples *lo*:*hi* (each sample's values do not depend on the others)."""
-        omega, alpha, f_b, omega_g = self._kinematics(delay_acc, delay_gyro, lo, hi)
-        r = self.geometry.lever_arms[None, :, :]  # (1, chips, 3)
-        w = omega[:, None, :]
-        al = alpha[:, None, :]
-        f = cross(w, cross(w, r))  # f_b + ω×(ω×r) + α×r, summed in that order
+    def _chip_rows(self, motion: tuple[np.ndarray, ...], a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
+        """Specific force and rate of the chips (chip_motion's) at rows *a*:*b* of *motion*
+        (:meth:`_kinematics`'), each (chips, 3, b − a): a row per chip and axis, so that every
+        operation runs along a row."""
+        omega, alpha, f_b, omega_g = (m[a:b].T for m in motion)
+        r = self.geometry.lever_arms.T[:, :, None]  # (3, chips, 1)
+        w = omega[:, None, :]  # (3, 1, samples)
+        f = cross_rows(w, cross_rows(w, r))  # f_b + ω×(ω×r) + α×r, summed in that order
         f += f_b[:, None, :]
-        f += cross(al, r)
-        f_chip = np.stack([mount(f[:, k]) for k, mount in enumerate(self._mounted)], axis=1)
-        w_chip = np.stack([mount(omega_g) for mount in self._mounted], axis=1)
+        f += cross_rows(alpha[:, None, :], r)
+        f_chip = np.empty((len(self._mounted), 3, b - a))
+        w_chip = np.empty_like(f_chip)
+        for k, mount in enumerate(self._mounted):
+            mount.rows(f[:, k], out=f_chip[k])
+            mount.rows(omega_g, out=w_chip[k])
         return f_chip, w_chip
 
     def _unfiltered(self, cfg: int, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
         """Accelerometer [g] and gyro [rad/s] of samples *lo*:*hi* at DLPF setting *cfg*, errors
-        and noise in, before the low-pass: (hi − lo, chips, 3) each."""
+        and noise in, before the low-pass: (hi − lo, chips, 3) each (computed a block of
+        :data:`_BLOCK` samples at a time: each sample's values do not depend on the others)."""
         c = self.config
         d_acc, d_gyro = dlpf_delays(c, cfg, self.rate_hz)
-        f_chip, w_chip = self._chip_motion(d_acc, d_gyro, lo, hi)
-        a_true = f_chip
-        a_true /= G0
-        if c.impacts:
-            ring_acc, ring_gyro = self._ringing
-            ring_acc, ring_gyro = ring_acc[lo:hi], ring_gyro[lo:hi]
-            for k, mount in enumerate(self._mounted):
-                a_true[:, k] += mount(ring_acc)
-                w_chip[:, k] += mount(ring_gyro)
-        dtemp = self.die_temp_c[lo:hi] - c.temperature.reference_c
-        acc = np.empty_like(a_true)
-        gyro = np.empty_like(w_chip)
-        for k, chip in enumerate(self.chips):
-            acc[:, k] = chip.apply_accel(a_true[:, k], dtemp[:, k])
-            gyro[:, k] = chip.apply_gyro(w_chip[:, k], dtemp[:, k], a_true[:, k])
+        motion = self._kinematics(d_acc, d_gyro, lo, hi)
+        ring_acc, ring_gyro = self._ringing
+        acc = np.empty((hi - lo, len(self.chips), 3))
+        gyro = np.empty_like(acc)
+        for a, b in _blocks(hi - lo):
+            a_true, w_chip = self._chip_rows(motion, a, b)
+            a_true /= G0
+            if c.impacts:
+                for k, mount in enumerate(self._mounted):
+                    a_true[k] += mount.rows(ring_acc[lo + a:lo + b].T)
+                    w_chip[k] += mount.rows(ring_gyro[lo + a:lo + b].T)
+            dtemp = self.die_temp_c[lo + a:lo + b].T - c.temperature.reference_c  # (chips, samples)
+            for k, chip in enumerate(self.chips):
+                acc[a:b, k] = chip.apply_accel(a_true[k], dtemp[k]).T
+                gyro[a:b, k] = chip.apply_gyro(w_chip[k], dtemp[k], a_true[k]).T
         acc += self._random_acc[lo:hi]
         gyro += self._random_gyro[lo:hi]
         self.computed_samples += hi - lo
@@ -279,14 +300,15 @@ class SimulatedSource:
 
     def _registers(self, cfg: int, acc: np.ndarray, gyro: np.ndarray, from_rest: bool) -> np.ndarray:
         """The registers of unfiltered inputs *acc*, *gyro* through the DLPF at *cfg* (started at
-        rest on the first input if *from_rest*, else the first inputs are its lead-in)."""
+        rest on the first input if *from_rest*, else the first inputs are its lead-in); *acc* and
+        *gyro* are used up (filtered and scaled in place)."""
         d = self.config.dlpf
-        if d.enabled and not d.delays_only:
-            acc = dlpf_filter(acc, d.accel_bandwidth_hz[cfg], self.rate_hz, from_rest)
-            gyro = dlpf_filter(gyro, d.gyro_bandwidth_hz[cfg], self.rate_hz, from_rest)
         imu = np.empty(acc.shape[:2] + (6,), dtype=np.int16)
-        imu[..., :3] = accel_to_lsb(acc, self.config)
-        imu[..., 3:] = gyro_to_lsb(gyro, self.config)
+        for x, bandwidth_hz, counts, part in ((acc, d.accel_bandwidth_hz[cfg], accel_counts, imu[..., :3]),
+                                              (gyro, d.gyro_bandwidth_hz[cfg], gyro_counts, imu[..., 3:])):
+            if d.enabled and not d.delays_only:  # each step in place: x is used up
+                dlpf_filter(x, bandwidth_hz, self.rate_hz, from_rest, out=x)
+            saturate_int16(counts(x, self.config, out=x), out=part)
         return imu
 
     def lead_in(self, cfg: int) -> int:
@@ -342,9 +364,9 @@ class SimulatedSource:
             gyro = np.concatenate([lead_gyro[len(lead_gyro) - (start - lo):], new_gyro])
         else:
             acc, gyro = self._unfiltered(cfg, lo, stop)
-        imu = self._registers(cfg, acc, gyro, from_rest=lo == 0)[start - lo:]
         keep = stop - max(0, stop - reach)  # the next block's lead-in
         self._leads[cfg] = (stop, acc[len(acc) - keep:].copy(), gyro[len(gyro) - keep:].copy())
+        imu = self._registers(cfg, acc, gyro, from_rest=lo == 0)[start - lo:]
         chunks[key] = imu
         while len(chunks) > _CHUNKS_KEPT:
             chunks.popitem(last=False)
@@ -393,6 +415,11 @@ class SimulatedSource:
         self.dlpf_cfg = cfg
         whole = self._whole
         self._now = whole[1] if whole is not None and whole[0] == cfg else None
+
+
+def _blocks(n: int) -> list[tuple[int, int]]:
+    """The blocks of :data:`_BLOCK` samples (the last shorter) that make up *n* samples."""
+    return [(a, min(a + _BLOCK, n)) for a in range(0, n, _BLOCK)]
 
 
 def make_source(scenario: str = "default", seed: int = 0, rate_hz: float = 1000.0,

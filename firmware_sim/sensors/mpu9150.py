@@ -30,7 +30,7 @@ import numpy as np
 
 from .compiled import compiled
 from .config import G0, SensorConfig
-from .truth import rotate
+from .truth import rotation
 
 __all__ = ["ChipErrors", "dlpf_filter", "dlpf_delays", "dlpf_reach", "gauss_markov", "one_pole_alpha",
            "small_rotation"]
@@ -93,26 +93,28 @@ class ChipErrors:
         )
 
     def apply_accel(self, a_true_g: np.ndarray, dtemp: np.ndarray) -> np.ndarray:
-        """Deterministic part of the accelerometer model, (n, 3) in g."""
-        out = rotate(self.acc_matrix, a_true_g)
+        """Deterministic part of the accelerometer model [g] of the true specific force *a_true_g*
+        [g] at die temperatures ΔT *dtemp* (n,): (3, n), a row per axis, as *a_true_g*."""
+        out = rotation(self.acc_matrix).rows(a_true_g)
         if np.any(self.acc_sens_tempco):
-            out *= 1.0 + dtemp[:, None] * self.acc_sens_tempco
-        out += self.acc_offset_g
+            out *= 1.0 + dtemp * self.acc_sens_tempco[:, None]
+        out += self.acc_offset_g[:, None]
         if np.any(self.acc_offset_tempco_g):
-            out += dtemp[:, None] * self.acc_offset_tempco_g
+            out += dtemp * self.acc_offset_tempco_g[:, None]
         return out
 
     def apply_gyro(self, w_true: np.ndarray, dtemp: np.ndarray, a_true_g: np.ndarray) -> np.ndarray:
-        """Deterministic part of the gyro model, (n, 3) in rad/s; *a_true_g* is the chip's
-        specific force [g], which the gyro feels through its g-sensitivity."""
-        out = rotate(self.gyro_matrix, w_true)
+        """Deterministic part of the gyro model [rad/s] of the true rate *w_true*, (3, n) a row per
+        axis as :meth:`apply_accel`'s; *a_true_g* is the chip's specific force [g] (3, n), which
+        the gyro feels through its g-sensitivity."""
+        out = rotation(self.gyro_matrix).rows(w_true)
         if np.any(self.gyro_sens_tempco):
-            out *= 1.0 + dtemp[:, None] * self.gyro_sens_tempco
+            out *= 1.0 + dtemp * self.gyro_sens_tempco[:, None]
         if np.any(self.gyro_g_matrix):
-            out += a_true_g @ self.gyro_g_matrix.T
-        out += self.gyro_offset
+            out += self.gyro_g_matrix @ a_true_g  # BLAS's products: the same as (aᵀ Gᵀ)ᵀ's
+        out += self.gyro_offset[:, None]
         if np.any(self.gyro_offset_tempco):
-            out += dtemp[:, None] * self.gyro_offset_tempco
+            out += dtemp * self.gyro_offset_tempco[:, None]
         return out
 
 
@@ -231,7 +233,8 @@ def dlpf_delays(config: SensorConfig, cfg: int, rate_hz: float) -> tuple[float, 
     return out[0], out[1]
 
 
-def dlpf_filter(x: np.ndarray, bandwidth_hz: float, rate_hz: float, from_rest: bool = True) -> np.ndarray:
+def dlpf_filter(x: np.ndarray, bandwidth_hz: float, rate_hz: float, from_rest: bool = True,
+                out: np.ndarray | None = None) -> np.ndarray:
     """The one-pole low-pass y[k] = y[k−1] + α(x[k] − y[k−1]) along axis 0, started at rest on x[0].
 
     The recursion y[k] = β·y[k−1] + α·x[k] (β = 1 − α) is evaluated as a
@@ -243,12 +246,15 @@ def dlpf_filter(x: np.ndarray, bandwidth_hz: float, rate_hz: float, from_rest: b
     its own, wherever it sits in *x*. So a part of a long record, filtered with that many inputs
     ahead of it and *from_rest* False (the record's first sample is not in the part), gives
     bit for bit the outputs the whole record gives there, from the lead-in's end on.
+
+    Into *out* (float64, *x*'s shape; it may be *x*) when given.
     """
     alpha = one_pole_alpha(bandwidth_hz, rate_hz)
     beta = 1.0 - alpha
-    y = x * alpha
+    rest = beta * x[0]  # the state before the first sample: at rest on x[0] (before out overwrites it)
+    y = np.multiply(x, alpha, out=out)
     if from_rest:
-        y[0] += beta * x[0]  # the state before the first sample: at rest on x[0]
+        y[0] += rest
     return _first_order_scan(y, beta)
 
 

@@ -15,16 +15,26 @@ INT16_MIN = -32768
 INT16_MAX = 32767
 
 
-def saturate_int16(lsb: np.ndarray) -> np.ndarray:
-    """Round to nearest (ties to even, as numpy) and clip to int16, like the registers."""
+def saturate_int16(lsb: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """Round to nearest (ties to even, as numpy) and clip to int16, like the registers.
+
+    With *out* (int16, of *lsb*'s shape) the registers are written there, and *lsb* (float64) is
+    rounded and clipped in place on the way: no array of *lsb*'s size is made."""
+    if out is not None:
+        np.rint(lsb, out=lsb)
+        np.clip(lsb, INT16_MIN, INT16_MAX, out=lsb)
+        out[...] = lsb  # the same conversion as astype's
+        return out
     rounded = np.rint(lsb)
     within = rounded if isinstance(rounded, np.ndarray) else None  # clipped in place: no more memory
     return np.clip(rounded, INT16_MIN, INT16_MAX, out=within).astype(np.int16)
 
 
-def accel_counts(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
-    """Specific force [g] in accelerometer LSB, before rounding and saturation."""
-    return np.asarray(acc_g, dtype=np.float64) * config.accel.lsb_per_g
+def accel_counts(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG, out: np.ndarray | None = None
+                 ) -> np.ndarray:
+    """Specific force [g] in accelerometer LSB, before rounding and saturation (into *out*, which
+    may be *acc_g*, when given)."""
+    return np.multiply(np.asarray(acc_g, dtype=np.float64), config.accel.lsb_per_g, out=out)
 
 
 def accel_to_lsb(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
@@ -32,9 +42,11 @@ def accel_to_lsb(acc_g: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np
     return saturate_int16(accel_counts(acc_g, config))
 
 
-def gyro_counts(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:
-    """Angular rate [rad/s] in gyro LSB, before rounding and saturation."""
-    return np.asarray(rate_rad_s, dtype=np.float64) * (config.gyro.lsb_per_dps / DEG)
+def gyro_counts(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG, out: np.ndarray | None = None
+                ) -> np.ndarray:
+    """Angular rate [rad/s] in gyro LSB, before rounding and saturation (into *out*, which may be
+    *rate_rad_s*, when given)."""
+    return np.multiply(np.asarray(rate_rad_s, dtype=np.float64), config.gyro.lsb_per_dps / DEG, out=out)
 
 
 def gyro_to_lsb(rate_rad_s: np.ndarray, config: SensorConfig = DEFAULT_CONFIG) -> np.ndarray:

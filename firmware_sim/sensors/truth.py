@@ -18,7 +18,6 @@ the firmware's float32 INS.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,7 +25,7 @@ import numpy as np
 
 __all__ = [
     "Kinematics", "GroundTruth", "body_rate", "euler_to_matrix", "mul_transposed", "rotate", "rotation",
-    "cross", "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
+    "cross", "cross_rows", "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
 ]
 
 
@@ -94,14 +93,15 @@ def rotate(M: np.ndarray, v: np.ndarray) -> np.ndarray:
     return rotation(M)(v)
 
 
-def rotation(M: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+def rotation(M: np.ndarray) -> Rotation:
     """:func:`rotate` by *M* as a function of the stack of vectors: the same numbers, *M* looked
     at once (for one matrix applied to many stacks)."""
-    return _Rotation(np.asarray(M))
+    return Rotation(np.asarray(M))
 
 
-class _Rotation:
-    """``rotate(M, v)`` of one *M* (a picklable function of *v*)."""
+class Rotation:
+    """``rotate(M, v)`` of one *M* (a picklable function of *v*), and :meth:`rows`: the same
+    numbers for vectors stored a component a row."""
 
     def __init__(self, M: np.ndarray):
         self.permutes = is_signed_permutation(M)
@@ -116,6 +116,22 @@ class _Rotation:
             return v[:, self.cols] * self.signs
         return v[:, 0:1] * self.c0 + v[:, 1:2] * self.c1 + v[:, 2:3] * self.c2
 
+    def rows(self, v: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """M v for vectors stored a component a row, *v* (3, …): ``rotate(M, v.T).T`` bit for bit
+        (each component the same products summed in the same order), into *out* when given.
+        Each operation runs along a row, not across three components: many times faster."""
+        if self.permutes:
+            return np.multiply(v[self.cols], _column(self.signs, v.ndim), out=out)
+        out = np.multiply(v[0], _column(self.c0, v.ndim), out=out)
+        out += v[1] * _column(self.c1, v.ndim)
+        out += v[2] * _column(self.c2, v.ndim)
+        return out
+
+
+def _column(c: np.ndarray, ndim: int) -> np.ndarray:
+    """The vector *c* (3,) shaped to scale the rows of a stack of *ndim* dimensions (3, …)."""
+    return c.reshape((3,) + (1,) * (ndim - 1))
+
 
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """a × b for stacks of vectors (broadcasting over leading axes)."""
@@ -125,6 +141,15 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     for k, (p, q, r, s) in enumerate(((ay, bz, az, by), (az, bx, ax, bz), (ax, by, ay, bx))):
         np.multiply(p, q, out=out[..., k])  # p q − r s, each component where it is kept
         out[..., k] -= r * s
+    return out
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """:func:`cross` for vectors stored a component a row (3, …), broadcasting over the rest:
+    ``cross(a.T, b.T).T`` bit for bit, each operation along the rows."""
+    lead, lag = [1, 2, 0], [2, 0, 1]  # (y, z, x) and (z, x, y): out = a_lead b_lag − a_lag b_lead
+    out = a[lead] * b[lag]
+    out -= a[lag] * b[lead]
     return out
 
 
