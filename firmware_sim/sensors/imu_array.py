@@ -85,9 +85,10 @@ CHUNK_S = 0.1
 #: The most samples a simulated walk holds (ground truth and registers, about 1.5 kB each): the
 #: longest scenario (:data:`~.recipes.MAX_DURATION_S`) at 1 kHz, or the built-in route at 10 kHz.
 MAX_SAMPLES = 2_000_000
-#: Samples whose chips' signals are computed at once (:meth:`SimulatedSource._unfiltered`): a
-#: block's temporaries stay in the processor's cache, and the memory they take is used again.
-_BLOCK = 4096
+#: Samples whose registers the whole record computes at once (the DLPF's lead-in carried from one
+#: block to the next): a block's temporaries stay in the processor's cache, and their memory is
+#: used again.
+_BLOCK = 8192
 #: Blocks of registers a walk keeps at other settings (the last read ones, 4.8 kB each at 1 kHz):
 #: a host that switches among the settings within a block finds them all computed.
 _CHUNKS_KEPT = 16
@@ -251,48 +252,50 @@ class SimulatedSource:
         f_chip = np.empty((self._n, len(self._mounted), 3))
         w_chip = np.empty_like(f_chip)
         for a, b in _blocks(self._n):
-            f, w = self._chip_rows(motion, a, b)
+            f, w = self._chip_rows(tuple(m[a:b] for m in motion))
             f_chip[a:b], w_chip[a:b] = f.transpose(2, 0, 1), w.transpose(2, 0, 1)
         return f_chip, w_chip
 
-    def _chip_rows(self, motion: tuple[np.ndarray, ...], a: int, b: int) -> tuple[np.ndarray, np.ndarray]:
-        """Specific force and rate of the chips (chip_motion's) at rows *a*:*b* of *motion*
-        (:meth:`_kinematics`'), each (chips, 3, b − a): a row per chip and axis, so that every
+    def _chip_rows(self, motion: tuple[np.ndarray, ...]) -> tuple[np.ndarray, np.ndarray]:
+        """Specific force and rate of the chips (chip_motion's) of the samples of *motion*
+        (:meth:`_kinematics`'), each (chips, 3, samples): a row per chip and axis, so that every
         operation runs along a row."""
-        omega, alpha, f_b, omega_g = (m[a:b].T for m in motion)
+        omega, alpha, f_b, omega_g = (m.T for m in motion)
         r = self.geometry.lever_arms.T[:, :, None]  # (3, chips, 1)
         w = omega[:, None, :]  # (3, 1, samples)
         f = cross_rows(w, cross_rows(w, r))  # f_b + ω×(ω×r) + α×r, summed in that order
         f += f_b[:, None, :]
         f += cross_rows(alpha[:, None, :], r)
-        f_chip = np.empty((len(self._mounted), 3, b - a))
+        f_chip = np.empty((len(self._mounted), 3, omega.shape[1]))
         w_chip = np.empty_like(f_chip)
         for k, mount in enumerate(self._mounted):
             mount.rows(f[:, k], out=f_chip[k])
             mount.rows(omega_g, out=w_chip[k])
         return f_chip, w_chip
 
-    def _unfiltered(self, cfg: int, lo: int, hi: int) -> tuple[np.ndarray, np.ndarray]:
+    def _unfiltered(self, cfg: int, lo: int, hi: int, motion: tuple[np.ndarray, ...] | None = None
+                    ) -> tuple[np.ndarray, np.ndarray]:
         """Accelerometer [g] and gyro [rad/s] of samples *lo*:*hi* at DLPF setting *cfg*, errors
-        and noise in, before the low-pass: (hi − lo, chips, 3) each (computed a block of
-        :data:`_BLOCK` samples at a time: each sample's values do not depend on the others)."""
+        and noise in, before the low-pass: (hi − lo, chips, 3) each. *motion*: the whole record's
+        :meth:`_kinematics` at the setting's delays, when computed (else those of *lo*:*hi* are)."""
         c = self.config
-        d_acc, d_gyro = dlpf_delays(c, cfg, self.rate_hz)
-        motion = self._kinematics(d_acc, d_gyro, lo, hi)
-        ring_acc, ring_gyro = self._ringing
+        if motion is None:
+            motion, rows = self._kinematics(*dlpf_delays(c, cfg, self.rate_hz), lo, hi), slice(None)
+        else:
+            rows = slice(lo, hi)
+        a_true, w_chip = self._chip_rows(tuple(m[rows] for m in motion))
+        a_true /= G0
+        if c.impacts:
+            ring_acc, ring_gyro = (r[lo:hi].T for r in self._ringing)
+            for k, mount in enumerate(self._mounted):
+                a_true[k] += mount.rows(ring_acc)
+                w_chip[k] += mount.rows(ring_gyro)
+        dtemp = self.die_temp_c[lo:hi].T - c.temperature.reference_c  # (chips, samples)
         acc = np.empty((hi - lo, len(self.chips), 3))
         gyro = np.empty_like(acc)
-        for a, b in _blocks(hi - lo):
-            a_true, w_chip = self._chip_rows(motion, a, b)
-            a_true /= G0
-            if c.impacts:
-                for k, mount in enumerate(self._mounted):
-                    a_true[k] += mount.rows(ring_acc[lo + a:lo + b].T)
-                    w_chip[k] += mount.rows(ring_gyro[lo + a:lo + b].T)
-            dtemp = self.die_temp_c[lo + a:lo + b].T - c.temperature.reference_c  # (chips, samples)
-            for k, chip in enumerate(self.chips):
-                acc[a:b, k] = chip.apply_accel(a_true[k], dtemp[k]).T
-                gyro[a:b, k] = chip.apply_gyro(w_chip[k], dtemp[k], a_true[k]).T
+        for k, chip in enumerate(self.chips):
+            acc[:, k] = chip.apply_accel(a_true[k], dtemp[k]).T
+            gyro[:, k] = chip.apply_gyro(w_chip[k], dtemp[k], a_true[k]).T
         acc += self._random_acc[lo:hi]
         gyro += self._random_gyro[lo:hi]
         self.computed_samples += hi - lo
@@ -322,14 +325,18 @@ class SimulatedSource:
 
     def _build_imu(self) -> None:
         """Compute the whole record of registers at the current setting (and forget the blocks
-        computed before: the inputs may have changed)."""
+        computed before: the inputs may have changed), a block of :data:`_BLOCK` samples at a
+        time (:meth:`_block`: the block before's inputs are the next one's lead-in)."""
         cfg = self.dlpf_cfg
-        acc, gyro = self._unfiltered(cfg, 0, self._n)
-        imu = self._registers(cfg, acc, gyro, from_rest=True)
-        self._whole = (cfg, imu)
-        self._now = imu
         self._chunks.clear()
         self._leads.clear()
+        motion = self._kinematics(*dlpf_delays(self.config, cfg, self.rate_hz), 0, self._n)
+        imu = np.empty((self._n, len(self.chips), 6), dtype=np.int16)
+        for a, b in _blocks(self._n):
+            imu[a:b] = self._block(cfg, a, b, motion)
+        self._leads.clear()
+        self._whole = (cfg, imu)
+        self._now = imu
         self.clipped = int(np.count_nonzero((imu == INT16_MAX) | (imu == INT16_MIN)))
 
     @property
@@ -353,24 +360,31 @@ class SimulatedSource:
             chunks.move_to_end(key)
             return imu
         start = k * self.chunk_samples
-        stop = min(start + self.chunk_samples, self._n)
+        imu = self._block(cfg, start, min(start + self.chunk_samples, self._n))
+        chunks[key] = imu
+        while len(chunks) > _CHUNKS_KEPT:
+            chunks.popitem(last=False)
+        return imu
+
+    def _block(self, cfg: int, start: int, stop: int, motion: tuple[np.ndarray, ...] | None = None
+               ) -> np.ndarray:
+        """Registers of samples *start*:*stop* at setting *cfg*, computed from the DLPF's lead-in
+        before them: the inputs kept from the block before when it ended at *start*, else
+        computed now (*motion* as :meth:`_unfiltered`'s). Keeps this block's last inputs, the
+        next block's lead-in."""
         reach = self.lead_in(cfg)
         lo = max(0, start - reach)
         lead = self._leads.get(cfg)
         if lead is not None and lead[0] == start:
             _, lead_acc, lead_gyro = lead  # its last start − lo samples are lo … start − 1
-            new_acc, new_gyro = self._unfiltered(cfg, start, stop)
+            new_acc, new_gyro = self._unfiltered(cfg, start, stop, motion)
             acc = np.concatenate([lead_acc[len(lead_acc) - (start - lo):], new_acc])
             gyro = np.concatenate([lead_gyro[len(lead_gyro) - (start - lo):], new_gyro])
         else:
-            acc, gyro = self._unfiltered(cfg, lo, stop)
+            acc, gyro = self._unfiltered(cfg, lo, stop, motion)
         keep = stop - max(0, stop - reach)  # the next block's lead-in
         self._leads[cfg] = (stop, acc[len(acc) - keep:].copy(), gyro[len(gyro) - keep:].copy())
-        imu = self._registers(cfg, acc, gyro, from_rest=lo == 0)[start - lo:]
-        chunks[key] = imu
-        while len(chunks) > _CHUNKS_KEPT:
-            chunks.popitem(last=False)
-        return imu
+        return self._registers(cfg, acc, gyro, from_rest=lo == 0)[start - lo:]
 
     def to_recording(self) -> Recording:
         """The error-free board-centre signals as a :class:`Recording` (board frame, g, rad/s, gauss).
