@@ -57,7 +57,7 @@ from numpy.polynomial import polynomial as P
 
 from .polynomials import eval3, max_abs, normalised, poly_from_roots, smoothstep
 from .stance_sway import STANCE_SWAY, StanceSway, SwayDraw
-from .truth import GroundTruth, Kinematics, body_rate
+from .truth import GroundTruth, Kinematics, add_at_rows, body_rate
 
 __all__ = ["GaitParams", "WALKING", "RUNNING", "STAIRS_UP", "STAIRS_DOWN", "SHUFFLE", "SHORT_STEPS", "WIGGLE",
            "Pose", "Swing", "Trajectory", "flat_on", "ramp_normal"]
@@ -336,7 +336,8 @@ class Trajectory:
         ang, dang, ddang = self._attitude(t, seg, swings)
         if self._sway is not None:  # the walking stances' residual motion
             self._sway.add(t, pos, vel, acc, ang, dang, ddang)
-        return Kinematics.from_euler(t, pos, vel, acc, ang, dang, ddang, stance=~swing, gravity=gravity)
+        pos, vel, acc, ang = (np.ascontiguousarray(x.T) for x in (pos, vel, acc, ang))
+        return Kinematics.from_euler(t, pos, vel, acc, ang, dang.T, ddang.T, stance=~swing, gravity=gravity)
 
     def body_rate(self, t: np.ndarray) -> np.ndarray:
         """The angular rate ω_b [rad/s] at times *t*, (n, 3): ``evaluate(t).omega_b`` bit for bit,
@@ -346,7 +347,7 @@ class Trajectory:
         ang, dang, _ = self._attitude(t, seg, self._swing_times(t, seg, swing), second=False)
         if self._sway is not None:
             self._sway.add(t, None, None, None, ang, dang, None)
-        return body_rate(ang, dang)
+        return body_rate(ang.T, dang.T)
 
     def _segments(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Times *t* as float64, each one's segment and whether it is a swing's."""
@@ -367,22 +368,23 @@ class Trajectory:
     def _translation(self, t: np.ndarray, seg: np.ndarray, swings: tuple[np.ndarray, ...]
                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Position, velocity and acceleration at times *t* (in segments *seg*; the swings'
-        :meth:`_swing_times`) without the stance sway."""
+        :meth:`_swing_times`) without the stance sway, each (3, len(t)): a row per axis (every
+        operation runs along a row)."""
         n = len(t)
-        pos = self._A[seg, :3]
-        vel, acc = np.zeros((n, 3)), np.zeros((n, 3))
+        pos = self._A[:, :3].T[:, seg]
+        vel, acc = np.zeros((3, n)), np.zeros((3, n))
         sw, i, k1, k2, tau = swings
         if len(sw):
-            d = self._D[i, :3]
+            d = self._D[:, :3].T[:, i]
             S, S1, S2 = eval3(_S, tau)
-            pos[sw] += d * S[:, None]
-            vel[sw] = d * (S1 * k1)[:, None]
-            acc[sw] = d * (S2 * k2)[:, None]
+            add_at_rows(pos, sw, d * S)
+            vel[:, sw] = d * (S1 * k1)
+            acc[:, sw] = d * (S2 * k2)
             C, C1, C2 = eval3(_C, tau)
             h = self._clear[i]
-            pos[sw, 2] -= h * C
-            vel[sw, 2] -= h * C1 * k1
-            acc[sw, 2] -= h * C2 * k2
+            pos[2, sw] -= h * C
+            vel[2, sw] -= h * C1 * k1
+            acc[2, sw] -= h * C2 * k2
             # heel-strike impact bump
             w = self._imp_w[i]
             u = (t[sw] - self._t0[i] - self._imp_t0[i]) / w
@@ -393,28 +395,28 @@ class Trajectory:
                 ih = i[hit]
                 amp, wh, fwd = self._imp_amp[ih], w[hit], self._imp_fwd[ih]
                 yaw_b = self._B[ih, 5]
-                direction = np.stack([fwd * np.cos(yaw_b), fwd * np.sin(yaw_b), np.ones_like(fwd)], axis=1)
-                pos[rows] += (amp * Bv)[:, None] * direction
-                vel[rows] += (amp * B1 / wh)[:, None] * direction
-                acc[rows] += (amp * B2 / wh**2)[:, None] * direction
+                direction = np.stack([fwd * np.cos(yaw_b), fwd * np.sin(yaw_b), np.ones_like(fwd)])
+                add_at_rows(pos, rows, (amp * Bv) * direction)
+                add_at_rows(vel, rows, (amp * B1 / wh) * direction)
+                add_at_rows(acc, rows, (amp * B2 / wh**2) * direction)
         return pos, vel, acc
 
     def _attitude(self, t: np.ndarray, seg: np.ndarray, swings: tuple[np.ndarray, ...], second: bool = True
                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Euler angles and their first (and, if *second*, second) derivatives at times *t* (as
-        :meth:`_translation`'s) without the stance sway."""
+        :meth:`_translation`'s, each (3, len(t))) without the stance sway."""
         n = len(t)
-        ang = self._A[seg, 3:]
-        dang = np.zeros((n, 3))
-        ddang = np.zeros((n, 3)) if second else None
+        ang = self._A[:, 3:].T[:, seg]
+        dang = np.zeros((3, n))
+        ddang = np.zeros((3, n)) if second else None
         sw, i, k1, k2, tau = swings
         if len(sw):
-            d = self._D[i, 3:]
+            d = self._D[:, 3:].T[:, i]
             S, S1, S2 = eval3(_S, tau)
-            ang[sw] += d * S[:, None]
-            dang[sw] = d * (S1 * k1)[:, None]
+            add_at_rows(ang, sw, d * S)
+            dang[:, sw] = d * (S1 * k1)
             if ddang is not None:
-                ddang[sw] = d * (S2 * k2)[:, None]
+                ddang[:, sw] = d * (S2 * k2)
             # the toe-off and heel-strike pitch; the sole's roll and the toe's yaw on the way, only
             # where a swing has them (every other swing's samples stay exactly as without them)
             bumps = [(_G1, self._toe[i], 1, None), (_G2, self._heel[i], 1, None)]
@@ -426,10 +428,10 @@ class Trajectory:
                 if where is not None:
                     rows, tt, amp, a1, a2 = sw[where], tau[where], amp[where], k1[where], k2[where]
                 G, G1, G2 = eval3(coeffs, tt)
-                ang[rows, axis] += amp * G
-                dang[rows, axis] += amp * G1 * a1
+                ang[axis, rows] += amp * G
+                dang[axis, rows] += amp * G1 * a1
                 if ddang is not None:
-                    ddang[rows, axis] += amp * G2 * a2
+                    ddang[axis, rows] += amp * G2 * a2
         return ang, dang, ddang
 
     def sample(self, rate_hz: float, gravity: float = 9.81, duration: float | None = None) -> GroundTruth:

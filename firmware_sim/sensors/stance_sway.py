@@ -17,7 +17,7 @@ import numpy as np
 
 from .polynomials import eval3, smoothstep
 from .sines import sum_of_sines
-from .truth import euler_to_matrix
+from .truth import add_at_rows, euler_to_matrix
 
 __all__ = ["StanceSway", "STANCE_SWAY", "STANCE_SWAY_DEFAULT", "STANCE_SWAY_ENV", "stance_sway_on",
            "SwayDraw"]
@@ -192,8 +192,9 @@ class SwayDraw:
     def add(self, t: np.ndarray, pos: np.ndarray | None, vel: np.ndarray | None, acc: np.ndarray | None,
             ang: np.ndarray, dang: np.ndarray, ddang: np.ndarray | None) -> None:
         """Add the motion at times *t* to the position, the Euler angles and their derivatives (in
-        place). Without *pos*, *vel* and *acc* (None) the vibration is left out, and without
-        *ddang* the angles' second derivative: what is added to the others stays the same."""
+        place; each (3, len(t)), a row per axis). Without *pos*, *vel* and *acc* (None) the
+        vibration is left out, and without *ddang* the angles' second derivative: what is added
+        to the others stays the same."""
         if not len(self.start):
             return
         i = np.clip(np.searchsorted(self.start, t, side="right") - 1, 0, None)
@@ -208,21 +209,21 @@ class SwayDraw:
             if np.any(near):
                 r, r1, r2 = eval3(_RAMP, x[near])
                 w[near], w1[near], w2[near] = r, sign * r1 / tau[near], r2 / tau[near] ** 2
-        w, w1, w2 = w[:, None], w1[:, None], w2[:, None]
 
-        def tapered(freq, phase, amp, chord, second):
-            s, s1, s2 = sum_of_sines(freq, phase, amp, j, u, second)
-            c0, c1 = chord[0][j], chord[1][j]
-            s = s - c0 - (c1 - c0) * (u / d)[:, None]
-            s1 = s1 - (c1 - c0) / d[:, None]
+        def tapered(freq, phase, amp, chord, second):  # a row per axis: each operation along a row
+            s, s1, s2 = (x.T for x in sum_of_sines(freq, phase, amp, j, u, second))
+            c0, c1 = chord[0].T[:, j], chord[1].T[:, j]
+            s = s - c0 - (c1 - c0) * (u / d)
+            s1 = s1 - (c1 - c0) / d
             return w * s, w1 * s + w * s1, w2 * s + 2.0 * w1 * s1 + w * s2 if second else None
 
         rotation = tapered(self.rot_freq, self.rot_phase, self.rot_amp, self.rot_chord, ddang is not None)
         for out, value in zip((ang, dang, ddang), rotation, strict=True):
             if out is not None:
-                out[rows] += value
+                add_at_rows(out, rows, value)
         if self.vibrates and pos is not None:
             foot = self.foot[j]
             vibration = tapered(self.vib_freq, self.vib_phase, self.vib_amp, self.vib_chord, True)
             for out, value in zip((pos, vel, acc), vibration, strict=True):
-                out[rows] += np.einsum("rij,rj->ri", foot, value)
+                # einsum's sums depend on its operands' layout: the foot's and the motion's rows, as ever
+                add_at_rows(out, rows, np.einsum("rij,rj->ri", foot, np.ascontiguousarray(value.T)).T)

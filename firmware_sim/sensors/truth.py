@@ -25,7 +25,8 @@ import numpy as np
 
 __all__ = [
     "Kinematics", "GroundTruth", "body_rate", "euler_to_matrix", "mul_transposed", "rotate", "rotation",
-    "cross", "cross_rows", "euler_to_quat", "quat_to_matrix", "strapdown_rk4", "walked_distance",
+    "add_at_rows", "cross", "cross_rows", "euler_to_quat", "quat_to_matrix", "strapdown_rk4",
+    "walked_distance",
 ]
 
 
@@ -75,8 +76,16 @@ def walked_distance(pos: np.ndarray) -> np.ndarray:
 
 
 def mul_transposed(R: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """Rᵀ v for stacks (n, 3, 3) and (n, 3) (navigation → body)."""
-    return R[:, 0, :] * v[:, 0:1] + R[:, 1, :] * v[:, 1:2] + R[:, 2, :] * v[:, 2:3]
+    """Rᵀ v for stacks (n, 3, 3) and (n, 3) (navigation → body); *v* may be one vector (3,).
+
+    Each component R₀ᵢv₀ + R₁ᵢv₁ + R₂ᵢv₂ is summed in that order, a component at a time (many times
+    faster than the rows of three)."""
+    out = np.empty(R.shape[:-1], dtype=np.result_type(R, v))
+    for i in range(3):
+        column = np.multiply(R[:, 0, i], v[..., 0], out=out[:, i])
+        column += R[:, 1, i] * v[..., 1]
+        column += R[:, 2, i] * v[..., 2]
+    return out
 
 
 def is_signed_permutation(M: np.ndarray) -> bool:
@@ -153,6 +162,13 @@ def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+def add_at_rows(rows: np.ndarray, at: np.ndarray, value: np.ndarray) -> None:
+    """rows[:, at] += value, for vectors stored a component a row (3, n) and *value* (3, len(at)):
+    a row at a time (many times faster than numpy's gather and scatter of rows of three)."""
+    for row, v in zip(rows, value, strict=True):
+        row[at] += v
+
+
 def euler_to_quat(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """Unit quaternion (w, x, y, z), body → navigation, of ZYX Euler angles."""
     cr, sr = np.cos(roll / 2), np.sin(roll / 2)
@@ -206,7 +222,8 @@ class Kinematics:
             -ddth * sf - dth * dphi * cf + ddpsi * ct * cf - dpsi * dth * st * cf - dpsi * dphi * ct * sf,
         ], axis=1)
         R = _matrix_of(cf, sf, ct, st, np.cos(psi), np.sin(psi))  # euler_to_matrix(*ang.T)
-        a_minus_g = acc - np.array([0.0, 0.0, gravity])
+        a_minus_g = acc.copy()
+        a_minus_g[:, 2] -= gravity  # acc − (0, 0, g): x − 0 is x
         f_b = mul_transposed(R, a_minus_g)
         return cls(t, pos, vel, acc, ang, R, omega, alpha, f_b, np.asarray(stance, dtype=bool), gravity)
 
