@@ -20,7 +20,7 @@ with ``openshoe-emu``, ``openshoe-host``, ``openshoe-conformance`` and ``python`
 project's interpreter (``python -m …``), ``/tmp/`` moved into the example's folder,
 ``../shared/`` to the shared data beside the clone and ``lab/…`` (a file of the clone, which the
 pages read from the clone's root) to the clone's; ``openshoe-emu serve`` stops by itself
-(``--duration``: half a second in the foreground, standing still unless the block names a scenario,
+(``--duration``: a fifth of a second in the foreground, standing still unless the block names a scenario,
 60 s in the background, where the next command waits for its READY line) and every background job is
 stopped when the block ends.
 """
@@ -126,7 +126,7 @@ def substituted(block: Block, tmp: Path) -> str:
 
 
 #: What a ``serve`` in the foreground walks when its block names no route: no host talks to it in
-#: its half second, which would not reach the default route's first step, and the default route's
+#: its fifth of a second, which would not reach the default route's first step, and the default route's
 #: sensors take seconds to simulate before the READY line.
 IDLE_SCENARIO = "stand:3"
 
@@ -147,7 +147,7 @@ def shell_script(block: Block, tmp: Path) -> str:
             continue
         command, background = m.group(1), bool(m.group(2))
         if "--duration" not in command:
-            command += " --duration 60" if background else " --duration 0.5"
+            command += " --duration 60" if background else " --duration 0.2"
         if not background and "--scenario" not in command and "--replay" not in command:
             command += f" --scenario {IDLE_SCENARIO}"
         if background:
