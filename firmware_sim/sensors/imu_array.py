@@ -172,10 +172,12 @@ class SimulatedSource:
         # random part of each register before the DLPF: white noise + bias random walk (each
         # walk's steps drawn, scaled and summed in one array)
         walk = np.empty((n, chips, 3))
+        steps = walk.reshape(n, -1).T  # a chip axis's steps a row: each sum runs along its row
         for noise, rw in ((noise_acc, rw_a), (noise_gyro, rw_g)):
             rng.standard_normal(out=walk)
             walk *= rw * step
-            noise += np.cumsum(walk, axis=0, out=walk)
+            np.cumsum(steps, axis=1, out=steps)  # the same sums as along axis 0, faster
+            noise += walk
         # + bias instability (first-order Gauss–Markov), each drawn into the walk's array in turn
         for noise, sigma, tau in ((noise_acc, cfg.accel.bias_instability_g, cfg.accel.bias_correlation_s),
                                   (noise_gyro, cfg.gyro.bias_instability_rad_s, cfg.gyro.bias_correlation_s)):
@@ -183,6 +185,7 @@ class SimulatedSource:
             if cfg.drift:
                 noise += walk
         self._random_acc, self._random_gyro = noise_acc, noise_gyro
+        del walk  # its memory serves what comes next (a walk's memory is new to the process)
 
         # --- temperature ----------------------------------------------------------------------
         tc = cfg.temperature
