@@ -44,4 +44,14 @@ def max_abs(c: np.ndarray) -> float:
 def eval3(c: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Value, first and second derivative of the polynomial c at x."""
     c1 = P.polyder(c)
-    return P.polyval(x, c), P.polyval(x, c1), P.polyval(x, P.polyder(c1))
+    return _polyval(x, c), _polyval(x, c1), _polyval(x, P.polyder(c1))
+
+
+def _polyval(x: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """numpy's ``polyval(x, c)`` of 1-d coefficients, bit for bit (its Horner steps, c[-1] + x·0
+    then cᵢ + (…)·x), each step in place rather than in two new arrays."""
+    out = c[-1] + x * 0
+    for k in range(2, len(c) + 1):
+        out *= x
+        out += c[-k]
+    return out
