@@ -212,10 +212,19 @@ class SwayDraw:
 
         def tapered(freq, phase, amp, chord, second):  # a row per axis: each operation along a row
             s, s1, s2 = (x.T for x in sum_of_sines(freq, phase, amp, j, u, second))
-            c0, c1 = chord[0].T[:, j], chord[1].T[:, j]
-            s = s - c0 - (c1 - c0) * (u / d)
-            s1 = s1 - (c1 - c0) / d
-            return w * s, w1 * s + w * s1, w2 * s + 2.0 * w1 * s1 + w * s2 if second else None
+            c0 = chord[0].T[:, j]
+            slope = chord[1].T[:, j] - c0
+            s -= c0  # s − c0 − (c1 − c0)·u/d, s1 − (c1 − c0)/d: in place, in that order
+            s -= slope * (u / d)
+            s1 -= slope / d
+            taper1 = w1 * s
+            taper1 += w * s1
+            if not second:
+                return w * s, taper1, None
+            taper2 = w2 * s  # w2 s + 2 w1 s1 + w s2
+            taper2 += 2.0 * w1 * s1
+            taper2 += w * s2
+            return w * s, taper1, taper2
 
         rotation = tapered(self.rot_freq, self.rot_phase, self.rot_amp, self.rot_chord, ddang is not None)
         for out, value in zip((ang, dang, ddang), rotation, strict=True):
