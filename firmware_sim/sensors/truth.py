@@ -39,12 +39,13 @@ def _matrix_of(cr: np.ndarray, sr: np.ndarray, cp: np.ndarray, sp: np.ndarray, c
                ) -> np.ndarray:
     """:func:`euler_to_matrix` of the angles' cosines and sines."""
     R = np.empty(np.shape(cr) + (3, 3))
+    cy_sp, sy_sp = cy * sp, sy * sp  # each product once, where two entries share it
     R[..., 0, 0] = cy * cp
-    R[..., 0, 1] = cy * sp * sr - sy * cr
-    R[..., 0, 2] = cy * sp * cr + sy * sr
+    R[..., 0, 1] = cy_sp * sr - sy * cr
+    R[..., 0, 2] = cy_sp * cr + sy * sr
     R[..., 1, 0] = sy * cp
-    R[..., 1, 1] = sy * sp * sr + cy * cr
-    R[..., 1, 2] = sy * sp * cr - cy * sr
+    R[..., 1, 1] = sy_sp * sr + cy * cr
+    R[..., 1, 2] = sy_sp * cr - cy * sr
     R[..., 2, 0] = -sp
     R[..., 2, 1] = cp * sr
     R[..., 2, 2] = cp * cr
@@ -62,10 +63,11 @@ def _body_rate(dang: np.ndarray, sf: np.ndarray, cf: np.ndarray, st: np.ndarray,
                ) -> np.ndarray:
     """:func:`body_rate` of the roll's and the pitch's sines and cosines."""
     dphi, dth, dpsi = dang.T
+    dpsi_ct = dpsi * ct
     return np.stack([
         dphi - dpsi * st,
-        dth * cf + dpsi * ct * sf,
-        -dth * sf + dpsi * ct * cf,
+        dth * cf + dpsi_ct * sf,
+        -dth * sf + dpsi_ct * cf,
     ], axis=1)
 
 
@@ -216,10 +218,13 @@ class Kinematics:
         ddphi, ddth, ddpsi = ddang.T
         sf, cf, st, ct = np.sin(phi), np.cos(phi), np.sin(th), np.cos(th)
         omega = _body_rate(dang, sf, cf, st, ct)
+        # the products two components share, each once (the same operations in the same order)
+        dpsi_dth, dth_dphi, ddpsi_ct, dpsi_dphi_ct = dpsi * dth, dth * dphi, ddpsi * ct, dpsi * dphi * ct
+        dpsi_dth_st = dpsi_dth * st
         alpha = np.stack([
-            ddphi - ddpsi * st - dpsi * dth * ct,
-            ddth * cf - dth * dphi * sf + ddpsi * ct * sf - dpsi * dth * st * sf + dpsi * dphi * ct * cf,
-            -ddth * sf - dth * dphi * cf + ddpsi * ct * cf - dpsi * dth * st * cf - dpsi * dphi * ct * sf,
+            ddphi - ddpsi * st - dpsi_dth * ct,
+            ddth * cf - dth_dphi * sf + ddpsi_ct * sf - dpsi_dth_st * sf + dpsi_dphi_ct * cf,
+            -ddth * sf - dth_dphi * cf + ddpsi_ct * cf - dpsi_dth_st * cf - dpsi_dphi_ct * sf,
         ], axis=1)
         R = _matrix_of(cf, sf, ct, st, np.cos(psi), np.sin(psi))  # euler_to_matrix(*ang.T)
         a_minus_g = acc.copy()
