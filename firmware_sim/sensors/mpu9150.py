@@ -25,12 +25,13 @@ not change the others).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
 from .compiled import compiled
 from .config import G0, SensorConfig
-from .truth import rotation
+from .truth import Rotation, rotation
 
 __all__ = ["ChipErrors", "dlpf_filter", "dlpf_delays", "dlpf_reach", "gauss_markov", "one_pole_alpha",
            "small_rotation"]
@@ -92,10 +93,15 @@ class ChipErrors:
             gyro_g_matrix=g_sens if config.g_sensitivity else np.zeros((3, 3)),
         )
 
+    @cached_property
+    def _rotations(self) -> tuple[Rotation, Rotation]:
+        """The accelerometer's and the gyro's matrices as :func:`~.truth.rotation`'s (looked at once)."""
+        return rotation(self.acc_matrix), rotation(self.gyro_matrix)
+
     def apply_accel(self, a_true_g: np.ndarray, dtemp: np.ndarray) -> np.ndarray:
         """Deterministic part of the accelerometer model [g] of the true specific force *a_true_g*
         [g] at die temperatures ΔT *dtemp* (n,): (3, n), a row per axis, as *a_true_g*."""
-        out = rotation(self.acc_matrix).rows(a_true_g)
+        out = self._rotations[0].rows(a_true_g)
         if np.any(self.acc_sens_tempco):
             out *= 1.0 + dtemp * self.acc_sens_tempco[:, None]
         out += self.acc_offset_g[:, None]
@@ -107,7 +113,7 @@ class ChipErrors:
         """Deterministic part of the gyro model [rad/s] of the true rate *w_true*, (3, n) a row per
         axis as :meth:`apply_accel`'s; *a_true_g* is the chip's specific force [g] (3, n), which
         the gyro feels through its g-sensitivity."""
-        out = rotation(self.gyro_matrix).rows(w_true)
+        out = self._rotations[1].rows(w_true)
         if np.any(self.gyro_sens_tempco):
             out *= 1.0 + dtemp * self.gyro_sens_tempco[:, None]
         if np.any(self.gyro_g_matrix):
